@@ -1,0 +1,1 @@
+"""splines445_ros: jerk-continuous joint trajectories through waypoints (Petrinec & Kovacic)."""

@@ -1,0 +1,19 @@
+"""Planning core: 445 and 434 splines with limit-respecting timing (no ROS imports).
+
+Usage::
+
+    from splines445_ros.planning import plan
+    traj = plan(waypoints, method='445', timing='uniform',
+                max_velocity=[2, 2, 2], max_acceleration=[10, 10, 10])
+    traj.evaluate([0.0, 0.5], derivative=1)
+"""
+
+from .limits import BindingLimit, JointLimits
+from .planner import merge_duplicates, METHODS, plan, TIMINGS
+from .timing import chord_durations
+from .trajectory import Samples, Trajectory
+
+__all__ = [
+    'BindingLimit', 'chord_durations', 'JointLimits', 'merge_duplicates', 'METHODS',
+    'plan', 'Samples', 'TIMINGS', 'Trajectory',
+]

@@ -1,0 +1,152 @@
+"""The banded linear system that makes the spline continuous at interior knots.
+
+For 445 the unknowns are the knot velocities and accelerations
+``[v_2, a_2, ..., v_{N-1}, a_{N-1}]`` (2N-4 per joint) and the equations are the
+acceleration (28) and jerk (29), (33) continuity conditions at every interior
+knot.  For 434 (Ho & Cook) the unknowns are the interior knot velocities only
+and the equations are acceleration continuity.
+
+Instead of transcribing (28), (29) and (33) entry by entry, every equation is
+built from the segment maps of :mod:`segments`: the derivative at the end of
+segment ``k-1`` minus the same derivative at the start of segment ``k`` is a
+linear form in the knot states of knots ``k-1, k, k+1``.  This reproduces the
+paper's rows (the tests cross-check against an independent global system).
+The matrix depends only on the durations, so it is assembled and factorised
+once and every joint (and every right-hand side) is a column of the solve.
+Rows are equilibrated (scaled by their largest entry) before the solve.
+"""
+
+import numpy as np
+from scipy.linalg import solve_banded
+
+from .segments import (
+    A_END, A_START, derivative_weights, DP, input_maps, segment_types, V_END, V_START,
+)
+
+# Knot state components: velocity and acceleration.
+VEL, ACC = 0, 1
+
+_CONTINUITY = {
+    # method: (derivatives made continuous at knots, unknown knot state components)
+    '445': ((2, 3), (VEL, ACC)),
+    '434': ((2,), (VEL,)),
+}
+
+
+class ContinuitySystem:
+    """The continuity equations of one method for one set of segment durations.
+
+    ``solve(dP, v_start, a_start, v_end, a_end)`` returns the knot velocities and
+    accelerations for any number of right-hand-side columns at once.
+    """
+
+    def __init__(self, method, durations):
+        """Assemble the banded matrix for ``method`` and the (S,) ``durations``."""
+        if method not in _CONTINUITY:
+            raise ValueError(f'unknown method {method!r}: expected "445" or "434"')
+        self.method = method
+        self.durations = np.asarray(durations, dtype=float)
+        n_seg = self.durations.size
+        self.n_knots = n_seg + 1
+        self.types = segment_types(method, n_seg)
+        self.maps = input_maps(self.types, self.durations)
+        derivatives, unknowns = _CONTINUITY[method]
+        self._unknowns = unknowns
+        self._n_interior = self.n_knots - 2
+        if self._n_interior == 0:
+            return
+        # Linear forms of the derivative at the end of each segment and at the
+        # start of each segment, in the segment inputs: shape (n_q, S, 5).
+        end_forms = np.stack([
+            np.einsum('si,sij->sj', derivative_weights(self.durations, d, True), self.maps)
+            for d in derivatives])
+        start_forms = np.stack([
+            np.einsum('si,sij->sj', derivative_weights(self.durations, d, False), self.maps)
+            for d in derivatives])
+        left = end_forms[:, :-1]    # segment k-1, ending at interior knot k
+        right = start_forms[:, 1:]  # segment k, starting at interior knot k
+        # Coefficients of each equation (n_q, K) on the states of knots k-1, k, k+1:
+        # shape (n_q, K, 3 knots, 2 components).
+        coeff = np.zeros(left.shape[:2] + (3, 2))
+        coeff[..., 0, VEL] = left[..., V_START]
+        coeff[..., 0, ACC] = left[..., A_START]
+        coeff[..., 1, VEL] = left[..., V_END] - right[..., V_START]
+        coeff[..., 1, ACC] = left[..., A_END] - right[..., A_START]
+        coeff[..., 2, VEL] = -right[..., V_END]
+        coeff[..., 2, ACC] = -right[..., A_END]
+        # The equation reads coeff . states + dp_left * dP_{k-1} + dp_right * dP_k = 0.
+        self._dp_left = left[..., DP]
+        self._dp_right = -right[..., DP]
+        self._coeff = coeff
+        self._assemble()
+
+    def _assemble(self):
+        n_q, n_int = self._coeff.shape[:2]
+        n_u = len(self._unknowns)
+        knot = np.arange(1, n_int + 1)  # interior knot index of each equation
+        rows, cols, vals = [], [], []
+        for q in range(n_q):
+            for offset in range(3):
+                other = knot - 1 + offset
+                interior = (other >= 1) & (other <= n_int)
+                for ui, comp in enumerate(self._unknowns):
+                    rows.append(((knot - 1) * n_q + q)[interior])
+                    cols.append(((other - 1) * n_u + ui)[interior])
+                    vals.append(self._coeff[q, interior, offset, comp])
+        rows = np.concatenate(rows)
+        cols = np.concatenate(cols)
+        vals = np.concatenate(vals)
+        size = n_int * n_q
+        row_scale = np.zeros(size)
+        np.maximum.at(row_scale, rows, np.abs(vals))
+        self._row_scale = 1.0 / row_scale
+        self._bandwidth = 2 * n_q - 1
+        band = np.zeros((2 * self._bandwidth + 1, size))
+        band[self._bandwidth + rows - cols, cols] = vals * self._row_scale[rows]
+        self._band = band
+
+    def solve(self, dP, v_start, a_start, v_end, a_end):
+        """Return knot velocities and accelerations, each of shape (N, m).
+
+        ``dP`` has shape (S, m); the boundary values have shape (m,).  Knot
+        accelerations that are not unknowns of the method (434 interior knots)
+        are returned as the acceleration the spline actually has there.
+        """
+        dP = np.asarray(dP, dtype=float)
+        m = dP.shape[1]
+        vel = np.zeros((self.n_knots, m))
+        acc = np.zeros((self.n_knots, m))
+        vel[0], acc[0], vel[-1], acc[-1] = v_start, a_start, v_end, a_end
+        if self._n_interior > 0:
+            n_q = self._coeff.shape[0]
+            # Right-hand side, (K, n_q, m): waypoint terms and known boundary states.
+            rhs = -(self._dp_left[:, :, None] * dP[None, :-1] +
+                    self._dp_right[:, :, None] * dP[None, 1:])
+            for comp, start, end in ((VEL, vel[0], vel[-1]), (ACC, acc[0], acc[-1])):
+                rhs[:, 0] -= self._coeff[:, 0, 0, comp][:, None] * start[None, :]
+                rhs[:, -1] -= self._coeff[:, -1, 2, comp][:, None] * end[None, :]
+            rhs = rhs.transpose(1, 0, 2).reshape(-1, m) * self._row_scale[:, None]
+            x = solve_banded((self._bandwidth, self._bandwidth), self._band, rhs,
+                             overwrite_b=True, check_finite=False)
+            x = x.reshape(self._n_interior, len(self._unknowns), m)
+            for ui, comp in enumerate(self._unknowns):
+                (vel, acc)[comp][1:-1] = x[:, ui]
+        if ACC not in self._unknowns and self._n_interior > 0:
+            acc[1:-1] = self._interior_acceleration(dP, vel, acc)
+        return vel, acc
+
+    def _interior_acceleration(self, dP, vel, acc):
+        """Acceleration at the start of segments 2..N-1 (434: not an unknown)."""
+        inputs = self.segment_inputs(dP, vel, acc)[1:]
+        coeffs = np.einsum('sij,sjm->sim', self.maps[1:], inputs)
+        return 2.0 * coeffs[:, 2]
+
+    def segment_inputs(self, dP, vel, acc):
+        """Stack ``[dP, v_s, a_s, v_e, a_e]`` per segment: shape (S, 5, m)."""
+        return np.stack([dP, vel[:-1], acc[:-1], vel[1:], acc[1:]], axis=1)
+
+    def coefficients(self, waypoints_or_zero, dP, vel, acc):
+        """Ascending coefficients (S, 6, m) of every segment; c0 = the segment's start."""
+        coeffs = np.einsum('sij,sjm->sim', self.maps, self.segment_inputs(dP, vel, acc))
+        coeffs[:, 0] = waypoints_or_zero
+        return coeffs

@@ -1,0 +1,77 @@
+"""Per-joint velocity, acceleration and jerk limits and what binds against them."""
+
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+from .peaks import segment_peaks
+from .validation import positive_array
+
+QUANTITIES = ('velocity', 'acceleration', 'jerk')
+
+
+@dataclass(frozen=True)
+class JointLimits:
+    """Limits per joint; ``jerk`` entries may be +inf (no jerk limit on that joint)."""
+
+    velocity: np.ndarray
+    acceleration: np.ndarray
+    jerk: np.ndarray
+
+    @classmethod
+    def from_user(cls, n_joints, max_velocity, max_acceleration, max_jerk=None):
+        """Validate user limits; jerk is optional (None = unlimited)."""
+        velocity = positive_array('max_velocity', max_velocity, n_joints)
+        acceleration = positive_array('max_acceleration', max_acceleration, n_joints)
+        if max_jerk is None:
+            jerk = np.full(n_joints, np.inf)
+        else:
+            jerk = positive_array('max_jerk', max_jerk, n_joints, allow_inf=True)
+        return cls(velocity, acceleration, jerk)
+
+    def as_array(self):
+        """Limits stacked as (3, n): velocity, acceleration, jerk."""
+        return np.stack([self.velocity, self.acceleration, self.jerk])
+
+
+@dataclass(frozen=True)
+class BindingLimit:
+    """The limit closest to (or furthest past) its bound: ratio = peak / limit."""
+
+    joint: int
+    quantity: str
+    segment: int
+    ratio: float
+
+
+def limit_ratios(coeffs, durations, limits):
+    """Peak / limit for every segment, joint and quantity: shape (S, n, 3)."""
+    bounds = limits.as_array()
+    ratios = np.zeros(np.shape(coeffs)[:1] + (bounds.shape[1], 3))
+    for q in range(3):
+        if q == 2 and np.all(np.isinf(bounds[2])):
+            continue
+        ratios[..., q] = segment_peaks(coeffs, durations, q + 1) / bounds[q][None, :]
+    return ratios
+
+
+def binding_limit(ratios):
+    """Return the :class:`BindingLimit` with the largest ratio in (S, n, 3) ``ratios``."""
+    segment, joint, q = np.unravel_index(int(np.argmax(ratios)), ratios.shape)
+    return BindingLimit(int(joint), QUANTITIES[q], int(segment), float(ratios[segment, joint, q]))
+
+
+def check_boundary_feasible(limits, start_velocity, start_acceleration,
+                            end_velocity, end_acceleration):
+    """Raise ValueError when a boundary value is above its joint's limit (infeasible)."""
+    for name, value, bound in (
+            ('start_velocity', start_velocity, limits.velocity),
+            ('start_acceleration', start_acceleration, limits.acceleration),
+            ('end_velocity', end_velocity, limits.velocity),
+            ('end_acceleration', end_acceleration, limits.acceleration)):
+        over = np.abs(value) > bound
+        if np.any(over):
+            i = int(np.argwhere(over)[0][0])
+            raise ValueError(f'infeasible: |{name}[{i}]| = {abs(value[i])} exceeds the '
+                             f'limit {bound[i]} of joint {i}')

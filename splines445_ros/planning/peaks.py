@@ -1,0 +1,103 @@
+"""Exact per-segment peaks of |velocity|, |acceleration| and |jerk|.
+
+A polynomial's extreme values on ``[0, T]`` are at the ends or at the real roots
+of its next derivative inside the interval.  Here those roots are computed
+directly: the next derivative of a quintic's velocity is a cubic (roots from
+companion-matrix eigenvalues, for the few segments where the cubic term is
+present), everything else is at most quadratic and solved in closed form for
+all segments and joints at once.  No sampling is involved.
+"""
+
+import numpy as np
+
+# Relative size below which a leading coefficient counts as zero (in the
+# interval-normalised variable x = tau / T, where all terms are comparable).
+_DEGENERATE = 1e-13
+
+
+def derivative_coefficients(coeffs, derivative):
+    """Ascending coefficients of the ``derivative``-th derivative, shape (S, 6-d, m)."""
+    c = np.asarray(coeffs, dtype=float)
+    degree = c.shape[1] - 1
+    powers = np.arange(derivative, degree + 1)
+    factor = np.ones(powers.size)
+    for j in range(derivative):
+        factor = factor * (powers - j)
+    return c[:, derivative:] * factor[None, :, None]
+
+
+def _horner(coeffs, x):
+    """Evaluate ascending ``coeffs`` (K, n) at ``x`` (K, r): returns (K, r)."""
+    out = np.zeros_like(x)
+    for i in range(coeffs.shape[1] - 1, -1, -1):
+        out = out * x + coeffs[:, i:i + 1]
+    return out
+
+
+def _unit_interval_roots(q):
+    """Real roots in (0, 1) of ascending polynomials ``q`` (K, <=4); NaN-padded (K, 3)."""
+    K = q.shape[0]
+    q = np.pad(q, ((0, 0), (0, 4 - q.shape[1])))
+    roots = np.full((K, 3), np.nan)
+    scale = np.max(np.abs(q), axis=1)
+    scale[scale == 0.0] = 1.0
+    q = q / scale[:, None]
+    cubic = np.abs(q[:, 3]) > _DEGENERATE
+    if np.any(cubic):
+        qc = q[cubic]
+        companion = np.zeros((qc.shape[0], 3, 3))
+        companion[:, 1, 0] = 1.0
+        companion[:, 2, 1] = 1.0
+        companion[:, :, 2] = -qc[:, :3] / qc[:, 3:4]
+        eig = np.linalg.eigvals(companion)
+        real = np.abs(eig.imag) <= 1e-9 * np.maximum(1.0, np.abs(eig.real))
+        roots[cubic] = np.where(real, eig.real, np.nan)
+    rest = ~cubic
+    a, b, c = q[rest, 2], q[rest, 1], q[rest, 0]
+    quad = np.abs(a) > _DEGENERATE
+    disc = b * b - 4.0 * a * c
+    with np.errstate(invalid='ignore', divide='ignore'):
+        sq = np.sqrt(np.where(disc >= 0.0, disc, np.nan))
+        half = -0.5 * (b + np.copysign(sq, b))
+        r1 = np.where(quad, half / a, np.where(np.abs(b) > _DEGENERATE, -c / b, np.nan))
+        r2 = np.where(quad & (half != 0.0), c / half, np.nan)
+    roots[rest, 0] = r1
+    roots[rest, 1] = r2
+    inside = (roots > 0.0) & (roots < 1.0)
+    return np.where(inside, roots, np.nan)
+
+
+def _candidates(coeffs, durations, derivative):
+    """Candidate points x in [0, 1] (S*m, 5) and the |d-th derivative| there."""
+    T = np.asarray(durations, dtype=float)
+    S, _, m = np.shape(coeffs)
+    p = derivative_coefficients(coeffs, derivative)
+    # Normalise to x = tau / T in [0, 1]: coefficient i is multiplied by T^i.
+    p = p * (T[:, None, None] ** np.arange(p.shape[1])[None, :, None])
+    dp = p[:, 1:] * np.arange(1, p.shape[1])[None, :, None]
+    flat_p = p.transpose(0, 2, 1).reshape(S * m, -1)
+    roots = _unit_interval_roots(dp.transpose(0, 2, 1).reshape(S * m, -1))
+    candidates = np.concatenate(
+        [np.zeros((S * m, 1)), np.ones((S * m, 1)), np.nan_to_num(roots, nan=0.0)], axis=1)
+    return candidates, np.abs(_horner(flat_p, candidates))
+
+
+def segment_peaks(coeffs, durations, derivative):
+    """Max |d-th derivative| of every segment and joint: shape (S, m).
+
+    ``coeffs`` are ascending polynomial coefficients (S, 6, m) in local time
+    ``tau in [0, T_s]``; ``derivative`` is 1 (velocity), 2 (acceleration) or
+    3 (jerk).
+    """
+    S, _, m = np.shape(coeffs)
+    _, values = _candidates(coeffs, durations, derivative)
+    return values.max(axis=1).reshape(S, m)
+
+
+def segment_peak_times(coeffs, durations, derivative):
+    """Local time (S, m) at which each segment's |d-th derivative| peaks."""
+    S, _, m = np.shape(coeffs)
+    candidates, values = _candidates(coeffs, durations, derivative)
+    best = np.argmax(values, axis=1)
+    x = candidates[np.arange(S * m), best].reshape(S, m)
+    return x * np.asarray(durations, dtype=float)[:, None]

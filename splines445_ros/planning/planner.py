@@ -1,0 +1,101 @@
+"""``plan()``: the one entry point of the planning core."""
+
+import numpy as np
+
+from .continuity_system import ContinuitySystem
+from .limits import binding_limit, check_boundary_feasible, JointLimits, limit_ratios
+from .timing import chord_durations, ScaledSpline, uniform_scale
+from .trajectory import Trajectory
+from .validation import boundary_vector, duration_array, waypoint_array
+
+METHODS = ('445', '434')
+TIMINGS = ('uniform', 'fixed', 'optimal')
+
+# Chords shorter than this (relative to the largest |coordinate|, at least 1)
+# count as zero: such waypoints are duplicates and are merged for chord timing.
+DUPLICATE_RTOL = 1e-12
+
+
+def merge_duplicates(waypoints):
+    """Drop every waypoint equal to its predecessor; return (kept, dropped indices).
+
+    A zero chord would give a zero duration (eq. 11), so chord-based timing
+    plans through the distinct waypoints only.  The trajectory passes through
+    every dropped waypoint anyway, since it equals a kept one.
+    """
+    tol = DUPLICATE_RTOL * max(1.0, float(np.max(np.abs(waypoints))))
+    chord = chord_durations(waypoints)
+    keep = np.concatenate([[True], chord > tol])
+    dropped = np.flatnonzero(~keep)
+    if keep.sum() < 2:
+        raise ValueError('all waypoints coincide: need at least 2 distinct waypoints '
+                         'for chord-length timing')
+    return waypoints[keep], tuple(int(i) for i in dropped)
+
+
+def plan(waypoints, method='445', timing='uniform', durations=None,
+         max_velocity=None, max_acceleration=None, max_jerk=None,
+         start_velocity=None, start_acceleration=None,
+         end_velocity=None, end_acceleration=None):
+    """Plan a trajectory through ``waypoints`` (N, n_joints).
+
+    Parameters
+    ----------
+    method : "445" (Petrinec & Kovacic: quartics and a final quintic, jerk
+        continuous) or "434" (Ho & Cook: quartic, cubics, quartic; C2).
+    timing : "fixed" uses ``durations`` (N-1,); "uniform" scales the chord
+        durations of eq. (11) by the smallest common factor that meets every
+        limit; "optimal" chooses every duration to minimise the total time.
+    max_velocity, max_acceleration : (n,) positive limits, needed for
+        "uniform" and "optimal", optional for "fixed" (then only checked).
+    max_jerk : (n,) positive limits or None (no jerk limit); +inf entries
+        leave that joint's jerk unlimited.
+    start_velocity, start_acceleration, end_velocity, end_acceleration : (n,)
+        boundary values, zero when None.
+
+    Consecutive duplicate waypoints are merged for "uniform" and "optimal"
+    timing (see :func:`merge_duplicates`, reported in
+    ``Trajectory.dropped_waypoints``); "fixed" keeps them, since the caller's
+    durations define the timing.
+
+    Raises ValueError naming the problem for bad or infeasible input.
+    """
+    if method not in METHODS:
+        raise ValueError(f'unknown method {method!r}: expected one of {METHODS}')
+    if timing not in TIMINGS:
+        raise ValueError(f'unknown timing {timing!r}: expected one of {TIMINGS}')
+    points = waypoint_array(waypoints)
+    n = points.shape[1]
+    boundary = tuple(boundary_vector(name, value, n) for name, value in (
+        ('start_velocity', start_velocity), ('start_acceleration', start_acceleration),
+        ('end_velocity', end_velocity), ('end_acceleration', end_acceleration)))
+    limits = None
+    if max_velocity is not None or max_acceleration is not None or max_jerk is not None:
+        if max_velocity is None or max_acceleration is None:
+            raise ValueError('max_velocity and max_acceleration must be given together')
+        limits = JointLimits.from_user(n, max_velocity, max_acceleration, max_jerk)
+        check_boundary_feasible(limits, *boundary)
+    elif timing != 'fixed':
+        raise ValueError(f'timing={timing!r} needs max_velocity and max_acceleration')
+
+    if timing == 'fixed':
+        seg_durations = duration_array(durations, points.shape[0] - 1)
+        system = ContinuitySystem(method, seg_durations)
+        dP = np.diff(points, axis=0)
+        vel, acc = system.solve(dP, *boundary)
+        coeffs = system.coefficients(points[:-1], dP, vel, acc)
+        return Trajectory(method, timing, points, seg_durations, coeffs, boundary, limits)
+
+    if durations is not None:
+        raise ValueError(f'durations are only used with timing="fixed", not {timing!r}')
+    points, dropped = merge_duplicates(points)
+    spline = ScaledSpline(method, points, chord_durations(points), boundary)
+    scale = uniform_scale(spline, limits)
+    if timing == 'optimal':
+        from .optimal import optimal_durations
+        return optimal_durations(method, points, spline, scale, boundary, limits, dropped)
+    traj = Trajectory(method, timing, points, spline.durations(scale),
+                      spline.coefficients(scale), boundary, limits, scale, dropped)
+    traj.segment_binding = binding_limit(
+        limit_ratios(traj.coefficients, traj.durations, limits))
+    return traj

@@ -1,0 +1,152 @@
+"""Polynomial segments of the 445 and 434 splines as linear maps of their end conditions.
+
+Every segment k runs from waypoint ``P_k`` to ``P_{k+1}`` in local time
+``tau in [0, T]``.  Its coefficients (ascending powers, ``c0 .. c5``) are linear
+in the *segment inputs*::
+
+    u = [dP, v_s, a_s, v_e, a_e]      (dP = P_{k+1} - P_k)
+
+plus ``c0 = P_k``.  A segment type is therefore a matrix ``B(T)`` of shape
+``(6, 5)`` with ``c = B u`` (row 0 is zero: ``c0`` is added separately).  A
+type ignores the inputs it does not use (their columns are zero).
+
+The closed forms are the paper's:
+
+* ``QUARTIC``: eqs. (3)-(9), meets ``P_k, v_k, a_k`` at 0 and ``P_{k+1}, v_{k+1}``
+  at ``T`` (every 445 segment but the last, and the first 434 segment).
+* ``QUINTIC``: eqs. (13)-(23), meets position, velocity and acceleration at both
+  ends (the last 445 segment; the only segment when N = 2).
+* ``CUBIC``: Ho & Cook's intermediate segments, position and velocity at both ends.
+* ``QUARTIC_REVERSED``: Ho & Cook's last segment, ``P_k, v_k`` at 0 and
+  ``P_{k+1}, v_{k+1}, a_{k+1}`` at ``T`` (the time reversal of ``QUARTIC``).
+"""
+
+import numpy as np
+
+QUARTIC = 0
+QUINTIC = 1
+CUBIC = 2
+QUARTIC_REVERSED = 3
+
+N_COEFFS = 6
+N_INPUTS = 5
+DP, V_START, A_START, V_END, A_END = range(N_INPUTS)
+
+
+def _quartic(T, B):
+    """Eqs. (8)-(9): b3, b4 of a quartic that starts at (P, v, a) and ends at (P, v)."""
+    B[:, 3, DP] = 4.0 / T**3
+    B[:, 3, V_START] = -3.0 / T**2
+    B[:, 3, A_START] = -1.0 / T
+    B[:, 3, V_END] = -1.0 / T**2
+    B[:, 4, DP] = -3.0 / T**4
+    B[:, 4, V_START] = 2.0 / T**3
+    B[:, 4, A_START] = 0.5 / T**2
+    B[:, 4, V_END] = 1.0 / T**3
+
+
+def _quintic(T, B):
+    """Eqs. (20)-(22): c3, c4, c5 of a quintic with (P, v, a) given at both ends."""
+    B[:, 3, DP] = 10.0 / T**3
+    B[:, 3, V_START] = -6.0 / T**2
+    B[:, 3, V_END] = -4.0 / T**2
+    B[:, 3, A_START] = -1.5 / T
+    B[:, 3, A_END] = 0.5 / T
+    B[:, 4, DP] = -15.0 / T**4
+    B[:, 4, V_START] = 8.0 / T**3
+    B[:, 4, V_END] = 7.0 / T**3
+    B[:, 4, A_START] = 1.5 / T**2
+    B[:, 4, A_END] = -1.0 / T**2
+    B[:, 5, DP] = 6.0 / T**5
+    B[:, 5, V_START] = -3.0 / T**4
+    B[:, 5, V_END] = -3.0 / T**4
+    B[:, 5, A_START] = -0.5 / T**3
+    B[:, 5, A_END] = 0.5 / T**3
+
+
+def _cubic(T, B):
+    """Ho & Cook cubic: position and velocity given at both ends (a_s, a_e unused)."""
+    B[:, 2, A_START] = 0.0
+    B[:, 2, DP] = 3.0 / T**2
+    B[:, 2, V_START] = -2.0 / T
+    B[:, 2, V_END] = -1.0 / T
+    B[:, 3, DP] = -2.0 / T**3
+    B[:, 3, V_START] = 1.0 / T**2
+    B[:, 3, V_END] = 1.0 / T**2
+
+
+def _quartic_reversed(T, B):
+    """Ho & Cook last quartic: (P, v) at 0, (P, v, a) at T (a_s unused)."""
+    B[:, 2, A_START] = 0.0
+    B[:, 2, DP] = 6.0 / T**2
+    B[:, 2, V_START] = -3.0 / T
+    B[:, 2, V_END] = -3.0 / T
+    B[:, 2, A_END] = 0.5
+    B[:, 3, DP] = -8.0 / T**3
+    B[:, 3, V_START] = 3.0 / T**2
+    B[:, 3, V_END] = 5.0 / T**2
+    B[:, 3, A_END] = -1.0 / T
+    B[:, 4, DP] = 3.0 / T**4
+    B[:, 4, V_START] = -1.0 / T**3
+    B[:, 4, V_END] = -2.0 / T**3
+    B[:, 4, A_END] = 0.5 / T**2
+
+
+_FILLERS = {
+    QUARTIC: _quartic,
+    QUINTIC: _quintic,
+    CUBIC: _cubic,
+    QUARTIC_REVERSED: _quartic_reversed,
+}
+
+
+def segment_types(method, n_segments):
+    """Return the segment type of every segment for ``method`` ("445" or "434")."""
+    types = np.empty(n_segments, dtype=int)
+    if n_segments == 1:
+        types[:] = QUINTIC
+    elif method == '445':
+        types[:] = QUARTIC
+        types[-1] = QUINTIC
+    elif method == '434':
+        types[:] = CUBIC
+        types[0] = QUARTIC
+        types[-1] = QUARTIC_REVERSED
+    else:
+        raise ValueError(f'unknown method {method!r}: expected "445" or "434"')
+    return types
+
+
+def input_maps(types, durations):
+    """Return ``B`` of shape (S, 6, 5): coefficients = ``B @ u`` for every segment.
+
+    Row 0 (the constant term) is zero; every segment's linear (c1) and, where it
+    starts with a given acceleration, quadratic (c2) terms are eqs. (4)-(5) and
+    (15)-(16): ``c1 = v_s``, ``c2 = a_s / 2``.
+    """
+    T = np.asarray(durations, dtype=float)
+    B = np.zeros((T.size, N_COEFFS, N_INPUTS))
+    B[:, 1, V_START] = 1.0
+    B[:, 2, A_START] = 0.5
+    for kind, fill in _FILLERS.items():
+        mask = types == kind
+        if np.any(mask):
+            block = B[mask]
+            fill(T[mask], block)
+            B[mask] = block
+    return B
+
+
+def derivative_weights(durations, derivative, at_end):
+    """Weights ``w`` (S, 6) so that ``w @ c`` is the derivative at tau = 0 or tau = T."""
+    T = np.asarray(durations, dtype=float)
+    powers = np.arange(N_COEFFS)
+    falling = np.ones(N_COEFFS)
+    for j in range(derivative):
+        falling = falling * np.clip(powers - j, 0, None)
+    exponent = np.clip(powers - derivative, 0, None)
+    if at_end:
+        return falling[None, :] * T[:, None] ** exponent[None, :]
+    weights = np.zeros((T.size, N_COEFFS))
+    weights[:, derivative] = falling[derivative]
+    return weights

@@ -1,0 +1,77 @@
+"""Checks of user input: every problem is a ValueError that names it and its index."""
+
+import numpy as np
+
+
+def _first_bad(mask):
+    index = np.argwhere(mask)[0]
+    return ', '.join(str(i) for i in index)
+
+
+def finite_array(name, value, shape=None, ndim=None):
+    """Return ``value`` as a float array, checking shape and that it is finite."""
+    try:
+        arr = np.array(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f'{name} must be numeric: {exc}') from None
+    if ndim is not None and arr.ndim != ndim:
+        raise ValueError(f'{name} must have {ndim} dimension(s), got shape {arr.shape}')
+    if shape is not None and arr.shape != tuple(shape):
+        raise ValueError(f'{name} must have shape {tuple(shape)}, got {arr.shape}')
+    bad = ~np.isfinite(arr)
+    if np.any(bad):
+        where = _first_bad(bad)
+        raise ValueError(f'{name}[{where}] is {arr[tuple(np.argwhere(bad)[0])]}: '
+                         'values must be finite')
+    return arr
+
+
+def waypoint_array(waypoints):
+    """Return waypoints as an (N, n) array with N >= 2 and n >= 1, all finite."""
+    arr = finite_array('waypoints', waypoints)
+    if arr.ndim != 2:
+        raise ValueError(f'waypoints must be a 2-D array (N waypoints, n joints), '
+                         f'got shape {arr.shape}')
+    if arr.shape[0] < 2:
+        raise ValueError(f'need at least 2 waypoints, got {arr.shape[0]}')
+    if arr.shape[1] < 1:
+        raise ValueError('waypoints must have at least one joint column')
+    return arr
+
+
+def positive_array(name, value, n, allow_inf=False):
+    """Return an (n,) array of positive limits; ``allow_inf`` admits +inf (no limit)."""
+    try:
+        arr = np.array(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f'{name} must be numeric: {exc}') from None
+    if arr.shape != (n,):
+        raise ValueError(f'{name} must have one value per joint, shape ({n},), got {arr.shape}')
+    bad = np.isnan(arr) | (arr <= 0.0) | (np.isinf(arr) & (not allow_inf))
+    if np.any(bad):
+        i = int(np.argwhere(bad)[0][0])
+        kind = 'positive' + ('' if allow_inf else ' and finite')
+        raise ValueError(f'{name}[{i}] = {arr[i]}: limits must be {kind}')
+    return arr
+
+
+def boundary_vector(name, value, n):
+    """Return an (n,) finite boundary velocity/acceleration, zeros when None."""
+    if value is None:
+        return np.zeros(n)
+    return finite_array(name, value, shape=(n,))
+
+
+def duration_array(durations, n_segments):
+    """Return (N-1,) finite positive segment durations."""
+    if durations is None:
+        raise ValueError('timing="fixed" needs durations (one per segment)')
+    arr = finite_array('durations', durations, ndim=1)
+    if arr.shape != (n_segments,):
+        raise ValueError(f'durations must have one value per segment, shape ({n_segments},), '
+                         f'got {arr.shape}')
+    bad = arr <= 0.0
+    if np.any(bad):
+        i = int(np.argwhere(bad)[0][0])
+        raise ValueError(f'durations[{i}] = {arr[i]}: durations must be positive')
+    return arr
