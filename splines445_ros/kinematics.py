@@ -1,4 +1,5 @@
-"""Kinematics of the paper's planar 3-DOF arm (Section III); no ROS imports.
+"""
+Kinematics of the paper's planar 3-DOF arm (Section III); no ROS imports.
 
 Joint 1 and 2 are revolute joints with links ``d1`` and ``d2``; joint 3 sets the
 tool orientation ``O = q1 + q2 + q3``.
@@ -32,7 +33,8 @@ class PlanarArm:
         return np.stack([x, y, q1 + q2 + q3], axis=-1)
 
     def inverse(self, poses, elbow=1.0):
-        """Joint angles (K, 3) for tool poses (K, 3) = (X, Y, O), continuous along K.
+        """
+        Joint angles (K, 3) for tool poses (K, 3) = (X, Y, O), continuous along K.
 
         ``q2 = elbow * arccos((X^2 + Y^2 - d1^2 - d2^2) / (2 d1 d2))``,
         ``q1 = atan2((d1 + d2 cos q2) Y - d2 sin q2 X, (d1 + d2 cos q2) X + d2 sin q2 Y)``,

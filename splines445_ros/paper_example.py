@@ -14,7 +14,8 @@ JOINT_NAMES = ('joint1', 'joint2', 'joint3')
 
 
 def triangle_points(n=N_WAYPOINTS):
-    """``n`` tool positions (n, 2) evenly spaced by arc length on the closed triangle.
+    """
+    ``n`` tool positions (n, 2) evenly spaced by arc length on the closed triangle.
 
     The path runs (1,0) -> (0,1) -> (1,1) -> (1,0); the first and last point are
     both (1, 0).

@@ -1,4 +1,5 @@
-"""Planning core: 445 and 434 splines with limit-respecting timing (no ROS imports).
+"""
+Planning core: 445 and 434 splines with limit-respecting timing (no ROS imports).
 
 Usage::
 

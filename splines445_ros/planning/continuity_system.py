@@ -1,4 +1,5 @@
-"""The banded linear system that makes the spline continuous at interior knots.
+"""
+The banded linear system that makes the spline continuous at interior knots.
 
 For 445 the unknowns are the knot velocities and accelerations
 ``[v_2, a_2, ..., v_{N-1}, a_{N-1}]`` (2N-4 per joint) and the equations are the
@@ -34,7 +35,8 @@ _CONTINUITY = {
 
 
 class ContinuitySystem:
-    """The continuity equations of one method for one set of segment durations.
+    """
+    The continuity equations of one method for one set of segment durations.
 
     ``solve(dP, v_start, a_start, v_end, a_end)`` returns the knot velocities and
     accelerations for any number of right-hand-side columns at once.
@@ -106,7 +108,8 @@ class ContinuitySystem:
         self._band = band
 
     def solve(self, dP, v_start, a_start, v_end, a_end):
-        """Return knot velocities and accelerations, each of shape (N, m).
+        """
+        Return knot velocities and accelerations, each of shape (N, m).
 
         ``dP`` has shape (S, m); the boundary values have shape (m,).  Knot
         accelerations that are not unknowns of the method (434 interior knots)
@@ -118,7 +121,6 @@ class ContinuitySystem:
         acc = np.zeros((self.n_knots, m))
         vel[0], acc[0], vel[-1], acc[-1] = v_start, a_start, v_end, a_end
         if self._n_interior > 0:
-            n_q = self._coeff.shape[0]
             # Right-hand side, (K, n_q, m): waypoint terms and known boundary states.
             rhs = -(self._dp_left[:, :, None] * dP[None, :-1] +
                     self._dp_right[:, :, None] * dP[None, 1:])
@@ -145,8 +147,8 @@ class ContinuitySystem:
         """Stack ``[dP, v_s, a_s, v_e, a_e]`` per segment: shape (S, 5, m)."""
         return np.stack([dP, vel[:-1], acc[:-1], vel[1:], acc[1:]], axis=1)
 
-    def coefficients(self, waypoints_or_zero, dP, vel, acc):
-        """Ascending coefficients (S, 6, m) of every segment; c0 = the segment's start."""
+    def coefficients(self, starts, dP, vel, acc):
+        """Return every segment's ascending polynomial terms, shape (S, 6, m); c0 = its start."""
         coeffs = np.einsum('sij,sjm->sim', self.maps, self.segment_inputs(dP, vel, acc))
-        coeffs[:, 0] = waypoints_or_zero
+        coeffs[:, 0] = starts
         return coeffs

@@ -1,7 +1,6 @@
 """Per-joint velocity, acceleration and jerk limits and what binds against them."""
 
 from dataclasses import dataclass
-from typing import Optional
 
 import numpy as np
 

@@ -1,4 +1,5 @@
-"""Exact per-segment peaks of |velocity|, |acceleration| and |jerk|.
+"""
+Exact per-segment peaks of |velocity|, |acceleration| and |jerk|.
 
 A polynomial's extreme values on ``[0, T]`` are at the ends or at the real roots
 of its next derivative inside the interval.  Here those roots are computed
@@ -83,7 +84,8 @@ def _candidates(coeffs, durations, derivative):
 
 
 def segment_peaks(coeffs, durations, derivative):
-    """Max |d-th derivative| of every segment and joint: shape (S, m).
+    """
+    Max |d-th derivative| of every segment and joint: shape (S, m).
 
     ``coeffs`` are ascending polynomial coefficients (S, 6, m) in local time
     ``tau in [0, T_s]``; ``derivative`` is 1 (velocity), 2 (acceleration) or

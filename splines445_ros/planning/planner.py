@@ -17,7 +17,8 @@ DUPLICATE_RTOL = 1e-12
 
 
 def merge_duplicates(waypoints):
-    """Drop every waypoint equal to its predecessor; return (kept, dropped indices).
+    """
+    Drop every waypoint equal to its predecessor; return (kept, dropped indices).
 
     A zero chord would give a zero duration (eq. 11), so chord-based timing
     plans through the distinct waypoints only.  The trajectory passes through
@@ -37,15 +38,26 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
          max_velocity=None, max_acceleration=None, max_jerk=None,
          start_velocity=None, start_acceleration=None,
          end_velocity=None, end_acceleration=None):
-    """Plan a trajectory through ``waypoints`` (N, n_joints).
+    """
+    Plan a trajectory through ``waypoints`` (N, n_joints).
+
+    Consecutive duplicate waypoints are merged for "uniform" and "optimal"
+    timing (see :func:`merge_duplicates`, reported in
+    ``Trajectory.dropped_waypoints``); "fixed" keeps them, since the caller's
+    durations define the timing.  Raises ValueError naming the problem (and
+    its index) for bad or infeasible input.
 
     Parameters
     ----------
+    waypoints : array_like (N, n)
+        Joint positions the trajectory passes through, in order.
     method : "445" (Petrinec & Kovacic: quartics and a final quintic, jerk
         continuous) or "434" (Ho & Cook: quartic, cubics, quartic; C2).
-    timing : "fixed" uses ``durations`` (N-1,); "uniform" scales the chord
+    timing : "fixed" uses ``durations``; "uniform" scales the chord
         durations of eq. (11) by the smallest common factor that meets every
         limit; "optimal" chooses every duration to minimise the total time.
+    durations : array_like (N-1,)
+        Positive segment durations in seconds ("fixed" only).
     max_velocity, max_acceleration : (n,) positive limits, needed for
         "uniform" and "optimal", optional for "fixed" (then only checked).
     max_jerk : (n,) positive limits or None (no jerk limit); +inf entries
@@ -53,12 +65,6 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
     start_velocity, start_acceleration, end_velocity, end_acceleration : (n,)
         boundary values, zero when None.
 
-    Consecutive duplicate waypoints are merged for "uniform" and "optimal"
-    timing (see :func:`merge_duplicates`, reported in
-    ``Trajectory.dropped_waypoints``); "fixed" keeps them, since the caller's
-    durations define the timing.
-
-    Raises ValueError naming the problem for bad or infeasible input.
     """
     if method not in METHODS:
         raise ValueError(f'unknown method {method!r}: expected one of {METHODS}')

@@ -1,4 +1,5 @@
-"""Polynomial segments of the 445 and 434 splines as linear maps of their end conditions.
+"""
+Polynomial segments of the 445 and 434 splines as linear maps of their end conditions.
 
 Every segment k runs from waypoint ``P_k`` to ``P_{k+1}`` in local time
 ``tau in [0, T]``.  Its coefficients (ascending powers, ``c0 .. c5``) are linear
@@ -118,7 +119,8 @@ def segment_types(method, n_segments):
 
 
 def input_maps(types, durations):
-    """Return ``B`` of shape (S, 6, 5): coefficients = ``B @ u`` for every segment.
+    """
+    Return ``B`` of shape (S, 6, 5): coefficients = ``B @ u`` for every segment.
 
     Row 0 (the constant term) is zero; every segment's linear (c1) and, where it
     starts with a given acceleration, quadratic (c2) terms are eqs. (4)-(5) and

@@ -1,4 +1,5 @@
-"""Segment durations: chord lengths (eq. 11) and the paper's common scale factor.
+"""
+Segment durations: chord lengths (eq. 11) and the paper's common scale factor.
 
 With durations ``lambda * T`` the spline is linear in the waypoints and the
 boundary values, and time-scaling shows how each part depends on ``lambda``::
@@ -66,7 +67,7 @@ class ScaledSpline:
         return scale * self.base_durations
 
     def coefficients(self, scale):
-        """Real-time ascending coefficients (S, 6, n) for the factor ``scale``."""
+        """Return the real-time ascending polynomial terms (S, 6, n) for the factor ``scale``."""
         position, velocity, acceleration = self._parts
         combined = position + scale * velocity + scale**2 * acceleration
         return combined / (scale ** np.arange(combined.shape[1]))[None, :, None]
@@ -77,7 +78,8 @@ class ScaledSpline:
 
 
 def closed_form_scale(ratios_at_unit_scale):
-    """Smallest factor for a rest-to-rest spline from its (S, n, 3) ratios at factor 1.
+    """
+    Smallest factor for a rest-to-rest spline from its (S, n, 3) ratios at factor 1.
 
     Velocity ratios scale as 1/lambda, acceleration as 1/lambda^2, jerk as 1/lambda^3.
     """
@@ -86,7 +88,8 @@ def closed_form_scale(ratios_at_unit_scale):
 
 
 def uniform_scale(spline, limits):
-    """Smallest common factor (found by bracketing and bisection) that meets the limits.
+    """
+    Smallest common factor (found by bracketing and bisection) that meets the limits.
 
     Raises ValueError when no factor in a wide range around the rest-to-rest
     factor is feasible (boundary values that no common scaling can reconcile

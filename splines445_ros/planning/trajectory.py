@@ -19,7 +19,8 @@ class Samples(NamedTuple):
 
 
 class Trajectory:
-    """A piecewise-polynomial joint trajectory through waypoints.
+    """
+    A piecewise-polynomial joint trajectory through waypoints.
 
     Attributes
     ----------
@@ -59,7 +60,7 @@ class Trajectory:
 
     @property
     def n_joints(self):
-        """Number of joints."""
+        """Return the number of joints."""
         return self.waypoints.shape[1]
 
     def _derivative(self, derivative):
@@ -68,7 +69,8 @@ class Trajectory:
         return self._derivatives[derivative]
 
     def evaluate(self, t, derivative=0):
-        """Position (0), velocity (1), acceleration (2) or jerk (3) at times ``t``: (len(t), n).
+        """
+        Position (0), velocity (1), acceleration (2) or jerk (3) at times ``t``: (len(t), n).
 
         Times outside [0, duration] are clamped to it (the robot holds its end states).
         """
@@ -78,7 +80,8 @@ class Trajectory:
         return self._derivative(derivative)(t)
 
     def sample(self, period):
-        """Sample every ``period`` seconds; the last sample is exactly the last waypoint.
+        """
+        Sample every ``period`` seconds; the last sample is exactly the last waypoint.
 
         A regular sample closer than ``period / 2`` to the end is dropped so
         that the final interval is never tiny.
@@ -88,8 +91,9 @@ class Trajectory:
             raise ValueError(f'sample period must be positive and finite, got {period}')
         count = int(np.floor(self.duration / period))
         times = np.arange(count + 1) * period
-        times = times[times < self.duration - 0.5 * period]
-        times = np.append(times, self.duration)
+        keep = times < self.duration - 0.5 * period
+        keep[0] = True  # t = 0 always, even for a trajectory shorter than period / 2
+        times = np.append(times[keep], self.duration)
         positions = self.evaluate(times, 0)
         velocities = self.evaluate(times, 1)
         accelerations = self.evaluate(times, 2)
@@ -106,7 +110,7 @@ class Trajectory:
         return self._segment_peaks[derivative]
 
     def peaks(self):
-        """Dict quantity -> (n,) peak |value| over the whole trajectory."""
+        """Return a dict quantity -> (n,) peak |value| over the whole trajectory."""
         return {name: self.segment_peaks(d + 1).max(axis=0) for d, name in enumerate(QUANTITIES)}
 
     def limit_ratios(self):
@@ -117,13 +121,13 @@ class Trajectory:
 
     @property
     def binding(self):
-        """The :class:`BindingLimit` with the largest peak/limit ratio, or None."""
+        """Return the :class:`BindingLimit` with the largest peak/limit ratio, or None."""
         if self.limits is None:
             return None
         return binding_limit(self.limit_ratios())
 
     def within_limits(self, rtol=1e-9):
-        """True when every peak is within its limit (relative tolerance ``rtol``)."""
+        """Return True when every peak is within its limit (relative tolerance ``rtol``)."""
         return self.limits is None or bool(np.all(self.limit_ratios() <= 1.0 + rtol))
 
     def knot_jumps(self, derivative):

@@ -1,0 +1,65 @@
+# Two commands set everything up on a fresh machine:
+#   make demo   # create .venv, build with colcon, run the paper's example through both nodes
+#   make test   # same set-up, then colcon test + colcon test-result (fails on any failure)
+# With an apt-installed ROS 2 Jazzy already sourced (ROS_DISTRO=jazzy) the
+# system python3 and colcon are used instead of .venv.
+
+SHELL := /bin/bash
+.SHELLFLAGS := -o pipefail -c
+.DEFAULT_GOAL := help
+
+# DDS traffic stays on this machine for every target (no multicast on the LAN).
+export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
+
+VENV := .venv
+ifeq ($(ROS_DISTRO),jazzy)
+PYTHON := python3
+COLCON := colcon
+ENV_STAMP :=
+else
+PYTHON := $(abspath $(VENV))/bin/python
+COLCON := $(abspath $(VENV))/bin/colcon
+ENV_STAMP := $(VENV)/.installed
+endif
+
+COLCON_PATHS := --base-paths . --build-base build --install-base install
+SOURCE_INSTALL := source install/setup.bash
+OUT ?= out
+
+.PHONY: help env build test demo bench lint clean
+
+help:
+	@echo "make demo   set up, build, run the paper's example through both nodes"
+	@echo "make test   set up, build, colcon test, colcon test-result --verbose"
+	@echo "make bench  planning-time benchmarks against scipy and TOPP-RA"
+	@echo "make clean  remove build products (keeps .venv)"
+
+env: $(ENV_STAMP)
+
+$(VENV)/.installed: requirements.txt
+	python3 -m venv $(VENV)
+	$(VENV)/bin/pip install --disable-pip-version-check -q pip==26.3
+	$(VENV)/bin/pip install --disable-pip-version-check -q -r requirements.txt
+	touch $@
+
+build: env
+	$(COLCON) build $(COLCON_PATHS) --event-handlers console_cohesion- summary+
+
+test: build
+	@rc=0; \
+	$(COLCON) test $(COLCON_PATHS) --test-result-base build/test_results \
+	    --event-handlers console_direct+ summary+ || rc=$$?; \
+	$(COLCON) test-result --test-result-base build/test_results --verbose \
+	    | tee build/test_result.txt || rc=$$?; \
+	$(PYTHON) scripts/test_summary.py build/test_result.txt | tee build/test_summary.txt \
+	    || rc=$$?; \
+	exit $$rc
+
+demo: build
+	$(SOURCE_INSTALL) && install/lib/splines445_ros/demo --out $(OUT)
+
+bench: build
+	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_planning.py
+
+clean:
+	rm -rf build install log $(OUT)

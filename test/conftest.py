@@ -1,0 +1,24 @@
+"""
+Test set-up shared by every test module.
+
+* DDS discovery stays on this machine (ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST)
+  and every test process gets its own ROS_DOMAIN_ID unless one is set, so
+  parallel runs never see each other.  Both are set before rclpy is imported.
+* Hypothesis example counts are moderate by default; set
+  SPLINES445_HYPOTHESIS_PROFILE=long (or =ci) for longer runs.
+"""
+
+import os
+
+os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+os.environ.setdefault('ROS_DOMAIN_ID', str(1 + os.getpid() % 100))
+
+from hypothesis import HealthCheck, settings  # noqa: E402
+
+settings.register_profile(
+    'default', max_examples=60, deadline=None,
+    suppress_health_check=[HealthCheck.too_slow])
+settings.register_profile(
+    'long', max_examples=2000, deadline=None,
+    suppress_health_check=[HealthCheck.too_slow])
+settings.load_profile(os.environ.get('SPLINES445_HYPOTHESIS_PROFILE', 'default'))

@@ -1,0 +1,17 @@
+"""ament_flake8 over the package sources and tests."""
+
+import os
+
+from ament_flake8.main import main_with_errors
+import pytest
+
+# Sources only: build/, install/ and .venv/ live inside the package directory too.
+LINTED = [p for p in ('splines445_ros', 'test', 'scripts', 'benchmarks', 'setup.py')
+          if os.path.exists(p)]
+
+
+@pytest.mark.flake8
+@pytest.mark.linter
+def test_flake8():
+    rc, errors = main_with_errors(argv=LINTED)
+    assert rc == 0, 'Found %d code style errors / warnings:\n' % len(errors) + '\n'.join(errors)
