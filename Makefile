@@ -56,7 +56,7 @@ test: build
 	exit $$rc
 
 demo: build
-	$(SOURCE_INSTALL) && install/lib/splines445_ros/demo --out $(OUT)
+	$(SOURCE_INSTALL) && install/splines445_ros/lib/splines445_ros/demo --out $(OUT)
 
 bench: build
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_planning.py

@@ -1,0 +1,23 @@
+"""Status reports of the nodes as ``diagnostic_msgs/DiagnosticStatus``."""
+
+from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
+
+
+def status_message(name, ok, message, values=None):
+    """Build a status: level OK or ERROR, a message and key/value details (as strings)."""
+    status = DiagnosticStatus()
+    status.level = DiagnosticStatus.OK if ok else DiagnosticStatus.ERROR
+    status.name = name
+    status.message = message
+    status.values = [KeyValue(key=str(k), value=str(v)) for k, v in (values or {}).items()]
+    return status
+
+
+def status_values(status):
+    """Key/value details of a status as a dict (for clients and tests)."""
+    return {kv.key: kv.value for kv in status.values}
+
+
+def format_vector(values):
+    """Per-joint numbers as a compact comma-separated string."""
+    return ', '.join(f'{float(v):.6g}' for v in values)

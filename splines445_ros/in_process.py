@@ -1,0 +1,175 @@
+"""
+Both nodes and a client in one process and one executor, without launch files.
+
+Used by the demo and the tests.  Creating an :class:`InProcessSystem` forces
+``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` (DDS traffic stays on this machine)
+and picks a per-process ``ROS_DOMAIN_ID`` unless one is set.
+"""
+
+import os
+import time
+
+from diagnostic_msgs.msg import DiagnosticStatus
+from geometry_msgs.msg import PoseStamped
+import rclpy
+from rclpy.context import Context
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from sensor_msgs.msg import JointState
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+from . import topics
+from .arm_sim_node import ArmSimNode
+from .planner_node import PlannerNode
+from .ros_conversions import seconds_to_duration
+
+
+def keep_dds_local():
+    """Force loopback-only discovery and a per-process domain (unless set)."""
+    os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+    os.environ.setdefault('ROS_DOMAIN_ID', str(1 + os.getpid() % 100))
+
+
+def waypoint_message(joint_names, waypoints, start_velocity=None, start_acceleration=None,
+                     end_velocity=None, end_acceleration=None, times=None):
+    """Build a waypoint request ``JointTrajectory`` from arrays."""
+    msg = JointTrajectory()
+    msg.joint_names = list(joint_names)
+    for k, q in enumerate(waypoints):
+        point = JointTrajectoryPoint(positions=[float(v) for v in q])
+        if times is not None:
+            point.time_from_start = seconds_to_duration(times[k])
+        msg.points.append(point)
+    for point, vel, acc in ((msg.points[0], start_velocity, start_acceleration),
+                            (msg.points[-1], end_velocity, end_acceleration)):
+        if vel is not None:
+            point.velocities = [float(v) for v in vel]
+        if acc is not None:
+            point.accelerations = [float(v) for v in acc]
+    return msg
+
+
+def stamp_ns(msg):
+    """Header stamp of a message in nanoseconds."""
+    return msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+
+
+def overrides(values):
+    """Parameter overrides from a dict."""
+    return [Parameter(name, value=value) for name, value in values.items()]
+
+
+class InProcessSystem:
+    """Planner, arm simulation and a recording client spun by one executor."""
+
+    def __init__(self, planner_parameters=None, arm_parameters=None, params_file=None):
+        """Start everything; ``*_parameters`` are dicts of overrides."""
+        keep_dds_local()
+        self.context = Context()
+        rclpy.init(context=self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        cli = ['--ros-args', '--params-file', params_file] if params_file else None
+        self.planner = PlannerNode(context=self.context, cli_args=cli,
+                                   parameter_overrides=overrides(planner_parameters or {}))
+        self.arm = ArmSimNode(context=self.context, cli_args=cli,
+                              parameter_overrides=overrides(arm_parameters or {}))
+        self.client = Node('splines445_client', context=self.context)
+        self.waypoint_publisher = self.client.create_publisher(
+            JointTrajectory, topics.WAYPOINTS, topics.REQUEST_QOS)
+        self.trajectory_publisher = self.client.create_publisher(
+            JointTrajectory, topics.JOINT_TRAJECTORY, topics.LATCHED)
+        self.trajectories = []
+        self.planner_status = []
+        self.arm_status = []
+        self.joint_states = []
+        self.tool_poses = []
+        self.client.create_subscription(JointTrajectory, topics.JOINT_TRAJECTORY,
+                                        self.trajectories.append, topics.LATCHED)
+        self.client.create_subscription(DiagnosticStatus, '/planner_node/status',
+                                        self.planner_status.append, topics.STATUS_QOS)
+        self.client.create_subscription(DiagnosticStatus, '/arm_sim_node/status',
+                                        self.arm_status.append, topics.STATUS_QOS)
+        self.client.create_subscription(JointState, topics.JOINT_STATES,
+                                        self.joint_states.append, topics.STATE_QOS)
+        self.client.create_subscription(PoseStamped, topics.TOOL_POSE,
+                                        self.tool_poses.append, topics.STATE_QOS)
+        for node in (self.planner, self.arm, self.client):
+            self.executor.add_node(node)
+        self.wait_for_connections()
+
+    def wait_for_connections(self, timeout=10.0):
+        """Wait until the client's publishers and subscriptions have matched the nodes."""
+        def matched():
+            return (self.waypoint_publisher.get_subscription_count() >= 1
+                    and self.planner.trajectory_publisher.get_subscription_count() >= 2
+                    and self.arm.joint_state_publisher.get_subscription_count() >= 1
+                    and self.planner.status_publisher.get_subscription_count() >= 1)
+        if not self.spin_until(matched, timeout):
+            raise RuntimeError('in-process nodes did not discover each other')
+
+    def spin_until(self, predicate, timeout):
+        """Spin the executor until ``predicate()`` is true; False on timeout."""
+        deadline = time.monotonic() + timeout
+        while not predicate():
+            if time.monotonic() > deadline:
+                return False
+            self.executor.spin_once(timeout_sec=0.005)
+        return True
+
+    def spin_for(self, seconds):
+        """Spin the executor for a while."""
+        self.spin_until(lambda: False, seconds)
+
+    def request(self, msg, timeout=30.0):
+        """Publish a waypoint request; return its status and trajectory (or None)."""
+        n_status = len(self.planner_status)
+        n_traj = len(self.trajectories)
+        self.waypoint_publisher.publish(msg)
+        if not self.spin_until(lambda: len(self.planner_status) > n_status, timeout):
+            raise TimeoutError('no status from the planner')
+        status = self.planner_status[n_status]
+        if status.level != DiagnosticStatus.OK:
+            return status, None
+        if not self.spin_until(lambda: len(self.trajectories) > n_traj, timeout):
+            raise TimeoutError('planner reported success but no trajectory arrived')
+        return status, self.trajectories[-1]
+
+    def wait_until_played(self, n_arm_status, duration, timeout=10.0):
+        """
+        Wait until the arm has played the trajectory it accepted after status number n.
+
+        Returns the ``joint_states`` published while it moved and the first one
+        published after its end.
+        """
+        if not self.spin_until(lambda: len(self.arm_status) > n_arm_status, timeout):
+            raise TimeoutError('the arm did not accept the trajectory')
+        status = self.arm_status[n_arm_status]
+        if status.level != DiagnosticStatus.OK:
+            raise RuntimeError(f'the arm rejected the trajectory: {status.message}')
+        start = int({kv.key: kv.value for kv in status.values}['start_ns'])
+        end = start + int(round(duration * 1e9))
+        if not self.spin_until(lambda: stamp_ns(self.joint_states[-1]) > end,
+                               duration + timeout):
+            raise TimeoutError('the arm did not finish the trajectory')
+        played = [s for s in self.joint_states if start <= stamp_ns(s) <= end]
+        return played, self.joint_states[-1]
+
+    def set_planner_parameters(self, values):
+        """Set planner parameters; return the SetParametersResult list."""
+        return self.planner.set_parameters(overrides(values))
+
+    def close(self):
+        """Destroy the nodes and shut this context down."""
+        self.executor.shutdown()
+        for node in (self.client, self.arm, self.planner):
+            node.destroy_node()
+        rclpy.try_shutdown(context=self.context)
+
+    def __enter__(self):
+        """Use as a context manager."""
+        return self
+
+    def __exit__(self, *exc):
+        """Close on exit."""
+        self.close()

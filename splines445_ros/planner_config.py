@@ -1,0 +1,82 @@
+"""
+Validated configuration of the planner node (pure Python, no rclpy).
+
+The node's ROS parameters map one to one onto :class:`PlannerConfig`; every
+``set_parameters`` is checked by building a new config from the current values
+overlaid with the request, so a bad value is rejected with the reason and the
+old configuration stays.
+"""
+
+from dataclasses import dataclass
+import math
+from typing import Tuple
+
+from .planning import METHODS, TIMINGS
+
+DEFAULT_JOINTS = ('joint1', 'joint2', 'joint3')
+MIN_SAMPLE_PERIOD = 1e-4
+MAX_LEAD_TIME = 10.0
+
+
+@dataclass(frozen=True)
+class PlannerConfig:
+    """Everything the planner needs besides the request itself."""
+
+    joint_names: Tuple[str, ...] = DEFAULT_JOINTS
+    max_velocity: Tuple[float, ...] = (2.0, 2.0, 2.0)
+    max_acceleration: Tuple[float, ...] = (10.0, 10.0, 10.0)
+    max_jerk: Tuple[float, ...] = (0.0, 0.0, 0.0)
+    method: str = '445'
+    timing: str = 'uniform'
+    sample_period: float = 0.01
+    start_from_current_state: bool = False
+    replan_lead_time: float = 0.05
+
+    @classmethod
+    def from_values(cls, values):
+        """Build and validate a config from a dict of parameter values (ValueError)."""
+        config = cls(**{k: (tuple(v) if isinstance(v, (list, tuple)) else v)
+                        for k, v in values.items()})
+        config.validate()
+        return config
+
+    def validate(self):
+        """Raise ValueError with the reason when any value is unusable."""
+        names = self.joint_names
+        if not names:
+            raise ValueError('joint_names must not be empty')
+        if any(not isinstance(n, str) or not n for n in names):
+            raise ValueError('joint_names must be non-empty strings')
+        if len(set(names)) != len(names):
+            raise ValueError(f'joint_names has duplicates: {list(names)}')
+        n = len(names)
+        for name in ('max_velocity', 'max_acceleration'):
+            values = getattr(self, name)
+            if len(values) != n:
+                raise ValueError(f'{name} needs one value per joint ({n}), got {len(values)}')
+            for i, v in enumerate(values):
+                if not (math.isfinite(v) and v > 0.0):
+                    raise ValueError(f'{name}[{i}] = {v}: must be positive and finite')
+        if len(self.max_jerk) not in (0, n):
+            raise ValueError(f'max_jerk needs one value per joint ({n}) or none, '
+                             f'got {len(self.max_jerk)}')
+        for i, v in enumerate(self.max_jerk):
+            if math.isnan(v) or v < 0.0:
+                raise ValueError(f'max_jerk[{i}] = {v}: must be >= 0 (0 = no jerk limit)')
+        if self.method not in METHODS:
+            raise ValueError(f'method must be one of {list(METHODS)}, got {self.method!r}')
+        if self.timing not in TIMINGS:
+            raise ValueError(f'timing must be one of {list(TIMINGS)}, got {self.timing!r}')
+        if not (math.isfinite(self.sample_period) and self.sample_period >= MIN_SAMPLE_PERIOD):
+            raise ValueError(f'sample_period = {self.sample_period}: must be at least '
+                             f'{MIN_SAMPLE_PERIOD} s')
+        if not (math.isfinite(self.replan_lead_time)
+                and 0.0 <= self.replan_lead_time <= MAX_LEAD_TIME):
+            raise ValueError(f'replan_lead_time = {self.replan_lead_time}: must be in '
+                             f'[0, {MAX_LEAD_TIME}] s')
+
+    def jerk_limits(self):
+        """Jerk limits for plan(): None when no joint has one, +inf for 0 entries."""
+        if not any(v > 0.0 for v in self.max_jerk):
+            return None
+        return [v if v > 0.0 else math.inf for v in self.max_jerk]

@@ -1,0 +1,144 @@
+"""
+``planner_node``: waypoints in, jerk-continuous ``JointTrajectory`` out.
+
+Subscribes ``waypoints`` (trajectory_msgs/JointTrajectory), plans with the
+planning core and the limits from its parameters, publishes
+``joint_trajectory`` sampled every ``sample_period`` and reports every
+request's outcome on ``~/status`` (diagnostic_msgs/DiagnosticStatus).
+
+Planning runs on a worker thread, so a large request never blocks the node's
+other callbacks (parameter services, state subscriptions).  A bad request is
+reported and logged; the node keeps serving.
+"""
+
+import queue
+import threading
+import time
+import traceback
+
+from diagnostic_msgs.msg import DiagnosticStatus
+import rclpy
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from trajectory_msgs.msg import JointTrajectory
+
+from . import topics
+from .diagnostics import status_message
+from .parameters import ConfigParameters
+from .planner_config import PlannerConfig
+from .request_planning import plan_request, summary_values
+from .ros_conversions import parse_waypoint_request, trajectory_to_msg
+
+PARAMETER_DESCRIPTIONS = {
+    'joint_names': 'Joints planned, in the order of the limit arrays.',
+    'max_velocity': 'Per-joint |velocity| limit [rad/s or m/s], > 0.',
+    'max_acceleration': 'Per-joint |acceleration| limit [rad/s^2 or m/s^2], > 0.',
+    'max_jerk': 'Per-joint |jerk| limit [rad/s^3 or m/s^3]; 0 = no jerk limit '
+                'on that joint; an empty array = no jerk limit at all.',
+    'method': '"445" (jerk-continuous, Petrinec & Kovacic) or "434" (Ho & Cook, C2).',
+    'timing': '"uniform" (chord durations, one common scale factor), "optimal" '
+              '(minimum total time) or "fixed" (durations from time_from_start).',
+    'sample_period': 'Period of the published trajectory points [s], >= 1e-4.',
+    'start_from_current_state': 'Start every trajectory from the commanded state at '
+                                'now + replan_lead_time (continuous replanning).',
+    'replan_lead_time': 'How far ahead of now a replanned trajectory takes over [s].',
+}
+
+_STOP = object()
+
+
+class PlannerNode(Node):
+    """Plans a trajectory for every waypoint request."""
+
+    def __init__(self, **kwargs):
+        """Declare parameters, topics and the planning worker."""
+        super().__init__('planner_node', **kwargs)
+        self.parameters = ConfigParameters(self, PlannerConfig, PARAMETER_DESCRIPTIONS)
+        self._status_name = self.get_fully_qualified_name()
+        self._requests = queue.Queue()
+        self._request_count = 0
+        self.trajectory_publisher = self.create_publisher(
+            JointTrajectory, topics.JOINT_TRAJECTORY, topics.LATCHED)
+        self.status_publisher = self.create_publisher(
+            DiagnosticStatus, topics.STATUS, topics.STATUS_QOS)
+        self.create_subscription(JointTrajectory, topics.WAYPOINTS, self._on_waypoints,
+                                 topics.REQUEST_QOS)
+        self._worker = threading.Thread(target=self._work, name='planner', daemon=True)
+        self._worker.start()
+        config = self.parameters.config
+        self.get_logger().info(
+            f'planning {config.method}/{config.timing} for {list(config.joint_names)}')
+
+    def _on_waypoints(self, msg):
+        self._requests.put(msg)
+
+    def _work(self):
+        while True:
+            msg = self._requests.get()
+            if msg is _STOP:
+                return
+            self._request_count += 1
+            try:
+                self._serve(msg, self._request_count)
+            except Exception as exc:  # noqa: B902 - a request must never kill the node
+                self._report(False, f'internal error: {type(exc).__name__}: {exc}',
+                             {'request': self._request_count})
+                self.get_logger().error(traceback.format_exc())
+
+    def _serve(self, msg, request_id):
+        config = self.parameters.config
+        started = time.perf_counter()
+        try:
+            request = parse_waypoint_request(msg, config.joint_names)
+            traj = plan_request(config, request)
+        except ValueError as exc:
+            self._report(False, f'request {request_id} rejected: {exc}',
+                         {'request': request_id})
+            return
+        planned = time.perf_counter()
+        samples = traj.sample(config.sample_period)
+        out = trajectory_to_msg(samples, config.joint_names)
+        self.trajectory_publisher.publish(out)
+        published = time.perf_counter()
+        values = {'request': request_id, 'points': len(out.points),
+                  'planning_time_ms': f'{1e3 * (planned - started):.3f}',
+                  'publishing_time_ms': f'{1e3 * (published - planned):.3f}'}
+        values.update(summary_values(traj, config.joint_names))
+        self._report(True, f'request {request_id}: {traj.method}/{traj.timing} through '
+                           f'{traj.waypoints.shape[0]} waypoints in {traj.duration:.4f} s',
+                     values)
+
+    def _report(self, ok, message, values):
+        if ok:
+            self.get_logger().info(message)
+        else:
+            self.get_logger().error(message)
+        self.status_publisher.publish(status_message(self._status_name, ok, message, values))
+
+    def destroy_node(self):
+        """Stop the planning worker, then destroy the node."""
+        self._requests.put(_STOP)
+        self._worker.join(timeout=10.0)
+        return super().destroy_node()
+
+
+def main(args=None):
+    """Run the planner node until Ctrl-C or shutdown."""
+    rclpy.init(args=args)
+    node = None
+    try:
+        node = PlannerNode()
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except ValueError as exc:
+        print(f'planner_node: invalid parameters: {exc}')
+        raise SystemExit(2)
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+
+
+if __name__ == '__main__':
+    main()

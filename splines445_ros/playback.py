@@ -1,0 +1,103 @@
+"""
+Playback of a sampled joint trajectory (pure Python, no rclpy).
+
+Between two samples the state is interpolated like ros2_control's
+joint_trajectory_controller does: a quintic Hermite polynomial when every
+sample has positions, velocities and accelerations, a cubic one with
+positions and velocities, linear with positions only.
+"""
+
+import numpy as np
+
+
+class SampledTrajectory:
+    """Samples (K,) times and (K, n) positions / velocities / accelerations."""
+
+    def __init__(self, times, positions, velocities=None, accelerations=None):
+        """Check shapes, finiteness and strictly increasing times (ValueError)."""
+        self.times = np.asarray(times, dtype=float)
+        self.positions = np.asarray(positions, dtype=float)
+        K = self.times.size
+        if K == 0:
+            raise ValueError('trajectory has no points')
+        if self.positions.ndim != 2 or self.positions.shape[0] != K:
+            raise ValueError(f'positions must have shape ({K}, n), got {self.positions.shape}')
+        n = self.positions.shape[1]
+        self.velocities = None if velocities is None else np.asarray(velocities, dtype=float)
+        self.accelerations = (None if accelerations is None
+                              else np.asarray(accelerations, dtype=float))
+        for name in ('velocities', 'accelerations'):
+            value = getattr(self, name)
+            if value is not None and value.shape != (K, n):
+                raise ValueError(f'{name} must have shape ({K}, {n}), got {value.shape}')
+        for name in ('times', 'positions', 'velocities', 'accelerations'):
+            value = getattr(self, name)
+            if value is not None and not np.all(np.isfinite(value)):
+                bad = np.argwhere(~np.isfinite(value))[0]
+                raise ValueError(f'{name} has a non-finite value at {tuple(int(i) for i in bad)}')
+        if np.any(self.times < 0.0):
+            raise ValueError('time_from_start must not be negative')
+        steps = np.diff(self.times)
+        if np.any(steps <= 0.0):
+            k = int(np.argwhere(steps <= 0.0)[0][0])
+            raise ValueError(f'time_from_start must increase strictly: point {k + 1} '
+                             f'({self.times[k + 1]} s) is not after point {k} '
+                             f'({self.times[k]} s)')
+
+    @property
+    def duration(self):
+        """Time of the last sample."""
+        return float(self.times[-1])
+
+    def with_start_state(self, position, velocity, acceleration):
+        """Prepend the current state at t = 0 when the first sample is later than 0."""
+        if self.times[0] <= 0.0:
+            return self
+        vel = None if self.velocities is None else np.vstack([velocity, self.velocities])
+        acc = None if self.accelerations is None else np.vstack(
+            [acceleration, self.accelerations])
+        return SampledTrajectory(np.concatenate([[0.0], self.times]),
+                                 np.vstack([position, self.positions]), vel, acc)
+
+    def state_at(self, t):
+        """Position, velocity and acceleration (n,) each at time ``t`` (clamped)."""
+        n = self.positions.shape[1]
+        zero = np.zeros(n)
+        if t >= self.times[-1] or self.times.size == 1:
+            vel = zero if self.velocities is None else self.velocities[-1]
+            acc = zero if self.accelerations is None else self.accelerations[-1]
+            if t >= self.times[-1]:
+                return self.positions[-1].copy(), vel.copy(), acc.copy()
+        t = max(t, float(self.times[0]))
+        k = int(np.clip(np.searchsorted(self.times, t, side='right') - 1, 0,
+                        self.times.size - 2))
+        h = self.times[k + 1] - self.times[k]
+        s = (t - self.times[k]) / h
+        p0, p1 = self.positions[k], self.positions[k + 1]
+        if self.velocities is None:
+            v = (p1 - p0) / h
+            return p0 + s * (p1 - p0), v, zero
+        v0, v1 = self.velocities[k] * h, self.velocities[k + 1] * h
+        if self.accelerations is None:
+            a0 = a1 = zero
+            quintic = False
+        else:
+            a0, a1 = self.accelerations[k] * h * h, self.accelerations[k + 1] * h * h
+            quintic = True
+        c = _hermite(p0, v0, a0, p1, v1, a1, quintic)
+        pos = ((((c[5] * s + c[4]) * s + c[3]) * s + c[2]) * s + c[1]) * s + c[0]
+        vel = (((5 * c[5] * s + 4 * c[4]) * s + 3 * c[3]) * s + 2 * c[2]) * s + c[1]
+        acc = ((20 * c[5] * s + 12 * c[4]) * s + 6 * c[3]) * s + 2 * c[2]
+        return pos, vel / h, acc / (h * h)
+
+
+def _hermite(p0, v0, a0, p1, v1, a1, quintic):
+    """Ascending coefficients in s in [0, 1] matching the scaled end derivatives."""
+    d = p1 - p0
+    if not quintic:
+        zero = np.zeros_like(d)
+        return (p0, v0, 3 * d - 2 * v0 - v1, -2 * d + v0 + v1, zero, zero)
+    return (p0, v0, 0.5 * a0,
+            10 * d - 6 * v0 - 4 * v1 - 1.5 * a0 + 0.5 * a1,
+            -15 * d + 8 * v0 + 7 * v1 + 1.5 * a0 - a1,
+            6 * d - 3 * v0 - 3 * v1 - 0.5 * a0 + 0.5 * a1)

@@ -1,0 +1,136 @@
+"""
+Conversions between ROS messages and the planning core's arrays.
+
+Waypoint requests (``trajectory_msgs/JointTrajectory`` on ``waypoints``):
+
+* ``joint_names`` in any order; they are mapped to the configured order, and an
+  unknown, missing or duplicated joint is an error.
+* one point per waypoint, each with ``positions`` for every joint.
+* ``velocities`` / ``accelerations`` on the *first* and *last* point, when
+  present, are the boundary values (default zero); on other points they are
+  ignored.
+* ``time_from_start`` on every point, strictly increasing, gives the segment
+  durations when the planner's ``timing`` is "fixed"; otherwise it is ignored.
+"""
+
+from dataclasses import dataclass
+from typing import Optional
+
+from builtin_interfaces.msg import Duration
+import numpy as np
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+from .playback import SampledTrajectory
+
+NANOS = 1_000_000_000
+
+
+@dataclass
+class WaypointRequest:
+    """A parsed waypoint request, columns in the configured joint order."""
+
+    waypoints: np.ndarray
+    start_velocity: np.ndarray
+    start_acceleration: np.ndarray
+    end_velocity: np.ndarray
+    end_acceleration: np.ndarray
+    times: Optional[np.ndarray]
+
+
+def duration_to_seconds(duration):
+    """builtin_interfaces/Duration (or Time) to float seconds."""
+    return duration.sec + duration.nanosec * 1e-9
+
+
+def seconds_to_duration(seconds):
+    """Float seconds (>= 0) to builtin_interfaces/Duration, rounded to nanoseconds."""
+    total = int(round(seconds * NANOS))
+    return Duration(sec=total // NANOS, nanosec=total % NANOS)
+
+
+def joint_order(msg_names, joint_names):
+    """Column index in the message for every configured joint (ValueError if not a match)."""
+    names = list(msg_names)
+    if not names:
+        raise ValueError('joint_names of the message is empty')
+    if len(set(names)) != len(names):
+        dup = sorted({n for n in names if names.count(n) > 1})
+        raise ValueError(f'duplicate joint names in message: {dup}')
+    unknown = [n for n in names if n not in joint_names]
+    if unknown:
+        raise ValueError(f'unknown joints {unknown}; this node controls {list(joint_names)}')
+    missing = [n for n in joint_names if n not in names]
+    if missing:
+        raise ValueError(f'missing joints {missing}; the message names {names}')
+    return [names.index(n) for n in joint_names]
+
+
+def _column(point, field, k, n, order, required):
+    values = getattr(point, field)
+    if len(values) == 0 and not required:
+        return None
+    if len(values) != n:
+        raise ValueError(f'point {k} has {len(values)} {field} for {n} joints')
+    return np.asarray(values, dtype=float)[order]
+
+
+def parse_waypoint_request(msg, joint_names):
+    """Turn a waypoint ``JointTrajectory`` into a :class:`WaypointRequest` (ValueError)."""
+    order = joint_order(msg.joint_names, joint_names)
+    n = len(order)
+    if len(msg.points) < 2:
+        raise ValueError(f'need at least 2 waypoints, got {len(msg.points)}')
+    waypoints = np.array([_column(p, 'positions', k, n, order, True)
+                          for k, p in enumerate(msg.points)])
+    first, last = msg.points[0], msg.points[-1]
+    last_k = len(msg.points) - 1
+    boundary = []
+    for point, k in ((first, 0), (last, last_k)):
+        for field in ('velocities', 'accelerations'):
+            value = _column(point, field, k, n, order, False)
+            boundary.append(np.zeros(n) if value is None else value)
+    times = np.array([duration_to_seconds(p.time_from_start) for p in msg.points])
+    increasing = bool(np.all(np.diff(times) > 0.0))
+    return WaypointRequest(waypoints, boundary[0], boundary[1], boundary[2], boundary[3],
+                           times if increasing else None)
+
+
+def trajectory_to_msg(samples, joint_names, stamp=None):
+    """Samples of a planned trajectory as a ``JointTrajectory`` (positions, vel, acc)."""
+    msg = JointTrajectory()
+    if stamp is not None:
+        msg.header.stamp = stamp
+    msg.joint_names = list(joint_names)
+    nanos = np.round(samples.times * NANOS).astype(np.int64)
+    positions = samples.positions.tolist()
+    velocities = samples.velocities.tolist()
+    accelerations = samples.accelerations.tolist()
+    msg.points = [
+        JointTrajectoryPoint(
+            positions=positions[k], velocities=velocities[k], accelerations=accelerations[k],
+            time_from_start=Duration(sec=int(t // NANOS), nanosec=int(t % NANOS)))
+        for k, t in enumerate(nanos)]
+    return msg
+
+
+def sampled_trajectory_from_msg(msg, joint_names):
+    """A received ``JointTrajectory`` as a :class:`SampledTrajectory` in configured order."""
+    order = joint_order(msg.joint_names, joint_names)
+    n = len(order)
+    if not msg.points:
+        raise ValueError('trajectory has no points')
+    positions = np.array([_column(p, 'positions', k, n, order, True)
+                          for k, p in enumerate(msg.points)])
+    optional = {}
+    for field in ('velocities', 'accelerations'):
+        columns = [_column(p, field, k, n, order, False) for k, p in enumerate(msg.points)]
+        present = [c is not None for c in columns]
+        if all(present):
+            optional[field] = np.array(columns)
+        elif any(present):
+            raise ValueError(f'{field} must be given on every point or on none')
+        else:
+            optional[field] = None
+    times = np.array([duration_to_seconds(p.time_from_start) for p in msg.points])
+    return SampledTrajectory(times, positions, optional['velocities'],
+                             optional['accelerations'])

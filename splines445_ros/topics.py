@@ -1,0 +1,36 @@
+"""
+Topic names (relative, so they remap and namespace) and QoS profiles.
+
+* ``waypoints`` (planner input): reliable, volatile, depth 100.  Requests are
+  commands: one must never be replayed to a planner that restarts, and a burst
+  of requests is queued, each answered by one status.
+* ``joint_trajectory`` (planner output, arm input): reliable, transient-local,
+  depth 1.  A subscriber that joins late (an arm started after the planner)
+  still receives the latest trajectory, and only the latest one matters: a
+  newer trajectory replaces an older one.
+* ``~/status``: reliable, transient-local, depth 10, so a monitor that starts
+  later sees the most recent outcomes.
+* ``joint_states`` and ``tool_pose``: the sensor-style default (reliable,
+  volatile, depth 10), as robot_state_publisher and the rest of ROS expect.
+"""
+
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+WAYPOINTS = 'waypoints'
+JOINT_TRAJECTORY = 'joint_trajectory'
+JOINT_STATES = 'joint_states'
+TOOL_POSE = 'tool_pose'
+STATUS = '~/status'
+
+REQUEST_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100,
+                         reliability=ReliabilityPolicy.RELIABLE,
+                         durability=DurabilityPolicy.VOLATILE)
+LATCHED = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
+                     reliability=ReliabilityPolicy.RELIABLE,
+                     durability=DurabilityPolicy.TRANSIENT_LOCAL)
+STATUS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
+                        reliability=ReliabilityPolicy.RELIABLE,
+                        durability=DurabilityPolicy.TRANSIENT_LOCAL)
+STATE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
+                       reliability=ReliabilityPolicy.RELIABLE,
+                       durability=DurabilityPolicy.VOLATILE)

@@ -1,0 +1,213 @@
+"""Both nodes and a test client in one process: the paper's example and bad input."""
+
+import os
+
+from diagnostic_msgs.msg import DiagnosticStatus
+import numpy as np
+import pytest
+from splines445_ros import paper_example as pe
+from splines445_ros.diagnostics import status_values
+from splines445_ros.in_process import InProcessSystem, overrides, waypoint_message
+from splines445_ros.planning import plan
+from splines445_ros.ros_conversions import duration_to_seconds, sampled_trajectory_from_msg
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+CONFIG = os.path.join(os.path.dirname(__file__), '..', 'config', 'planar_arm.yaml')
+W = pe.joint_waypoints()
+BOUNDARY = (pe.BOUNDARY_VELOCITY, pe.BOUNDARY_ACCELERATION,
+            pe.BOUNDARY_VELOCITY, pe.BOUNDARY_ACCELERATION)
+JERK_LIMIT = 200.0  # config/planar_arm.yaml
+
+
+@pytest.fixture
+def system():
+    with InProcessSystem(arm_parameters={'initial_positions': W[0].tolist()},
+                         params_file=CONFIG) as s:
+        yield s
+
+
+def trajectory_arrays(msg):
+    times = np.array([duration_to_seconds(p.time_from_start) for p in msg.points])
+    pos = np.array([p.positions for p in msg.points])
+    vel = np.array([p.velocities for p in msg.points])
+    acc = np.array([p.accelerations for p in msg.points])
+    return times, pos, vel, acc
+
+
+@pytest.mark.parametrize('method', ['434', '445'])
+def test_paper_example_through_both_nodes(system, method):
+    assert system.set_planner_parameters({'method': method})[0].successful
+    n_arm_status = len(system.arm_status)
+    status, msg = system.request(waypoint_message(pe.JOINT_NAMES, W, *BOUNDARY))
+    assert status.level == DiagnosticStatus.OK, status.message
+    assert list(msg.joint_names) == list(pe.JOINT_NAMES)
+    times, pos, vel, acc = trajectory_arrays(msg)
+    period = 0.01
+    assert times[0] == 0.0 and np.all(np.diff(times) > 0.0)
+    # Every step is the period except the last, which ends exactly on the last waypoint.
+    np.testing.assert_allclose(np.diff(times)[:-1], period, atol=1e-9)
+    assert 0.5 * period <= times[-1] - times[-2] < 1.5 * period
+    np.testing.assert_array_equal(pos[-1], W[-1])
+    np.testing.assert_allclose(vel[0], pe.BOUNDARY_VELOCITY, atol=1e-9)
+    np.testing.assert_allclose(acc[0], pe.BOUNDARY_ACCELERATION, atol=1e-9)
+    np.testing.assert_allclose(vel[-1], pe.BOUNDARY_VELOCITY, atol=1e-9)
+    np.testing.assert_allclose(acc[-1], pe.BOUNDARY_ACCELERATION, atol=1e-9)
+    # Limits of config/planar_arm.yaml hold on every published sample.
+    assert np.all(np.abs(vel) <= pe.MAX_VELOCITY * (1 + 1e-9))
+    assert np.all(np.abs(acc) <= pe.MAX_ACCELERATION * (1 + 1e-9))
+    # Continuity: between samples the acceleration can change by at most jerk * dt.
+    assert np.all(np.abs(np.diff(acc, axis=0)) <= JERK_LIMIT * np.diff(times)[:, None] + 1e-9)
+    assert np.all(np.abs(np.diff(vel, axis=0)) <= 10.0 * np.diff(times)[:, None] + 1e-9)
+    # The published curve passes through every waypoint at the planned knot times.
+    reference = plan(W, method, 'uniform', max_velocity=pe.MAX_VELOCITY,
+                     max_acceleration=pe.MAX_ACCELERATION, max_jerk=[JERK_LIMIT] * 3,
+                     start_velocity=BOUNDARY[0], start_acceleration=BOUNDARY[1],
+                     end_velocity=BOUNDARY[2], end_acceleration=BOUNDARY[3])
+    assert times[-1] == pytest.approx(reference.duration, abs=1e-9)
+    played = sampled_trajectory_from_msg(msg, pe.JOINT_NAMES)
+    for t, q in zip(reference.breakpoints, W):
+        np.testing.assert_allclose(played.state_at(t)[0], q, atol=1e-6)
+    values = status_values(status)
+    assert values['method'] == method
+    assert float(values['duration']) == pytest.approx(reference.duration, rel=1e-8)
+    # The arm plays it and ends at the last waypoint, the tool at (1, 0) with yaw 0.
+    played, final = system.wait_until_played(n_arm_status, times[-1])
+    assert len(played) > 10 and max(np.abs(s.velocity).max() for s in played) > 0.5
+    np.testing.assert_allclose(final.position, W[-1], atol=1e-9)
+    np.testing.assert_array_equal(final.velocity, 0.0)
+    system.spin_for(0.1)
+    pose = system.tool_poses[-1].pose
+    assert (pose.position.x, pose.position.y) == pytest.approx((1.0, 0.0), abs=1e-9)
+    assert pose.orientation.z == pytest.approx(0.0, abs=1e-9)
+
+
+def bad_requests():
+    nan = waypoint_message(pe.JOINT_NAMES, W)
+    nan.points[3].positions[1] = float('nan')
+    short = waypoint_message(pe.JOINT_NAMES, W[:1])
+    empty = JointTrajectory()
+    unknown = waypoint_message(['joint1', 'elbow', 'joint3'], W)
+    duplicate = waypoint_message(['joint1', 'joint1', 'joint3'], W)
+    missing = waypoint_message(['joint1', 'joint2'], W[:, :2])
+    ragged = waypoint_message(pe.JOINT_NAMES, W)
+    ragged.points[5].positions = [0.0, 1.0]
+    too_fast = waypoint_message(pe.JOINT_NAMES, W, start_velocity=[3.0, 0.0, 0.0])
+    bad_boundary = waypoint_message(pe.JOINT_NAMES, W, end_acceleration=[1.0])
+    return [
+        ('NaN position', nan, 'waypoints[3, 1] is nan'),
+        ('one point', short, 'at least 2 waypoints'),
+        ('empty message', empty, 'joint_names of the message is empty'),
+        ('unknown joint', unknown, "unknown joints ['elbow']"),
+        ('duplicate joint', duplicate, 'duplicate joint names'),
+        ('missing joint', missing, "missing joints ['joint3']"),
+        ('ragged point', ragged, 'point 5 has 2 positions for 3 joints'),
+        ('infeasible boundary', too_fast, 'infeasible'),
+        ('short boundary', bad_boundary, 'point 11 has 1 accelerations for 3 joints'),
+    ]
+
+
+def test_bad_requests_get_an_error_and_the_next_good_one_is_served(system):
+    cases = bad_requests()
+    for name, msg, expected in cases:
+        status, traj = system.request(msg)
+        assert status.level == DiagnosticStatus.ERROR, name
+        assert expected in status.message, (name, status.message)
+        assert traj is None
+    status, traj = system.request(waypoint_message(pe.JOINT_NAMES, W))
+    assert status.level == DiagnosticStatus.OK, status.message
+    assert status_values(status)['request'] == str(len(cases) + 1)
+    assert traj is not None
+
+
+def test_fixed_timing_takes_durations_from_time_from_start(system):
+    assert system.set_planner_parameters({'timing': 'fixed'})[0].successful
+    times = 0.5 + np.arange(len(W)) * 0.6
+    status, msg = system.request(waypoint_message(pe.JOINT_NAMES, W, times=times))
+    assert status.level == DiagnosticStatus.OK, status.message
+    assert trajectory_arrays(msg)[0][-1] == pytest.approx(times[-1] - times[0], abs=1e-9)
+    no_times, _ = system.request(waypoint_message(pe.JOINT_NAMES, W))
+    assert no_times.level == DiagnosticStatus.ERROR
+    assert 'time_from_start' in no_times.message
+    fast, _ = system.request(waypoint_message(pe.JOINT_NAMES, W, times=times * 0.1))
+    assert fast.level == DiagnosticStatus.ERROR and 'exceed' in fast.message
+
+
+BAD_PLANNER_PARAMETERS = [
+    ({'max_velocity': [2.0, -1.0, 2.0]}, 'max_velocity[1]'),
+    ({'max_acceleration': [10.0, 10.0]}, 'one value per joint'),
+    ({'max_jerk': [float('nan'), 1.0, 1.0]}, 'max_jerk[0]'),
+    ({'method': '345'}, 'method must be one of'),
+    ({'timing': 'fast'}, 'timing must be one of'),
+    ({'sample_period': 0.0}, 'sample_period'),
+    ({'joint_names': ['a', 'a', 'b']}, 'duplicates'),
+    ({'joint_names': ['a', 'b']}, 'one value per joint (2)'),
+]
+
+
+def test_invalid_planner_parameters_are_rejected_with_a_reason(system):
+    before = system.planner.parameters.config
+    for values, reason in BAD_PLANNER_PARAMETERS:
+        result = system.set_planner_parameters(values)[0]
+        assert not result.successful, values
+        assert reason in result.reason, (values, result.reason)
+        assert system.planner.parameters.config == before
+        for name in values:
+            kept = system.planner.get_parameter(name).value
+            assert tuple(kept) if isinstance(kept, list) else kept == getattr(before, name)
+    # A consistent change of several parameters at once is accepted and used.
+    result = system.planner.set_parameters_atomically(overrides(
+        {'joint_names': ['joint1', 'joint2', 'joint3'], 'method': '434',
+         'max_jerk': [0.0, 0.0, 0.0]}))
+    assert result.successful
+    status, _ = system.request(waypoint_message(pe.JOINT_NAMES, W))
+    assert status_values(status)['method'] == '434'
+    assert status_values(status)['limit_jerk'] == 'inf, inf, inf'
+
+
+def test_params_file_is_loaded(system):
+    assert list(system.planner.get_parameter('max_jerk').value) == [JERK_LIMIT] * 3
+    assert list(system.arm.get_parameter('link_lengths').value) == [1.1, 0.9]
+
+
+def test_invalid_arm_parameters_are_rejected(system):
+    for values, reason in [({'publish_rate': 0.0}, 'publish_rate'),
+                           ({'link_lengths': [1.0, -0.5]}, 'link_lengths'),
+                           ({'joint_names': ['a', 'b']}, '3 non-empty names')]:
+        result = system.arm.set_parameters(overrides(values))[0]
+        assert not result.successful and reason in result.reason
+
+
+def raw_trajectory(names, times, positions):
+    msg = JointTrajectory()
+    msg.joint_names = list(names)
+    for t, q in zip(times, positions):
+        point = JointTrajectoryPoint(positions=[float(v) for v in q])
+        point.time_from_start.sec = int(t)
+        point.time_from_start.nanosec = int(round((t - int(t)) * 1e9))
+        msg.points.append(point)
+    return msg
+
+
+def test_arm_rejects_bad_trajectories_and_keeps_its_state(system):
+    system.spin_until(lambda: len(system.joint_states) >= 2, 5.0)
+    held = np.array(system.joint_states[-1].position)
+    bad = [
+        (raw_trajectory(['joint1', 'jointX', 'joint3'], [1.0], [W[1]]), 'unknown joints'),
+        (raw_trajectory(pe.JOINT_NAMES, [0.5, 0.5], [W[1], W[2]]), 'increase strictly'),
+        (raw_trajectory(pe.JOINT_NAMES, [0.5, 0.2], [W[1], W[2]]), 'increase strictly'),
+        (raw_trajectory(pe.JOINT_NAMES, [], []), 'no points'),
+        (raw_trajectory(pe.JOINT_NAMES, [0.5], [[np.nan, 0.0, 0.0]]), 'non-finite'),
+    ]
+    for msg, reason in bad:
+        n = len(system.arm_status)
+        system.trajectory_publisher.publish(msg)
+        assert system.spin_until(lambda: len(system.arm_status) > n, 5.0)
+        status = system.arm_status[n]
+        assert status.level == DiagnosticStatus.ERROR and reason in status.message
+    n = len(system.joint_states)
+    system.spin_until(lambda: len(system.joint_states) > n + 3, 5.0)
+    np.testing.assert_array_equal(system.joint_states[-1].position, held)
+    # A good one afterwards moves the arm (a single point, reached in 0.2 s).
+    system.trajectory_publisher.publish(raw_trajectory(pe.JOINT_NAMES, [0.2], [W[3]]))
+    assert system.spin_until(
+        lambda: np.allclose(system.joint_states[-1].position, W[3], atol=1e-12), 5.0)
