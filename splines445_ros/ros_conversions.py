@@ -96,7 +96,7 @@ def parse_waypoint_request(msg, joint_names):
 
 
 def trajectory_to_msg(samples, joint_names, stamp=None):
-    """Samples of a planned trajectory as a ``JointTrajectory`` (positions, vel, acc)."""
+    """Convert samples of a planned trajectory to a ``JointTrajectory`` (pos, vel, acc)."""
     msg = JointTrajectory()
     if stamp is not None:
         msg.header.stamp = stamp
@@ -114,7 +114,7 @@ def trajectory_to_msg(samples, joint_names, stamp=None):
 
 
 def sampled_trajectory_from_msg(msg, joint_names):
-    """A received ``JointTrajectory`` as a :class:`SampledTrajectory` in configured order."""
+    """Convert a received ``JointTrajectory`` to a :class:`SampledTrajectory` (our order)."""
     order = joint_order(msg.joint_names, joint_names)
     n = len(order)
     if not msg.points:
