@@ -3,7 +3,7 @@
 import numpy as np
 
 from .continuity_system import ContinuitySystem
-from .limits import binding_limit, check_boundary_feasible, JointLimits, limit_ratios
+from .limits import check_boundary_feasible, JointLimits
 from .timing import chord_durations, ScaledSpline, uniform_scale
 from .trajectory import Trajectory
 from .validation import boundary_vector, duration_array, waypoint_array
@@ -96,12 +96,10 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         raise ValueError(f'durations are only used with timing="fixed", not {timing!r}')
     points, dropped = merge_duplicates(points)
     spline = ScaledSpline(method, points, chord_durations(points), boundary)
-    scale = uniform_scale(spline, limits)
+    scale, ratios = uniform_scale(spline, limits)
     if timing == 'optimal':
         from .optimal import optimal_durations
         return optimal_durations(method, points, spline, scale, boundary, limits, dropped)
-    traj = Trajectory(method, timing, points, spline.durations(scale),
-                      spline.coefficients(scale), boundary, limits, scale, dropped)
-    traj.segment_binding = binding_limit(
-        limit_ratios(traj.coefficients, traj.durations, limits))
-    return traj
+    return Trajectory(method, timing, points, spline.durations(scale),
+                      spline.coefficients(scale), boundary, limits, scale, dropped,
+                      ratios=ratios)

@@ -23,7 +23,7 @@ from .limits import limit_ratios
 # Bracketing steps and range of the scale search (relative to the first guess).
 _BRACKET_STEP = 1.5
 _BRACKET_STEPS = 60
-# Relative width at which bisection stops.
+# Relative width of the final bracket of the factor search.
 _BISECTION_RTOL = 1e-9
 # Safety factor applied to closed-form factors against round-off.
 _ROUNDOFF = 1.0 + 1e-12
@@ -72,14 +72,10 @@ class ScaledSpline:
         combined = position + scale * velocity + scale**2 * acceleration
         return combined / (scale ** np.arange(combined.shape[1]))[None, :, None]
 
-    def max_ratio(self, scale, limits):
-        """Largest peak / limit over all segments, joints and quantities."""
-        return float(np.max(limit_ratios(self.coefficients(scale), self.durations(scale), limits)))
 
 
 def closed_form_scale(ratios_at_unit_scale):
-    """
-    Smallest factor for a rest-to-rest spline from its (S, n, 3) ratios at factor 1.
+    """Smallest factor for a rest-to-rest spline from its (S, n, 3) ratios at factor 1.
 
     Velocity ratios scale as 1/lambda, acceleration as 1/lambda^2, jerk as 1/lambda^3.
     """
@@ -87,51 +83,70 @@ def closed_form_scale(ratios_at_unit_scale):
     return float(np.max(per_quantity ** (1.0 / np.arange(1, 4)))) * _ROUNDOFF
 
 
+def rescaled_ratios(ratios_at_unit_scale, scale):
+    """Rest-to-rest ratios (S, n, 3) at ``scale`` from those at factor 1 (exact scaling)."""
+    return ratios_at_unit_scale / scale ** np.arange(1, 4)[None, None, :]
+
+
 def uniform_scale(spline, limits):
     """
-    Smallest common factor (found by bracketing and bisection) that meets the limits.
+    Return the smallest common factor that meets the limits and the ratios there.
 
-    Raises ValueError when no factor in a wide range around the rest-to-rest
-    factor is feasible (boundary values that no common scaling can reconcile
-    with the limits).
+    Rest-to-rest: closed form.  Otherwise: a feasible factor is bracketed
+    (geometric steps from the rest-to-rest factor), then the boundary between
+    infeasible and feasible is found by the Illinois variant of regula falsi on
+    ``max_ratio - 1``, always keeping a feasible end.  Raises ValueError when
+    no factor in a wide range is feasible (boundary values that no common
+    scaling reconciles with the limits).
     """
     position_only = limit_ratios(spline.waypoint_part, spline.base_durations, limits)
     guess = closed_form_scale(position_only)
     if not spline.has_boundary_part:
-        return guess
+        return guess, rescaled_ratios(position_only, guess)
 
-    def feasible(scale):
-        return spline.max_ratio(scale, limits) <= 1.0
+    def excess(scale):
+        ratios = limit_ratios(spline.coefficients(scale), spline.durations(scale), limits)
+        return float(np.max(ratios)) - 1.0, ratios
 
-    feasible_scale = None
-    if feasible(guess):
-        feasible_scale = guess
-    else:
+    high, (f_high, r_high) = guess, excess(guess)
+    if f_high > 0.0:
+        found = False
         for direction in (_BRACKET_STEP, 1.0 / _BRACKET_STEP):
             trial = guess
             for _ in range(_BRACKET_STEPS):
                 trial *= direction
-                if feasible(trial):
-                    feasible_scale = trial
+                f_trial, r_trial = excess(trial)
+                if f_trial <= 0.0:
+                    high, f_high, r_high, found = trial, f_trial, r_trial, True
                     break
-            if feasible_scale is not None:
+            if found:
                 break
-    if feasible_scale is None:
-        raise ValueError('infeasible: no common time scale meets the limits with these '
-                         'boundary velocities and accelerations')
-    # Walk down until infeasible, then bisect the bracket [infeasible, feasible].
-    high = feasible_scale
-    low = high / _BRACKET_STEP
+        if not found:
+            raise ValueError('infeasible: no common time scale meets the limits with these '
+                             'boundary velocities and accelerations')
+    # Walk down until infeasible: [low, high] brackets the smallest feasible factor.
     for _ in range(_BRACKET_STEPS):
-        if not feasible(low):
+        low = high / _BRACKET_STEP
+        f_low, r_low = excess(low)
+        if f_low > 0.0:
             break
-        high, low = low, low / _BRACKET_STEP
+        high, f_high, r_high = low, f_low, r_low
     else:
-        return high
+        return high, r_high
+    side = 0
     while high - low > _BISECTION_RTOL * high:
-        middle = 0.5 * (low + high)
-        if feasible(middle):
-            high = middle
+        middle = (low * f_high - high * f_low) / (f_high - f_low)
+        if not low < middle < high:
+            middle = 0.5 * (low + high)
+        f_mid, r_mid = excess(middle)
+        if f_mid <= 0.0:
+            high, f_high, r_high = middle, f_mid, r_mid
+            if side == 1:
+                f_low *= 0.5
+            side = 1
         else:
-            low = middle
-    return high
+            low, f_low = middle, f_mid
+            if side == -1:
+                f_high *= 0.5
+            side = -1
+    return high, r_high

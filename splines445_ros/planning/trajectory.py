@@ -38,8 +38,13 @@ class Trajectory:
     """
 
     def __init__(self, method, timing, waypoints, durations, coefficients,
-                 boundary, limits=None, scale=None, dropped_waypoints=()):
-        """Wrap ascending per-segment ``coefficients`` (S, 6, n) into a PPoly."""
+                 boundary, limits=None, scale=None, dropped_waypoints=(), ratios=None):
+        """
+        Wrap ascending per-segment ``coefficients`` (S, 6, n) into a PPoly.
+
+        ``ratios`` (S, n, 3), when the caller already has them, are the exact
+        peak / limit ratios of these coefficients (they are computed otherwise).
+        """
         self.method = method
         self.timing = timing
         self.waypoints = waypoints
@@ -54,7 +59,7 @@ class Trajectory:
         self.limits = limits
         self.scale = scale
         self.dropped_waypoints = tuple(dropped_waypoints)
-        self.segment_binding = None
+        self._ratios = ratios
         self._derivatives = {0: self.ppoly}
         self._segment_peaks = {}
 
@@ -117,7 +122,9 @@ class Trajectory:
         """Peak / limit per segment, joint and quantity (S, n, 3); needs limits."""
         if self.limits is None:
             raise ValueError('this trajectory was planned without limits')
-        return limit_ratios(self.coefficients, self.durations, self.limits)
+        if self._ratios is None:
+            self._ratios = limit_ratios(self.coefficients, self.durations, self.limits)
+        return self._ratios
 
     @property
     def binding(self):

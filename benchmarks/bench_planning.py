@@ -1,0 +1,121 @@
+"""
+Planning-time benchmark: 445/434 uniform timing against scipy and TOPP-RA.
+
+Prints a table of planning times (best of several runs, all in this one run,
+so the ratios compare like with like on a noisy machine) for random
+rest-to-rest requests of 12x3, 100x7, 1000x7 and 10000x7 waypoints x joints
+(v <= 2, a <= 10 per joint, fixed seed):
+
+* 445 and 434 with timing="uniform" (plan() from the waypoints to a PPoly,
+  limits met exactly);
+* scipy.interpolate.CubicSpline fitted to the same waypoints over chord
+  length (a fit only: no timing, no limits) - the floor of what any spline
+  fit costs;
+* TOPP-RA (toppra, time-optimal path parameterisation with the same v/a
+  limits along a spline through the same waypoints); skipped at 10000x7
+  unless SPLINES445_BENCH_FULL=1 (it takes about half a minute there).
+
+Also the paper's example (12x3 with its non-zero boundary values).
+"""
+
+import logging
+import os
+import sys
+import time
+
+os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but the rule holds
+
+import numpy as np  # noqa: E402
+from scipy.interpolate import CubicSpline  # noqa: E402
+
+from splines445_ros import paper_example as pe  # noqa: E402
+from splines445_ros.planning import chord_durations, plan  # noqa: E402
+
+SIZES = ((12, 3), (100, 7), (1000, 7), (10000, 7))
+SEED = 445
+
+
+def best_time(func, repeats):
+    """Best wall time of ``repeats`` calls [s] and the last result."""
+    best = np.inf
+    result = None
+    for _ in range(repeats):
+        started = time.perf_counter()
+        result = func()
+        best = min(best, time.perf_counter() - started)
+    return best, result
+
+
+def random_request(n_points, n_joints, rng):
+    """Random-walk waypoints and the benchmark limits."""
+    waypoints = np.cumsum(rng.uniform(-1.0, 1.0, (n_points, n_joints)), axis=0)
+    return waypoints, np.full(n_joints, 2.0), np.full(n_joints, 10.0)
+
+
+def toppra_plan(waypoints, vmax, amax):
+    """TOPP-RA through the waypoints (toppra's spline path); returns its duration."""
+    import toppra
+    import toppra.algorithm
+    import toppra.constraint
+    path = toppra.SplineInterpolator(np.linspace(0.0, 1.0, len(waypoints)), waypoints)
+    constraints = [toppra.constraint.JointVelocityConstraint(np.column_stack([-vmax, vmax])),
+                   toppra.constraint.JointAccelerationConstraint(
+                       np.column_stack([-amax, amax]))]
+    instance = toppra.algorithm.TOPPRA(constraints, path,
+                                       parametrizer='ParametrizeConstAccel')
+    trajectory = instance.compute_trajectory()
+    return trajectory.duration
+
+
+def cubic_fit(waypoints):
+    """CubicSpline over cumulative chord length: a fit, no timing."""
+    x = np.concatenate([[0.0], np.cumsum(chord_durations(waypoints))])
+    return CubicSpline(x, waypoints, axis=0)
+
+
+def main():
+    """Run and print the table."""
+    logging.getLogger('toppra').setLevel(logging.ERROR)
+    full = os.environ.get('SPLINES445_BENCH_FULL') == '1'
+    rng = np.random.default_rng(SEED)
+    print('Planning time, best of k runs [ms]; ratios from the same run.')
+    print('| waypoints x joints | 445 uniform | 434 uniform | CubicSpline fit | TOPP-RA '
+          '| 445 / CubicSpline | TOPP-RA / 445 | 445 duration [s] | 434 duration [s] '
+          '| TOPP-RA duration [s] |')
+    print('|' + '---|' * 10)
+    for n_points, n_joints in SIZES:
+        waypoints, vmax, amax = random_request(n_points, n_joints, rng)
+        repeats = 50 if n_points <= 100 else (10 if n_points <= 1000 else 3)
+        t445, traj445 = best_time(lambda: plan(waypoints, '445', max_velocity=vmax,
+                                               max_acceleration=amax), repeats)
+        t434, traj434 = best_time(lambda: plan(waypoints, '434', max_velocity=vmax,
+                                               max_acceleration=amax), repeats)
+        tfit, _ = best_time(lambda: cubic_fit(waypoints), repeats)
+        if n_points <= 1000 or full:
+            ttop, dtop = best_time(lambda: toppra_plan(waypoints, vmax, amax),
+                                   3 if n_points <= 100 else 1)
+            top = f'{1e3 * ttop:.1f}'
+            top_ratio = f'{ttop / t445:.0f}x'
+            top_duration = f'{dtop:.2f}'
+        else:
+            top, top_ratio, top_duration = 'skipped', '-', '-'
+        print(f'| {n_points} x {n_joints} | {1e3 * t445:.2f} | {1e3 * t434:.2f} '
+              f'| {1e3 * tfit:.2f} | {top} | {t445 / tfit:.1f}x | {top_ratio} '
+              f'| {traj445.duration:.2f} | {traj434.duration:.2f} | {top_duration} |')
+        sys.stdout.flush()
+    kwargs = {'max_velocity': pe.MAX_VELOCITY, 'max_acceleration': pe.MAX_ACCELERATION,
+              'start_velocity': pe.BOUNDARY_VELOCITY,
+              'start_acceleration': pe.BOUNDARY_ACCELERATION,
+              'end_velocity': pe.BOUNDARY_VELOCITY,
+              'end_acceleration': pe.BOUNDARY_ACCELERATION}
+    waypoints = pe.joint_waypoints()
+    print()
+    print("Paper's example (12 x 3, non-zero boundary values, factor searched):")
+    for method in ('434', '445'):
+        elapsed, traj = best_time(lambda: plan(waypoints, method, **kwargs), 50)
+        print(f'  {method} uniform: {1e3 * elapsed:.2f} ms, duration {traj.duration:.4f} s')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
