@@ -68,7 +68,7 @@ def toppra_plan(waypoints, vmax, amax):
 
 
 def cubic_fit(waypoints):
-    """CubicSpline over cumulative chord length: a fit, no timing."""
+    """Fit a CubicSpline over cumulative chord length (a fit: no timing)."""
     x = np.concatenate([[0.0], np.cumsum(chord_durations(waypoints))])
     return CubicSpline(x, waypoints, axis=0)
 

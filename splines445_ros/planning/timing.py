@@ -73,9 +73,9 @@ class ScaledSpline:
         return combined / (scale ** np.arange(combined.shape[1]))[None, :, None]
 
 
-
 def closed_form_scale(ratios_at_unit_scale):
-    """Smallest factor for a rest-to-rest spline from its (S, n, 3) ratios at factor 1.
+    """
+    Smallest factor for a rest-to-rest spline from its (S, n, 3) ratios at factor 1.
 
     Velocity ratios scale as 1/lambda, acceleration as 1/lambda^2, jerk as 1/lambda^3.
     """
