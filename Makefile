@@ -13,12 +13,14 @@ export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
 
 VENV := .venv
 ifeq ($(ROS_DISTRO),jazzy)
+BIN :=
 PYTHON := python3
 COLCON := colcon
 ENV_STAMP :=
 else
-PYTHON := $(abspath $(VENV))/bin/python
-COLCON := $(abspath $(VENV))/bin/colcon
+BIN := $(abspath $(VENV))/bin/
+PYTHON := $(BIN)python
+COLCON := $(BIN)colcon
 ENV_STAMP := $(VENV)/.installed
 endif
 
@@ -28,10 +30,13 @@ OUT ?= out
 
 .PHONY: help env build test demo bench lint clean
 
+LINTED := splines445_ros test scripts benchmarks setup.py
+
 help:
 	@echo "make demo   set up, build, run the paper's example through both nodes"
 	@echo "make test   set up, build, colcon test, colcon test-result --verbose"
 	@echo "make bench  planning-time benchmarks against scipy and TOPP-RA"
+	@echo "make lint   ament_flake8 and ament_pep257 on the sources"
 	@echo "make clean  remove build products (keeps .venv)"
 
 env: $(ENV_STAMP)
@@ -60,6 +65,10 @@ demo: build
 
 bench: build
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_planning.py
+
+lint: env
+	$(BIN)ament_flake8 $(LINTED)
+	$(BIN)ament_pep257 $(LINTED)
 
 clean:
 	rm -rf build install log $(OUT)
