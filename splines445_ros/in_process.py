@@ -84,16 +84,16 @@ class InProcessSystem:
         self.arm_status = []
         self.joint_states = []
         self.tool_poses = []
-        self.client.create_subscription(JointTrajectory, topics.JOINT_TRAJECTORY,
-                                        self.trajectories.append, topics.LATCHED)
-        self.client.create_subscription(DiagnosticStatus, '/planner_node/status',
-                                        self.planner_status.append, topics.STATUS_QOS)
-        self.client.create_subscription(DiagnosticStatus, '/arm_sim_node/status',
-                                        self.arm_status.append, topics.STATUS_QOS)
-        self.client.create_subscription(JointState, topics.JOINT_STATES,
-                                        self.joint_states.append, topics.STATE_QOS)
-        self.client.create_subscription(PoseStamped, topics.TOOL_POSE,
-                                        self.tool_poses.append, topics.STATE_QOS)
+        recorders = (
+            (JointTrajectory, topics.JOINT_TRAJECTORY, self.trajectories, topics.LATCHED),
+            (DiagnosticStatus, '/planner_node/status', self.planner_status, topics.STATUS_QOS),
+            (DiagnosticStatus, '/arm_sim_node/status', self.arm_status, topics.STATUS_QOS),
+            (JointState, topics.JOINT_STATES, self.joint_states, topics.STATE_QOS),
+            (PoseStamped, topics.TOOL_POSE, self.tool_poses, topics.STATE_QOS),
+        )
+        self._subscriptions = [
+            self.client.create_subscription(msg_type, topic, record.append, qos)
+            for msg_type, topic, record, qos in recorders]
         for node in (self.planner, self.arm, self.client):
             self.executor.add_node(node)
         self.wait_for_connections()
@@ -104,7 +104,8 @@ class InProcessSystem:
             return (self.waypoint_publisher.get_subscription_count() >= 1
                     and self.planner.trajectory_publisher.get_subscription_count() >= 2
                     and self.arm.joint_state_publisher.get_subscription_count() >= 1
-                    and self.planner.status_publisher.get_subscription_count() >= 1)
+                    and self.planner.status_publisher.get_subscription_count() >= 1
+                    and all(sub.get_publisher_count() >= 1 for sub in self._subscriptions))
         if not self.spin_until(matched, timeout):
             raise RuntimeError('in-process nodes did not discover each other')
 
@@ -149,8 +150,8 @@ class InProcessSystem:
             raise RuntimeError(f'the arm rejected the trajectory: {status.message}')
         start = int({kv.key: kv.value for kv in status.values}['start_ns'])
         end = start + int(round(duration * 1e9))
-        if not self.spin_until(lambda: stamp_ns(self.joint_states[-1]) > end,
-                               duration + timeout):
+        if not self.spin_until(lambda: self.joint_states
+                               and stamp_ns(self.joint_states[-1]) > end, duration + timeout):
             raise TimeoutError('the arm did not finish the trajectory')
         played = [s for s in self.joint_states if start <= stamp_ns(s) <= end]
         return played, self.joint_states[-1]
