@@ -18,7 +18,7 @@ Rows are equilibrated (scaled by their largest entry) before the solve.
 """
 
 import numpy as np
-from scipy.linalg import solve_banded
+from scipy.linalg import LinAlgError, solve_banded
 
 from .segments import (
     A_END, A_START, derivative_weights, DP, input_maps, segment_types, V_END, V_START,
@@ -40,36 +40,46 @@ class ContinuitySystem:
 
     ``solve(dP, v_start, a_start, v_end, a_end)`` returns the knot velocities and
     accelerations for any number of right-hand-side columns at once.
+
+    ``durations`` may also be a (B, S) batch of duration vectors: the B
+    independent systems are stacked block-diagonally into one banded matrix of
+    the same bandwidth and solved at once (used for finite-difference
+    Jacobians in optimal timing); results then have a leading batch axis.
     """
 
     def __init__(self, method, durations):
-        """Assemble the banded matrix for ``method`` and the (S,) ``durations``."""
+        """Assemble the banded matrix for ``method`` and the (S,) or (B, S) ``durations``."""
         if method not in _CONTINUITY:
             raise ValueError(f'unknown method {method!r}: expected "445" or "434"')
         self.method = method
         self.durations = np.asarray(durations, dtype=float)
-        n_seg = self.durations.size
+        self.batched = self.durations.ndim == 2
+        batch = np.atleast_2d(self.durations)
+        self.n_batch, n_seg = batch.shape
         self.n_knots = n_seg + 1
         self.types = segment_types(method, n_seg)
-        self.maps = input_maps(self.types, self.durations)
+        flat = batch.reshape(-1)
+        maps = input_maps(np.tile(self.types, self.n_batch), flat)
+        self._maps = maps.reshape(self.n_batch, n_seg, *maps.shape[1:])
+        self.maps = self._maps if self.batched else self._maps[0]
         derivatives, unknowns = _CONTINUITY[method]
         self._unknowns = unknowns
         self._n_interior = self.n_knots - 2
         if self._n_interior == 0:
             return
-        # Linear forms of the derivative at the end of each segment and at the
-        # start of each segment, in the segment inputs: shape (n_q, S, 5).
-        end_forms = np.stack([
-            np.einsum('si,sij->sj', derivative_weights(self.durations, d, True), self.maps)
-            for d in derivatives])
-        start_forms = np.stack([
-            np.einsum('si,sij->sj', derivative_weights(self.durations, d, False), self.maps)
-            for d in derivatives])
-        left = end_forms[:, :-1]    # segment k-1, ending at interior knot k
-        right = start_forms[:, 1:]  # segment k, starting at interior knot k
-        # Coefficients of each equation (n_q, K) on the states of knots k-1, k, k+1:
-        # shape (n_q, K, 3 knots, 2 components).
-        coeff = np.zeros(left.shape[:2] + (3, 2))
+
+        def forms(at_end):
+            # Linear form of each continuous derivative in the segment inputs,
+            # at the end or start of every segment: shape (n_q, B, S, 5).
+            return np.stack([
+                np.einsum('si,sij->sj', derivative_weights(flat, d, at_end), maps)
+                .reshape(self.n_batch, n_seg, -1) for d in derivatives])
+
+        left = forms(True)[:, :, :-1]    # segment k-1, ending at interior knot k
+        right = forms(False)[:, :, 1:]   # segment k, starting at interior knot k
+        # Coefficients of each equation (n_q, B, K) on the states of knots
+        # k-1, k, k+1: shape (n_q, B, K, 3 knots, 2 components).
+        coeff = np.zeros(left.shape[:3] + (3, 2))
         coeff[..., 0, VEL] = left[..., V_START]
         coeff[..., 0, ACC] = left[..., A_START]
         coeff[..., 1, VEL] = left[..., V_END] - right[..., V_START]
@@ -83,22 +93,23 @@ class ContinuitySystem:
         self._assemble()
 
     def _assemble(self):
-        n_q, n_int = self._coeff.shape[:2]
+        n_q, n_b, n_int = self._coeff.shape[:3]
         n_u = len(self._unknowns)
-        knot = np.arange(1, n_int + 1)  # interior knot index of each equation
+        knot = np.tile(np.arange(1, n_int + 1), n_b)        # interior knot of each equation
+        first = np.repeat(np.arange(n_b) * n_int, n_int)    # its system's first unknown knot
         rows, cols, vals = [], [], []
         for q in range(n_q):
             for offset in range(3):
                 other = knot - 1 + offset
                 interior = (other >= 1) & (other <= n_int)
                 for ui, comp in enumerate(self._unknowns):
-                    rows.append(((knot - 1) * n_q + q)[interior])
-                    cols.append(((other - 1) * n_u + ui)[interior])
-                    vals.append(self._coeff[q, interior, offset, comp])
+                    rows.append(((first + knot - 1) * n_q + q)[interior])
+                    cols.append(((first + other - 1) * n_u + ui)[interior])
+                    vals.append(self._coeff[q, :, :, offset, comp].reshape(-1)[interior])
         rows = np.concatenate(rows)
         cols = np.concatenate(cols)
         vals = np.concatenate(vals)
-        size = n_int * n_q
+        size = n_b * n_int * n_q
         row_scale = np.zeros(size)
         np.maximum.at(row_scale, rows, np.abs(vals))
         self._row_scale = 1.0 / row_scale
@@ -109,46 +120,56 @@ class ContinuitySystem:
 
     def solve(self, dP, v_start, a_start, v_end, a_end):
         """
-        Return knot velocities and accelerations, each of shape (N, m).
+        Return knot velocities and accelerations, each of shape (N, m) or (B, N, m).
 
-        ``dP`` has shape (S, m); the boundary values have shape (m,).  Knot
-        accelerations that are not unknowns of the method (434 interior knots)
-        are returned as the acceleration the spline actually has there.
+        ``dP`` has shape (S, m) (the same waypoints for every batch member); the
+        boundary values have shape (m,).  Knot accelerations that are not
+        unknowns of the method (434 interior knots) are returned as the
+        acceleration the spline actually has there.
         """
         dP = np.asarray(dP, dtype=float)
         m = dP.shape[1]
-        vel = np.zeros((self.n_knots, m))
-        acc = np.zeros((self.n_knots, m))
-        vel[0], acc[0], vel[-1], acc[-1] = v_start, a_start, v_end, a_end
+        vel = np.zeros((self.n_batch, self.n_knots, m))
+        acc = np.zeros((self.n_batch, self.n_knots, m))
+        vel[:, 0], acc[:, 0], vel[:, -1], acc[:, -1] = v_start, a_start, v_end, a_end
         if self._n_interior > 0:
-            # Right-hand side, (K, n_q, m): waypoint terms and known boundary states.
-            rhs = -(self._dp_left[:, :, None] * dP[None, :-1] +
-                    self._dp_right[:, :, None] * dP[None, 1:])
-            for comp, start, end in ((VEL, vel[0], vel[-1]), (ACC, acc[0], acc[-1])):
-                rhs[:, 0] -= self._coeff[:, 0, 0, comp][:, None] * start[None, :]
-                rhs[:, -1] -= self._coeff[:, -1, 2, comp][:, None] * end[None, :]
-            rhs = rhs.transpose(1, 0, 2).reshape(-1, m) * self._row_scale[:, None]
-            x = solve_banded((self._bandwidth, self._bandwidth), self._band, rhs,
-                             overwrite_b=True, check_finite=False)
-            x = x.reshape(self._n_interior, len(self._unknowns), m)
+            # Right-hand side (n_q, B, K, m): waypoint terms and known boundary states.
+            rhs = -(self._dp_left[..., None] * dP[None, None, :-1] +
+                    self._dp_right[..., None] * dP[None, None, 1:])
+            for comp, start, end in ((VEL, vel[0, 0], vel[0, -1]), (ACC, acc[0, 0], acc[0, -1])):
+                rhs[:, :, 0] -= self._coeff[:, :, 0, 0, comp][..., None] * start
+                rhs[:, :, -1] -= self._coeff[:, :, -1, 2, comp][..., None] * end
+            rhs = rhs.transpose(1, 2, 0, 3).reshape(-1, m) * self._row_scale[:, None]
+            try:
+                x = solve_banded((self._bandwidth, self._bandwidth), self._band, rhs,
+                                 overwrite_b=True, check_finite=False)
+            except LinAlgError:
+                raise ValueError(f'the {self.method} continuity system is singular for these '
+                                 'segment durations; change the durations') from None
+            if not np.all(np.isfinite(x)):
+                raise ValueError(f'the {self.method} continuity system is numerically '
+                                 'singular for these segment durations')
+            x = x.reshape(self.n_batch, self._n_interior, len(self._unknowns), m)
             for ui, comp in enumerate(self._unknowns):
-                (vel, acc)[comp][1:-1] = x[:, ui]
-        if ACC not in self._unknowns and self._n_interior > 0:
-            acc[1:-1] = self._interior_acceleration(dP, vel, acc)
+                (vel, acc)[comp][:, 1:-1] = x[:, :, ui]
+            if ACC not in self._unknowns:
+                inputs = self.segment_inputs(dP, vel, acc)[:, 1:]
+                coeffs = np.einsum('bsij,bsjm->bsim', self._maps[:, 1:], inputs)
+                acc[:, 1:-1] = 2.0 * coeffs[:, :, 2]
+        if not self.batched:
+            return vel[0], acc[0]
         return vel, acc
 
-    def _interior_acceleration(self, dP, vel, acc):
-        """Acceleration at the start of segments 2..N-1 (434: not an unknown)."""
-        inputs = self.segment_inputs(dP, vel, acc)[1:]
-        coeffs = np.einsum('sij,sjm->sim', self.maps[1:], inputs)
-        return 2.0 * coeffs[:, 2]
-
-    def segment_inputs(self, dP, vel, acc):
-        """Stack ``[dP, v_s, a_s, v_e, a_e]`` per segment: shape (S, 5, m)."""
-        return np.stack([dP, vel[:-1], acc[:-1], vel[1:], acc[1:]], axis=1)
+    @staticmethod
+    def segment_inputs(dP, vel, acc):
+        """Stack ``[dP, v_s, a_s, v_e, a_e]`` per segment: shape (..., S, 5, m)."""
+        dP = np.broadcast_to(dP, vel[..., 1:, :].shape)
+        return np.stack([dP, vel[..., :-1, :], acc[..., :-1, :], vel[..., 1:, :],
+                         acc[..., 1:, :]], axis=-2)
 
     def coefficients(self, starts, dP, vel, acc):
-        """Return every segment's ascending polynomial terms, shape (S, 6, m); c0 = its start."""
-        coeffs = np.einsum('sij,sjm->sim', self.maps, self.segment_inputs(dP, vel, acc))
-        coeffs[:, 0] = starts
+        """Return every segment's ascending polynomial terms (S, 6, m) or (B, S, 6, m)."""
+        coeffs = np.einsum('...sij,...sjm->...sim', self.maps,
+                           self.segment_inputs(dP, vel, acc))
+        coeffs[..., 0, :] = starts
         return coeffs

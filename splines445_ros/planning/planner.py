@@ -4,6 +4,7 @@ import numpy as np
 
 from .continuity_system import ContinuitySystem
 from .limits import check_boundary_feasible, JointLimits
+from .optimal import optimal_durations
 from .timing import chord_durations, ScaledSpline, uniform_scale
 from .trajectory import Trajectory
 from .validation import boundary_vector, duration_array, waypoint_array
@@ -98,7 +99,6 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
     spline = ScaledSpline(method, points, chord_durations(points), boundary)
     scale, ratios = uniform_scale(spline, limits)
     if timing == 'optimal':
-        from .optimal import optimal_durations
         return optimal_durations(method, points, spline, scale, boundary, limits, dropped)
     return Trajectory(method, timing, points, spline.durations(scale),
                       spline.coefficients(scale), boundary, limits, scale, dropped,

@@ -1,5 +1,6 @@
 """The planned trajectory: one scipy PPoly for all joints, plus what limits it met."""
 
+from dataclasses import replace
 from typing import NamedTuple
 
 import numpy as np
@@ -132,6 +133,12 @@ class Trajectory:
         if self.limits is None:
             return None
         return binding_limit(self.limit_ratios())
+
+    def segment_bindings(self):
+        """Return the :class:`BindingLimit` of every segment (its largest ratio)."""
+        ratios = self.limit_ratios()
+        return [replace(binding_limit(ratios[s:s + 1]), segment=s)
+                for s in range(ratios.shape[0])]
 
     def within_limits(self, rtol=1e-9):
         """Return True when every peak is within its limit (relative tolerance ``rtol``)."""

@@ -1,0 +1,118 @@
+"""
+Time-optimal segment durations (beyond the paper).
+
+The paper scales all durations by one factor, so the limits bind on one
+segment only.  Here the N-1 durations are chosen to minimise the total time
+subject to every joint's velocity, acceleration and (when given) jerk limit::
+
+    minimise  sum_k T_k   subject to  rho_s(T) <= 1 for every segment s,
+
+    rho_s = max over joints j and quantities q of (peak_{s,j,q} / limit_{j,q})^(1/q)
+
+(q = 1, 2, 3 for velocity, acceleration, jerk; the root makes rho_s behave
+like a time scale: shortening segment s alone by a factor c raises rho_s by
+about 1/c).  The variables are log-durations, the solver is SLSQP, started
+from the uniform (paper) solution.  The constraint Jacobian is a forward
+difference, computed for all segments at once: the S perturbed duration
+vectors are independent spline systems stacked into one banded solve
+(:class:`ContinuitySystem` with a batch of durations).
+
+Afterwards feasibility is restored exactly by the smallest common factor
+(the same search as uniform timing, from exact polynomial peaks), and the
+uniform solution is kept if it is not longer.
+
+Every segment of the result either binds a limit, or cannot be shortened on
+its own without another segment exceeding a limit (the splines couple all
+segments: a 445 spline carries a disturbance undamped to its end), or sits
+at the lower bound ``MIN_FRACTION`` times its uniform duration.
+"""
+
+import numpy as np
+from scipy.optimize import minimize
+
+from .continuity_system import ContinuitySystem
+from .limits import limit_ratios
+from .timing import ScaledSpline, uniform_scale
+from .trajectory import Trajectory
+
+# Forward-difference step in log-duration.
+FD_STEP = 1e-7
+# Bounds of every duration relative to its uniform-timing value.
+MIN_FRACTION = 1e-2
+MAX_FRACTION = 10.0
+MAX_ITERATIONS = 200
+TOLERANCE = 1e-9
+_ROOTS = 1.0 / np.arange(1, 4)
+
+
+class SegmentScales:
+    """rho_s(T) and its Jacobian for one request, with a one-entry cache."""
+
+    def __init__(self, method, points, boundary, limits):
+        """Keep the request; nothing is solved yet."""
+        self.method = method
+        self.points = points
+        self.dP = np.diff(points, axis=0)
+        self.boundary = boundary
+        self.limits = limits
+        self._value_key = None
+        self._value = None
+        self.evaluations = 0
+
+    def batch(self, log_durations):
+        """Return rho for a (B, S) batch of log-durations: (B, S), inf where singular."""
+        durations = np.exp(log_durations)
+        n_batch, n_seg = durations.shape
+        self.evaluations += n_batch
+        try:
+            system = ContinuitySystem(self.method, durations)
+            vel, acc = system.solve(self.dP, *self.boundary)
+        except ValueError:  # a singular system somewhere in the batch
+            if n_batch == 1:
+                return np.full((1, n_seg), np.inf)
+            return np.vstack([self.batch(row[None, :]) for row in log_durations])
+        coeffs = system.coefficients(self.points[:-1], self.dP, vel, acc)
+        ratios = limit_ratios(coeffs.reshape(n_batch * n_seg, *coeffs.shape[2:]),
+                              durations.reshape(-1), self.limits)
+        scales = np.max(ratios ** _ROOTS[None, None, :], axis=(1, 2))
+        return scales.reshape(n_batch, n_seg)
+
+    def value(self, x):
+        """Return rho(x), shape (S,)."""
+        key = x.tobytes()
+        if key != self._value_key:
+            self._value_key, self._value = key, self.batch(x[None, :])[0]
+        return self._value
+
+    def jacobian(self, x):
+        """Return d rho / d x (S, S): forward differences, all in one batched evaluation."""
+        n = x.size
+        trial = np.tile(x, (n, 1)) + FD_STEP * np.eye(n)
+        return ((self.batch(trial) - self.value(x)[None, :]) / FD_STEP).T
+
+
+def optimal_durations(method, points, spline, scale, boundary, limits, dropped):
+    """Plan with time-optimal durations, starting from the uniform factor ``scale``."""
+    uniform = spline.durations(scale)
+    scales = SegmentScales(method, points, boundary, limits)
+    x0 = np.log(uniform)
+    bounds = list(zip(x0 + np.log(MIN_FRACTION), x0 + np.log(MAX_FRACTION)))
+    result = minimize(
+        lambda x: float(np.sum(np.exp(x))), x0, jac=np.exp, method='SLSQP', bounds=bounds,
+        constraints=[{'type': 'ineq',
+                      'fun': lambda x: 1.0 - scales.value(x),
+                      'jac': lambda x: -scales.jacobian(x)}],
+        options={'maxiter': MAX_ITERATIONS, 'ftol': TOLERANCE})
+    candidate = np.exp(result.x) if np.all(np.isfinite(result.x)) else uniform
+    refined = ScaledSpline(method, points, candidate, boundary)
+    factor, ratios = uniform_scale(refined, limits)
+    if factor * candidate.sum() < uniform.sum():
+        durations, coeffs = refined.durations(factor), refined.coefficients(factor)
+    else:
+        durations, coeffs = uniform, spline.coefficients(scale)
+        ratios = limit_ratios(coeffs, durations, limits)
+    traj = Trajectory(method, 'optimal', points, durations, coeffs, boundary, limits,
+                      None, dropped, ratios=ratios)
+    traj.optimizer = {'iterations': int(result.nit), 'evaluations': scales.evaluations,
+                      'message': str(result.message), 'uniform_duration': float(uniform.sum())}
+    return traj

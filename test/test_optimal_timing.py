@@ -1,0 +1,94 @@
+"""Optimal timing: feasible, never longer than uniform, every segment limited."""
+
+from hypothesis import assume, given, settings, strategies as st
+import numpy as np
+import pytest
+from reference_spline import exact_peaks
+from splines445_ros.planning import plan
+
+
+@st.composite
+def small_requests(draw):
+    """3 to 7 waypoints, 1 to 3 joints, random limits and some boundary values."""
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    n_points = draw(st.integers(3, 7))
+    n_joints = draw(st.integers(1, 3))
+    points = np.cumsum(rng.uniform(-1.0, 1.0, (n_points, n_joints)), axis=0)
+    assume(np.all(np.linalg.norm(np.diff(points, axis=0), axis=1) > 0.05))
+    vmax = rng.uniform(0.5, 3.0, n_joints)
+    amax = rng.uniform(1.0, 20.0, n_joints)
+    jmax = rng.uniform(20.0, 200.0, n_joints) if draw(st.booleans()) else None
+    fraction = draw(st.sampled_from([0.0, 0.5]))
+    boundary = [fraction * rng.uniform(-1, 1, n_joints) * lim
+                for lim in (vmax, amax, vmax, amax)]
+    return points, vmax, amax, jmax, boundary
+
+
+def request_kwargs(vmax, amax, jmax, boundary):
+    v0, a0, ve, ae = boundary
+    return {'max_velocity': vmax, 'max_acceleration': amax, 'max_jerk': jmax,
+            'start_velocity': v0, 'start_acceleration': a0,
+            'end_velocity': ve, 'end_acceleration': ae}
+
+
+def feasible(traj, vmax, amax, jmax, rtol=1e-7):
+    for q, lim in enumerate((vmax, amax, jmax)):
+        if lim is not None and np.any(exact_peaks(traj.ppoly, q + 1).max(axis=0)
+                                      > np.asarray(lim) * (1 + rtol)):
+            return False
+    return True
+
+
+@pytest.mark.parametrize('method', ['445', '434'])
+@settings(max_examples=15)
+@given(req=small_requests())
+def test_optimal_is_feasible_not_longer_than_uniform_and_segments_are_limited(method, req):
+    points, vmax, amax, jmax, boundary = req
+    kwargs = request_kwargs(vmax, amax, jmax, boundary)
+    try:
+        uniform = plan(points, method, 'uniform', **kwargs)
+    except ValueError as exc:
+        assert 'infeasible' in str(exc)
+        return
+    optimal = plan(points, method, 'optimal', **kwargs)
+    assert optimal.duration <= uniform.duration * (1 + 1e-12)
+    assert feasible(optimal, vmax, amax, jmax)
+    # Waypoints, boundary values and continuity still hold.
+    np.testing.assert_allclose(optimal.evaluate(optimal.breakpoints), points, atol=1e-9)
+    v0, a0, ve, ae = boundary
+    np.testing.assert_allclose(optimal.evaluate([0.0], 1)[0], v0, atol=1e-7)
+    np.testing.assert_allclose(optimal.evaluate([0.0], 2)[0], a0, atol=1e-6)
+    np.testing.assert_allclose(optimal.evaluate([optimal.duration], 1)[0], ve, atol=1e-7)
+    np.testing.assert_allclose(optimal.evaluate([optimal.duration], 2)[0], ae, atol=1e-6)
+    for d in ((1, 2, 3) if method == '445' else (1, 2)):
+        scale = max(1.0, float(np.max(np.abs(optimal.ppoly.c))))
+        assert np.max(optimal.knot_jumps(d)) <= 1e-6 * scale
+    # Every segment binds a limit, or shortening it alone breaks a limit elsewhere
+    # (the spline couples the segments), or it is at the documented lower bound.
+    for s, binding in enumerate(optimal.segment_bindings()):
+        if binding.ratio >= 1.0 - 1e-4:
+            continue
+        shorter = optimal.durations.copy()
+        shorter[s] *= 1.0 - 1e-3
+        try:
+            trial = plan(points, method, 'fixed', durations=shorter, **kwargs)
+        except ValueError:
+            continue  # singular for these durations: not a usable shortening either
+        assert not trial.within_limits(rtol=1e-9), (s, binding)
+
+
+def test_optimal_beats_uniform_on_the_paper_example():
+    from splines445_ros import paper_example as pe
+    kwargs = request_kwargs(pe.MAX_VELOCITY, pe.MAX_ACCELERATION, None,
+                            (pe.BOUNDARY_VELOCITY, pe.BOUNDARY_ACCELERATION,
+                             pe.BOUNDARY_VELOCITY, pe.BOUNDARY_ACCELERATION))
+    points = pe.joint_waypoints()
+    for method in ('445', '434'):
+        uniform = plan(points, method, 'uniform', **kwargs)
+        optimal = plan(points, method, 'optimal', **kwargs)
+        assert feasible(optimal, pe.MAX_VELOCITY, pe.MAX_ACCELERATION, None)
+        # The paper's uniform scaling binds one segment only; optimal timing
+        # makes most segments bind, so it must be clearly shorter.
+        assert optimal.duration < 0.8 * uniform.duration
+        binding = [b.ratio >= 1 - 1e-4 for b in optimal.segment_bindings()]
+        assert sum(binding) >= len(binding) // 2
