@@ -27,6 +27,7 @@ setup(
             'planner_node = splines445_ros.planner_node:main',
             'arm_sim_node = splines445_ros.arm_sim_node:main',
             'demo = splines445_ros.demo:main',
+            'plot_trajectory = splines445_ros.plot_trajectory:main',
         ],
     },
 )

@@ -1,35 +1,43 @@
 """
 The main job: the paper's example end to end through both nodes in one process.
 
-Plans the triangle of Section III with each method through ``planner_node``,
-lets ``arm_sim_node`` play every trajectory, and prints a table: duration,
-per-joint peaks against the limits, the largest jumps of acceleration and
-jerk across waypoints, and where the tool ended.
+Plans the triangle of Section III through ``planner_node`` with 434 and 445
+(uniform timing, as in the paper) and 445 with optimal timing, lets
+``arm_sim_node`` play every trajectory, prints a table (duration, per-joint
+peaks against the limits, the largest jumps of acceleration and jerk across
+waypoints, the tool path's largest deviation from the triangle's edges and
+where the tool ended) and writes figures and the table to a folder.
 """
 
 import argparse
+import os
 import sys
 
 import numpy as np
 
 from . import paper_example as pe
 from .diagnostics import status_values
+from .figures import plot_joint_curves, plot_tool_path
 from .in_process import InProcessSystem, waypoint_message
+from .kinematics import PlanarArm
+from .planning import plan
+from .report import markdown_table, run_metrics, write_csv
 
-RUNS = (('434', 'uniform'), ('445', 'uniform'))
+RUNS = (('434', 'uniform'), ('445', 'uniform'), ('445', 'optimal'))
+PLANNER_PARAMETERS = {'max_velocity': pe.MAX_VELOCITY.tolist(),
+                      'max_acceleration': pe.MAX_ACCELERATION.tolist(),
+                      'max_jerk': [0.0, 0.0, 0.0]}  # the paper sets no jerk limit
 
 
 def run_paper_example(runs=RUNS):
-    """Run every (method, timing); return one dict of results per run."""
+    """Run every (method, timing) through both nodes; return one dict per run."""
     waypoints = pe.joint_waypoints()
-    request = waypoint_message(pe.JOINT_NAMES, waypoints,
-                               pe.BOUNDARY_VELOCITY, pe.BOUNDARY_ACCELERATION,
-                               pe.BOUNDARY_VELOCITY, pe.BOUNDARY_ACCELERATION)
-    planner = {'max_velocity': pe.MAX_VELOCITY.tolist(),
-               'max_acceleration': pe.MAX_ACCELERATION.tolist(),
-               'max_jerk': [0.0, 0.0, 0.0]}  # the paper sets no jerk limit
+    boundary = (pe.BOUNDARY_VELOCITY, pe.BOUNDARY_ACCELERATION,
+                pe.BOUNDARY_VELOCITY, pe.BOUNDARY_ACCELERATION)
+    request = waypoint_message(pe.JOINT_NAMES, waypoints, *boundary)
+    arm = PlanarArm()
     results = []
-    with InProcessSystem(planner_parameters=planner,
+    with InProcessSystem(planner_parameters=PLANNER_PARAMETERS,
                          arm_parameters={'initial_positions': waypoints[0].tolist()}) as system:
         for method, timing in runs:
             outcome = system.set_planner_parameters({'method': method, 'timing': timing})
@@ -43,44 +51,36 @@ def run_paper_example(runs=RUNS):
             played, final = system.wait_until_played(n_arm_status, float(values['duration']))
             system.spin_for(0.05)
             pose = system.tool_poses[-1].pose.position
-            results.append({'method': method, 'timing': timing, 'status': values,
-                            'trajectory': trajectory, 'joint_states': played,
-                            'final_state': final, 'tool_end': (pose.x, pose.y)})
+            # The planner's plan, recomputed with the core for exact curves and peaks.
+            planned = plan(waypoints, method, timing, max_velocity=pe.MAX_VELOCITY,
+                           max_acceleration=pe.MAX_ACCELERATION, start_velocity=boundary[0],
+                           start_acceleration=boundary[1], end_velocity=boundary[2],
+                           end_acceleration=boundary[3])
+            positions = np.array([s.position for s in played + [final]])
+            results.append({'status': values, 'trajectory': trajectory, 'plan': planned,
+                            'joint_states': played, 'final_state': final,
+                            'tool_path': arm.forward(positions)[:, :2],
+                            'tool_end': (pose.x, pose.y)})
     return results
 
 
-def _vector(text):
-    return np.array([float(v) for v in text.split(',')])
-
-
-def _peaks_against_limits(values, quantity):
-    peaks = _vector(values[f'peak_{quantity}'])
-    limits = _vector(values[f'limit_{quantity}'])
-    return ' '.join(f'{p:.3g}/{"-" if np.isinf(lim) else f"{lim:.3g}"}'
-                    for p, lim in zip(peaks, limits))
-
-
-def format_table(results):
-    """Markdown table of the runs."""
-    header = ('| method | timing | duration [s] | peak abs v / limit [rad/s] '
-              '| peak abs a / limit [rad/s^2] | peak abs j / limit [rad/s^3] '
-              '| max a jump | max j jump | tool end (x, y) |')
-    rule = '|' + '---|' * 9
-    rows = [header, rule]
-    for r in results:
-        v = r['status']
-        rows.append(
-            f"| {r['method']} | {r['timing']} | {float(v['duration']):.4f} "
-            f"| {_peaks_against_limits(v, 'velocity')} "
-            f"| {_peaks_against_limits(v, 'acceleration')} "
-            f"| {_peaks_against_limits(v, 'jerk')} "
-            f"| {float(v['max_acceleration_jump']):.3g} | {float(v['max_jerk_jump']):.3g} "
-            f"| ({r['tool_end'][0]:.6f}, {r['tool_end'][1]:.6f}) |")
-    return '\n'.join(rows)
+def write_report(results, out_dir):
+    """Write joint_curves.png, tool_path.png, table.md and table.csv; return the paths."""
+    os.makedirs(out_dir, exist_ok=True)
+    metrics = [run_metrics(r) for r in results]
+    paths = {name: os.path.join(out_dir, name)
+             for name in ('joint_curves.png', 'tool_path.png', 'table.md', 'table.csv')}
+    plot_joint_curves([r['plan'] for r in results], paths['joint_curves.png'], pe.JOINT_NAMES)
+    plot_tool_path({f"{r['plan'].method} {r['plan'].timing}": r['tool_path'] for r in results},
+                   pe.triangle_points(), pe.TRIANGLE_CORNERS, paths['tool_path.png'])
+    with open(paths['table.md'], 'w', encoding='utf-8') as handle:
+        handle.write(markdown_table(metrics) + '\n')
+    write_csv(metrics, paths['table.csv'])
+    return metrics, paths
 
 
 def main(argv=None):
-    """Run the demo and print the table."""
+    """Run the demo, print the table, write figures and tables to --out."""
     parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument('--out', default='out', help='folder for figures and tables')
     args = parser.parse_args(argv)
@@ -88,14 +88,17 @@ def main(argv=None):
         results = run_paper_example()
     except KeyboardInterrupt:
         return 130
+    metrics, paths = write_report(results, args.out)
     print()
     print("Paper's example (Petrinec & Kovacic, Sec. III): 12 triangle waypoints, "
           'v <= 2 rad/s, a <= 10 rad/s^2, no jerk limit,')
     print('boundary v = [-0.1, 0.4, 0], a = [1, 3, 0] at both ends; '
-          'played by arm_sim_node; tool should end at (1, 0).')
+          'played by arm_sim_node; the tool should end at (1, 0).')
     print()
-    print(format_table(results))
-    del args
+    print(markdown_table(metrics))
+    print()
+    print(f'Figures and tables written to {os.path.abspath(args.out)}/: '
+          + ', '.join(os.path.basename(p) for p in paths.values()))
     return 0
 
 
