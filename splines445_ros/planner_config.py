@@ -30,7 +30,8 @@ class PlannerConfig:
     timing: str = 'uniform'
     sample_period: float = 0.01
     start_from_current_state: bool = False
-    replan_lead_time: float = 0.05
+    replan_lead_time: float = 0.2
+    max_trajectory_points: int = 200000
 
     @classmethod
     def from_values(cls, values):
@@ -74,6 +75,10 @@ class PlannerConfig:
                 and 0.0 <= self.replan_lead_time <= MAX_LEAD_TIME):
             raise ValueError(f'replan_lead_time = {self.replan_lead_time}: must be in '
                              f'[0, {MAX_LEAD_TIME}] s')
+
+        if self.max_trajectory_points < 2:
+            raise ValueError(f'max_trajectory_points = {self.max_trajectory_points}: must be '
+                             'at least 2')
 
     def jerk_limits(self):
         """Jerk limits for plan(): None when no joint has one, +inf for 0 entries."""

@@ -17,16 +17,19 @@ import time
 import traceback
 
 from diagnostic_msgs.msg import DiagnosticStatus
+import numpy as np
 import rclpy
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
+from rclpy.time import Time
+from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory
 
 from . import topics
 from .diagnostics import status_message
 from .parameters import ConfigParameters
 from .planner_config import PlannerConfig
-from .request_planning import plan_request, summary_values
+from .request_planning import plan_request, start_from_state, summary_values
 from .ros_conversions import parse_waypoint_request, trajectory_to_msg
 
 PARAMETER_DESCRIPTIONS = {
@@ -41,7 +44,10 @@ PARAMETER_DESCRIPTIONS = {
     'sample_period': 'Period of the published trajectory points [s], >= 1e-4.',
     'start_from_current_state': 'Start every trajectory from the commanded state at '
                                 'now + replan_lead_time (continuous replanning).',
-    'replan_lead_time': 'How far ahead of now a replanned trajectory takes over [s].',
+    'replan_lead_time': 'How far ahead of now a replanned trajectory takes over [s]; '
+                        'planning must finish within it.',
+    'max_trajectory_points': 'Largest number of points a published trajectory may have; '
+                             'a longer one is rejected (raise sample_period instead).',
 }
 
 _STOP = object()
@@ -63,6 +69,10 @@ class PlannerNode(Node):
             DiagnosticStatus, topics.STATUS, topics.STATUS_QOS)
         self.create_subscription(JointTrajectory, topics.WAYPOINTS, self._on_waypoints,
                                  topics.REQUEST_QOS)
+        self.create_subscription(JointState, topics.JOINT_STATES, self._on_joint_state,
+                                 topics.STATE_QOS)
+        self._latest_joint_state = None
+        self._active = None  # (planned Trajectory, start time [ns]) of the last publication
         self._worker = threading.Thread(target=self._work, name='planner', daemon=True)
         self._worker.start()
         config = self.parameters.config
@@ -71,6 +81,9 @@ class PlannerNode(Node):
 
     def _on_waypoints(self, msg):
         self._requests.put(msg)
+
+    def _on_joint_state(self, msg):
+        self._latest_joint_state = msg
 
     def _work(self):
         while True:
@@ -88,25 +101,71 @@ class PlannerNode(Node):
     def _serve(self, msg, request_id):
         config = self.parameters.config
         started = time.perf_counter()
+        switch_ns = None
         try:
             request = parse_waypoint_request(msg, config.joint_names)
+            if config.start_from_current_state:
+                switch_ns = (self.get_clock().now().nanoseconds
+                             + int(config.replan_lead_time * 1e9))
+                request = start_from_state(request, *self._state_at(switch_ns, config))
             traj = plan_request(config, request)
+            n_points = int(traj.duration / config.sample_period) + 2
+            if n_points > config.max_trajectory_points:
+                raise ValueError(
+                    f'the trajectory lasts {traj.duration:.6g} s: about {n_points} points at '
+                    f'sample_period {config.sample_period} s, more than max_trajectory_points '
+                    f'({config.max_trajectory_points})')
         except ValueError as exc:
             self._report(False, f'request {request_id} rejected: {exc}',
                          {'request': request_id})
             return
         planned = time.perf_counter()
         samples = traj.sample(config.sample_period)
-        out = trajectory_to_msg(samples, config.joint_names)
+        stamp = None if switch_ns is None else Time(nanoseconds=switch_ns).to_msg()
+        out = trajectory_to_msg(samples, config.joint_names, stamp)
+        now_ns = self.get_clock().now().nanoseconds
+        if switch_ns is not None and now_ns > switch_ns:
+            self._report(False, f'request {request_id} rejected: planning took '
+                                f'{1e3 * (time.perf_counter() - started):.1f} ms, longer than '
+                                f'replan_lead_time ({config.replan_lead_time} s); the running '
+                                'trajectory continues', {'request': request_id})
+            return
         self.trajectory_publisher.publish(out)
+        self._active = (traj, now_ns if switch_ns is None else switch_ns)
         published = time.perf_counter()
         values = {'request': request_id, 'points': len(out.points),
                   'planning_time_ms': f'{1e3 * (planned - started):.3f}',
                   'publishing_time_ms': f'{1e3 * (published - planned):.3f}'}
+        if switch_ns is not None:
+            values['switch_time_ns'] = switch_ns
         values.update(summary_values(traj, config.joint_names))
         self._report(True, f'request {request_id}: {traj.method}/{traj.timing} through '
                            f'{traj.waypoints.shape[0]} waypoints in {traj.duration:.4f} s',
                      values)
+
+    def _state_at(self, switch_ns, config):
+        """Position, velocity, acceleration the arm is commanded to have at ``switch_ns``."""
+        if self._active is not None:
+            traj, start_ns = self._active
+            t = (switch_ns - start_ns) * 1e-9
+            if t < traj.duration and traj.n_joints == len(config.joint_names):
+                return tuple(traj.evaluate([t], d)[0] for d in (0, 1, 2))
+        state = self._latest_joint_state
+        if state is None:
+            raise ValueError('start_from_current_state: no trajectory is running and no '
+                             'joint_states have been received yet')
+        names = list(state.name)
+        try:
+            order = [names.index(n) for n in config.joint_names]
+        except ValueError:
+            raise ValueError(f'start_from_current_state: joint_states names {names} do not '
+                             f'cover {list(config.joint_names)}') from None
+        position = np.array([state.position[i] for i in order], dtype=float)
+        velocity = (np.array([state.velocity[i] for i in order], dtype=float)
+                    if len(state.velocity) == len(names) else np.zeros(len(order)))
+        if not (np.all(np.isfinite(position)) and np.all(np.isfinite(velocity))):
+            raise ValueError('start_from_current_state: the latest joint_states are not finite')
+        return position, velocity, np.zeros(len(order))
 
     def _report(self, ok, message, values):
         if ok:

@@ -9,6 +9,7 @@ import numpy as np
 
 from .diagnostics import format_vector
 from .planning import plan
+from .ros_conversions import WaypointRequest
 
 # A fixed-timing request may exceed a limit by this much (round-off of times
 # that came through nanosecond Durations) before it is rejected.
@@ -41,6 +42,27 @@ def plan_request(config, request):
             f'the requested times exceed the {b.quantity} limit of '
             f'{config.joint_names[b.joint]} on segment {b.segment} by a factor {b.ratio:.4g}')
     return traj
+
+
+def start_from_state(request, position, velocity, acceleration):
+    """
+    Return ``request`` starting from a current state (replanning).
+
+    The state's position is prepended as the first waypoint, its velocity and
+    acceleration replace the start values.  With times (fixed timing) the
+    request's ``time_from_start`` values are taken as measured from the
+    switch, so its first waypoint must come strictly after 0.
+    """
+    times = None
+    if request.times is not None:
+        if request.times[0] <= 0.0:
+            raise ValueError('when starting from the current state, time_from_start of '
+                             'the first waypoint must be > 0 (it is the time to reach it)')
+        times = np.concatenate([[0.0], request.times])
+    return WaypointRequest(
+        np.vstack([position, request.waypoints]), np.asarray(velocity, dtype=float),
+        np.asarray(acceleration, dtype=float), request.end_velocity, request.end_acceleration,
+        times)
 
 
 def summary_values(traj, joint_names):

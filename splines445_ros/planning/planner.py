@@ -5,7 +5,7 @@ import numpy as np
 from .continuity_system import ContinuitySystem
 from .limits import check_boundary_feasible, JointLimits
 from .optimal import optimal_durations
-from .timing import chord_durations, ScaledSpline, uniform_scale
+from .timing import chord_durations, scaled_spline
 from .trajectory import Trajectory
 from .validation import boundary_vector, duration_array, waypoint_array
 
@@ -96,8 +96,10 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
     if durations is not None:
         raise ValueError(f'durations are only used with timing="fixed", not {timing!r}')
     points, dropped = merge_duplicates(points)
-    spline = ScaledSpline(method, points, chord_durations(points), boundary)
-    scale, ratios = uniform_scale(spline, limits)
+    chords = chord_durations(points)
+    if not np.all(np.isfinite(chords)):
+        raise ValueError('waypoints too large: chord lengths overflow')
+    spline, scale, ratios = scaled_spline(method, points, chords, boundary, limits)
     if timing == 'optimal':
         return optimal_durations(method, points, spline, scale, boundary, limits, dropped)
     return Trajectory(method, timing, points, spline.durations(scale),

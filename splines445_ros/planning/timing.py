@@ -16,15 +16,17 @@ bisected, because the peaks are not monotone in ``lambda``.
 """
 
 import numpy as np
+from scipy.optimize import minimize_scalar
 
 from .continuity_system import ContinuitySystem
 from .limits import limit_ratios
 
-# Bracketing steps and range of the scale search (relative to the first guess).
-_BRACKET_STEP = 1.5
-_BRACKET_STEPS = 60
+# Factors (relative to the rest-to-rest factor) scanned for a feasible one.
+SCAN_GRID = np.geomspace(1.0 / 30.0, 1000.0, 32)
 # Relative width of the final bracket of the factor search.
 _BISECTION_RTOL = 1e-9
+# First-segment shares tried when no common factor is feasible (see scaled_spline).
+FIRST_SEGMENT_SHARES = np.geomspace(1.0 / 8.0, 8.0, 13)
 # Safety factor applied to closed-form factors against round-off.
 _ROUNDOFF = 1.0 + 1e-12
 
@@ -68,9 +70,23 @@ class ScaledSpline:
 
     def coefficients(self, scale):
         """Return the real-time ascending polynomial terms (S, 6, n) for the factor ``scale``."""
+        return self.coefficients_batch(np.array([scale]))[0]
+
+    def coefficients_batch(self, scales):
+        """Return the real-time polynomial terms (G, S, 6, n) for G factors at once."""
+        s = np.asarray(scales, dtype=float)[:, None, None, None]
         position, velocity, acceleration = self._parts
-        combined = position + scale * velocity + scale**2 * acceleration
-        return combined / (scale ** np.arange(combined.shape[1]))[None, :, None]
+        combined = position + s * velocity + s**2 * acceleration
+        return combined / s ** np.arange(combined.shape[2])[None, None, :, None]
+
+    def max_ratios(self, scales, limits):
+        """Largest peak / limit of the whole spline for every factor in ``scales``: (G,)."""
+        scales = np.asarray(scales, dtype=float)
+        coeffs = self.coefficients_batch(scales)
+        G, S = coeffs.shape[:2]
+        durations = (scales[:, None] * self.base_durations[None, :]).reshape(-1)
+        ratios = limit_ratios(coeffs.reshape(G * S, *coeffs.shape[2:]), durations, limits)
+        return ratios.reshape(G, -1).max(axis=1)
 
 
 def closed_form_scale(ratios_at_unit_scale):
@@ -88,57 +104,31 @@ def rescaled_ratios(ratios_at_unit_scale, scale):
     return ratios_at_unit_scale / scale ** np.arange(1, 4)[None, None, :]
 
 
-def uniform_scale(spline, limits):
-    """
-    Return the smallest common factor that meets the limits and the ratios there.
+def _excess(spline, limits, scale):
+    ratios = limit_ratios(spline.coefficients(scale), spline.durations(scale), limits)
+    return float(np.max(ratios)) - 1.0, ratios
 
-    Rest-to-rest: closed form.  Otherwise: a feasible factor is bracketed
-    (geometric steps from the rest-to-rest factor), then the boundary between
-    infeasible and feasible is found by the Illinois variant of regula falsi on
-    ``max_ratio - 1``, always keeping a feasible end.  Raises ValueError when
-    no factor in a wide range is feasible (boundary values that no common
-    scaling reconciles with the limits).
-    """
-    position_only = limit_ratios(spline.waypoint_part, spline.base_durations, limits)
-    guess = closed_form_scale(position_only)
-    if not spline.has_boundary_part:
-        return guess, rescaled_ratios(position_only, guess)
 
-    def excess(scale):
-        ratios = limit_ratios(spline.coefficients(scale), spline.durations(scale), limits)
-        return float(np.max(ratios)) - 1.0, ratios
+def _scan(spline, limits, guess):
+    """Excess ``max_ratio - 1`` on the scan grid around ``guess``: (grid, excess)."""
+    grid = guess * SCAN_GRID
+    return grid, spline.max_ratios(grid, limits) - 1.0
 
-    high, (f_high, r_high) = guess, excess(guess)
-    if f_high > 0.0:
-        found = False
-        for direction in (_BRACKET_STEP, 1.0 / _BRACKET_STEP):
-            trial = guess
-            for _ in range(_BRACKET_STEPS):
-                trial *= direction
-                f_trial, r_trial = excess(trial)
-                if f_trial <= 0.0:
-                    high, f_high, r_high, found = trial, f_trial, r_trial, True
-                    break
-            if found:
-                break
-        if not found:
-            raise ValueError('infeasible: no common time scale meets the limits with these '
-                             'boundary velocities and accelerations')
-    # Walk down until infeasible: [low, high] brackets the smallest feasible factor.
-    for _ in range(_BRACKET_STEPS):
-        low = high / _BRACKET_STEP
-        f_low, r_low = excess(low)
-        if f_low > 0.0:
-            break
-        high, f_high, r_high = low, f_low, r_low
-    else:
+
+def _refine(spline, limits, grid, excess):
+    """Smallest feasible factor below the first feasible grid factor, and its ratios."""
+    k = int(np.flatnonzero(excess <= 0.0)[0])
+    high = grid[k]
+    f_high, r_high = _excess(spline, limits, high)
+    if k == 0:
         return high, r_high
+    low, f_low = grid[k - 1], excess[k - 1]
     side = 0
     while high - low > _BISECTION_RTOL * high:
         middle = (low * f_high - high * f_low) / (f_high - f_low)
         if not low < middle < high:
             middle = 0.5 * (low + high)
-        f_mid, r_mid = excess(middle)
+        f_mid, r_mid = _excess(spline, limits, middle)
         if f_mid <= 0.0:
             high, f_high, r_high = middle, f_mid, r_mid
             if side == 1:
@@ -150,3 +140,96 @@ def uniform_scale(spline, limits):
                 f_high *= 0.5
             side = -1
     return high, r_high
+
+
+def _rest_to_rest_guess(spline, limits):
+    position_only = limit_ratios(spline.waypoint_part, spline.base_durations, limits)
+    guess = closed_form_scale(position_only)
+    if not (np.isfinite(guess) and guess > 0.0 and np.all(np.isfinite(guess *
+                                                                      spline.base_durations))):
+        raise ValueError('no finite time scale: the waypoints are too large or too close '
+                         'for the limits')
+    return guess, position_only
+
+
+def _search_near_best(spline, limits, grid, excess):
+    """Minimise the excess next to the best grid factor; a finer feasible grid or None."""
+    best = int(np.argmin(excess))
+    lo, hi = grid[max(best - 1, 0)], grid[min(best + 1, len(grid) - 1)]
+    found = minimize_scalar(lambda y: _excess(spline, limits, np.exp(y))[0],
+                            bounds=(np.log(lo), np.log(hi)), method='bounded',
+                            options={'xatol': 1e-6})
+    scale = float(np.exp(found.x))
+    f = _excess(spline, limits, scale)[0]
+    if f > 0.0:
+        return None
+    return np.array([lo, scale]), np.array([_excess(spline, limits, lo)[0], f])
+
+
+def uniform_scale(spline, limits):
+    """
+    Return the smallest common factor that meets the limits and the ratios there.
+
+    Rest-to-rest: closed form.  Otherwise the peaks are not monotone in the
+    factor and the feasible factors can form a narrow interval, so a
+    geometric grid around the rest-to-rest factor (:data:`SCAN_GRID`) is
+    evaluated at once (one batched peak computation) for the smallest
+    feasible grid factor; when none is feasible, the excess ``max_ratio - 1``
+    is minimised (bounded Brent, in log factor) next to the best grid factor.
+    The boundary between the infeasible factor below and the feasible one is
+    then found by the Illinois variant of regula falsi, always keeping a
+    feasible end.  Raises ValueError when no factor is feasible.
+    """
+    guess, position_only = _rest_to_rest_guess(spline, limits)
+    if not spline.has_boundary_part:
+        return guess, rescaled_ratios(position_only, guess)
+    grid, excess = _scan(spline, limits, guess)
+    if not np.any(excess <= 0.0):
+        near = _search_near_best(spline, limits, grid, excess)
+        if near is None:
+            raise ValueError('infeasible: no common time scale meets the limits with these '
+                             'boundary velocities and accelerations')
+        grid, excess = near
+    return _refine(spline, limits, grid, excess)
+
+
+def scaled_spline(method, points, chords, boundary, limits):
+    """
+    Return the uniform-timing spline, its factor and its ratios (the paper's timing).
+
+    The durations are ``lambda * chords`` with the smallest feasible factor.
+    When no common factor is feasible, which happens when the start state is
+    close to the limits (replanning from a moving arm), the first segment gets
+    its own share ``r`` of the timing: durations ``lambda * [r * T_1, T_2, ...]``
+    for each ``r`` in :data:`FIRST_SEGMENT_SHARES`, and the shortest feasible
+    result is taken.  Raises ValueError when none is feasible.
+    """
+    spline = ScaledSpline(method, points, chords, boundary)
+    try:
+        scale, ratios = uniform_scale(spline, limits)
+        return spline, scale, ratios
+    except ValueError:
+        if len(chords) < 2 or not np.any(boundary[:2]):
+            raise
+    # Scan every share at once per share (batched), then refine only the best.
+    candidates = []
+    for share in FIRST_SEGMENT_SHARES:
+        base = chords.copy()
+        base[0] *= share
+        candidate = ScaledSpline(method, points, base, boundary)
+        guess = _rest_to_rest_guess(candidate, limits)[0]
+        grid, excess = _scan(candidate, limits, guess)
+        candidates.append((candidate, grid, excess))
+    feasible = [(grid[np.flatnonzero(excess <= 0.0)[0]] * c.base_durations.sum(), i)
+                for i, (c, grid, excess) in enumerate(candidates) if np.any(excess <= 0.0)]
+    if feasible:
+        candidate, grid, excess = candidates[min(feasible)[1]]
+        return (candidate,) + _refine(candidate, limits, grid, excess)
+    for i in np.argsort([np.min(excess) for _, _, excess in candidates])[:3]:
+        candidate, grid, excess = candidates[i]
+        near = _search_near_best(candidate, limits, grid, excess)
+        if near is not None:
+            return (candidate,) + _refine(candidate, limits, *near)
+    raise ValueError('infeasible: no time scale meets the limits with these boundary '
+                     'velocities and accelerations, not even with a separately timed '
+                     'first segment')

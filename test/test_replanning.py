@@ -1,0 +1,115 @@
+"""Replanning from a moving arm: no jump in position, velocity or acceleration."""
+
+from diagnostic_msgs.msg import DiagnosticStatus
+import numpy as np
+import pytest
+import rclpy
+from rclpy.context import Context
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.time import Time
+from splines445_ros import paper_example as pe
+from splines445_ros import topics
+from splines445_ros.diagnostics import status_values
+from splines445_ros.in_process import (
+    InProcessSystem, keep_dds_local, overrides, stamp_ns, waypoint_message)
+from splines445_ros.planner_node import PlannerNode
+from splines445_ros.ros_conversions import sampled_trajectory_from_msg
+from trajectory_msgs.msg import JointTrajectory
+
+W = pe.joint_waypoints()
+SECOND = np.array([[0.2, 2.0, -2.0], [0.6, 1.6, -2.2], [0.9, 1.2, -1.5]])
+RATE = 100.0  # joint_states per second
+VMAX, AMAX = 2.0, 10.0
+
+
+def test_replanning_mid_motion_is_continuous_and_reaches_the_new_goal():
+    planner = {'start_from_current_state': True, 'replan_lead_time': 0.5,
+               'max_velocity': [VMAX] * 3, 'max_acceleration': [AMAX] * 3,
+               'max_jerk': [0.0] * 3}
+    with InProcessSystem(planner_parameters=planner,
+                         arm_parameters={'initial_positions': W[0].tolist(),
+                                         'publish_rate': RATE}) as system:
+        assert system.spin_until(lambda: len(system.joint_states) > 2, 5.0)
+        # First request: nothing runs yet, so it starts from joint_states (at rest at W[0]).
+        status1, traj1 = system.request(waypoint_message(pe.JOINT_NAMES, W))
+        assert status1.level == DiagnosticStatus.OK, status1.message
+        t1 = Time.from_msg(traj1.header.stamp).nanoseconds
+        assert t1 == int(status_values(status1)['switch_time_ns']) > 0
+        np.testing.assert_allclose(traj1.points[0].positions, W[0], atol=1e-12)
+        # Mid-motion, a new request; it takes over at its stamp.
+        system.spin_for(1.2)
+        status2, traj2 = system.request(waypoint_message(pe.JOINT_NAMES, SECOND))
+        assert status2.level == DiagnosticStatus.OK, status2.message
+        t2 = Time.from_msg(traj2.header.stamp).nanoseconds
+        assert t2 > t1
+        switch = (t2 - t1) * 1e-9
+        first = sampled_trajectory_from_msg(traj1, pe.JOINT_NAMES)
+        assert 0.0 < switch < first.duration  # the switch happens mid-motion
+        # Position, velocity and acceleration of the new trajectory's first point are
+        # the old trajectory's state at the switch (between samples: Hermite playback).
+        p, v, a = first.state_at(switch)
+        start = traj2.points[0]
+        np.testing.assert_allclose(start.positions, p, atol=1e-6)
+        np.testing.assert_allclose(start.velocities, v, atol=1e-5)
+        np.testing.assert_allclose(start.accelerations, a, atol=1e-3)
+        # The arm follows: consecutive joint_states can change velocity by at most
+        # a_max * dt and position by at most v_max * dt, also across the switch.
+        played, final = system.wait_until_played(len(system.arm_status) - 1,
+                                                 sampled_trajectory_from_msg(
+                                                     traj2, pe.JOINT_NAMES).duration)
+        states = [s for s in system.joint_states if t1 <= stamp_ns(s) <= stamp_ns(final)]
+        times = np.array([stamp_ns(s) for s in states]) * 1e-9
+        positions = np.array([s.position for s in states])
+        velocities = np.array([s.velocity for s in states])
+        assert times[0] < t2 * 1e-9 < times[-1]
+        dt = np.diff(times)[:, None]
+        assert np.all(np.abs(np.diff(velocities, axis=0)) <= AMAX * dt * (1 + 1e-6) + 1e-9)
+        assert np.all(np.abs(np.diff(positions, axis=0)) <= VMAX * dt * (1 + 1e-6) + 1e-9)
+        np.testing.assert_allclose(final.position, SECOND[-1], atol=1e-9)
+
+
+def test_replanning_without_any_state_says_so():
+    keep_dds_local()
+    context = Context()
+    rclpy.init(context=context)
+    try:
+        node = PlannerNode(context=context, parameter_overrides=overrides(
+            {'start_from_current_state': True}))
+        client = Node('client', context=context)
+        executor = SingleThreadedExecutor(context=context)
+        for n in (node, client):
+            executor.add_node(n)
+        statuses = []
+        client.create_subscription(DiagnosticStatus, '/planner_node/status', statuses.append,
+                                   topics.STATUS_QOS)
+        publisher = client.create_publisher(JointTrajectory, topics.WAYPOINTS,
+                                            topics.REQUEST_QOS)
+        for _ in range(400):
+            if publisher.get_subscription_count() and node.status_publisher \
+                    .get_subscription_count():
+                break
+            executor.spin_once(timeout_sec=0.01)
+        publisher.publish(waypoint_message(pe.JOINT_NAMES, W))
+        for _ in range(1000):
+            if statuses:
+                break
+            executor.spin_once(timeout_sec=0.01)
+        assert statuses and statuses[0].level == DiagnosticStatus.ERROR
+        assert 'no joint_states have been received' in statuses[0].message
+        executor.shutdown()
+        client.destroy_node()
+        node.destroy_node()
+    finally:
+        rclpy.try_shutdown(context=context)
+
+
+@pytest.mark.parametrize('lead', [0.0])
+def test_a_missed_switch_time_is_rejected_and_the_old_trajectory_continues(lead):
+    with InProcessSystem(planner_parameters={'start_from_current_state': True,
+                                             'replan_lead_time': lead},
+                         arm_parameters={'initial_positions': W[0].tolist()}) as system:
+        assert system.spin_until(lambda: len(system.joint_states) > 2, 5.0)
+        status, traj = system.request(waypoint_message(pe.JOINT_NAMES, W))
+        assert status.level == DiagnosticStatus.ERROR and traj is None
+        assert 'longer than replan_lead_time' in status.message
