@@ -39,6 +39,7 @@ def test_replanning_mid_motion_is_continuous_and_reaches_the_new_goal():
         np.testing.assert_allclose(traj1.points[0].positions, W[0], atol=1e-12)
         # Mid-motion, a new request; it takes over at its stamp.
         system.spin_for(1.2)
+        n_arm_status = len(system.arm_status)
         status2, traj2 = system.request(waypoint_message(pe.JOINT_NAMES, SECOND))
         assert status2.level == DiagnosticStatus.OK, status2.message
         t2 = Time.from_msg(traj2.header.stamp).nanoseconds
@@ -55,7 +56,7 @@ def test_replanning_mid_motion_is_continuous_and_reaches_the_new_goal():
         np.testing.assert_allclose(start.accelerations, a, atol=1e-3)
         # The arm follows: consecutive joint_states can change velocity by at most
         # a_max * dt and position by at most v_max * dt, also across the switch.
-        played, final = system.wait_until_played(len(system.arm_status) - 1,
+        played, final = system.wait_until_played(n_arm_status,
                                                  sampled_trajectory_from_msg(
                                                      traj2, pe.JOINT_NAMES).duration)
         states = [s for s in system.joint_states if t1 <= stamp_ns(s) <= stamp_ns(final)]

@@ -35,10 +35,22 @@ def merge_duplicates(waypoints):
     return waypoints[keep], tuple(int(i) for i in dropped)
 
 
-def plan(waypoints, method='445', timing='uniform', durations=None,
-         max_velocity=None, max_acceleration=None, max_jerk=None,
-         start_velocity=None, start_acceleration=None,
-         end_velocity=None, end_acceleration=None):
+def plan(*args, **kwargs):
+    """
+    Plan a trajectory through ``waypoints`` (N, n_joints); see :func:`plan_trajectory`.
+
+    Floating-point overflow on absurd input (e.g. waypoints of 1e300) is not
+    warned about here: every result is checked for finiteness and such input
+    ends in a ValueError.
+    """
+    with np.errstate(over='ignore', invalid='ignore', divide='ignore'):
+        return plan_trajectory(*args, **kwargs)
+
+
+def plan_trajectory(waypoints, method='445', timing='uniform', durations=None,
+                    max_velocity=None, max_acceleration=None, max_jerk=None,
+                    start_velocity=None, start_acceleration=None,
+                    end_velocity=None, end_acceleration=None):
     """
     Plan a trajectory through ``waypoints`` (N, n_joints).
 
