@@ -35,15 +35,19 @@ def _horner(coeffs, x):
     return out
 
 
-def _unit_interval_roots(q):
-    """Real roots in (0, 1) of ascending polynomials ``q`` (K, <=4); NaN-padded (K, 3)."""
-    K = q.shape[0]
-    q = np.pad(q, ((0, 0), (0, 4 - q.shape[1])))
-    roots = np.full((K, 3), np.nan)
+def _unit_interval_roots(q, out):
+    """
+    Write the real roots in (0, 1) of ascending polynomials ``q`` (K, <=4) into ``out``.
+
+    ``out`` is (K, 3); slots without such a root are left at 0 (an interval
+    end, which is a candidate anyway).
+    """
+    K, width = q.shape
     scale = np.max(np.abs(q), axis=1)
     scale[scale == 0.0] = 1.0
     q = q / scale[:, None]
-    cubic = np.abs(q[:, 3]) > _DEGENERATE
+    cubic = (np.abs(q[:, 3]) > _DEGENERATE) if width == 4 else np.zeros(K, dtype=bool)
+    roots = np.full((K, 3), np.nan)
     if np.any(cubic):
         qc = q[cubic]
         companion = np.zeros((qc.shape[0], 3, 3))
@@ -53,19 +57,21 @@ def _unit_interval_roots(q):
         eig = np.linalg.eigvals(companion)
         real = np.abs(eig.imag) <= 1e-9 * np.maximum(1.0, np.abs(eig.real))
         roots[cubic] = np.where(real, eig.real, np.nan)
-    rest = ~cubic
-    a, b, c = q[rest, 2], q[rest, 1], q[rest, 0]
+        rest = ~cubic
+        a, b, c = q[rest, 2], q[rest, 1], q[rest, 0]
+    else:
+        rest = slice(None)
+        a = q[:, 2] if width > 2 else np.zeros(K)
+        b, c = q[:, 1], q[:, 0]
     quad = np.abs(a) > _DEGENERATE
-    disc = b * b - 4.0 * a * c
     with np.errstate(invalid='ignore', divide='ignore'):
-        sq = np.sqrt(np.where(disc >= 0.0, disc, np.nan))
+        sq = np.sqrt(b * b - 4.0 * a * c)  # NaN when there is no real root
         half = -0.5 * (b + np.copysign(sq, b))
-        r1 = np.where(quad, half / a, np.where(np.abs(b) > _DEGENERATE, -c / b, np.nan))
-        r2 = np.where(quad & (half != 0.0), c / half, np.nan)
-    roots[rest, 0] = r1
-    roots[rest, 1] = r2
+        roots[rest, 0] = np.where(quad, half / a,
+                                  np.where(np.abs(b) > _DEGENERATE, -c / b, np.nan))
+        roots[rest, 1] = np.where(quad & (half != 0.0), c / half, np.nan)
     inside = (roots > 0.0) & (roots < 1.0)
-    return np.where(inside, roots, np.nan)
+    out[:] = np.where(inside, roots, 0.0)
 
 
 def _candidates(coeffs, durations, derivative):
@@ -77,9 +83,9 @@ def _candidates(coeffs, durations, derivative):
     p = p * (T[:, None, None] ** np.arange(p.shape[1])[None, :, None])
     dp = p[:, 1:] * np.arange(1, p.shape[1])[None, :, None]
     flat_p = p.transpose(0, 2, 1).reshape(S * m, -1)
-    roots = _unit_interval_roots(dp.transpose(0, 2, 1).reshape(S * m, -1))
-    candidates = np.concatenate(
-        [np.zeros((S * m, 1)), np.ones((S * m, 1)), np.nan_to_num(roots, nan=0.0)], axis=1)
+    candidates = np.zeros((S * m, 5))
+    candidates[:, 1] = 1.0
+    _unit_interval_roots(dp.transpose(0, 2, 1).reshape(S * m, -1), candidates[:, 2:])
     return candidates, np.abs(_horner(flat_p, candidates))
 
 
