@@ -72,7 +72,7 @@ class ContinuitySystem:
             # Linear form of each continuous derivative in the segment inputs,
             # at the end or start of every segment: shape (n_q, B, S, 5).
             return np.stack([
-                np.einsum('si,sij->sj', derivative_weights(flat, d, at_end), maps)
+                (derivative_weights(flat, d, at_end)[:, None, :] @ maps)
                 .reshape(self.n_batch, n_seg, -1) for d in derivatives])
 
         left = forms(True)[:, :, :-1]    # segment k-1, ending at interior knot k
@@ -154,7 +154,7 @@ class ContinuitySystem:
                 (vel, acc)[comp][:, 1:-1] = x[:, :, ui]
             if ACC not in self._unknowns:
                 inputs = self.segment_inputs(dP, vel, acc)[:, 1:]
-                coeffs = np.einsum('bsij,bsjm->bsim', self._maps[:, 1:], inputs)
+                coeffs = self._maps[:, 1:] @ inputs
                 acc[:, 1:-1] = 2.0 * coeffs[:, :, 2]
         if not self.batched:
             return vel[0], acc[0]
@@ -169,7 +169,6 @@ class ContinuitySystem:
 
     def coefficients(self, starts, dP, vel, acc):
         """Return every segment's ascending polynomial terms (S, 6, m) or (B, S, 6, m)."""
-        coeffs = np.einsum('...sij,...sjm->...sim', self.maps,
-                           self.segment_inputs(dP, vel, acc))
+        coeffs = self.maps @ self.segment_inputs(dP, vel, acc)
         coeffs[..., 0, :] = starts
         return coeffs
