@@ -62,11 +62,7 @@ def main():
     for key, values in ratios.items():
         print(f'{key}: median ratio {np.median(values):.2f}, worst {np.max(values):.2f}')
     print()
-    kwargs = {'max_velocity': pe.MAX_VELOCITY, 'max_acceleration': pe.MAX_ACCELERATION,
-              'start_velocity': pe.BOUNDARY_VELOCITY,
-              'start_acceleration': pe.BOUNDARY_ACCELERATION,
-              'end_velocity': pe.BOUNDARY_VELOCITY,
-              'end_acceleration': pe.BOUNDARY_ACCELERATION}
+    kwargs = pe.plan_kwargs()
     waypoints = pe.joint_waypoints()
     print("Paper's example (v <= 2, a <= 10, no jerk limit, paper boundary values):")
     for method in ('445', '434'):

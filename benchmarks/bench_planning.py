@@ -103,11 +103,7 @@ def main():
               f'| {1e3 * tfit:.2f} | {top} | {t445 / tfit:.1f}x | {top_ratio} '
               f'| {traj445.duration:.2f} | {traj434.duration:.2f} | {top_duration} |')
         sys.stdout.flush()
-    kwargs = {'max_velocity': pe.MAX_VELOCITY, 'max_acceleration': pe.MAX_ACCELERATION,
-              'start_velocity': pe.BOUNDARY_VELOCITY,
-              'start_acceleration': pe.BOUNDARY_ACCELERATION,
-              'end_velocity': pe.BOUNDARY_VELOCITY,
-              'end_acceleration': pe.BOUNDARY_ACCELERATION}
+    kwargs = pe.plan_kwargs()
     waypoints = pe.joint_waypoints()
     print()
     print("Paper's example (12 x 3, non-zero boundary values, factor searched):")

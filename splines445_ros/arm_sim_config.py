@@ -5,12 +5,14 @@ import math
 from typing import Tuple
 
 from .planner_config import DEFAULT_JOINTS
+from .validated_config import ValidatedConfig
 
+MIN_PUBLISH_RATE = 0.001
 MAX_PUBLISH_RATE = 1000.0
 
 
 @dataclass(frozen=True)
-class ArmSimConfig:
+class ArmSimConfig(ValidatedConfig):
     """Parameters of ``arm_sim_node``."""
 
     joint_names: Tuple[str, ...] = DEFAULT_JOINTS
@@ -18,14 +20,6 @@ class ArmSimConfig:
     initial_positions: Tuple[float, ...] = (0.0, 0.0, 0.0)
     publish_rate: float = 50.0
     frame_id: str = 'base_link'
-
-    @classmethod
-    def from_values(cls, values):
-        """Build and validate a config from a dict of parameter values (ValueError)."""
-        config = cls(**{k: (tuple(v) if isinstance(v, (list, tuple)) else v)
-                        for k, v in values.items()})
-        config.validate()
-        return config
 
     def validate(self):
         """Raise ValueError with the reason when any value is unusable."""
@@ -43,7 +37,7 @@ class ArmSimConfig:
                 math.isfinite(v) for v in self.initial_positions):
             raise ValueError(f'initial_positions must be 3 finite angles, got '
                              f'{list(self.initial_positions)}')
-        if not (math.isfinite(self.publish_rate) and 0.0 < self.publish_rate
-                <= MAX_PUBLISH_RATE):
+        if not (math.isfinite(self.publish_rate)
+                and MIN_PUBLISH_RATE <= self.publish_rate <= MAX_PUBLISH_RATE):
             raise ValueError(f'publish_rate = {self.publish_rate}: must be in '
-                             f'(0, {MAX_PUBLISH_RATE}] Hz')
+                             f'[{MIN_PUBLISH_RATE}, {MAX_PUBLISH_RATE}] Hz')

@@ -18,8 +18,6 @@ import math
 from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
 import numpy as np
-import rclpy
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.time import Time
 from sensor_msgs.msg import JointState
@@ -29,6 +27,7 @@ from . import topics
 from .arm_sim_config import ArmSimConfig
 from .diagnostics import status_message
 from .kinematics import PlanarArm
+from .node_main import run_node
 from .parameters import ConfigParameters
 from .ros_conversions import sampled_trajectory_from_msg
 
@@ -36,7 +35,7 @@ PARAMETER_DESCRIPTIONS = {
     'joint_names': 'Names of joint 1 (shoulder), 2 (elbow) and 3 (tool).',
     'link_lengths': 'Lengths d1, d2 of the two links [m] (paper: 1.1, 0.9).',
     'initial_positions': 'Joint angles at start-up [rad].',
-    'publish_rate': 'Rate of joint_states and tool_pose [Hz], in (0, 1000].',
+    'publish_rate': 'Rate of joint_states and tool_pose [Hz], in [0.001, 1000].',
     'frame_id': 'Frame of tool_pose.',
 }
 
@@ -70,9 +69,11 @@ class ArmSimNode(Node):
     def _on_config(self, config):
         self.arm = PlanarArm(*config.link_lengths)
         if hasattr(self, '_timer'):
+            # The new timer first: if it cannot be made, the old one keeps running.
+            timer = self.create_timer(1.0 / config.publish_rate, self._on_timer)
             self._timer.cancel()
             self.destroy_timer(self._timer)
-            self._timer = self.create_timer(1.0 / config.publish_rate, self._on_timer)
+            self._timer = timer
 
     def _now_ns(self):
         return self.get_clock().now().nanoseconds
@@ -145,20 +146,7 @@ class ArmSimNode(Node):
 
 def main(args=None):
     """Run the arm simulation until Ctrl-C or shutdown."""
-    rclpy.init(args=args)
-    node = None
-    try:
-        node = ArmSimNode()
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except ValueError as exc:
-        print(f'arm_sim_node: invalid parameters: {exc}')
-        raise SystemExit(2)
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
+    run_node(ArmSimNode, args)
 
 
 if __name__ == '__main__':

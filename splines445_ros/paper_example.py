@@ -13,6 +13,13 @@ MAX_ACCELERATION = np.full(3, 10.0)
 JOINT_NAMES = ('joint1', 'joint2', 'joint3')
 
 
+def plan_kwargs():
+    """Limits and boundary values of the example as keyword arguments of ``plan()``."""
+    return {'max_velocity': MAX_VELOCITY, 'max_acceleration': MAX_ACCELERATION,
+            'start_velocity': BOUNDARY_VELOCITY, 'start_acceleration': BOUNDARY_ACCELERATION,
+            'end_velocity': BOUNDARY_VELOCITY, 'end_acceleration': BOUNDARY_ACCELERATION}
+
+
 def triangle_points(n=N_WAYPOINTS):
     """
     ``n`` tool positions (n, 2) evenly spaced by arc length on the closed triangle.

@@ -12,6 +12,7 @@ import math
 from typing import Tuple
 
 from .planning import METHODS, TIMINGS
+from .validated_config import ValidatedConfig
 
 DEFAULT_JOINTS = ('joint1', 'joint2', 'joint3')
 MIN_SAMPLE_PERIOD = 1e-4
@@ -19,7 +20,7 @@ MAX_LEAD_TIME = 10.0
 
 
 @dataclass(frozen=True)
-class PlannerConfig:
+class PlannerConfig(ValidatedConfig):
     """Everything the planner needs besides the request itself."""
 
     joint_names: Tuple[str, ...] = DEFAULT_JOINTS
@@ -32,14 +33,6 @@ class PlannerConfig:
     start_from_current_state: bool = False
     replan_lead_time: float = 0.2
     max_trajectory_points: int = 200000
-
-    @classmethod
-    def from_values(cls, values):
-        """Build and validate a config from a dict of parameter values (ValueError)."""
-        config = cls(**{k: (tuple(v) if isinstance(v, (list, tuple)) else v)
-                        for k, v in values.items()})
-        config.validate()
-        return config
 
     def validate(self):
         """Raise ValueError with the reason when any value is unusable."""

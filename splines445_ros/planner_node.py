@@ -18,8 +18,6 @@ import traceback
 
 from diagnostic_msgs.msg import DiagnosticStatus
 import numpy as np
-import rclpy
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.time import Time
 from sensor_msgs.msg import JointState
@@ -27,6 +25,7 @@ from trajectory_msgs.msg import JointTrajectory
 
 from . import topics
 from .diagnostics import status_message
+from .node_main import run_node
 from .parameters import ConfigParameters
 from .planner_config import PlannerConfig
 from .request_planning import plan_request, start_from_state, summary_values
@@ -183,20 +182,7 @@ class PlannerNode(Node):
 
 def main(args=None):
     """Run the planner node until Ctrl-C or shutdown."""
-    rclpy.init(args=args)
-    node = None
-    try:
-        node = PlannerNode()
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except ValueError as exc:
-        print(f'planner_node: invalid parameters: {exc}')
-        raise SystemExit(2)
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
+    run_node(PlannerNode, args)
 
 
 if __name__ == '__main__':

@@ -22,15 +22,13 @@ JOINT_STATES = 'joint_states'
 TOOL_POSE = 'tool_pose'
 STATUS = '~/status'
 
-REQUEST_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100,
-                         reliability=ReliabilityPolicy.RELIABLE,
-                         durability=DurabilityPolicy.VOLATILE)
-LATCHED = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
-                     reliability=ReliabilityPolicy.RELIABLE,
-                     durability=DurabilityPolicy.TRANSIENT_LOCAL)
-STATUS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
-                        reliability=ReliabilityPolicy.RELIABLE,
-                        durability=DurabilityPolicy.TRANSIENT_LOCAL)
-STATE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
-                       reliability=ReliabilityPolicy.RELIABLE,
-                       durability=DurabilityPolicy.VOLATILE)
+
+def _reliable(depth, durability):
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth,
+                      reliability=ReliabilityPolicy.RELIABLE, durability=durability)
+
+
+REQUEST_QOS = _reliable(100, DurabilityPolicy.VOLATILE)
+LATCHED = _reliable(1, DurabilityPolicy.TRANSIENT_LOCAL)
+STATUS_QOS = _reliable(10, DurabilityPolicy.TRANSIENT_LOCAL)
+STATE_QOS = _reliable(10, DurabilityPolicy.VOLATILE)

@@ -171,10 +171,14 @@ def test_params_file_is_loaded(system):
 
 def test_invalid_arm_parameters_are_rejected(system):
     for values, reason in [({'publish_rate': 0.0}, 'publish_rate'),
+                           ({'publish_rate': 2.2e-311}, 'publish_rate'),  # found by fuzzing
                            ({'link_lengths': [1.0, -0.5]}, 'link_lengths'),
                            ({'joint_names': ['a', 'b']}, '3 non-empty names')]:
         result = system.arm.set_parameters(overrides(values))[0]
         assert not result.successful and reason in result.reason
+    # The arm keeps publishing after the rejected updates.
+    n = len(system.joint_states)
+    assert system.spin_until(lambda: len(system.joint_states) > n + 2, 5.0)
 
 
 def raw_trajectory(names, times, positions):

@@ -34,6 +34,14 @@ def knot_values(ppoly, derivative):
     return left, right
 
 
+def fixed_plan(method, req):
+    """Plan a drawn request with its own durations and boundary values."""
+    points, durations, (v0, a0, ve, ae) = req
+    traj = plan(points, method, 'fixed', durations=durations, start_velocity=v0,
+                start_acceleration=a0, end_velocity=ve, end_acceleration=ae)
+    return traj, points, durations, (v0, a0, ve, ae)
+
+
 def scale_of(values):
     return max(1.0, float(np.max(np.abs(values))))
 
@@ -41,9 +49,7 @@ def scale_of(values):
 @pytest.mark.parametrize('method', METHODS)
 @given(req=requests())
 def test_fixed_timing_interpolates_meets_boundary_and_is_continuous(method, req):
-    points, durations, (v0, a0, ve, ae) = req
-    traj = plan(points, method, 'fixed', durations=durations, start_velocity=v0,
-                start_acceleration=a0, end_velocity=ve, end_acceleration=ae)
+    traj, points, durations, (v0, a0, ve, ae) = fixed_plan(method, req)
     assert traj.breakpoints[0] == 0.0
     np.testing.assert_allclose(np.diff(traj.breakpoints), durations, rtol=1e-12)
     tol = 1e-9 * scale_of(points)
@@ -73,9 +79,7 @@ def test_434_jerk_jumps_where_445_does_not(req):
 @pytest.mark.parametrize('method', METHODS)
 @given(req=requests(max_points=7))
 def test_banded_solution_matches_dense_global_system(method, req):
-    points, durations, (v0, a0, ve, ae) = req
-    traj = plan(points, method, 'fixed', durations=durations, start_velocity=v0,
-                start_acceleration=a0, end_velocity=ve, end_acceleration=ae)
+    traj, points, durations, (v0, a0, ve, ae) = fixed_plan(method, req)
     for j in range(points.shape[1]):
         ref = global_coefficients(method, points[:, j], durations, v0[j], a0[j], ve[j], ae[j])
         got = traj.ppoly.c[::-1, :, j].T  # ascending (S, 6)
@@ -149,9 +153,7 @@ def test_uniform_with_boundary_values_meets_limits_and_boundary(method, req):
 @pytest.mark.parametrize('method', METHODS)
 @given(req=requests(max_points=8))
 def test_core_peaks_match_independent_root_finding(method, req):
-    points, durations, (v0, a0, ve, ae) = req
-    traj = plan(points, method, 'fixed', durations=durations, start_velocity=v0,
-                start_acceleration=a0, end_velocity=ve, end_acceleration=ae)
+    traj, points, durations, (v0, a0, ve, ae) = fixed_plan(method, req)
     for d in (1, 2, 3):
         ref = exact_peaks(traj.ppoly, d)
         np.testing.assert_allclose(traj.segment_peaks(d), ref, rtol=1e-8,
