@@ -123,28 +123,41 @@ class SegmentScales:
         return ((self.batch(trial, rows, base) - base[None, :]) / FD_STEP).T
 
 
-def optimal_durations(method, points, spline, scale, boundary, limits, dropped):
-    """Plan with time-optimal durations, starting from the uniform factor ``scale``."""
-    uniform = spline.durations(scale)
+def optimal_durations(method, points, start, boundary, limits, dropped, uniform=None):
+    """
+    Plan with time-optimal durations, starting from the (S,) ``start`` durations.
+
+    ``uniform`` is the feasible uniform-timing trajectory (kept when not
+    longer), or None when uniform timing found no feasible factor; the
+    optimiser then starts from infeasible durations and its constraints pull
+    it into the feasible set.  Raises ValueError when the result cannot be
+    made feasible.
+    """
     scales = SegmentScales(method, points, boundary, limits)
-    x0 = np.log(uniform)
+    x0 = np.log(start)
     bounds = list(zip(x0 + np.log(MIN_FRACTION), x0 + np.log(MAX_FRACTION)))
     result = minimize(
         lambda x: float(np.sum(np.exp(x))), x0, jac=np.exp, method='SLSQP', bounds=bounds,
         constraints=[{'type': 'ineq',
                       'fun': lambda x: 1.0 - scales.value(x),
                       'jac': lambda x: -scales.jacobian(x)}],
-        options={'maxiter': MAX_ITERATIONS, 'ftol': RELATIVE_TOLERANCE * uniform.sum()})
-    candidate = np.exp(result.x) if np.all(np.isfinite(result.x)) else uniform
+        options={'maxiter': MAX_ITERATIONS, 'ftol': RELATIVE_TOLERANCE * start.sum()})
+    candidate = np.exp(result.x) if np.all(np.isfinite(result.x)) else start
     refined = ScaledSpline(method, points, candidate, boundary)
-    factor, ratios = uniform_scale(refined, limits)
-    if factor * candidate.sum() < uniform.sum():
+    try:
+        factor, ratios = uniform_scale(refined, limits)
         durations, coeffs = refined.durations(factor), refined.coefficients(factor)
-    else:
-        durations, coeffs = uniform, spline.coefficients(scale)
-        ratios = limit_ratios(coeffs, durations, limits)
+    except ValueError:
+        if uniform is None:
+            raise ValueError('infeasible: neither uniform nor optimal timing found durations '
+                             'that meet the limits with these boundary velocities and '
+                             'accelerations') from None
+        durations = None
+    if uniform is not None and (durations is None or durations.sum() >= uniform.duration):
+        durations, coeffs, ratios = uniform.durations, uniform.coefficients, uniform.limit_ratios()
     traj = Trajectory(method, 'optimal', points, durations, coeffs, boundary, limits,
                       None, dropped, ratios=ratios)
     traj.optimizer = {'iterations': int(result.nit), 'evaluations': scales.evaluations,
-                      'message': str(result.message), 'uniform_duration': float(uniform.sum())}
+                      'message': str(result.message),
+                      'uniform_duration': None if uniform is None else uniform.duration}
     return traj

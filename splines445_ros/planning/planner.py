@@ -5,7 +5,7 @@ import numpy as np
 from .continuity_system import ContinuitySystem
 from .limits import check_boundary_feasible, JointLimits
 from .optimal import optimal_durations
-from .timing import chord_durations, scaled_spline
+from .timing import chord_durations, rest_to_rest_scale, scaled_spline, ScaledSpline
 from .trajectory import Trajectory
 from .validation import boundary_vector, duration_array, waypoint_array
 
@@ -111,9 +111,22 @@ def plan_trajectory(waypoints, method='445', timing='uniform', durations=None,
     chords = chord_durations(points)
     if not np.all(np.isfinite(chords)):
         raise ValueError('waypoints too large: chord lengths overflow')
-    spline, scale, ratios = scaled_spline(method, points, chords, boundary, limits)
+    try:
+        spline, scale, ratios = scaled_spline(method, points, chords, boundary, limits)
+    except ValueError as exc:
+        if timing != 'optimal' or 'infeasible' not in str(exc):
+            if 'infeasible' in str(exc):
+                raise ValueError(f'{exc} (timing "optimal" may still find durations)') from None
+            raise
+        # The paper's common factor cannot meet the limits: optimise from the
+        # rest-to-rest factor's durations, which are infeasible.
+        start = chords * rest_to_rest_scale(ScaledSpline(method, points, chords, boundary),
+                                            limits)
+        return optimal_durations(method, points, start, boundary, limits, dropped)
+    uniform = Trajectory(method, 'uniform', points, spline.durations(scale),
+                         spline.coefficients(scale), boundary, limits, scale, dropped,
+                         ratios=ratios)
     if timing == 'optimal':
-        return optimal_durations(method, points, spline, scale, boundary, limits, dropped)
-    return Trajectory(method, timing, points, spline.durations(scale),
-                      spline.coefficients(scale), boundary, limits, scale, dropped,
-                      ratios=ratios)
+        return optimal_durations(method, points, uniform.durations, boundary, limits, dropped,
+                                 uniform)
+    return uniform

@@ -142,6 +142,11 @@ def _refine(spline, limits, grid, excess):
     return high, r_high
 
 
+def rest_to_rest_scale(spline, limits):
+    """Return the factor that would meet the limits if the boundary values were zero."""
+    return _rest_to_rest_guess(spline, limits)[0]
+
+
 def _rest_to_rest_guess(spline, limits):
     position_only = limit_ratios(spline.waypoint_part, spline.base_durations, limits)
     guess = closed_form_scale(position_only)
