@@ -50,6 +50,8 @@ CASES = [
     ('durations count', {'timing': 'fixed', 'durations': [1.0, 1.0]}, r'one value per segment'),
     ('durations with uniform', {'durations': [1.0, 1.0, 1.0]}, r'only used with timing'),
     ('all waypoints equal', {'waypoints': np.ones((4, 2))}, r'all waypoints coincide'),
+    ('optimal too long', {'timing': 'optimal', 'waypoints': np.cumsum(np.ones((302, 2)), axis=0)},
+     r'at most 300 segments, got 301'),
 ]
 
 

@@ -45,6 +45,9 @@ FD_STEP = 1e-7
 MIN_FRACTION = 1e-2
 MAX_FRACTION = 10.0
 MAX_ITERATIONS = 200
+# Largest number of segments optimised (SLSQP's subproblem grows with the
+# square of it: about 2 s at 100 segments x 7 joints).
+MAX_SEGMENTS = 300
 # Stop when the total time changes by less than this fraction of the uniform total.
 RELATIVE_TOLERANCE = 1e-7
 _ROOTS = 1.0 / np.arange(1, 4)

@@ -4,7 +4,7 @@ import numpy as np
 
 from .continuity_system import ContinuitySystem
 from .limits import check_boundary_feasible, JointLimits
-from .optimal import optimal_durations
+from .optimal import MAX_SEGMENTS, optimal_durations
 from .timing import chord_durations, rest_to_rest_scale, scaled_spline, ScaledSpline
 from .trajectory import Trajectory
 from .validation import boundary_vector, duration_array, waypoint_array
@@ -108,6 +108,9 @@ def plan_trajectory(waypoints, method='445', timing='uniform', durations=None,
     if durations is not None:
         raise ValueError(f'durations are only used with timing="fixed", not {timing!r}')
     points, dropped = merge_duplicates(points)
+    if timing == 'optimal' and len(points) - 1 > MAX_SEGMENTS:
+        raise ValueError(f'timing "optimal" handles at most {MAX_SEGMENTS} segments, got '
+                         f'{len(points) - 1}; use timing "uniform" for long waypoint lists')
     chords = chord_durations(points)
     if not np.all(np.isfinite(chords)):
         raise ValueError('waypoints too large: chord lengths overflow')
