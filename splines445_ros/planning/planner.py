@@ -35,22 +35,10 @@ def merge_duplicates(waypoints):
     return waypoints[keep], tuple(int(i) for i in dropped)
 
 
-def plan(*args, **kwargs):
-    """
-    Plan a trajectory through ``waypoints`` (N, n_joints); see :func:`plan_trajectory`.
-
-    Floating-point overflow on absurd input (e.g. waypoints of 1e300) is not
-    warned about here: every result is checked for finiteness and such input
-    ends in a ValueError.
-    """
-    with np.errstate(over='ignore', invalid='ignore', divide='ignore'):
-        return plan_trajectory(*args, **kwargs)
-
-
-def plan_trajectory(waypoints, method='445', timing='uniform', durations=None,
-                    max_velocity=None, max_acceleration=None, max_jerk=None,
-                    start_velocity=None, start_acceleration=None,
-                    end_velocity=None, end_acceleration=None):
+def plan(waypoints, method='445', timing='uniform', durations=None,
+         max_velocity=None, max_acceleration=None, max_jerk=None,
+         start_velocity=None, start_acceleration=None,
+         end_velocity=None, end_acceleration=None):
     """
     Plan a trajectory through ``waypoints`` (N, n_joints).
 
@@ -58,7 +46,9 @@ def plan_trajectory(waypoints, method='445', timing='uniform', durations=None,
     timing (see :func:`merge_duplicates`, reported in
     ``Trajectory.dropped_waypoints``); "fixed" keeps them, since the caller's
     durations define the timing.  Raises ValueError naming the problem (and
-    its index) for bad or infeasible input.
+    its index) for bad or infeasible input.  Floating-point overflow on absurd
+    input (e.g. waypoints of 1e300) is not warned about: every result is
+    checked for finiteness and such input ends in a ValueError.
 
     Parameters
     ----------
@@ -79,6 +69,14 @@ def plan_trajectory(waypoints, method='445', timing='uniform', durations=None,
         boundary values, zero when None.
 
     """
+    with np.errstate(over='ignore', invalid='ignore', divide='ignore'):
+        return _plan(waypoints, method, timing, durations, max_velocity, max_acceleration,
+                     max_jerk, start_velocity, start_acceleration, end_velocity,
+                     end_acceleration)
+
+
+def _plan(waypoints, method, timing, durations, max_velocity, max_acceleration, max_jerk,
+          start_velocity, start_acceleration, end_velocity, end_acceleration):
     if method not in METHODS:
         raise ValueError(f'unknown method {method!r}: expected one of {METHODS}')
     if timing not in TIMINGS:
@@ -117,10 +115,10 @@ def plan_trajectory(waypoints, method='445', timing='uniform', durations=None,
     try:
         spline, scale, ratios = scaled_spline(method, points, chords, boundary, limits)
     except ValueError as exc:
-        if timing != 'optimal' or 'infeasible' not in str(exc):
-            if 'infeasible' in str(exc):
-                raise ValueError(f'{exc} (timing "optimal" may still find durations)') from None
+        if 'infeasible' not in str(exc):
             raise
+        if timing != 'optimal':
+            raise ValueError(f'{exc} (timing "optimal" may still find durations)') from None
         # The paper's common factor cannot meet the limits: optimise from the
         # rest-to-rest factor's durations, which are infeasible.
         start = chords * rest_to_rest_scale(ScaledSpline(method, points, chords, boundary),
