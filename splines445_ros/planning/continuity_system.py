@@ -34,6 +34,19 @@ _CONTINUITY = {
 }
 
 
+def spline_coefficients(method, points, durations, boundary):
+    """
+    Return the ascending terms of the spline through ``points`` (N, n).
+
+    ``durations`` (S,) gives (S, 6, n); a (B, S) batch of durations gives
+    (B, S, 6, n).  ``boundary`` is (v_start, a_start, v_end, a_end).
+    """
+    system = ContinuitySystem(method, durations)
+    dP = np.diff(points, axis=0)
+    vel, acc = system.solve(dP, *boundary)
+    return system.coefficients(points[:-1], dP, vel, acc)
+
+
 class ContinuitySystem:
     """
     The continuity equations of one method for one set of segment durations.

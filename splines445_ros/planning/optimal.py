@@ -34,7 +34,7 @@ at the lower bound ``MIN_FRACTION`` times its uniform duration.
 import numpy as np
 from scipy.optimize import minimize
 
-from .continuity_system import ContinuitySystem
+from .continuity_system import spline_coefficients
 from .limits import limit_ratios
 from .timing import ScaledSpline, uniform_scale
 from .trajectory import Trajectory
@@ -66,7 +66,6 @@ class SegmentScales:
         """Keep the request; nothing is solved yet."""
         self.method = method
         self.points = points
-        self.dP = np.diff(points, axis=0)
         self.boundary = boundary
         self.limits = limits
         self._value_key = None
@@ -87,15 +86,13 @@ class SegmentScales:
         n_batch, n_seg = durations.shape
         self.evaluations += n_batch
         try:
-            system = ContinuitySystem(self.method, durations)
-            vel, acc = system.solve(self.dP, *self.boundary)
+            coeffs = spline_coefficients(self.method, self.points, durations, self.boundary)
         except ValueError:  # a singular system somewhere in the batch
             if n_batch == 1:
                 return np.full((1, self.n_constraints), np.inf)
             return np.vstack([
                 self.batch(row[None, :], None if rows is None else rows[i:i + 1], fill)
                 for i, row in enumerate(log_durations)])
-        coeffs = system.coefficients(self.points[:-1], self.dP, vel, acc)
         if rows is None:
             rows = np.ones((n_batch, n_seg), dtype=bool)
         ratios = limit_ratios(coeffs[rows], durations[rows], self.limits)

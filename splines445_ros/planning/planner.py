@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from .continuity_system import ContinuitySystem
+from .continuity_system import spline_coefficients
 from .limits import check_boundary_feasible, JointLimits
 from .optimal import MAX_SEGMENTS, optimal_durations
 from .timing import chord_durations, rest_to_rest_scale, scaled_spline, ScaledSpline
@@ -97,10 +97,7 @@ def _plan(waypoints, method, timing, durations, max_velocity, max_acceleration, 
 
     if timing == 'fixed':
         seg_durations = duration_array(durations, points.shape[0] - 1)
-        system = ContinuitySystem(method, seg_durations)
-        dP = np.diff(points, axis=0)
-        vel, acc = system.solve(dP, *boundary)
-        coeffs = system.coefficients(points[:-1], dP, vel, acc)
+        coeffs = spline_coefficients(method, points, seg_durations, boundary)
         return Trajectory(method, timing, points, seg_durations, coeffs, boundary, limits)
 
     if durations is not None:

@@ -11,8 +11,8 @@ the waypoints alone, by the boundary velocities alone and by the boundary
 accelerations alone.  They are solved once (three right-hand sides of one
 banded solve); every trial factor then only recombines coefficients.  With zero
 boundary values the peaks scale exactly as ``v ~ 1/lambda``, ``a ~ 1/lambda**2``,
-``j ~ 1/lambda**3`` and the factor is closed-form; otherwise it is bracketed and
-bisected, because the peaks are not monotone in ``lambda``.
+``j ~ 1/lambda**3`` and the factor is closed-form; otherwise the peaks are not
+monotone in ``lambda`` and the factor is searched (see :func:`uniform_scale`).
 """
 
 import numpy as np
@@ -164,11 +164,10 @@ def _search_near_best(spline, limits, grid, excess):
     found = minimize_scalar(lambda y: _excess(spline, limits, np.exp(y))[0],
                             bounds=(np.log(lo), np.log(hi)), method='bounded',
                             options={'xatol': 1e-6})
-    scale = float(np.exp(found.x))
-    f = _excess(spline, limits, scale)[0]
-    if f > 0.0:
+    if found.fun > 0.0:
         return None
-    return np.array([lo, scale]), np.array([_excess(spline, limits, lo)[0], f])
+    return (np.array([lo, float(np.exp(found.x))]),
+            np.array([excess[max(best - 1, 0)], found.fun]))
 
 
 def uniform_scale(spline, limits):
