@@ -60,15 +60,58 @@ def overrides(values):
     return [Parameter(name, value=value) for name, value in values.items()]
 
 
-class InProcessSystem:
-    """Planner, arm simulation and a recording client spun by one executor."""
+class LocalRos:
+    """A private rclpy context and executor, DDS on loopback only; closes its nodes."""
 
-    def __init__(self, planner_parameters=None, arm_parameters=None, params_file=None):
-        """Start everything; ``*_parameters`` are dicts of overrides."""
+    def __init__(self):
+        """Create the context and the executor."""
         keep_dds_local()
         self.context = Context()
         rclpy.init(context=self.context)
         self.executor = SingleThreadedExecutor(context=self.context)
+        self._nodes = []
+
+    def add(self, node):
+        """Spin ``node`` with this executor and destroy it on close; return it."""
+        self.executor.add_node(node)
+        self._nodes.append(node)
+        return node
+
+    def spin_until(self, predicate, timeout):
+        """Spin the executor until ``predicate()`` is true; False on timeout."""
+        deadline = time.monotonic() + timeout
+        while not predicate():
+            if time.monotonic() > deadline:
+                return False
+            self.executor.spin_once(timeout_sec=0.005)
+        return True
+
+    def spin_for(self, seconds):
+        """Spin the executor for a while."""
+        self.spin_until(lambda: False, seconds)
+
+    def close(self):
+        """Destroy the nodes and shut this context down."""
+        self.executor.shutdown()
+        for node in reversed(self._nodes):
+            node.destroy_node()
+        rclpy.try_shutdown(context=self.context)
+
+    def __enter__(self):
+        """Use as a context manager."""
+        return self
+
+    def __exit__(self, *exc):
+        """Close on exit."""
+        self.close()
+
+
+class InProcessSystem(LocalRos):
+    """Planner, arm simulation and a recording client spun by one executor."""
+
+    def __init__(self, planner_parameters=None, arm_parameters=None, params_file=None):
+        """Start everything; ``*_parameters`` are dicts of overrides."""
+        super().__init__()
         cli = ['--ros-args', '--params-file', params_file] if params_file else None
         self.planner = PlannerNode(context=self.context, cli_args=cli,
                                    parameter_overrides=overrides(planner_parameters or {}))
@@ -95,7 +138,7 @@ class InProcessSystem:
             self.client.create_subscription(msg_type, topic, record.append, qos)
             for msg_type, topic, record, qos in recorders]
         for node in (self.planner, self.arm, self.client):
-            self.executor.add_node(node)
+            self.add(node)
         self.wait_for_connections()
 
     def wait_for_connections(self, timeout=10.0):
@@ -108,19 +151,6 @@ class InProcessSystem:
                     and all(sub.get_publisher_count() >= 1 for sub in self._subscriptions))
         if not self.spin_until(matched, timeout):
             raise RuntimeError('in-process nodes did not discover each other')
-
-    def spin_until(self, predicate, timeout):
-        """Spin the executor until ``predicate()`` is true; False on timeout."""
-        deadline = time.monotonic() + timeout
-        while not predicate():
-            if time.monotonic() > deadline:
-                return False
-            self.executor.spin_once(timeout_sec=0.005)
-        return True
-
-    def spin_for(self, seconds):
-        """Spin the executor for a while."""
-        self.spin_until(lambda: False, seconds)
 
     def request(self, msg, timeout=30.0):
         """Publish a waypoint request; return its status and trajectory (or None)."""
@@ -159,18 +189,3 @@ class InProcessSystem:
     def set_planner_parameters(self, values):
         """Set planner parameters; return the SetParametersResult list."""
         return self.planner.set_parameters(overrides(values))
-
-    def close(self):
-        """Destroy the nodes and shut this context down."""
-        self.executor.shutdown()
-        for node in (self.client, self.arm, self.planner):
-            node.destroy_node()
-        rclpy.try_shutdown(context=self.context)
-
-    def __enter__(self):
-        """Use as a context manager."""
-        return self
-
-    def __exit__(self, *exc):
-        """Close on exit."""
-        self.close()

@@ -3,16 +3,13 @@
 from diagnostic_msgs.msg import DiagnosticStatus
 import numpy as np
 import pytest
-import rclpy
-from rclpy.context import Context
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.time import Time
 from splines445_ros import paper_example as pe
 from splines445_ros import topics
 from splines445_ros.diagnostics import status_values
 from splines445_ros.in_process import (
-    InProcessSystem, keep_dds_local, overrides, stamp_ns, waypoint_message)
+    InProcessSystem, LocalRos, overrides, stamp_ns, waypoint_message)
 from splines445_ros.planner_node import PlannerNode
 from splines445_ros.ros_conversions import sampled_trajectory_from_msg
 from trajectory_msgs.msg import JointTrajectory
@@ -71,38 +68,21 @@ def test_replanning_mid_motion_is_continuous_and_reaches_the_new_goal():
 
 
 def test_replanning_without_any_state_says_so():
-    keep_dds_local()
-    context = Context()
-    rclpy.init(context=context)
-    try:
-        node = PlannerNode(context=context, parameter_overrides=overrides(
-            {'start_from_current_state': True}))
-        client = Node('client', context=context)
-        executor = SingleThreadedExecutor(context=context)
-        for n in (node, client):
-            executor.add_node(n)
+    with LocalRos() as ros:
+        node = ros.add(PlannerNode(context=ros.context, parameter_overrides=overrides(
+            {'start_from_current_state': True})))
+        client = ros.add(Node('client', context=ros.context))
         statuses = []
         client.create_subscription(DiagnosticStatus, '/planner_node/status', statuses.append,
                                    topics.STATUS_QOS)
         publisher = client.create_publisher(JointTrajectory, topics.WAYPOINTS,
                                             topics.REQUEST_QOS)
-        for _ in range(400):
-            if publisher.get_subscription_count() and node.status_publisher \
-                    .get_subscription_count():
-                break
-            executor.spin_once(timeout_sec=0.01)
+        assert ros.spin_until(lambda: publisher.get_subscription_count()
+                              and node.status_publisher.get_subscription_count(), 4.0)
         publisher.publish(waypoint_message(pe.JOINT_NAMES, W))
-        for _ in range(1000):
-            if statuses:
-                break
-            executor.spin_once(timeout_sec=0.01)
-        assert statuses and statuses[0].level == DiagnosticStatus.ERROR
+        assert ros.spin_until(lambda: statuses, 10.0)
+        assert statuses[0].level == DiagnosticStatus.ERROR
         assert 'no joint_states have been received' in statuses[0].message
-        executor.shutdown()
-        client.destroy_node()
-        node.destroy_node()
-    finally:
-        rclpy.try_shutdown(context=context)
 
 
 @pytest.mark.parametrize('lead', [0.0])

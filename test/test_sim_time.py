@@ -2,31 +2,22 @@
 
 from builtin_interfaces.msg import Time as TimeMsg
 import numpy as np
-import rclpy
-from rclpy.context import Context
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from splines445_ros import topics
 from splines445_ros.arm_sim_node import ArmSimNode
-from splines445_ros.in_process import keep_dds_local, overrides, stamp_ns
+from splines445_ros.in_process import LocalRos, overrides, stamp_ns
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 GOAL = [1.0, 2.0, 3.0]
 
 
 def test_arm_follows_simulated_time():
-    keep_dds_local()
-    context = Context()
-    rclpy.init(context=context)
-    try:
-        arm = ArmSimNode(context=context, parameter_overrides=overrides(
-            {'use_sim_time': True, 'publish_rate': 50.0}))
-        client = Node('clock_driver', context=context)
-        executor = SingleThreadedExecutor(context=context)
-        for node in (arm, client):
-            executor.add_node(node)
+    with LocalRos() as ros:
+        ros.add(ArmSimNode(context=ros.context, parameter_overrides=overrides(
+            {'use_sim_time': True, 'publish_rate': 50.0})))
+        client = ros.add(Node('clock_driver', context=ros.context))
         clock = client.create_publisher(Clock, '/clock', 10)
         trajectories = client.create_publisher(JointTrajectory, topics.JOINT_TRAJECTORY,
                                                topics.LATCHED)
@@ -34,26 +25,20 @@ def test_arm_follows_simulated_time():
         client.create_subscription(JointState, topics.JOINT_STATES, states.append,
                                    topics.STATE_QOS)
 
-        def spin(seconds_of_wall_time):
-            for _ in range(int(seconds_of_wall_time / 0.01)):
-                executor.spin_once(timeout_sec=0.01)
-
         def set_clock(seconds):
             clock.publish(Clock(clock=TimeMsg(sec=int(seconds),
                                               nanosec=int(round(seconds % 1 * 1e9)))))
-            spin(0.3)
+            ros.spin_for(0.3)
 
-        for _ in range(300):  # discovery
-            if clock.get_subscription_count() and trajectories.get_subscription_count():
-                break
-            executor.spin_once(timeout_sec=0.01)
+        assert ros.spin_until(lambda: clock.get_subscription_count()
+                              and trajectories.get_subscription_count(), 3.0)
         set_clock(100.0)
         msg = JointTrajectory(joint_names=['joint1', 'joint2', 'joint3'])
         point = JointTrajectoryPoint(positions=GOAL)
         point.time_from_start.sec = 1
         msg.points = [point]
         trajectories.publish(msg)
-        spin(0.3)
+        ros.spin_for(0.3)  # wall time only
         # Wall time passes, simulated time does not: the arm has not moved.
         np.testing.assert_allclose(states[-1].position, 0.0, atol=1e-12)
         set_clock(100.5)
@@ -64,8 +49,3 @@ def test_arm_follows_simulated_time():
         set_clock(101.5)
         assert stamp_ns(states[-1]) == 101_500_000_000
         np.testing.assert_allclose(states[-1].position, GOAL, atol=1e-12)
-        executor.shutdown()
-        client.destroy_node()
-        arm.destroy_node()
-    finally:
-        rclpy.try_shutdown(context=context)
