@@ -24,10 +24,10 @@ setup(
     tests_require=['pytest'],
     entry_points={
         'console_scripts': [
-            'planner_node = splines445_ros.planner_node:main',
-            'arm_sim_node = splines445_ros.arm_sim_node:main',
-            'demo = splines445_ros.demo:main',
-            'plot_trajectory = splines445_ros.plot_trajectory:main',
+            'planner_node = splines445_ros.nodes.planner_node:main',
+            'arm_sim_node = splines445_ros.nodes.arm_sim_node:main',
+            'demo = splines445_ros.tools.demo:main',
+            'plot_trajectory = splines445_ros.tools.plot_trajectory:main',
         ],
     },
 )

@@ -18,7 +18,7 @@ os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but th
 
 from bench_planning import toppra_plan  # noqa: E402, I100
 import numpy as np  # noqa: E402, I100
-from splines445_ros import paper_example as pe  # noqa: E402
+from splines445_ros.arm import paper_example as pe  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
 
 SEED = 2024

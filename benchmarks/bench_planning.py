@@ -28,7 +28,7 @@ os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but th
 import numpy as np  # noqa: E402
 from scipy.interpolate import CubicSpline  # noqa: E402
 
-from splines445_ros import paper_example as pe  # noqa: E402
+from splines445_ros.arm import paper_example as pe  # noqa: E402
 from splines445_ros.planning import chord_durations, plan  # noqa: E402
 
 SIZES = ((12, 3), (100, 7), (1000, 7), (10000, 7))

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from rclpy.exceptions import ParameterNotDeclaredException
 from rclpy.parameter import Parameter
-from splines445_ros.arm_sim_config import ArmSimConfig
-from splines445_ros.in_process import InProcessSystem, waypoint_message
-from splines445_ros.planner_config import PlannerConfig
+from splines445_ros.nodes.arm_sim_config import ArmSimConfig
+from splines445_ros.nodes.planner_config import PlannerConfig
+from splines445_ros.tools.in_process import InProcessSystem, waypoint_message
 
 N_MESSAGES = int(os.environ.get('SPLINES445_FUZZ_EXAMPLES', '2000')) // 2
 ARM = {'sent': 0, 'good': 0, 'bad': 0}

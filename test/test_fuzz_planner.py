@@ -13,10 +13,10 @@ from fuzz_messages import AMAX, bad_requests, good_requests, JOINTS, VMAX
 from hypothesis import given, HealthCheck, settings, strategies as st
 import numpy as np
 import pytest
-from splines445_ros.diagnostics import status_values
-from splines445_ros.in_process import InProcessSystem, waypoint_message
+from splines445_ros.nodes.diagnostics import status_values
+from splines445_ros.nodes.ros_conversions import duration_to_seconds, sampled_trajectory_from_msg
 from splines445_ros.planning import plan
-from splines445_ros.ros_conversions import duration_to_seconds, sampled_trajectory_from_msg
+from splines445_ros.tools.in_process import InProcessSystem, waypoint_message
 
 N_MESSAGES = int(os.environ.get('SPLINES445_FUZZ_EXAMPLES', '2000'))
 COUNTS = {'sent': 0, 'good': 0, 'bad': 0, 'ok': 0, 'error': 0, 'good_infeasible': 0}

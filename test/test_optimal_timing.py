@@ -83,7 +83,7 @@ def test_optimal_is_feasible_not_longer_than_uniform_and_segments_are_limited(me
 
 
 def test_optimal_beats_uniform_on_the_paper_example():
-    from splines445_ros import paper_example as pe
+    from splines445_ros.arm import paper_example as pe
     kwargs = request_kwargs(pe.MAX_VELOCITY, pe.MAX_ACCELERATION, None,
                             (pe.BOUNDARY_VELOCITY, pe.BOUNDARY_ACCELERATION,
                              pe.BOUNDARY_VELOCITY, pe.BOUNDARY_ACCELERATION))

@@ -5,13 +5,13 @@ import numpy as np
 import pytest
 from rclpy.node import Node
 from rclpy.time import Time
-from splines445_ros import paper_example as pe
-from splines445_ros import topics
-from splines445_ros.diagnostics import status_values
-from splines445_ros.in_process import (
+from splines445_ros.arm import paper_example as pe
+from splines445_ros.nodes import topics
+from splines445_ros.nodes.diagnostics import status_values
+from splines445_ros.nodes.planner_node import PlannerNode
+from splines445_ros.nodes.ros_conversions import sampled_trajectory_from_msg
+from splines445_ros.tools.in_process import (
     InProcessSystem, LocalRos, overrides, stamp_ns, waypoint_message)
-from splines445_ros.planner_node import PlannerNode
-from splines445_ros.ros_conversions import sampled_trajectory_from_msg
 from trajectory_msgs.msg import JointTrajectory
 
 W = pe.joint_waypoints()

@@ -5,9 +5,9 @@ import numpy as np
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
-from splines445_ros import topics
-from splines445_ros.arm_sim_node import ArmSimNode
-from splines445_ros.in_process import LocalRos, overrides, stamp_ns
+from splines445_ros.nodes import topics
+from splines445_ros.nodes.arm_sim_node import ArmSimNode
+from splines445_ros.tools.in_process import LocalRos, overrides, stamp_ns
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 GOAL = [1.0, 2.0, 3.0]

@@ -7,6 +7,10 @@ Usage::
     traj = plan(waypoints, method='445', timing='uniform',
                 max_velocity=[2, 2, 2], max_acceleration=[10, 10, 10])
     traj.evaluate([0.0, 0.5], derivative=1)
+
+May import: numpy and scipy only.  Never rclpy or ROS message packages, and
+nothing from the rest of the package (:mod:`splines445_ros.arm`, ``nodes``,
+``tools``): it is the bottom layer (``test/test_layout.py`` checks this).
 """
 
 from .limits import BindingLimit, JointLimits

@@ -8,8 +8,8 @@ publishing one, so it is testable without ROS.
 import numpy as np
 
 from .diagnostics import format_vector
-from .planning import plan
 from .ros_conversions import WaypointRequest
+from ..planning import plan
 
 # A fixed-timing request may exceed a limit by this much (round-off of times
 # that came through nanosecond Durations) before it is rejected.

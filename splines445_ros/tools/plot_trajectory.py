@@ -76,7 +76,7 @@ def receive_one(topic, timeout):
     from rclpy.node import Node
     from trajectory_msgs.msg import JointTrajectory
 
-    from .topics import LATCHED
+    from ..nodes.topics import LATCHED
 
     rclpy.init()
     node = Node('plot_trajectory')

@@ -11,7 +11,7 @@ import csv
 
 import numpy as np
 
-from .paper_example import distance_to_triangle
+from ..arm.paper_example import distance_to_triangle
 
 QUANTITIES = ('velocity', 'acceleration', 'jerk')
 

@@ -15,13 +15,13 @@ import sys
 
 import numpy as np
 
-from . import paper_example as pe
-from .diagnostics import status_values
 from .figures import plot_joint_curves, plot_tool_path
 from .in_process import InProcessSystem, waypoint_message
-from .kinematics import PlanarArm
-from .planning import plan
 from .report import markdown_table, run_metrics, write_csv
+from ..arm import paper_example as pe
+from ..arm.kinematics import PlanarArm
+from ..nodes.diagnostics import status_values
+from ..planning import plan
 
 RUNS = (('434', 'uniform'), ('445', 'uniform'), ('445', 'optimal'))
 PLANNER_PARAMETERS = {'max_velocity': pe.MAX_VELOCITY.tolist(),

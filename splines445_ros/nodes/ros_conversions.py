@@ -20,7 +20,7 @@ from builtin_interfaces.msg import Duration
 import numpy as np
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-from .playback import SampledTrajectory
+from ..arm.playback import SampledTrajectory
 
 NANOS = 1_000_000_000
 

@@ -19,10 +19,10 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-from . import topics
-from .arm_sim_node import ArmSimNode
-from .planner_node import PlannerNode
-from .ros_conversions import seconds_to_duration
+from ..nodes import topics
+from ..nodes.arm_sim_node import ArmSimNode
+from ..nodes.planner_node import PlannerNode
+from ..nodes.ros_conversions import seconds_to_duration
 
 
 def keep_dds_local():

@@ -11,8 +11,8 @@ from dataclasses import dataclass
 import math
 from typing import Tuple
 
-from .planning import METHODS, TIMINGS
 from .validated_config import ValidatedConfig
+from ..planning import METHODS, TIMINGS
 
 DEFAULT_JOINTS = ('joint1', 'joint2', 'joint3')
 MIN_SAMPLE_PERIOD = 1e-4

@@ -26,10 +26,10 @@ from trajectory_msgs.msg import JointTrajectory
 from . import topics
 from .arm_sim_config import ArmSimConfig
 from .diagnostics import status_message
-from .kinematics import PlanarArm
 from .node_main import run_node
 from .parameters import ConfigParameters
 from .ros_conversions import sampled_trajectory_from_msg
+from ..arm.kinematics import PlanarArm
 
 PARAMETER_DESCRIPTIONS = {
     'joint_names': 'Names of joint 1 (shoulder), 2 (elbow) and 3 (tool).',
