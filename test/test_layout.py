@@ -1,0 +1,180 @@
+"""
+The package layout: one folder per concept, and who may import whom.
+
+The rules (also in each folder's ``__init__`` docstring)::
+
+    planning  numpy/scipy only: no ROS, nothing else from the package
+    arm       may import planning; no ROS
+    nodes     may import planning and arm (and ROS); never tools
+    tools     may import everything
+
+They are checked by reading every module's imports with :mod:`ast` (imports
+inside functions included), so nothing is executed and a lazy import cannot
+hide.  ``test_checker_flags_bad_imports`` runs the same checker on a small
+package written in the test, with one deliberate violation of each kind, so
+the rule test is known to be able to fail.
+"""
+
+import ast
+import configparser
+import importlib
+import os
+import re
+
+import pytest
+
+PACKAGE = 'splines445_ros'
+ROOT = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), PACKAGE)
+
+# Layer -> the package layers it may import.
+MAY_IMPORT = {
+    'planning': {'planning'},
+    'arm': {'arm', 'planning'},
+    'nodes': {'nodes', 'arm', 'planning'},
+    'tools': {'tools', 'nodes', 'arm', 'planning'},
+}
+ROS_FREE = {'planning', 'arm'}
+ROS_MODULES = {'rclpy', 'rcl_interfaces', 'builtin_interfaces', 'launch', 'launch_ros',
+               'ament_index_python', 'rosidl_runtime_py'}
+
+
+def is_ros_module(name):
+    """Return True for rclpy and ROS 2 message / runtime packages."""
+    top = name.split('.')[0]
+    return top in ROS_MODULES or top.endswith('_msgs') or top.startswith('rosidl')
+
+
+def modules(root):
+    """Yield (dotted module name, path) of every .py file below the package ``root``."""
+    base = os.path.dirname(root)
+    for folder, _, files in os.walk(root):
+        for name in sorted(files):
+            if name.endswith('.py'):
+                path = os.path.join(folder, name)
+                rel = os.path.relpath(path, base)[:-3].split(os.sep)
+                if rel[-1] == '__init__':
+                    rel = rel[:-1]
+                yield '.'.join(rel), path
+
+
+def imported_names(module, path):
+    """Absolute names of everything ``module`` (at ``path``) imports, with line numbers."""
+    with open(path, encoding='utf-8') as handle:
+        tree = ast.parse(handle.read(), path)
+    is_package = os.path.basename(path) == '__init__.py'
+    package = module.split('.') if is_package else module.split('.')[:-1]
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            found += [(node.lineno, alias.name) for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                anchor = package[:len(package) - node.level + 1]
+                base = '.'.join(anchor + ([node.module] if node.module else []))
+            else:
+                base = node.module
+            # "from pkg import sub" may import a subpackage: name both.
+            found.append((node.lineno, base))
+            found += [(node.lineno, f'{base}.{alias.name}') for alias in node.names]
+    return found
+
+
+def layer_of(module):
+    """Return the layer (first folder below the package) of a dotted module name."""
+    parts = module.split('.')
+    return parts[1] if len(parts) > 1 else ''
+
+
+def violations(root):
+    """Every broken rule below the package ``root``, as readable strings."""
+    package = os.path.basename(root)
+    found = []
+    for module, path in modules(root):
+        layer = layer_of(module)
+        if module == package:
+            continue
+        if layer not in MAY_IMPORT:
+            found.append(f'{module}: outside the layer folders {sorted(MAY_IMPORT)}')
+            continue
+        for line, name in imported_names(module, path):
+            where = f'{os.path.relpath(path, os.path.dirname(root))}:{line}'
+            if name.split('.')[0] == package:
+                target = layer_of(name)
+                if target in MAY_IMPORT and target not in MAY_IMPORT[layer]:
+                    found.append(f'{where}: {layer} imports {name}')
+            elif layer in ROS_FREE and is_ros_module(name):
+                found.append(f'{where}: {layer} imports ROS module {name}')
+    return sorted(set(found))
+
+
+def test_layers_import_only_what_they_may():
+    assert os.path.isdir(os.path.join(ROOT, 'planning'))
+    assert violations(ROOT) == []
+
+
+def test_every_folder_states_its_rules():
+    for layer in MAY_IMPORT:
+        with open(os.path.join(ROOT, layer, '__init__.py'), encoding='utf-8') as handle:
+            doc = ast.get_docstring(ast.parse(handle.read()))
+        assert doc and 'May import' in doc, f'{layer}/__init__.py must say what it may import'
+
+
+def _write(root, relpath, text):
+    path = os.path.join(root, *relpath.split('/'))
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    with open(path, 'w', encoding='utf-8') as handle:
+        handle.write(text)
+
+
+def test_checker_flags_bad_imports(tmp_path):
+    root = str(tmp_path / 'pkg')
+    for layer in MAY_IMPORT:
+        _write(root, f'{layer}/__init__.py', '"""Layer."""\n')
+    _write(root, '__init__.py', '')
+    _write(root, 'planning/core.py', 'import numpy\nfrom rclpy.node import Node\n')
+    _write(root, 'planning/sneaky.py', 'def f():\n    from ..arm import kinematics\n')
+    _write(root, 'arm/sim.py', 'from .. import planning\nfrom geometry_msgs.msg import Pose\n')
+    _write(root, 'arm/up.py', 'import pkg.nodes.node\n')
+    _write(root, 'nodes/node.py',
+           'import rclpy\nfrom ..arm import sim\nfrom pkg.tools import demo\n')
+    _write(root, 'tools/demo.py', 'from ..nodes import node\nfrom ..planning import core\n')
+    _write(root, 'stray.py', 'import os\n')
+    found = violations(root)
+    expected = [
+        'pkg.stray: outside the layer folders',
+        'pkg/arm/sim.py:2: arm imports ROS module geometry_msgs.msg',
+        'pkg/arm/up.py:1: arm imports pkg.nodes.node',
+        'pkg/nodes/node.py:3: nodes imports pkg.tools',
+        'pkg/planning/core.py:2: planning imports ROS module rclpy.node',
+        'pkg/planning/sneaky.py:2: planning imports pkg.arm',
+    ]
+    for text in expected:
+        assert any(v.startswith(text) for v in found), (text, found)
+    # Allowed imports (tools -> nodes/planning, nodes -> arm, arm -> planning) are not flagged.
+    assert not any('tools/demo.py' in v or 'arm/sim.py:1' in v or 'node.py:2' in v
+                   for v in found), found
+
+
+def _console_scripts():
+    setup_py = os.path.join(os.path.dirname(ROOT), 'setup.py')
+    with open(setup_py, encoding='utf-8') as handle:
+        text = handle.read()
+    return dict(re.findall(r"'(\w+) = ([\w.]+:\w+)'", text))
+
+
+def test_executables_keep_their_names_and_resolve():
+    scripts = _console_scripts()
+    # The names `ros2 run splines445_ros <name>` users type.
+    assert {'planner_node', 'arm_sim_node', 'demo', 'plot_trajectory'} <= set(scripts)
+    for target in scripts.values():
+        module, function = target.split(':')
+        assert callable(getattr(importlib.import_module(module), function)), target
+    config = configparser.ConfigParser()
+    config.read(os.path.join(os.path.dirname(ROOT), 'setup.cfg'))
+    # ament_python: executables go to lib/<package>, where `ros2 run` looks.
+    assert config['install']['install_scripts'] == f'$base/lib/{PACKAGE}'
+
+
+@pytest.mark.parametrize('layer', sorted(MAY_IMPORT))
+def test_layer_is_a_package(layer):
+    assert importlib.import_module(f'{PACKAGE}.{layer}').__doc__
