@@ -5,11 +5,18 @@ Every field of the dataclass becomes a parameter declared with a descriptor
 (type and description).  ``set_parameters`` builds a new config from the
 current values overlaid with the request; if the config's ``from_values``
 raises ValueError, the request is rejected with that reason and nothing changes.
+
+String parameters accept numbers as users type them: ``-p method:=434``
+arrives as an INTEGER, so string fields are declared with dynamic typing and
+a number given for one is stored as its string (``'434'``), at start-up and
+on every ``set_parameters``; any other type is rejected by validation with
+the reason.
 """
 
 from dataclasses import fields
 
 from rcl_interfaces.msg import ParameterDescriptor, ParameterType, SetParametersResult
+from rclpy.parameter import Parameter
 
 
 def _parameter_type(default):
@@ -28,6 +35,14 @@ def _parameter_type(default):
     raise TypeError(f'no parameter type for default {default!r}')
 
 
+def _numeric_string(parameter):
+    """Return ``parameter`` as a string parameter if a number was given, else None."""
+    value = parameter.value
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return Parameter(parameter.name, Parameter.Type.STRING, str(value))
+    return None
+
+
 class ConfigParameters:
     """Declare ``config_cls``'s fields on ``node`` and keep ``self.config`` valid."""
 
@@ -38,15 +53,29 @@ class ConfigParameters:
         self._on_change = on_change
         defaults = config_cls()
         self.names = [f.name for f in fields(config_cls)]
+        self._string_names = {n for n in self.names if isinstance(getattr(defaults, n), str)}
         for name in self.names:
             default = getattr(defaults, name)
-            descriptor = ParameterDescriptor(
-                name=name, type=_parameter_type(default), description=descriptions[name])
+            if name in self._string_names:
+                descriptor = ParameterDescriptor(
+                    name=name, dynamic_typing=True, description=descriptions[name])
+            else:
+                descriptor = ParameterDescriptor(
+                    name=name, type=_parameter_type(default), description=descriptions[name])
             node.declare_parameter(
                 name, list(default) if isinstance(default, tuple) else default, descriptor)
+        typed = [p for p in (node.get_parameter(n) for n in self._string_names)
+                 if _numeric_string(p) is not None]
+        if typed:
+            node.set_parameters([_numeric_string(p) for p in typed])
         self.config = config_cls.from_values(
             {name: node.get_parameter(name).value for name in self.names})
+        node.add_pre_set_parameters_callback(self._numbers_as_strings)
         node.add_on_set_parameters_callback(self._on_set_parameters)
+
+    def _numbers_as_strings(self, parameters):
+        return [(_numeric_string(p) if p.name in self._string_names else None) or p
+                for p in parameters]
 
     def _on_set_parameters(self, parameters):
         values = {name: getattr(self.config, name) for name in self.names}

@@ -1,5 +1,7 @@
 """Base of the nodes' frozen config dataclasses (pure Python, no rclpy)."""
 
+from dataclasses import fields
+
 
 class ValidatedConfig:
     """Build a config from parameter values and validate it (subclasses: ``validate``)."""
@@ -9,6 +11,12 @@ class ValidatedConfig:
         """Build and validate a config from a dict of parameter values (ValueError)."""
         config = cls(**{k: (tuple(v) if isinstance(v, (list, tuple)) else v)
                         for k, v in values.items()})
+        # String parameters are declared with dynamic typing (so that a number
+        # typed on the command line arrives at all): check the type here.
+        for field in fields(cls):
+            value = getattr(config, field.name)
+            if isinstance(field.default, str) and not isinstance(value, str):
+                raise ValueError(f'{field.name} must be a string, got {value!r}')
         config.validate()
         return config
 

@@ -1,0 +1,83 @@
+"""
+String parameters as users type them: ``-p method:=434`` arrives as an INTEGER.
+
+Before, such an override killed the node with InvalidParameterTypeException.
+Now a number given for a string parameter is stored as its string, and any
+other type is rejected by validation with the reason, the node alive.
+"""
+
+import os
+
+from diagnostic_msgs.msg import DiagnosticStatus
+import pytest
+from rclpy.parameter import Parameter
+from splines445_ros.arm import paper_example as pe
+from splines445_ros.nodes.arm_sim_node import ArmSimNode
+from splines445_ros.nodes.planner_node import PlannerNode
+from splines445_ros.tools.in_process import InProcessSystem, LocalRos, waypoint_message
+
+
+def _planner(ros, cli):
+    return ros.add(PlannerNode(context=ros.context, cli_args=['--ros-args'] + cli))
+
+
+@pytest.mark.parametrize('typed', ['434', '445', '555'])
+def test_integer_method_on_the_command_line(typed):
+    with LocalRos() as ros:
+        node = _planner(ros, ['-p', f'method:={typed}'])
+        assert node.parameters.config.method == typed
+        # Stored as the string, so `ros2 param get` shows what the node uses.
+        value = node.get_parameter('method').value
+        assert isinstance(value, str) and value == typed
+
+
+def test_integer_method_in_a_params_file(tmp_path):
+    path = os.path.join(tmp_path, 'params.yaml')
+    with open(path, 'w', encoding='utf-8') as handle:
+        handle.write('planner_node:\n  ros__parameters:\n    method: 434\n')
+    with LocalRos() as ros:
+        node = _planner(ros, ['--params-file', path])
+        assert node.parameters.config.method == '434'
+
+
+def test_unknown_integer_method_is_a_clear_startup_error():
+    with LocalRos() as ros:
+        with pytest.raises(ValueError, match=r"method must be one of .*got '999'"):
+            PlannerNode(context=ros.context, cli_args=['--ros-args', '-p', 'method:=999'])
+
+
+def test_set_parameters_with_numbers_and_wrong_types():
+    with LocalRos() as ros:
+        node = _planner(ros, [])
+        ok = node.set_parameters([Parameter('method', value=434)])[0]
+        assert ok.successful and node.parameters.config.method == '434'
+        assert node.get_parameter('method').value == '434'
+        for bad, reason in ((999, "got '999'"), ([1.0, 2.0], 'got (1.0, 2.0)'),
+                            (True, 'got True')):
+            result = node.set_parameters([Parameter('method', value=bad)])[0]
+            assert not result.successful and reason in result.reason, result.reason
+            assert node.parameters.config.method == '434'
+            assert node.get_parameter('method').value == '434'
+        bad_timing = node.set_parameters([Parameter('timing', value=3)])[0]
+        assert not bad_timing.successful and 'timing must be one of' in bad_timing.reason
+
+
+def test_arm_string_parameter_takes_a_number():
+    with LocalRos() as ros:
+        node = ros.add(ArmSimNode(context=ros.context,
+                                  cli_args=['--ros-args', '-p', 'frame_id:=7']))
+        assert node.parameters.config.frame_id == '7'
+        result = node.set_parameters([Parameter('frame_id', value=['a', 'b'])])[0]
+        assert not result.successful and 'frame_id must be a string' in result.reason
+        assert node.parameters.config.frame_id == '7'
+
+
+def test_planner_with_integer_method_serves_requests():
+    with InProcessSystem(planner_parameters={'max_jerk': [0.0, 0.0, 0.0]}) as system:
+        assert system.set_planner_parameters({'method': 434})[0].successful
+        assert not system.set_planner_parameters({'method': 4.5})[0].successful
+        status, trajectory = system.request(waypoint_message(
+            pe.JOINT_NAMES, pe.joint_waypoints()))
+        assert status.level == DiagnosticStatus.OK, status.message
+        assert dict((kv.key, kv.value) for kv in status.values)['method'] == '434'
+        assert trajectory is not None
