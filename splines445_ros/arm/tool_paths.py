@@ -1,0 +1,454 @@
+"""
+Straight tool paths within a tolerance: Taylor's bounded-deviation refinement on splines.
+
+The paper ends its example noting that the 445 tool path leaves the straight
+lines between the tool waypoints, and that waypoints should be added "by
+using Taylor's bounded deviations method" (R. H. Taylor, IBM J. Res. Dev. 23,
+1979).  :func:`plan_tool_path` does that for every method and timing of
+:func:`splines445_ros.planning.plan`; pure Python, no ROS.
+
+Kinematics protocol
+-------------------
+Any object with
+
+* ``forward(joints)``: tool poses (..., 3) = (x, y, yaw) of joint positions
+  (..., n), vectorised over the leading axes;
+* ``inverse(poses)``: joint positions (K, n) of tool poses (K, 3), continuous
+  along K (no 2*pi jumps between consecutive rows), raising ValueError for an
+  unreachable pose.
+
+:class:`splines445_ros.arm.kinematics.PlanarArm` implements it; its
+``inverse`` takes the paper's elbow branch (``elbow=1``) by default.
+
+Algorithm
+---------
+1. Inverse kinematics of the tool waypoints (consecutive duplicates merged,
+   except with fixed timing), plan the joint trajectory with ``plan()``.
+2. On every trajectory segment (between two consecutive knots), find the
+   largest distance of the tool position from the straight segment between
+   the two *requested* tool waypoints it belongs to, and the largest
+   orientation deviation: ``|wrap(yaw(t) - (yaw_a + s (yaw_b - yaw_a)))|``,
+   where ``s`` in [0, 1] is the projection of the tool position on that
+   segment (for a pure rotation, the fraction of the segment's time), so
+   position and orientation are interpolated together, as in Taylor's method.
+   Requested yaws are unwrapped, so the interpolation takes the short way.
+3. On every segment that exceeds a tolerance, insert the inverse kinematics of
+   the Cartesian midpoint of its two knots (position and yaw; on the straight
+   line, since both knots are) as a new knot, re-plan the whole trajectory
+   (every knot moves the whole spline, so nothing checked before is kept)
+   and repeat from 2 until every segment is within the tolerances.
+4. Stop with a ValueError naming the segment, the tool waypoints it lies
+   between and the deviation reached when ``max_inserted`` knots would be
+   exceeded, and naming the point when an inserted point is out of reach.
+
+How the deviation between knots is bounded
+------------------------------------------
+The deviation is a smooth function of time on every segment.  It is sampled
+on ``GRID`` points per segment (both knots included), and every grid local
+maximum is refined by a vectorised golden-section search over the bracket
+between its two grid neighbours (``GOLDEN_STEPS`` steps shrink the bracket to
+below 1e-6 of its width), so every maximum the grid brackets is found to
+round-off.  A maximum the grid does not bracket would have to sit between two
+grid points and exceed the larger of them; since the distance to a segment is
+1-Lipschitz in the tool position, it exceeds it by at most half the tool's
+arc length between the two points (``grid_slack`` of :class:`Deviation`
+reports half the largest chord between grid neighbours, a few millimetres on
+the paper's triangle: that is the bound without the search, not the error of
+the search).  On the paper's triangle a 1000-point grid per segment gives the
+same maxima to 1e-9 m, and the tests check every result independently, by
+forward kinematics of a much finer sampling.
+
+Timing and inserted knots
+-------------------------
+With "uniform" and "optimal" timing the inserted knots simply get their own
+segment durations from the planner (their chord lengths, then the limits).
+With "fixed" timing the caller's durations are per requested edge and are
+kept: every tool waypoint is reached at its requested time, and an inserted
+knot splits its segment's duration in proportion to the joint-space chord
+lengths of the two halves (eq. 11 of the paper, within the segment).
+"""
+
+from dataclasses import dataclass
+import math
+
+import numpy as np
+
+from ..planning import merge_duplicates, plan
+
+GRID = 24
+GOLDEN_STEPS = 30
+DEFAULT_MAX_INSERTED = 200
+# Edges shorter than this [m] are pure rotations: parameterised by time.
+MIN_EDGE_LENGTH = 1e-9
+_GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
+
+
+@dataclass(frozen=True)
+class Deviation:
+    """
+    Largest deviation of the tool from its straight path, per trajectory segment.
+
+    ``position`` [m] and ``orientation`` [rad] are arrays (S,), ``*_time`` the
+    trajectory times [s] where they occur, ``grid_slack`` [m] half the largest
+    tool chord between two grid points (see the module docstring).
+    """
+
+    position: np.ndarray
+    orientation: np.ndarray
+    position_time: np.ndarray
+    orientation_time: np.ndarray
+    grid_slack: float
+
+    @property
+    def max_position(self):
+        """Return the largest position deviation [m] of the whole path."""
+        return float(np.max(self.position))
+
+    @property
+    def max_orientation(self):
+        """Return the largest orientation deviation [rad] of the whole path."""
+        return float(np.max(self.orientation))
+
+
+@dataclass(frozen=True)
+class ToolPath:
+    """
+    A joint trajectory whose tool follows straight lines within tolerances.
+
+    Attributes
+    ----------
+    trajectory : the planned :class:`~splines445_ros.planning.Trajectory`.
+    poses : (M, 3) tool poses (x, y, yaw) of its knots, yaw unwrapped.
+    joints : (M, n) joint positions of its knots (the waypoints planned).
+    waypoint_knots : (N,) the knot of every requested tool waypoint (a merged
+        duplicate maps to the knot it equals).
+    segment_edges : (M-1,) the requested edge (tool waypoints e, e+1 of the
+        request) every trajectory segment lies on.
+    inserted : number of knots inserted.
+    deviation, initial_deviation : :class:`Deviation` of the result and of the
+        unrefined plan; ``initial_duration`` the unrefined plan's duration.
+    iterations : number of plans made.
+
+    """
+
+    trajectory: object
+    poses: np.ndarray
+    joints: np.ndarray
+    waypoint_knots: np.ndarray
+    segment_edges: np.ndarray
+    inserted: int
+    deviation: Deviation
+    initial_deviation: Deviation
+    initial_duration: float
+    iterations: int
+
+    @property
+    def max_deviation(self):
+        """Return the largest position deviation [m] of the result."""
+        return self.deviation.max_position
+
+    @property
+    def max_orientation_deviation(self):
+        """Return the largest orientation deviation [rad] of the result."""
+        return self.deviation.max_orientation
+
+
+def _wrap(angle):
+    return (angle + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def _tolerance(name, value):
+    """Return a tolerance: None or 0 -> inf (unchecked); ValueError if negative or NaN."""
+    if value is None:
+        return math.inf
+    value = float(value)
+    if math.isnan(value) or value < 0.0:
+        raise ValueError(f'{name} = {value}: must be >= 0 (0 = not checked)')
+    return value if value > 0.0 else math.inf
+
+
+def tool_pose_array(poses):
+    """Return tool poses as a finite (N, 3) array (x, y, yaw), N >= 2, yaw unwrapped."""
+    try:
+        arr = np.array(poses, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f'tool poses must be numeric: {exc}') from None
+    if arr.ndim != 2 or arr.shape[1] != 3:
+        raise ValueError(f'tool poses must have shape (N, 3) = (x, y, yaw), got {arr.shape}')
+    if arr.shape[0] < 2:
+        raise ValueError(f'need at least 2 tool waypoints, got {arr.shape[0]}')
+    bad = np.argwhere(~np.isfinite(arr))
+    if bad.size:
+        k, c = bad[0]
+        raise ValueError(f'tool waypoint {k} has {("x", "y", "yaw")[c]} = {arr[k, c]}: '
+                         'values must be finite')
+    arr[:, 2] = np.unwrap(arr[:, 2])
+    return arr
+
+
+def _inverse(kinematics, poses, describe):
+    """IK of ``poses``; on failure name the first unreachable one with ``describe(k)``."""
+    try:
+        joints = np.asarray(kinematics.inverse(poses), dtype=float)
+    except ValueError:
+        for k, pose in enumerate(poses):
+            try:
+                kinematics.inverse(pose[None, :])
+            except ValueError as exc:
+                raise ValueError(f'{describe(k)} at (x, y, yaw) = '
+                                 f'({pose[0]:.6g}, {pose[1]:.6g}, {pose[2]:.6g}) is '
+                                 f'unreachable ({exc})') from None
+        raise
+    if joints.ndim != 2 or joints.shape[0] != len(poses) or not np.all(np.isfinite(joints)):
+        raise ValueError(f'inverse kinematics returned {joints.shape} non-finite or '
+                         f'mis-shaped joints for {len(poses)} poses')
+    return joints
+
+
+class _PathMeasure:
+    """Deviation of a planned trajectory's tool from the requested straight edges."""
+
+    def __init__(self, traj, kinematics, edge_poses, segment_edges):
+        self.traj = traj
+        self.kinematics = kinematics
+        self.segment_edges = segment_edges
+        a, b = edge_poses[:-1], edge_poses[1:]
+        self.start = a[:, :2]
+        self.direction = b[:, :2] - a[:, :2]
+        self.length2 = np.sum(self.direction**2, axis=1)
+        self.yaw0 = a[:, 2]
+        self.dyaw = b[:, 2] - a[:, 2]
+        n_edges = len(a)
+        first = np.searchsorted(segment_edges, np.arange(n_edges), side='left')
+        last = np.searchsorted(segment_edges, np.arange(n_edges), side='right')
+        self.edge_t0 = traj.breakpoints[first]
+        self.edge_t1 = traj.breakpoints[last]
+
+    def __call__(self, t, seg):
+        """Position and orientation deviation (K,) at times ``t`` on segments ``seg``."""
+        pose = np.asarray(self.kinematics.forward(self.traj.evaluate(t)), dtype=float)
+        e = self.segment_edges[seg]
+        p = pose[:, :2] - self.start[e]
+        ab = self.direction[e]
+        long_edge = self.length2[e] > MIN_EDGE_LENGTH**2
+        s_line = np.sum(p * ab, axis=1) / np.where(long_edge, self.length2[e], 1.0)
+        span = self.edge_t1[e] - self.edge_t0[e]
+        s_time = (t - self.edge_t0[e]) / np.where(span > 0.0, span, 1.0)
+        s = np.clip(np.where(long_edge, s_line, s_time), 0.0, 1.0)
+        position = np.hypot(*(p - s[:, None] * ab).T)
+        orientation = np.abs(_wrap(pose[:, 2] - self.yaw0[e] - s * self.dyaw[e]))
+        return position, orientation, pose[:, :2]
+
+    def deviation(self, grid=GRID, steps=GOLDEN_STEPS):
+        """Return the :class:`Deviation` per segment (grid, then golden-section search)."""
+        traj = self.traj
+        n_seg = traj.durations.size
+        u = np.linspace(0.0, 1.0, grid)
+        times = traj.breakpoints[:-1, None] + traj.durations[:, None] * u[None, :]
+        seg = np.repeat(np.arange(n_seg), grid)
+        pos, ori, xy = self(times.ravel(), seg)
+        xy = xy.reshape(n_seg, grid, 2)
+        slack = 0.5 * float(np.max(np.hypot(*np.diff(xy, axis=1).transpose(2, 0, 1))))
+        best = []
+        for values in (pos.reshape(n_seg, grid), ori.reshape(n_seg, grid)):
+            j = np.argmax(values, axis=1)
+            best.append([values[np.arange(n_seg), j].copy(),
+                         times[np.arange(n_seg), j].copy()])
+        # Brackets around every interior grid local maximum, of either quantity.
+        cand_seg, cand_lo, cand_hi, cand_kind = [], [], [], []
+        for kind, values in enumerate((pos.reshape(n_seg, grid), ori.reshape(n_seg, grid))):
+            mid = values[:, 1:-1]
+            peak = (mid >= values[:, :-2]) & (mid >= values[:, 2:]) & (mid > 0.0)
+            s_idx, j_idx = np.nonzero(peak)
+            cand_seg.append(s_idx)
+            cand_lo.append(times[s_idx, j_idx])
+            cand_hi.append(times[s_idx, j_idx + 2])
+            cand_kind.append(np.full(s_idx.size, kind))
+        seg_c = np.concatenate(cand_seg)
+        if seg_c.size:
+            lo, hi = np.concatenate(cand_lo), np.concatenate(cand_hi)
+            kind = np.concatenate(cand_kind)
+
+            def value(t):
+                p, o, _ = self(t, seg_c)
+                return np.where(kind == 0, p, o)
+
+            x1 = hi - _GOLDEN * (hi - lo)
+            x2 = lo + _GOLDEN * (hi - lo)
+            f1, f2 = value(x1), value(x2)
+            for _ in range(steps):
+                right = f2 > f1  # the maximum lies in [x1, hi]
+                lo = np.where(right, x1, lo)
+                hi = np.where(right, hi, x2)
+                keep_x, keep_f = np.where(right, x2, x1), np.where(right, f2, f1)
+                x_new = np.where(right, lo + _GOLDEN * (hi - lo), hi - _GOLDEN * (hi - lo))
+                f_new = value(x_new)
+                x1, f1 = np.where(right, keep_x, x_new), np.where(right, keep_f, f_new)
+                x2, f2 = np.where(right, x_new, keep_x), np.where(right, f_new, keep_f)
+            f_c = np.maximum(f1, f2)
+            t_c = np.where(f1 >= f2, x1, x2)
+            for k in (0, 1):
+                mine = kind == k
+                order = np.argsort(f_c[mine])  # larger values assigned last win
+                s_k, f_k, t_k = seg_c[mine][order], f_c[mine][order], t_c[mine][order]
+                better = f_k > best[k][0][s_k]
+                best[k][0][s_k[better]] = f_k[better]
+                best[k][1][s_k[better]] = t_k[better]
+        return Deviation(best[0][0], best[1][0], best[0][1], best[1][1], slack)
+
+
+def path_deviation(tool_path, kinematics, grid=GRID):
+    """Measure a :class:`ToolPath` again, e.g. with a finer ``grid`` (a :class:`Deviation`)."""
+    edge_poses = tool_path.poses[np.unique(tool_path.waypoint_knots)]
+    return _PathMeasure(tool_path.trajectory, kinematics, edge_poses,
+                        tool_path.segment_edges).deviation(grid)
+
+
+def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviation=None,
+                   max_inserted=DEFAULT_MAX_INSERTED, method='445', timing='uniform',
+                   durations=None, **plan_kwargs):
+    """
+    Plan a joint trajectory whose tool follows the straight lines between ``poses``.
+
+    Parameters
+    ----------
+    poses : array_like (N, 3)
+        Tool waypoints (x, y, yaw), in order; yaw in radians (unwrapped here).
+    kinematics : object
+        With ``forward`` and ``inverse`` (see the module docstring).
+    max_deviation : float
+        Largest distance [m] of the tool position from the straight segment
+        between consecutive tool waypoints; None or 0: not checked.
+    max_orientation_deviation : float
+        Largest deviation [rad] of the tool yaw from the linear interpolation
+        between consecutive tool waypoints; None or 0: not checked.
+    max_inserted : int
+        Most knots that may be inserted; reaching it is a ValueError.
+    method, timing, durations : as for :func:`~splines445_ros.planning.plan`;
+        ``durations`` (N-1,) are per requested edge ("fixed" only, kept: see
+        the module docstring).
+    plan_kwargs : limits and boundary values passed on to ``plan()``.
+
+    Returns a :class:`ToolPath`.  Raises ValueError for bad input, an
+    unreachable pose (tool waypoint or inserted point), anything ``plan()``
+    rejects, or when ``max_inserted`` knots do not bring the deviation within
+    the tolerances (naming the segment and the deviation reached).
+
+    """
+    request = tool_pose_array(poses)
+    tol_position = _tolerance('max_deviation', max_deviation)
+    tol_orientation = _tolerance('max_orientation_deviation', max_orientation_deviation)
+    if int(max_inserted) != max_inserted or max_inserted < 0:
+        raise ValueError(f'max_inserted = {max_inserted}: must be a non-negative integer')
+    joints = _inverse(kinematics, request, lambda k: f'tool waypoint {k}')
+    n_req = len(request)
+    if timing == 'fixed':
+        if durations is None:
+            raise ValueError('timing "fixed" needs durations, one per pair of tool waypoints')
+        seg_durations = np.array(durations, dtype=float)
+        if seg_durations.shape != (n_req - 1,):
+            raise ValueError(f'durations must have shape ({n_req - 1},), '
+                             f'got {seg_durations.shape}')
+        keep = np.ones(n_req, dtype=bool)
+    else:
+        seg_durations = None
+        keep = np.ones(n_req, dtype=bool)
+        keep[list(merge_duplicates(joints)[1])] = False
+    kept_index = np.flatnonzero(keep)
+    waypoint_knots = np.cumsum(keep) - 1
+    edge_poses = request[keep]
+    knots = edge_poses.copy()
+    knot_joints = joints[keep]
+    segment_edges = np.arange(len(knots) - 1)
+    inserted = 0
+    initial = None
+    for iteration in range(1, max_inserted + 2):
+        try:
+            traj = plan(knot_joints, method=method, timing=timing, durations=seg_durations,
+                        **plan_kwargs)
+        except ValueError as exc:
+            if not inserted:
+                raise
+            raise ValueError(f'planning the refined path ({len(knots)} waypoints, {inserted} '
+                             f'inserted) failed: {exc}') from None
+        deviation = _PathMeasure(traj, kinematics, edge_poses, segment_edges).deviation()
+        if initial is None:
+            initial = (deviation, traj.duration)
+        excess = np.maximum(deviation.position / tol_position,
+                            deviation.orientation / tol_orientation)
+        bad = np.flatnonzero(excess > 1.0)
+        if bad.size == 0:
+            return ToolPath(traj, knots, knot_joints, _knot_of_waypoint(
+                waypoint_knots, segment_edges, len(knots)), segment_edges, inserted,
+                deviation, initial[0], initial[1], iteration)
+        budget = max_inserted - inserted
+        if budget <= 0:
+            raise ValueError(_not_within(deviation, excess, segment_edges, kept_index,
+                                         tol_position, tol_orientation, max_inserted))
+        if bad.size > budget:
+            bad = np.sort(bad[np.argsort(excess[bad])[::-1][:budget]])
+        midpoints = 0.5 * (knots[bad] + knots[bad + 1])
+        new_knots = np.insert(knots, bad + 1, midpoints, axis=0)
+        new_joints = _inverse(kinematics, new_knots, _describe_inserted(
+            bad, segment_edges, kept_index, new_knots))
+        if seg_durations is not None:
+            seg_durations = _split_durations(seg_durations, bad, new_joints)
+        segment_edges = np.insert(segment_edges, bad + 1, segment_edges[bad])
+        knots, knot_joints = new_knots, new_joints
+        inserted += bad.size
+    raise AssertionError('unreachable: every iteration inserts at least one knot')
+
+
+def _knot_of_waypoint(waypoint_knots, segment_edges, n_knots):
+    """Map every requested waypoint to its knot after insertions."""
+    edge_start = np.concatenate([[0], np.flatnonzero(np.diff(segment_edges)) + 1,
+                                 [n_knots - 1]])
+    return edge_start[waypoint_knots]
+
+
+def _describe_inserted(bad, segment_edges, kept_index, new_knots):
+    """Return describe(k) for inserted knot poses (indices into ``new_knots``)."""
+    inserted_at = {int(b + 1 + i): int(segment_edges[b]) for i, b in enumerate(bad)}
+
+    def describe(k):
+        if k not in inserted_at:
+            return f'knot {k}'
+        e = inserted_at[k]
+        return (f'the straight line from tool waypoint {kept_index[e]} to '
+                f'{kept_index[e + 1]} leaves the reach of the arm: its point {k}')
+    return describe
+
+
+def _split_durations(durations, bad, joints):
+    """Split the durations of segments ``bad`` by the joint chords of their halves."""
+    out = []
+    bad_set = {int(b) for b in bad}
+    k = 0  # knot index in the new list
+    for s, duration in enumerate(durations):
+        if s in bad_set:
+            c1 = np.linalg.norm(joints[k + 1] - joints[k])
+            c2 = np.linalg.norm(joints[k + 2] - joints[k + 1])
+            share = 0.5 if c1 + c2 <= 0.0 else c1 / (c1 + c2)
+            out += [duration * share, duration * (1.0 - share)]
+            k += 2
+        else:
+            out.append(duration)
+            k += 1
+    return np.array(out)
+
+
+def _not_within(deviation, excess, segment_edges, kept_index, tol_position,
+                tol_orientation, max_inserted):
+    s = int(np.argmax(excess))
+    e = int(segment_edges[s])
+    where = (f'between tool waypoints {kept_index[e]} and {kept_index[e + 1]} '
+             f'(trajectory segment {s}')
+    if deviation.position[s] > tol_position:
+        what = (f'deviates {deviation.position[s]:.4g} m from the straight line (tolerance '
+                f'{tol_position:g} m) {where}, t = {deviation.position_time[s]:.4g} s)')
+    else:
+        what = (f'deviates {deviation.orientation[s]:.4g} rad from the interpolated '
+                f'orientation (tolerance {tol_orientation:g} rad) {where}, '
+                f't = {deviation.orientation_time[s]:.4g} s)')
+    return (f'tool path refinement stopped after inserting {max_inserted} waypoints '
+            f'(max_inserted): the tool still {what}')
