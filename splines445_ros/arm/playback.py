@@ -90,6 +90,46 @@ class SampledTrajectory:
         acc = ((20 * c[5] * s + 12 * c[4]) * s + 6 * c[3]) * s + 2 * c[2]
         return pos, vel / h, acc / (h * h)
 
+    def states_at(self, times):
+        """
+        Positions, velocities and accelerations (K, n) each at ``times`` (K,), vectorised.
+
+        The same interpolation as :meth:`state_at`; times are clamped to the
+        first sample, and from the last sample on the state is the last point
+        with zero velocity and acceleration (the arm holds it).
+        """
+        t = np.asarray(times, dtype=float)
+        K, n = t.size, self.positions.shape[1]
+        pos = np.empty((K, n))
+        vel = np.zeros((K, n))
+        acc = np.zeros((K, n))
+        done = t >= self.times[-1]
+        pos[done] = self.positions[-1]
+        live = ~done
+        if not np.any(live):
+            return pos, vel, acc
+        tl = np.maximum(t[live], float(self.times[0]))
+        k = np.clip(np.searchsorted(self.times, tl, side='right') - 1, 0, self.times.size - 2)
+        h = (self.times[k + 1] - self.times[k])[:, None]
+        s = (tl - self.times[k])[:, None] / h
+        p0, p1 = self.positions[k], self.positions[k + 1]
+        if self.velocities is None:
+            pos[live] = p0 + s * (p1 - p0)
+            vel[live] = (p1 - p0) / h
+            return pos, vel, acc
+        v0, v1 = self.velocities[k] * h, self.velocities[k + 1] * h
+        zero = np.zeros_like(p0)
+        if self.accelerations is None:
+            a0 = a1 = zero
+        else:
+            a0, a1 = self.accelerations[k] * h * h, self.accelerations[k + 1] * h * h
+        c = _hermite(p0, v0, a0, p1, v1, a1, self.accelerations is not None)
+        pos[live] = ((((c[5] * s + c[4]) * s + c[3]) * s + c[2]) * s + c[1]) * s + c[0]
+        vel[live] = ((((5 * c[5] * s + 4 * c[4]) * s + 3 * c[3]) * s + 2 * c[2]) * s
+                     + c[1]) / h
+        acc[live] = (((20 * c[5] * s + 12 * c[4]) * s + 6 * c[3]) * s + 2 * c[2]) / (h * h)
+        return pos, vel, acc
+
 
 def _hermite(p0, v0, a0, p1, v1, a1, quintic):
     """Ascending coefficients in s in [0, 1] matching the scaled end derivatives."""

@@ -1,4 +1,4 @@
-"""Validated configuration of the simulated planar arm (pure Python, no rclpy)."""
+"""Validated configuration of the simulated arm (pure Python, no rclpy)."""
 
 from dataclasses import dataclass
 import math
@@ -6,9 +6,26 @@ from typing import Tuple
 
 from .planner_config import DEFAULT_JOINTS
 from .validated_config import ValidatedConfig
+from ..arm.mujoco_model import PlanarArmModel
 
 MIN_PUBLISH_RATE = 0.001
 MAX_PUBLISH_RATE = 1000.0
+SIMULATIONS = ('kinematic', 'dynamic')
+MIN_PHYSICS_RATE = 1000.0
+MAX_PHYSICS_RATE = 20000.0
+MAX_KP = 1e8
+MAX_KD = 1e7
+MAX_TIME_CONSTANT = 1.0
+# A step of the explicit PD loop must not overshoot: kd * dt / inertia below this.
+MAX_KD_STEP = 1.0
+# MuJoCo integrates the joint springs explicitly: omega * dt below this.
+MAX_SPRING_STEP = 1.0
+BUILT_IN = PlanarArmModel()
+
+
+def _finite(values, low=-math.inf, high=math.inf, low_open=False):
+    return all(math.isfinite(v) and (v > low if low_open else v >= low) and v <= high
+               for v in values)
 
 
 @dataclass(frozen=True)
@@ -20,24 +37,122 @@ class ArmSimConfig(ValidatedConfig):
     initial_positions: Tuple[float, ...] = (0.0, 0.0, 0.0)
     publish_rate: float = 50.0
     frame_id: str = 'base_link'
+    simulation: str = 'kinematic'
+    model_file: str = ''
+    tool_site: str = ''
+    physics_rate: float = 1000.0
+    gravity: bool = BUILT_IN.gravity
+    link_masses: Tuple[float, ...] = BUILT_IN.link_masses
+    rotor_inertia: Tuple[float, ...] = BUILT_IN.rotor_inertia
+    joint_damping: Tuple[float, ...] = BUILT_IN.joint_damping
+    joint_friction: Tuple[float, ...] = BUILT_IN.joint_friction
+    joint_stiffness: Tuple[float, ...] = BUILT_IN.joint_stiffness
+    spring_damping_ratio: float = BUILT_IN.spring_damping_ratio
+    torque_limits: Tuple[float, ...] = (1000.0, 300.0, 30.0)
+    actuator_time_constant: float = 0.002
+    kp: Tuple[float, ...] = (90000.0, 16000.0, 1000.0)
+    kd: Tuple[float, ...] = (4000.0, 700.0, 20.0)
+
+    @property
+    def dynamic(self):
+        """Return True when MuJoCo simulates the arm."""
+        return self.simulation == 'dynamic'
+
+    @property
+    def timestep(self):
+        """Return the physics time step [s]."""
+        return 1.0 / self.physics_rate
+
+    def planar_model(self):
+        """Return the built-in arm's physical parameters."""
+        return PlanarArmModel(
+            link_lengths=self.link_lengths, link_masses=self.link_masses,
+            rotor_inertia=self.rotor_inertia, joint_damping=self.joint_damping,
+            joint_friction=self.joint_friction, joint_stiffness=self.joint_stiffness,
+            spring_damping_ratio=self.spring_damping_ratio, gravity=self.gravity)
 
     def validate(self):
         """Raise ValueError with the reason when any value is unusable."""
         names = self.joint_names
-        if len(names) != 3 or any(not isinstance(n, str) or not n for n in names):
+        if any(not isinstance(n, str) or not n for n in names) or (
+                not self.model_file and len(names) != 3) or not names:
             raise ValueError(f'joint_names must be 3 non-empty names (the planar arm has 3 '
-                             f'joints), got {list(names)}')
-        if len(set(names)) != 3:
+                             f'joints; any number with model_file), got {list(names)}')
+        if len(set(names)) != len(names):
             raise ValueError(f'joint_names has duplicates: {list(names)}')
-        if len(self.link_lengths) != 2 or not all(
-                math.isfinite(v) and v > 0.0 for v in self.link_lengths):
+        n = len(names)
+        if len(self.link_lengths) != 2 or not _finite(self.link_lengths, 0.0, low_open=True):
             raise ValueError(f'link_lengths must be 2 positive lengths, got '
                              f'{list(self.link_lengths)}')
-        if len(self.initial_positions) != 3 or not all(
-                math.isfinite(v) for v in self.initial_positions):
-            raise ValueError(f'initial_positions must be 3 finite angles, got '
+        if len(self.initial_positions) != n or not _finite(self.initial_positions):
+            raise ValueError(f'initial_positions must be {n} finite angles, got '
                              f'{list(self.initial_positions)}')
         if not (math.isfinite(self.publish_rate)
                 and MIN_PUBLISH_RATE <= self.publish_rate <= MAX_PUBLISH_RATE):
             raise ValueError(f'publish_rate = {self.publish_rate}: must be in '
                              f'[{MIN_PUBLISH_RATE}, {MAX_PUBLISH_RATE}] Hz')
+        if self.simulation not in SIMULATIONS:
+            raise ValueError(f'simulation must be one of {list(SIMULATIONS)}, got '
+                             f'{self.simulation!r}')
+        if not (math.isfinite(self.physics_rate)
+                and MIN_PHYSICS_RATE <= self.physics_rate <= MAX_PHYSICS_RATE):
+            raise ValueError(f'physics_rate = {self.physics_rate}: must be in '
+                             f'[{MIN_PHYSICS_RATE:g}, {MAX_PHYSICS_RATE:g}] Hz')
+        if not isinstance(self.gravity, bool):
+            raise ValueError(f'gravity must be true or false, got {self.gravity!r}')
+        self._validate_built_in()
+        per_joint = (('torque_limits', 0.0, math.inf, True, 'positive'),
+                     ('kp', 0.0, MAX_KP, False, f'in [0, {MAX_KP:g}]'),
+                     ('kd', 0.0, MAX_KD, False, f'in [0, {MAX_KD:g}]'))
+        for name, low, high, low_open, words in per_joint:
+            values = getattr(self, name)
+            if len(values) != n or not _finite(values, low, high, low_open):
+                raise ValueError(f'{name} must be {n} values (one per joint), each {words}, '
+                                 f'got {list(values)}')
+        if not (math.isfinite(self.actuator_time_constant)
+                and 0.0 <= self.actuator_time_constant <= MAX_TIME_CONSTANT):
+            raise ValueError(f'actuator_time_constant = {self.actuator_time_constant}: must '
+                             f'be in [0, {MAX_TIME_CONSTANT:g}] s')
+        if not self.model_file:
+            self._validate_discretisation()
+
+    def _validate_built_in(self):
+        arrays = (('link_masses', 0.0, True, 'positive'),
+                  ('rotor_inertia', 0.0, False, '>= 0'),
+                  ('joint_damping', 0.0, False, '>= 0'),
+                  ('joint_friction', 0.0, False, '>= 0'),
+                  ('joint_stiffness', 0.0, False, '>= 0 (0 = rigid)'))
+        for name, low, low_open, words in arrays:
+            values = getattr(self, name)
+            if len(values) != 3 or not _finite(values, low, low_open=low_open):
+                raise ValueError(f'{name} must be 3 values (the built-in arm), each {words}, '
+                                 f'got {list(values)}')
+        for j, (k, rotor) in enumerate(zip(self.joint_stiffness, self.rotor_inertia)):
+            if k > 0.0 and rotor <= 0.0:
+                raise ValueError(f'joint {j + 1} is elastic (joint_stiffness > 0): its '
+                                 f'rotor_inertia must be positive, got {rotor}')
+        if not (math.isfinite(self.spring_damping_ratio)
+                and 0.0 <= self.spring_damping_ratio <= 2.0):
+            raise ValueError(f'spring_damping_ratio = {self.spring_damping_ratio}: must be '
+                             f'in [0, 2]')
+
+    def _validate_discretisation(self):
+        """Reject gains and springs the built-in arm's fixed-step physics cannot carry."""
+        dt = self.timestep
+        links = self.planar_model().link_inertias()
+        for j in range(3):
+            k, rotor = self.joint_stiffness[j], self.rotor_inertia[j]
+            inertia = rotor if k > 0.0 else rotor + links[j]
+            if self.kd[j] * dt > MAX_KD_STEP * inertia:
+                raise ValueError(
+                    f'kd[{j}] = {self.kd[j]:g} is too high for physics_rate '
+                    f'{self.physics_rate:g} Hz: kd * dt must stay below the driven '
+                    f'inertia {inertia:.3g} kg m^2 (raise physics_rate or lower kd)')
+            if k > 0.0:
+                omega = math.sqrt(k * (1.0 / rotor + 1.0 / links[j]))
+                if omega * dt > MAX_SPRING_STEP:
+                    raise ValueError(
+                        f'joint_stiffness[{j}] = {k:g} is too stiff for physics_rate '
+                        f'{self.physics_rate:g} Hz (spring frequency {omega:.0f} rad/s; '
+                        f'omega * dt must stay below {MAX_SPRING_STEP:g}: raise '
+                        f'physics_rate, rotor_inertia, or lower the stiffness)')

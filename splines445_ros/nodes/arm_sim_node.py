@@ -1,16 +1,25 @@
 """
-``arm_sim_node``: the paper's planar 3-DOF arm, playing back joint trajectories.
+``arm_sim_node``: the simulated arm, kinematic playback or MuJoCo dynamics.
 
-Subscribes ``joint_trajectory`` (trajectory_msgs/JointTrajectory) and plays it
-on the node's clock (``use_sim_time`` works), interpolating between points as
-ros2_control's joint_trajectory_controller does.  A trajectory whose
-``header.stamp`` is non-zero takes over at that time (zero = on receipt); until
-then the running one continues.  A new trajectory replaces the running one.
+Subscribes ``joint_trajectory`` (trajectory_msgs/JointTrajectory).  A
+trajectory whose ``header.stamp`` is non-zero takes over at that time (zero =
+on receipt); until then the running one continues.  A new trajectory replaces
+the running one.  Between points the commanded state is interpolated as
+ros2_control's joint_trajectory_controller does.
 
-Publishes ``joint_states`` (sensor_msgs/JointState) and the tool pose from the
-forward kinematics (geometry_msgs/PoseStamped on ``tool_pose``, yaw = tool
-orientation) at ``publish_rate``, also while idle; reports rejected
-trajectories on ``~/status``.
+* ``simulation: kinematic``: the arm is the commanded state (exact playback).
+* ``simulation: dynamic``: MuJoCo simulates the arm (the paper's planar arm
+  built from parameters, or ``model_file``) under a PD + inverse-dynamics
+  feed-forward joint controller with torque limits and actuator lag; the
+  physics steps at ``physics_rate`` to follow the node's clock
+  (``use_sim_time`` works).  At the end of every trajectory, and 0.5 s later
+  for the settling error, the tracking and effort figures go to ``~/status``
+  (WARN when the torque saturated).
+
+Publishes ``joint_states`` (sensor_msgs/JointState: positions, velocities,
+and the applied torques as ``effort`` when dynamic) and the tool pose
+(geometry_msgs/PoseStamped on ``tool_pose``) at ``publish_rate``, also while
+idle; reports accepted and rejected trajectories on ``~/status``.
 """
 
 import math
@@ -25,36 +34,74 @@ from trajectory_msgs.msg import JointTrajectory
 
 from . import topics
 from .arm_sim_config import ArmSimConfig
-from .diagnostics import status_message
+from .diagnostics import format_vector, status_message
 from .node_main import run_node
 from .parameters import ConfigParameters
 from .ros_conversions import sampled_trajectory_from_msg
+from ..arm.dynamic_sim import DynamicArm, rotation_to_quaternion, TrackingMetrics
 from ..arm.kinematics import PlanarArm
+from ..arm.mujoco_model import load_arm_model
 
+PER_JOINT = 'one value per joint, in joint_names order'
 PARAMETER_DESCRIPTIONS = {
-    'joint_names': 'Names of joint 1 (shoulder), 2 (elbow) and 3 (tool).',
+    'joint_names': 'Names of the joints: shoulder, elbow, tool for the built-in arm; the '
+                   'joints of model_file to drive otherwise.',
     'link_lengths': 'Lengths d1, d2 of the two links [m] (paper: 1.1, 0.9).',
-    'initial_positions': 'Joint angles at start-up [rad].',
+    'initial_positions': f'Joint angles at start-up [rad], {PER_JOINT}.',
     'publish_rate': 'Rate of joint_states and tool_pose [Hz], in [0.001, 1000].',
     'frame_id': 'Frame of tool_pose.',
+    'simulation': 'kinematic (exact playback of the commanded state) or dynamic (MuJoCo '
+                  'physics with a joint controller).',
+    'model_file': 'dynamic: path of an MJCF file to simulate instead of the built-in planar '
+                  'arm; empty = built-in.',
+    'tool_site': 'dynamic: MJCF site whose pose is published on tool_pose (built-in arm: '
+                 '"tool" when empty; model_file: no tool_pose when empty).',
+    'physics_rate': 'dynamic: physics and controller rate [Hz], in [1000, 20000].',
+    'gravity': 'dynamic, built-in arm: gravity along -y (the arm moves in a vertical plane).',
+    'link_masses': 'dynamic, built-in arm: masses of link 1, link 2 and the tool [kg].',
+    'rotor_inertia': 'dynamic, built-in arm: motor rotor inertia reflected through the gear '
+                     '[kg m^2] per joint (MuJoCo armature).',
+    'joint_damping': 'dynamic, built-in arm: viscous joint friction [N m s/rad] per joint.',
+    'joint_friction': 'dynamic, built-in arm: dry joint friction [N m] per joint.',
+    'joint_stiffness': 'dynamic, built-in arm: spring between motor and link [N m/rad] per '
+                       'joint; 0 = rigid joint.',
+    'spring_damping_ratio': 'dynamic, built-in arm: damping of the joint springs, fraction of '
+                            'critical, in [0, 2].',
+    'torque_limits': f'dynamic: actuator torque limit [N m], {PER_JOINT}.',
+    'actuator_time_constant': 'dynamic: first-order lag of the applied torque behind the '
+                              'command [s], in [0, 1]; 0 = none.',
+    'kp': f'dynamic: position gain of the PD loop [N m/rad], {PER_JOINT}.',
+    'kd': f'dynamic: velocity gain of the PD loop [N m s/rad], {PER_JOINT}.',
 }
+SETTLING_TIME = 0.5     # s after the end of a trajectory: settling_error
+MAX_CATCH_UP = 10.0     # s: a larger clock jump is not simulated across
 
 
 class ArmSimNode(Node):
-    """A kinematic simulation of the planar arm."""
+    """The simulated arm: kinematic playback or MuJoCo dynamics."""
 
     def __init__(self, **kwargs):
-        """Declare parameters, topics and the publishing timer."""
+        """Declare parameters, build the simulation, topics and the publishing timer."""
         super().__init__('arm_sim_node', **kwargs)
         self.parameters = ConfigParameters(self, ArmSimConfig, PARAMETER_DESCRIPTIONS,
                                            on_change=self._on_config)
         config = self.parameters.config
         self.arm = PlanarArm(*config.link_lengths)
+        n = len(config.joint_names)
         self.position = np.array(config.initial_positions, dtype=float)
-        self.velocity = np.zeros(3)
-        self.acceleration = np.zeros(3)
+        self.velocity = np.zeros(n)
+        self.acceleration = np.zeros(n)
+        self.effort = None
         self._active = None      # (SampledTrajectory, start time in ns)
         self._pending = None     # (SampledTrajectory, start time in ns)
+        self._hold = self.position.copy()
+        self._metrics = None     # TrackingMetrics of the active trajectory (dynamic)
+        self._info = None        # its points, duration and start
+        self._settling = None    # (metrics, info, end position, report time in ns)
+        self.dynamic = None      # DynamicArm when simulation is dynamic
+        self._sim_ns = self._now_ns()
+        if config.dynamic:
+            self.dynamic = self._build_dynamic(config, self.position, self.velocity)
         self._status_name = self.get_fully_qualified_name()
         self.joint_state_publisher = self.create_publisher(
             JointState, topics.JOINT_STATES, topics.STATE_QOS)
@@ -66,14 +113,47 @@ class ArmSimNode(Node):
                                  self._on_trajectory, topics.LATCHED)
         self._timer = self.create_timer(1.0 / config.publish_rate, self._on_timer)
 
+    @staticmethod
+    def _build_dynamic(config, position, velocity):
+        """Compile the MuJoCo arm and its controller at a state (ValueError with the reason)."""
+        model = load_arm_model(config.joint_names, config.torque_limits,
+                               config.actuator_time_constant, config.timestep,
+                               planar=config.planar_model(), model_file=config.model_file,
+                               tool_site=config.tool_site)
+        arm = DynamicArm(model, config.kp, config.kd, config.torque_limits)
+        arm.set_state(position, velocity)
+        return arm
+
     def _on_config(self, config):
-        self.arm = PlanarArm(*config.link_lengths)
-        if hasattr(self, '_timer'):
+        """Apply a validated config; ValueError (model does not load) rejects it."""
+        old = self.parameters.config
+        n = len(config.joint_names)
+        same_joints = tuple(config.joint_names) == tuple(old.joint_names)
+        position = self.position if same_joints and len(self.position) == n else np.array(
+            config.initial_positions, dtype=float)
+        velocity = self.velocity if same_joints and len(self.velocity) == n else np.zeros(n)
+        dynamic = self._build_dynamic(config, position, velocity) if config.dynamic else None
+        if hasattr(self, '_timer') and config.publish_rate != old.publish_rate:
             # The new timer first: if it cannot be made, the old one keeps running.
             timer = self.create_timer(1.0 / config.publish_rate, self._on_timer)
             self._timer.cancel()
             self.destroy_timer(self._timer)
             self._timer = timer
+        # Everything below cannot fail.
+        self.arm = PlanarArm(*config.link_lengths)
+        if not same_joints:
+            self._active = self._pending = self._settling = self._metrics = None
+            self._hold = position.copy()
+        self.position, self.velocity = position.copy(), velocity.copy()
+        self.acceleration = np.zeros(n)
+        if dynamic is not None and self.dynamic is None:
+            self._sim_ns = self._now_ns()
+            if self._active is None:
+                self._hold = position.copy()
+        self.dynamic = dynamic
+        self.effort = None if dynamic is None else dynamic.efforts()
+        if dynamic is not None and self._active is not None and self._metrics is None:
+            self._start_metrics()
 
     def _now_ns(self):
         return self.get_clock().now().nanoseconds
@@ -99,6 +179,8 @@ class ArmSimNode(Node):
              'start_ns': start}))
         self._on_timer()
 
+    # -- kinematic playback ---------------------------------------------------------------
+
     def _advance(self, now):
         if self._pending is not None and now >= self._pending[1]:
             if self._active is not None:
@@ -119,12 +201,123 @@ class ArmSimNode(Node):
         self.position, self.velocity, self.acceleration = trajectory.state_at(t)
         if t >= trajectory.duration:
             self._active = None
-            self.velocity = np.zeros(3)
-            self.acceleration = np.zeros(3)
+            self.velocity = np.zeros(len(self.position))
+            self.acceleration = np.zeros(len(self.position))
+
+    # -- dynamic simulation ---------------------------------------------------------------
+
+    def _reference(self, times_ns):
+        """Commanded positions, velocities, accelerations (K, n) at node times (K,)."""
+        if self._active is None:
+            K = len(times_ns)
+            zero = np.zeros((K, len(self._hold)))
+            return np.tile(self._hold, (K, 1)), zero, zero.copy()
+        trajectory, start = self._active
+        return trajectory.states_at((times_ns - start) * 1e-9)
+
+    def _start_metrics(self):
+        trajectory, start = self._active
+        self._metrics = TrackingMetrics(len(self._hold), self.dynamic.timestep)
+        self._info = {'points': trajectory.times.size, 'duration': trajectory.duration,
+                      'start_ns': start}
+
+    def _advance_dynamic(self, now):
+        dt_ns = int(round(self.dynamic.timestep * 1e9))
+        if now < self._sim_ns or now - self._sim_ns > MAX_CATCH_UP * 1e9:
+            if now > self._sim_ns:
+                self.get_logger().warning(
+                    f'the clock jumped ahead by {(now - self._sim_ns) * 1e-9:.3g} s: the '
+                    f'physics is not stepped across more than {MAX_CATCH_UP:g} s')
+            self._sim_ns = now  # a clock reset or jump: carry the state over
+        while now - self._sim_ns >= dt_ns:
+            self._handle_events()  # every event up to now is handled: the others are later
+            steps = (now - self._sim_ns) // dt_ns
+            events = [event for event in self._event_times() if event > self._sim_ns]
+            if events:
+                steps = min(steps, -(-(min(events) - self._sim_ns) // dt_ns))
+            times = self._sim_ns + dt_ns * np.arange(steps, dtype=np.int64)
+            q_d, v_d, a_d = self._reference(times)
+            log = self.dynamic.run(q_d, v_d, a_d)
+            if self._metrics is not None:
+                self._metrics.update(q_d, log)
+            self._sim_ns += int(steps) * dt_ns
+        self._handle_events()
+        arm = self.dynamic
+        self.position, self.velocity, self.effort = (arm.positions(), arm.velocities(),
+                                                     arm.efforts())
+
+    def _event_times(self):
+        """Node times [ns] of the next switch, trajectory end and settling report."""
+        if self._pending is not None:
+            yield self._pending[1]
+        if self._active is not None:
+            yield self._active[1] + int(round(self._active[0].duration * 1e9))
+        if self._settling is not None:
+            yield self._settling[3]
+
+    def _handle_events(self):
+        now = self._sim_ns
+        if self._settling is not None and now >= self._settling[3]:
+            self._report(*self._settling[:3], settled=True)
+            self._settling = None
+        if self._active is not None:
+            trajectory, start = self._active
+            if now >= start + int(round(trajectory.duration * 1e9)):
+                self._hold = trajectory.positions[-1].copy()
+                self._settling = (self._metrics, self._info, self._hold.copy(),
+                                  now + int(round(SETTLING_TIME * 1e9)))
+                self._active = self._metrics = self._info = None
+        if self._pending is not None and now >= self._pending[1]:
+            if self._settling is not None:
+                self._report(*self._settling[:3], settled=False)
+                self._settling = None
+            q, v, a = self._reference(np.array([now], dtype=np.int64))
+            if self._active is not None:
+                self._report(self._metrics, self._info, None, settled=False)
+            trajectory, start = self._pending
+            self._pending = None
+            self._active = (trajectory.with_start_state(q[0], v[0], a[0]), start)
+            self._start_metrics()
+
+    def _report(self, metrics, info, end_position, settled):
+        """Publish the tracking figures of a finished (or replaced) trajectory."""
+        if metrics is None:
+            return
+        figures = metrics.summary()
+        values = {'duration': f"{info['duration']:.9g}", 'start_ns': info['start_ns'],
+                  'points': info['points']}
+        for key in ('tracking_rms_error', 'tracking_max_error', 'peak_effort',
+                    'peak_effort_rate'):
+            values[key] = format_vector(figures[key])
+        if 'tool_max_error' in figures:
+            values['tool_max_error'] = f"{figures['tool_max_error']:.6g}"
+        if end_position is None:
+            message = 'trajectory replaced before its end'
+        else:
+            error = np.abs(end_position - self.dynamic.positions())
+            values['settling_error'] = format_vector(error)
+            message = 'trajectory finished'
+            if not settled:
+                message += f' (settling_error at the next trajectory, before {SETTLING_TIME} s)'
+        values['saturated_steps'] = figures['saturated_steps']
+        saturated = figures['saturated_steps'] > 0
+        if saturated:
+            message += (f': torque saturated on {figures["saturated_steps"]} of '
+                        f'{metrics.steps} physics steps')
+            self.get_logger().warning(message)
+        else:
+            self.get_logger().info(message)
+        self.status_publisher.publish(status_message(self._status_name, True, message,
+                                                     values, warn=saturated))
+
+    # -- publishing -----------------------------------------------------------------------
 
     def _on_timer(self):
         now = self._now_ns()
-        self._advance(now)
+        if self.dynamic is not None:
+            self._advance_dynamic(now)
+        else:
+            self._advance(now)
         stamp = Time(nanoseconds=now).to_msg()
         config = self.parameters.config
         state = JointState()
@@ -132,15 +325,30 @@ class ArmSimNode(Node):
         state.name = list(config.joint_names)
         state.position = self.position.tolist()
         state.velocity = self.velocity.tolist()
+        if self.dynamic is not None:
+            state.effort = self.effort.tolist()
         self.joint_state_publisher.publish(state)
-        x, y, yaw = self.arm.forward(self.position)
         pose = PoseStamped()
         pose.header.stamp = stamp
         pose.header.frame_id = config.frame_id
-        pose.pose.position.x = float(x)
-        pose.pose.position.y = float(y)
-        pose.pose.orientation.z = math.sin(0.5 * yaw)
-        pose.pose.orientation.w = math.cos(0.5 * yaw)
+        if self.dynamic is not None:
+            tool = self.dynamic.tool_pose()
+            if tool is None:
+                return
+            position, rotation = tool
+            pose.pose.position.x, pose.pose.position.y, pose.pose.position.z = (
+                float(v) for v in position)
+            w, x, y, z = rotation_to_quaternion(rotation)
+            pose.pose.orientation.w, pose.pose.orientation.x = w, x
+            pose.pose.orientation.y, pose.pose.orientation.z = y, z
+        elif config.model_file:
+            return  # kinematic playback of a model file's joints: no planar kinematics
+        else:
+            x, y, yaw = self.arm.forward(self.position)
+            pose.pose.position.x = float(x)
+            pose.pose.position.y = float(y)
+            pose.pose.orientation.z = math.sin(0.5 * yaw)
+            pose.pose.orientation.w = math.cos(0.5 * yaw)
         self.pose_publisher.publish(pose)
 
 

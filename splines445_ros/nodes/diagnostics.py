@@ -3,10 +3,13 @@
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 
 
-def status_message(name, ok, message, values=None):
-    """Build a status: level OK or ERROR, a message and key/value details (as strings)."""
+def status_message(name, ok, message, values=None, warn=False):
+    """Build a status: level OK, WARN (``ok`` and ``warn``) or ERROR, a message and details."""
     status = DiagnosticStatus()
-    status.level = DiagnosticStatus.OK if ok else DiagnosticStatus.ERROR
+    if not ok:
+        status.level = DiagnosticStatus.ERROR
+    else:
+        status.level = DiagnosticStatus.WARN if warn else DiagnosticStatus.OK
     status.name = name
     status.message = message
     status.values = [KeyValue(key=str(k), value=str(v)) for k, v in (values or {}).items()]

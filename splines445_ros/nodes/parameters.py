@@ -5,6 +5,8 @@ Every field of the dataclass becomes a parameter declared with a descriptor
 (type and description).  ``set_parameters`` builds a new config from the
 current values overlaid with the request; if the config's ``from_values``
 raises ValueError, the request is rejected with that reason and nothing changes.
+The node's ``on_change(new_config)`` runs before the new config is in force
+and may reject it the same way (raise ValueError, leaving its state as it was).
 
 String parameters accept numbers as users type them: ``-p method:=434``
 arrives as an INTEGER, so string fields are declared with dynamic typing and
@@ -84,11 +86,13 @@ class ConfigParameters:
                 values[parameter.name] = parameter.value
         try:
             new = self._config_cls.from_values(values)
+            if self._on_change is not None:
+                # The node applies the config first; a ValueError (e.g. a model
+                # file that does not load) rejects it and the old one stays.
+                self._on_change(new)
         except (TypeError, ValueError) as exc:
             reason = f'rejected: {exc}'
             self._node.get_logger().warning(reason)
             return SetParametersResult(successful=False, reason=reason)
         self.config = new
-        if self._on_change is not None:
-            self._on_change(new)
         return SetParametersResult(successful=True)

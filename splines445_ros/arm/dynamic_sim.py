@@ -1,0 +1,260 @@
+"""
+The dynamic arm: MuJoCo physics with a joint controller (pure Python, no rclpy).
+
+Control law, every physics step, for each driven joint::
+
+    tau_ff  = inverse dynamics of the rigid model at (q_d, v_d, a_d)   (mujoco.mj_inverse)
+    theta_d = q_d + (tau_ff - armature * a_d - damping * v_d) / k      (elastic joints;
+              the motor leads the link by the spring's deflection; q_d when rigid)
+    tau     = clip(tau_ff + kp (theta_d - theta) + kd (v_d - omega), -limit, limit)
+
+where theta, omega are the driven (motor) joint's position and velocity (the
+link's when rigid).  ``tau`` is the actuator's control; the actuator follows
+it with a first-order lag (MuJoCo ``filterexact`` dynamics), so the applied
+torque (``effort``) lags the command.  MuJoCo integrates everything
+(``implicitfast``): there is no integrator here.
+
+:class:`TrackingMetrics` accumulates the tracking and effort figures that
+``arm_sim_node`` reports at the end of each trajectory and the benchmark
+tabulates.
+"""
+
+import numpy as np
+
+from .mujoco_model import _import_mujoco
+
+
+class DynamicArm:
+    """One simulated arm with its controller; ``run`` steps it along reference arrays."""
+
+    def __init__(self, arm_model, kp, kd, torque_limits):
+        """Create MuJoCo data for ``arm_model`` (:class:`ArmModel`) with PD gains (n,)."""
+        self.mujoco = _import_mujoco()
+        self.arm = arm_model
+        self.model = arm_model.model
+        self.data = self.mujoco.MjData(self.model)
+        self.rigid_data = self.mujoco.MjData(arm_model.rigid)
+        self.kp = np.asarray(kp, dtype=float)
+        self.kd = np.asarray(kd, dtype=float)
+        self.limits = np.asarray(torque_limits, dtype=float)
+        rigid = arm_model.rigid
+        self._armature = rigid.dof_armature[arm_model.rigid_dof].copy()
+        self._damping = rigid.dof_damping[arm_model.rigid_dof].copy()
+        self._elastic = arm_model.stiffness > 0.0
+        safe = np.where(self._elastic, arm_model.stiffness, 1.0)
+        self._inverse_k = np.where(self._elastic, 1.0 / safe, 0.0)
+        self._same_layout = (self.model.nq == rigid.nq and self.model.nv == rigid.nv)
+        self._act_adr = self.model.actuator_actadr[arm_model.actuators]
+        rigid_site = None
+        if arm_model.tool_site is not None:
+            name = self.mujoco.mj_id2name(self.model, self.mujoco.mjtObj.mjOBJ_SITE,
+                                          arm_model.tool_site)
+            rigid_site = self.mujoco.mj_name2id(rigid, self.mujoco.mjtObj.mjOBJ_SITE, name)
+        self._rigid_site = rigid_site if rigid_site is not None and rigid_site >= 0 else None
+        self.time = 0.0
+
+    @property
+    def n_joints(self):
+        """Return the number of driven joints."""
+        return len(self.arm.joint_names)
+
+    @property
+    def timestep(self):
+        """Return the physics time step [s]."""
+        return self.arm.timestep
+
+    def feedforward(self, q_d, v_d, a_d):
+        """Return the inverse-dynamics torque (n,) of the rigid model at a commanded state."""
+        mj, rd, arm = self.mujoco, self.rigid_data, self.arm
+        if self._same_layout:
+            rd.qpos[:] = self.data.qpos
+            rd.qvel[:] = self.data.qvel
+        rd.qacc[:] = 0.0
+        rd.qpos[arm.rigid_qpos] = q_d
+        rd.qvel[arm.rigid_dof] = v_d
+        rd.qacc[arm.rigid_dof] = a_d
+        mj.mj_inverse(arm.rigid, rd)
+        return rd.qfrc_inverse[arm.rigid_dof].copy()
+
+    def reset(self, positions, velocities=None, accelerations=None):
+        """Put the arm at ``positions`` (moving when given), springs and actuators in balance."""
+        mj, d, arm = self.mujoco, self.data, self.arm
+        q = np.asarray(positions, dtype=float)
+        v = np.zeros_like(q) if velocities is None else np.asarray(velocities, dtype=float)
+        a = np.zeros_like(q) if accelerations is None else np.asarray(accelerations, dtype=float)
+        mj.mj_resetData(self.model, d)
+        d.qpos[arm.qpos] = q
+        d.qvel[arm.dof] = v
+        tau = self.feedforward(q, v, a)
+        if np.any(self._elastic):
+            link = tau - self._armature * a - self._damping * v
+            d.qpos[arm.motor_qpos[self._elastic]] = (q + link * self._inverse_k)[self._elastic]
+            d.qvel[arm.motor_dof[self._elastic]] = v[self._elastic]
+        tau = np.clip(tau, -self.limits, self.limits)
+        d.ctrl[arm.actuators] = tau
+        valid = self._act_adr >= 0
+        d.act[self._act_adr[valid]] = tau[valid]
+        mj.mj_forward(self.model, d)
+        self.time = 0.0
+
+    def set_state(self, positions, velocities):
+        """Reset to a measured state (after a model change), keeping the clock."""
+        time = self.time
+        self.reset(positions, velocities)
+        self.time = time
+
+    def positions(self):
+        """Return where the links are now (n,) [rad or m]."""
+        return self.data.qpos[self.arm.qpos].copy()
+
+    def velocities(self):
+        """Return how fast the links move now (n,)."""
+        return self.data.qvel[self.arm.dof].copy()
+
+    def efforts(self):
+        """Return the applied actuator torques (n,) of the last step."""
+        return self.data.actuator_force[self.arm.actuators].copy()
+
+    def tool_pose(self):
+        """Return the tool site position (3,) and rotation (3, 3); None without a tool site."""
+        site = self.arm.tool_site
+        if site is None:
+            return None
+        mj, d = self.mujoco, self.data
+        mj.mj_kinematics(self.model, d)
+        return d.site_xpos[site].copy(), d.site_xmat[site].reshape(3, 3).copy()
+
+    def run(self, q_d, v_d, a_d):
+        """
+        Step once per row of the reference arrays (K, n); return the step log.
+
+        The log (dict of arrays) has, per step: ``position`` and ``velocity``
+        (K, n) measured at the start of the step (when the reference row
+        applies), ``command`` (the controller's torque), ``effort`` (the
+        applied torque during the step), ``saturated`` (K,) bool, and
+        ``tool_error`` (K,) [m] when the model has a tool site.
+        """
+        mj, m, d, arm = self.mujoco, self.model, self.data, self.arm
+        K, n = q_d.shape
+        position = np.empty((K, n))
+        velocity = np.empty((K, n))
+        command = np.empty((K, n))
+        effort = np.empty((K, n))
+        saturated = np.zeros(K, dtype=bool)
+        site = arm.tool_site
+        tool_error = np.zeros(K) if site is not None and self._rigid_site is not None else None
+        elastic = np.any(self._elastic)
+        kp, kd, limits = self.kp, self.kd, self.limits
+        for k in range(K):
+            mj.mj_step1(m, d)
+            q = d.qpos[arm.qpos]
+            position[k] = q
+            velocity[k] = d.qvel[arm.dof]
+            tau = self.feedforward(q_d[k], v_d[k], a_d[k])
+            if tool_error is not None:
+                tool_error[k] = np.linalg.norm(d.site_xpos[site]
+                                               - self.rigid_data.site_xpos[self._rigid_site])
+            if elastic:
+                link = tau - self._armature * a_d[k] - self._damping * v_d[k]
+                target = q_d[k] + link * self._inverse_k
+            else:
+                target = q_d[k]
+            raw = (tau + kp * (target - d.qpos[arm.motor_qpos])
+                   + kd * (v_d[k] - d.qvel[arm.motor_dof]))
+            raw = np.nan_to_num(raw, nan=0.0, posinf=1e300, neginf=-1e300)
+            saturated[k] = bool(np.any(np.abs(raw) > limits))
+            tau = np.clip(raw, -limits, limits)
+            command[k] = tau
+            d.ctrl[arm.actuators] = tau
+            mj.mj_step2(m, d)
+            effort[k] = d.actuator_force[arm.actuators]
+        self.time += K * self.timestep
+        log = {'position': position, 'velocity': velocity, 'command': command,
+               'effort': effort, 'saturated': saturated}
+        if tool_error is not None:
+            log['tool_error'] = tool_error
+        return log
+
+
+def rotation_to_quaternion(rotation):
+    """Return the quaternion (w, x, y, z) of a rotation matrix (3, 3), by MuJoCo."""
+    mujoco = _import_mujoco()
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(rotation, dtype=float).reshape(9))
+    return tuple(float(v) for v in quat)
+
+
+class TrackingMetrics:
+    """Running tracking and effort figures of one trajectory, fed step log by step log."""
+
+    def __init__(self, n_joints, timestep):
+        """Start empty for ``n_joints`` joints and physics step ``timestep`` [s]."""
+        self.n = n_joints
+        self.dt = timestep
+        self.steps = 0
+        self.sum_sq = np.zeros(n_joints)
+        self.max_error = np.zeros(n_joints)
+        self.tool_max_error = 0.0
+        self.has_tool = False
+        self.peak_effort = np.zeros(n_joints)
+        self.peak_effort_rate = np.zeros(n_joints)
+        self.peak_command_rate = np.zeros(n_joints)
+        self.max_rate_jump = np.zeros(n_joints)
+        self.saturated_steps = 0
+        self._last_effort = None
+        self._last_command = None
+        self._last_command_rate = None
+
+    def update(self, q_d, log):
+        """Add a step log of :meth:`DynamicArm.run` and its reference positions (K, n)."""
+        K = len(q_d)
+        if K == 0:
+            return
+        error = np.abs(q_d - log['position'])
+        self.steps += K
+        self.sum_sq += np.sum(error ** 2, axis=0)
+        self.max_error = np.maximum(self.max_error, error.max(axis=0))
+        if 'tool_error' in log:
+            self.has_tool = True
+            self.tool_max_error = max(self.tool_max_error, float(log['tool_error'].max()))
+        effort, command = log['effort'], log['command']
+        self.peak_effort = np.maximum(self.peak_effort, np.abs(effort).max(axis=0))
+        self.saturated_steps += int(np.count_nonzero(log['saturated']))
+        if self._last_effort is not None:
+            effort = np.vstack([self._last_effort, effort])
+            command = np.vstack([self._last_command, command])
+        self._last_effort = effort[-1:].copy()
+        self._last_command = command[-1:].copy()
+        if len(effort) > 1:
+            self.peak_effort_rate = np.maximum(
+                self.peak_effort_rate, np.abs(np.diff(effort, axis=0)).max(axis=0) / self.dt)
+            rate = np.diff(command, axis=0) / self.dt
+            self.peak_command_rate = np.maximum(self.peak_command_rate,
+                                                np.abs(rate).max(axis=0))
+            if self._last_command_rate is not None:
+                rate = np.vstack([self._last_command_rate, rate])
+            self._last_command_rate = rate[-1:].copy()
+            if len(rate) > 1:
+                self.max_rate_jump = np.maximum(self.max_rate_jump,
+                                                np.abs(np.diff(rate, axis=0)).max(axis=0))
+
+    @property
+    def rms_error(self):
+        """Return the RMS joint tracking error (n,) [rad]."""
+        return np.sqrt(self.sum_sq / max(self.steps, 1))
+
+    @property
+    def saturated(self):
+        """Return True when the torque command was clipped at any step."""
+        return self.saturated_steps > 0
+
+    def summary(self):
+        """Return the figures as a dict of arrays and floats."""
+        result = {'tracking_rms_error': self.rms_error, 'tracking_max_error': self.max_error,
+                  'peak_effort': self.peak_effort, 'peak_effort_rate': self.peak_effort_rate,
+                  'peak_command_rate': self.peak_command_rate,
+                  'max_command_rate_jump': self.max_rate_jump,
+                  'saturated_steps': self.saturated_steps}
+        if self.has_tool:
+            result['tool_max_error'] = self.tool_max_error
+        return result
