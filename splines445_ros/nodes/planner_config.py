@@ -12,11 +12,15 @@ import math
 from typing import Tuple
 
 from .validated_config import ValidatedConfig
+from ..arm.kinematics import PlanarArm
 from ..planning import METHODS, TIMINGS
 
 DEFAULT_JOINTS = ('joint1', 'joint2', 'joint3')
 MIN_SAMPLE_PERIOD = 1e-4
 MAX_LEAD_TIME = 10.0
+# Values of the ``kinematics`` parameter: '' = joint space only.
+KINEMATICS = ('', 'planar_3dof')
+MAX_INSERTED_WAYPOINTS = 100000
 
 
 @dataclass(frozen=True)
@@ -33,6 +37,11 @@ class PlannerConfig(ValidatedConfig):
     start_from_current_state: bool = False
     replan_lead_time: float = 0.2
     max_trajectory_points: int = 200000
+    kinematics: str = ''
+    link_lengths: Tuple[float, ...] = (1.1, 0.9)
+    max_path_deviation: float = 0.0
+    max_orientation_deviation: float = 0.0
+    max_inserted_waypoints: int = 200
 
     def validate(self):
         """Raise ValueError with the reason when any value is unusable."""
@@ -72,6 +81,33 @@ class PlannerConfig(ValidatedConfig):
         if self.max_trajectory_points < 2:
             raise ValueError(f'max_trajectory_points = {self.max_trajectory_points}: must be '
                              'at least 2')
+        self._validate_tool_paths()
+
+    def _validate_tool_paths(self):
+        if self.kinematics not in KINEMATICS:
+            raise ValueError(f'kinematics must be one of {list(KINEMATICS)} ("" = joint space '
+                             f'only), got {self.kinematics!r}')
+        if len(self.link_lengths) != 2:
+            raise ValueError(f'link_lengths needs 2 values (d1, d2), got {len(self.link_lengths)}')
+        for i, v in enumerate(self.link_lengths):
+            if not (math.isfinite(v) and v > 0.0):
+                raise ValueError(f'link_lengths[{i}] = {v}: must be positive and finite')
+        if self.kinematics == 'planar_3dof' and len(self.joint_names) != 3:
+            raise ValueError(f'kinematics "planar_3dof" needs 3 joint_names (shoulder, elbow, '
+                             f'tool), got {len(self.joint_names)}')
+        for name in ('max_path_deviation', 'max_orientation_deviation'):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0.0):
+                raise ValueError(f'{name} = {value}: must be >= 0 and finite (0 = not checked)')
+        if not 0 <= self.max_inserted_waypoints <= MAX_INSERTED_WAYPOINTS:
+            raise ValueError(f'max_inserted_waypoints = {self.max_inserted_waypoints}: must be '
+                             f'in [0, {MAX_INSERTED_WAYPOINTS}]')
+
+    def tool_kinematics(self):
+        """Return the kinematics object of ``kinematics`` (with ``link_lengths``), or None."""
+        if self.kinematics == 'planar_3dof':
+            return PlanarArm(*self.link_lengths)
+        return None
 
     def jerk_limits(self):
         """Jerk limits for plan(): None when no joint has one, +inf for 0 entries."""

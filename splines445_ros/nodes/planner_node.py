@@ -1,10 +1,13 @@
 """
 ``planner_node``: waypoints in, jerk-continuous ``JointTrajectory`` out.
 
-Subscribes ``waypoints`` (trajectory_msgs/JointTrajectory), plans with the
-planning core and the limits from its parameters, publishes
-``joint_trajectory`` sampled every ``sample_period`` and reports every
-request's outcome on ``~/status`` (diagnostic_msgs/DiagnosticStatus).
+Subscribes ``waypoints`` (trajectory_msgs/JointTrajectory) and
+``tool_waypoints`` (geometry_msgs/PoseArray, tool poses: inverse kinematics
+of ``kinematics``, refined until the tool stays within ``max_path_deviation``
+of the straight lines), plans with the planning core and the limits from its
+parameters, publishes ``joint_trajectory`` sampled every ``sample_period`` and
+reports every request's outcome on ``~/status``
+(diagnostic_msgs/DiagnosticStatus).
 
 Planning runs on a worker thread, so a large request never blocks the node's
 other callbacks (parameter services, state subscriptions).  A bad request is
@@ -17,6 +20,7 @@ import time
 import traceback
 
 from diagnostic_msgs.msg import DiagnosticStatus
+from geometry_msgs.msg import PoseArray
 import numpy as np
 from rclpy.node import Node
 from rclpy.time import Time
@@ -28,8 +32,9 @@ from .diagnostics import status_message
 from .node_main import run_node
 from .parameters import ConfigParameters
 from .planner_config import PlannerConfig
-from .request_planning import plan_request, start_from_state, summary_values
-from .ros_conversions import parse_waypoint_request, trajectory_to_msg
+from .request_planning import (plan_request, plan_tool_request, start_from_state,
+                               summary_values, tool_summary_values)
+from .ros_conversions import parse_tool_request, parse_waypoint_request, trajectory_to_msg
 
 PARAMETER_DESCRIPTIONS = {
     'joint_names': 'Joints planned, in the order of the limit arrays.',
@@ -47,6 +52,15 @@ PARAMETER_DESCRIPTIONS = {
                         'planning must finish within it.',
     'max_trajectory_points': 'Largest number of points a published trajectory may have; '
                              'a longer one is rejected (raise sample_period instead).',
+    'kinematics': 'Kinematics for tool_waypoints requests: "" (none: joint space only) or '
+                  '"planar_3dof" (the paper\'s arm with link_lengths, elbow branch +1).',
+    'link_lengths': 'd1, d2 of the planar_3dof arm [m], > 0.',
+    'max_path_deviation': 'Largest distance [m] of the tool from the straight lines between '
+                          'tool waypoints; knots are inserted until it holds; 0 = not checked.',
+    'max_orientation_deviation': 'Largest deviation [rad] of the tool yaw from its linear '
+                                 'interpolation between tool waypoints; 0 = not checked.',
+    'max_inserted_waypoints': 'Most waypoints the refinement of one tool request may insert; '
+                              'a request that needs more is rejected.',
 }
 
 _STOP = object()
@@ -67,6 +81,9 @@ class PlannerNode(Node):
         self.status_publisher = self.create_publisher(
             DiagnosticStatus, topics.STATUS, topics.STATUS_QOS)
         self.create_subscription(JointTrajectory, topics.WAYPOINTS, self._on_waypoints,
+                                 topics.REQUEST_QOS)
+        # Always subscribed: a tool request while kinematics is "" gets an ERROR, not silence.
+        self.create_subscription(PoseArray, topics.TOOL_WAYPOINTS, self._on_waypoints,
                                  topics.REQUEST_QOS)
         self.create_subscription(JointState, topics.JOINT_STATES, self._on_joint_state,
                                  topics.STATE_QOS)
@@ -101,13 +118,19 @@ class PlannerNode(Node):
         config = self.parameters.config
         started = time.perf_counter()
         switch_ns = None
+        tool_values = {}
         try:
-            request = parse_waypoint_request(msg, config.joint_names)
-            if config.start_from_current_state:
-                switch_ns = (self.get_clock().now().nanoseconds
-                             + int(config.replan_lead_time * 1e9))
-                request = start_from_state(request, *self._state_at(switch_ns, config))
-            traj = plan_request(config, request)
+            if isinstance(msg, PoseArray):
+                tool_path = plan_tool_request(config, parse_tool_request(msg))
+                traj = tool_path.trajectory
+                tool_values = tool_summary_values(tool_path)
+            else:
+                request = parse_waypoint_request(msg, config.joint_names)
+                if config.start_from_current_state:
+                    switch_ns = (self.get_clock().now().nanoseconds
+                                 + int(config.replan_lead_time * 1e9))
+                    request = start_from_state(request, *self._state_at(switch_ns, config))
+                traj = plan_request(config, request)
             n_points = int(traj.duration / config.sample_period) + 2
             if n_points > config.max_trajectory_points:
                 raise ValueError(
@@ -138,9 +161,14 @@ class PlannerNode(Node):
         if switch_ns is not None:
             values['switch_time_ns'] = switch_ns
         values.update(summary_values(traj, config.joint_names))
+        values.update(tool_values)
+        through = f'{traj.waypoints.shape[0]} waypoints'
+        if tool_values:
+            through = (f"{tool_values['tool_waypoints']} tool waypoints "
+                       f"({tool_values['inserted_waypoints']} inserted, deviation "
+                       f"{tool_values['max_path_deviation_reached']} m)")
         self._report(True, f'request {request_id}: {traj.method}/{traj.timing} through '
-                           f'{traj.waypoints.shape[0]} waypoints in {traj.duration:.4f} s',
-                     values)
+                           f'{through} in {traj.duration:.4f} s', values)
 
     def _state_at(self, switch_ns, config):
         """Position, velocity, acceleration the arm is commanded to have at ``switch_ns``."""

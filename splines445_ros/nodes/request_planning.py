@@ -9,6 +9,7 @@ import numpy as np
 
 from .diagnostics import format_vector
 from .ros_conversions import WaypointRequest
+from ..arm.tool_paths import plan_tool_path
 from ..planning import plan
 
 # A fixed-timing request may exceed a limit by this much (round-off of times
@@ -42,6 +43,49 @@ def plan_request(config, request):
             f'the requested times exceed the {b.quantity} limit of '
             f'{config.joint_names[b.joint]} on segment {b.segment} by a factor {b.ratio:.4g}')
     return traj
+
+
+def plan_tool_request(config, poses):
+    """
+    Plan tool waypoints ``poses`` (N, 3) = (x, y, yaw) with ``config``; return a ToolPath.
+
+    Rest to rest (zero boundary values), with the inverse kinematics of
+    ``config.kinematics`` (the paper's elbow branch for "planar_3dof"), refined
+    until the tool stays within ``max_path_deviation`` [m] and
+    ``max_orientation_deviation`` [rad] of the straight lines (0 = not checked;
+    both 0 = no refinement).  Raises ValueError when the kinematics is unset,
+    for "fixed" timing (a PoseArray has no times), for replanning (tool
+    requests start at rest at their first waypoint), and for anything the
+    refinement rejects.
+    """
+    kinematics = config.tool_kinematics()
+    if kinematics is None:
+        raise ValueError('tool_waypoints need the kinematics parameter (e.g. "planar_3dof"); '
+                         'it is "" (joint space only)')
+    if config.timing == 'fixed':
+        raise ValueError('timing "fixed" needs times, which tool_waypoints (PoseArray) do not '
+                         'carry: use timing "uniform" or "optimal"')
+    if config.start_from_current_state:
+        raise ValueError('tool_waypoints are planned rest to rest from their first waypoint; '
+                         'set start_from_current_state to false for them')
+    return plan_tool_path(poses, kinematics, config.max_path_deviation,
+                          config.max_orientation_deviation, config.max_inserted_waypoints,
+                          method=config.method, timing=config.timing,
+                          max_velocity=config.max_velocity,
+                          max_acceleration=config.max_acceleration,
+                          max_jerk=config.jerk_limits())
+
+
+def tool_summary_values(tool_path):
+    """Key/value details of a refined tool path for the status report."""
+    return {
+        'tool_waypoints': len(tool_path.waypoint_knots),
+        'inserted_waypoints': tool_path.inserted,
+        'max_path_deviation_reached': f'{tool_path.max_deviation:.6g}',
+        'max_orientation_deviation_reached': f'{tool_path.max_orientation_deviation:.6g}',
+        'unrefined_max_path_deviation': f'{tool_path.initial_deviation.max_position:.6g}',
+        'unrefined_duration': f'{tool_path.initial_duration:.9g}',
+    }
 
 
 def start_from_state(request, position, velocity, acceleration):

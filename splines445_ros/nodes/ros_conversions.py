@@ -11,6 +11,11 @@ Waypoint requests (``trajectory_msgs/JointTrajectory`` on ``waypoints``):
   ignored.
 * ``time_from_start`` on every point, strictly increasing, gives the segment
   durations when the planner's ``timing`` is "fixed"; otherwise it is ignored.
+
+Tool waypoint requests (``geometry_msgs/PoseArray`` on ``tool_waypoints``):
+one pose per tool waypoint, in the arm's base frame (``header.frame_id`` is
+not used); ``position.x``, ``position.y`` and the yaw of the orientation
+(a rotation about z; ``position.z`` must be finite and is ignored).
 """
 
 from dataclasses import dataclass
@@ -23,6 +28,8 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 from ..arm.playback import SampledTrajectory
 
 NANOS = 1_000_000_000
+# A tool orientation may tilt away from a rotation about z by this much [rad].
+MAX_TOOL_TILT = 1e-6
 
 
 @dataclass
@@ -93,6 +100,29 @@ def parse_waypoint_request(msg, joint_names):
     increasing = bool(np.all(np.diff(times) > 0.0))
     return WaypointRequest(waypoints, boundary[0], boundary[1], boundary[2], boundary[3],
                            times if increasing else None)
+
+
+def parse_tool_request(msg):
+    """Turn a ``PoseArray`` of tool waypoints into an (N, 3) array of (x, y, yaw) (ValueError)."""
+    if len(msg.poses) < 2:
+        raise ValueError(f'need at least 2 tool waypoints, got {len(msg.poses)}')
+    poses = np.empty((len(msg.poses), 3))
+    for k, pose in enumerate(msg.poses):
+        p, q = pose.position, pose.orientation
+        values = np.array([p.x, p.y, p.z, q.x, q.y, q.z, q.w], dtype=float)
+        if not np.all(np.isfinite(values)):
+            raise ValueError(f'tool waypoint {k} is not finite: position ({p.x}, {p.y}, {p.z}),'
+                             f' orientation ({q.x}, {q.y}, {q.z}, {q.w})')
+        norm = float(np.linalg.norm(values[3:]))
+        if norm < 1e-9:
+            raise ValueError(f'tool waypoint {k} has a zero orientation quaternion')
+        qx, qy, qz, qw = values[3:] / norm
+        tilt = 2.0 * np.arcsin(min(1.0, float(np.hypot(qx, qy))))
+        if tilt > MAX_TOOL_TILT:
+            raise ValueError(f'tool waypoint {k}: the orientation tilts {tilt:.3g} rad away '
+                             'from a rotation about z (a planar tool has yaw only)')
+        poses[k] = (p.x, p.y, 2.0 * np.arctan2(qz, qw))
+    return poses
 
 
 def trajectory_to_msg(samples, joint_names, stamp=None):

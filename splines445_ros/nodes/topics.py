@@ -4,6 +4,8 @@ Topic names (relative, so they remap and namespace) and QoS profiles.
 * ``waypoints`` (planner input): reliable, volatile, depth 100.  Requests are
   commands: one must never be replayed to a planner that restarts, and a burst
   of requests is queued, each answered by one status.
+* ``tool_waypoints`` (planner input, geometry_msgs/PoseArray): the same QoS
+  as ``waypoints``, for the same reasons.
 * ``joint_trajectory`` (planner output, arm input): reliable, transient-local,
   depth 1.  A subscriber that joins late (an arm started after the planner)
   still receives the latest trajectory, and only the latest one matters: a
@@ -17,6 +19,7 @@ Topic names (relative, so they remap and namespace) and QoS profiles.
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 WAYPOINTS = 'waypoints'
+TOOL_WAYPOINTS = 'tool_waypoints'
 JOINT_TRAJECTORY = 'joint_trajectory'
 JOINT_STATES = 'joint_states'
 TOOL_POSE = 'tool_pose'

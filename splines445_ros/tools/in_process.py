@@ -6,11 +6,12 @@ Used by the demo and the tests.  Creating an :class:`InProcessSystem` forces
 and picks a per-process ``ROS_DOMAIN_ID`` unless one is set.
 """
 
+import math
 import os
 import time
 
 from diagnostic_msgs.msg import DiagnosticStatus
-from geometry_msgs.msg import PoseStamped
+from geometry_msgs.msg import Pose, PoseArray, PoseStamped
 import rclpy
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
@@ -47,6 +48,18 @@ def waypoint_message(joint_names, waypoints, start_velocity=None, start_accelera
             point.velocities = [float(v) for v in vel]
         if acc is not None:
             point.accelerations = [float(v) for v in acc]
+    return msg
+
+
+def tool_waypoint_message(poses, frame_id='base_link'):
+    """Build a ``tool_waypoints`` request ``PoseArray`` from (N, 3) rows (x, y, yaw)."""
+    msg = PoseArray()
+    msg.header.frame_id = frame_id
+    for x, y, yaw in poses:
+        pose = Pose()
+        pose.position.x, pose.position.y = float(x), float(y)
+        pose.orientation.z, pose.orientation.w = math.sin(0.5 * yaw), math.cos(0.5 * yaw)
+        msg.poses.append(pose)
     return msg
 
 
@@ -120,6 +133,8 @@ class InProcessSystem(LocalRos):
         self.client = Node('splines445_client', context=self.context)
         self.waypoint_publisher = self.client.create_publisher(
             JointTrajectory, topics.WAYPOINTS, topics.REQUEST_QOS)
+        self.tool_waypoint_publisher = self.client.create_publisher(
+            PoseArray, topics.TOOL_WAYPOINTS, topics.REQUEST_QOS)
         self.trajectory_publisher = self.client.create_publisher(
             JointTrajectory, topics.JOINT_TRAJECTORY, topics.LATCHED)
         self.trajectories = []
@@ -145,6 +160,7 @@ class InProcessSystem(LocalRos):
         """Wait until the client's publishers and subscriptions have matched the nodes."""
         def matched():
             return (self.waypoint_publisher.get_subscription_count() >= 1
+                    and self.tool_waypoint_publisher.get_subscription_count() >= 1
                     and self.planner.trajectory_publisher.get_subscription_count() >= 2
                     and self.arm.joint_state_publisher.get_subscription_count() >= 1
                     and self.planner.status_publisher.get_subscription_count() >= 1
@@ -153,10 +169,13 @@ class InProcessSystem(LocalRos):
             raise RuntimeError('in-process nodes did not discover each other')
 
     def request(self, msg, timeout=30.0):
-        """Publish a waypoint request; return its status and trajectory (or None)."""
+        """Publish a waypoint (or PoseArray tool) request; return its status and trajectory."""
         n_status = len(self.planner_status)
         n_traj = len(self.trajectories)
-        self.waypoint_publisher.publish(msg)
+        if isinstance(msg, PoseArray):
+            self.tool_waypoint_publisher.publish(msg)
+        else:
+            self.waypoint_publisher.publish(msg)
         if not self.spin_until(lambda: len(self.planner_status) > n_status, timeout):
             raise TimeoutError('no status from the planner')
         status = self.planner_status[n_status]

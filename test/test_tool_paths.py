@@ -1,0 +1,195 @@
+"""
+Straight tool paths: Taylor's bounded-deviation refinement (splines445_ros.arm.tool_paths).
+
+The deviation is checked independently of the implementation: forward
+kinematics written here, a grid 400 points per segment offset from the
+implementation's, and the distance to the requested edge each time belongs
+to (from the times the tool waypoints are passed).
+"""
+
+from hypothesis import assume, event, given, settings, strategies as st
+import numpy as np
+import pytest
+from splines445_ros.arm import paper_example as pe
+from splines445_ros.arm.kinematics import PlanarArm
+from splines445_ros.arm.tool_paths import path_deviation, plan_tool_path
+from splines445_ros.planning import METHODS
+
+D1, D2 = 1.1, 0.9
+ARM = PlanarArm(D1, D2)
+LIMITS = {'max_velocity': pe.MAX_VELOCITY, 'max_acceleration': pe.MAX_ACCELERATION}
+CHECK_POINTS = 400  # per trajectory segment
+
+
+def forward(q):
+    """Tool (x, y, yaw) of the paper's arm, written independently of PlanarArm."""
+    q1, q2, q3 = q[:, 0], q[:, 1], q[:, 2]
+    return np.column_stack([D1 * np.cos(q1) + D2 * np.cos(q1 + q2),
+                            D1 * np.sin(q1) + D2 * np.sin(q1 + q2), q1 + q2 + q3])
+
+
+def measured_deviation(result, poses):
+    """Largest (position, orientation) deviation on a fine grid offset from the library's."""
+    traj = result.trajectory
+    u = (np.arange(CHECK_POINTS) + 0.5) / CHECK_POINTS
+    t = (traj.breakpoints[:-1, None] + traj.durations[:, None] * u).ravel()
+    tool = forward(traj.evaluate(t))
+    passed = traj.breakpoints[result.waypoint_knots]  # when each tool waypoint is reached
+    edge = np.clip(np.searchsorted(passed, t, side='right') - 1, 0, len(poses) - 2)
+    yaw = np.unwrap(poses[:, 2])
+    a, b = poses[edge, :2], poses[edge + 1, :2]
+    ab = b - a
+    length2 = np.sum(ab**2, axis=1)
+    s = np.clip(np.sum((tool[:, :2] - a) * ab, axis=1) / np.maximum(length2, 1e-300), 0, 1)
+    s = np.where(length2 > 1e-18, s,
+                 np.clip((t - passed[edge]) / (passed[edge + 1] - passed[edge]), 0, 1))
+    position = np.linalg.norm(tool[:, :2] - a - s[:, None] * ab, axis=1)
+    target = yaw[edge] + s * (yaw[edge + 1] - yaw[edge])
+    orientation = np.abs((tool[:, 2] - target + np.pi) % (2 * np.pi) - np.pi)
+    return position.max(), orientation.max()
+
+
+def check_result(result, poses, tol_position, tol_orientation, rest_to_rest=True):
+    traj = result.trajectory
+    position, orientation = measured_deviation(result, poses)
+    assert position <= tol_position * (1 + 1e-6) + 1e-12, (position, tol_position)
+    assert orientation <= tol_orientation * (1 + 1e-6) + 1e-12, (orientation, tol_orientation)
+    # The library's own maxima are at least what the fine grid sees.
+    assert result.max_deviation >= position - 1e-9
+    # Passes through every tool waypoint (yaw modulo 2 pi).
+    at_knots = forward(traj.evaluate(traj.breakpoints[result.waypoint_knots]))
+    np.testing.assert_allclose(at_knots[:, :2], poses[:, :2], atol=1e-9)
+    np.testing.assert_allclose(np.cos(at_knots[:, 2] - poses[:, 2]), 1.0, atol=1e-12)
+    # Limits hold exactly (peaks from the polynomials) and on a dense sampling.
+    assert traj.within_limits()
+    t = np.linspace(0.0, traj.duration, 20001)
+    assert np.all(np.abs(traj.evaluate(t, 1)) <= pe.MAX_VELOCITY * (1 + 1e-9))
+    assert np.all(np.abs(traj.evaluate(t, 2)) <= pe.MAX_ACCELERATION * (1 + 1e-9))
+    if rest_to_rest:
+        for d in (1, 2):
+            np.testing.assert_allclose(traj.evaluate([0.0, traj.duration], d), 0.0, atol=1e-9)
+    assert result.inserted == len(result.joints) - len(np.unique(result.waypoint_knots))
+
+
+@st.composite
+def reachable_polygons(draw):
+    """Tool polygons (N, 3) whose edges stay well inside the arm's annulus 0.2 < r < 2."""
+    n = draw(st.integers(2, 6))
+    angle = draw(st.floats(-np.pi, np.pi))
+    rows = []
+    for _ in range(n):
+        radius = draw(st.floats(0.6, 1.7))
+        yaw = draw(st.floats(-1.5, 1.5))
+        rows.append((radius * np.cos(angle), radius * np.sin(angle), yaw))
+        angle += draw(st.floats(-1.2, 1.2))
+    poses = np.array(rows)
+    for a, b in zip(poses[:-1, :2], poses[1:, :2]):
+        ab = b - a
+        assume(np.linalg.norm(ab) > 0.05)
+        s = np.clip(-a @ ab / (ab @ ab), 0.0, 1.0)
+        assume(np.linalg.norm(a + s * ab) > 0.45)  # the line stays away from the hole
+    return poses
+
+
+@given(poses=reachable_polygons(), method=st.sampled_from(METHODS),
+       tol=st.sampled_from([1e-3, 3e-3, 1e-2]), tol_yaw=st.sampled_from([3e-3, 3e-2]))
+def test_uniform_timing_stays_within_the_tolerance_everywhere(poses, method, tol, tol_yaw):
+    try:
+        result = plan_tool_path(poses, ARM, tol, tol_yaw, method=method, **LIMITS)
+    except ValueError as exc:
+        # 445's disturbances do not decay: it may need more than the cap (never 434 or 555).
+        assert method == '445' and 'max_inserted' in str(exc), str(exc)
+        assert 'between tool waypoints' in str(exc)
+        event('445 reached the cap')
+        return
+    event(f'refined: {result.inserted > 0}')
+    check_result(result, poses, tol, tol_yaw)
+
+
+@settings(max_examples=6)
+@given(poses=reachable_polygons(), method=st.sampled_from(METHODS))
+def test_optimal_timing_stays_within_the_tolerance_everywhere(poses, method):
+    assume(len(poses) <= 4)
+    try:
+        result = plan_tool_path(poses, ARM, 5e-3, 5e-2, max_inserted=40, method=method,
+                                timing='optimal', **LIMITS)
+    except ValueError as exc:
+        assert 'max_inserted' in str(exc), str(exc)
+        event(f'{method} reached the cap')
+        return
+    event(f'refined: {result.inserted > 0}')
+    check_result(result, poses, 5e-3, 5e-2)
+
+
+@pytest.mark.parametrize('method', ['434', '555'])
+def test_paper_triangle_within_one_millimetre(method):
+    xy = pe.triangle_points()
+    poses = np.column_stack([xy, np.zeros(len(xy))])
+    result = plan_tool_path(poses, ARM, 1e-3, method=method, **LIMITS)
+    check_result(result, poses, 1e-3, 1e-9)
+    assert result.initial_deviation.max_position > 0.03  # the paper's observation
+    assert 0 < result.inserted < 100
+    # A 1000-point grid per segment finds the same maxima as the default one.
+    fine = path_deviation(result, ARM, grid=1000)
+    assert fine.max_position == pytest.approx(result.max_deviation, abs=1e-9)
+
+
+def test_fixed_timing_keeps_the_times_of_the_tool_waypoints():
+    xy = pe.triangle_points(6)
+    poses = np.column_stack([xy, np.linspace(0.0, 0.5, len(xy))])
+    durations = np.array([1.0, 1.5, 1.0, 2.0, 1.0])
+    result = plan_tool_path(poses, ARM, 2e-3, 1e-2, method='434', timing='fixed',
+                            durations=durations)
+    assert result.inserted > 0
+    passed = result.trajectory.breakpoints[result.waypoint_knots]
+    np.testing.assert_allclose(passed, np.concatenate([[0.0], np.cumsum(durations)]))
+    position, orientation = measured_deviation(result, poses)
+    assert position <= 2e-3 * (1 + 1e-6) and orientation <= 1e-2 * (1 + 1e-6)
+
+
+def test_duplicate_tool_waypoints_are_merged_and_still_passed():
+    xy = pe.triangle_points(5)
+    poses = np.column_stack([xy, np.zeros(len(xy))])
+    doubled = np.insert(poses, 2, poses[2], axis=0)
+    result = plan_tool_path(doubled, ARM, 2e-3, method='555', **LIMITS)
+    assert result.waypoint_knots[2] == result.waypoint_knots[3]
+    check_result(result, doubled, 2e-3, 1e-9)
+
+
+def test_unreachable_poses_are_named():
+    with pytest.raises(ValueError, match=r'tool waypoint 2 at .* is unreachable'):
+        plan_tool_path([[1, 0, 0], [0, 1, 0], [0, 0.1, 0], [-1, 0, 0]], ARM, 1e-3, **LIMITS)
+    # Both ends reachable, but the straight line between them crosses the hole at the base.
+    with pytest.raises(ValueError, match='line from tool waypoint 0 to 1 leaves the reach'):
+        plan_tool_path([[1, 0, 0], [-1, 0, 0]], ARM, 1e-3, method='434', **LIMITS)
+
+
+def test_the_cap_stops_with_the_segment_and_the_deviation_reached():
+    xy = pe.triangle_points()
+    poses = np.column_stack([xy, np.zeros(len(xy))])
+    with pytest.raises(ValueError, match=r'after inserting 5 waypoints \(max_inserted\): the '
+                                         r'tool still deviates 0\.0\d+ m from the straight '
+                                         r'line \(tolerance 0\.001 m\) between tool '
+                                         r'waypoints \d+ and \d+'):
+        plan_tool_path(poses, ARM, 1e-3, max_inserted=5, method='434', **LIMITS)
+
+
+def test_orientation_alone_can_drive_the_refinement():
+    poses = np.array([[1.2, 0.0, 0.0], [1.2, 0.6, 2.5], [0.8, 0.9, -0.5]])
+    unrefined = plan_tool_path(poses, ARM, method='434', **LIMITS)
+    assert unrefined.inserted == 0 and unrefined.max_orientation_deviation > 0.01
+    result = plan_tool_path(poses, ARM, None, 0.01, method='434', **LIMITS)
+    assert result.inserted > 0
+    assert measured_deviation(result, poses)[1] <= 0.01 * (1 + 1e-6)
+
+
+@pytest.mark.parametrize('poses, kwargs, message', [
+    ([[1, 0, 0]], {}, 'at least 2 tool waypoints'),
+    ([[1, 0, 0], [1, np.nan, 0]], {}, 'tool waypoint 1 has y = nan'),
+    ([[1, 0], [1, 1]], {}, r'shape \(N, 3\)'),
+    ([[1, 0, 0], [1, 1, 0]], {'max_deviation': -1.0}, 'max_deviation = -1.0'),
+    ([[1, 0, 0], [1, 1, 0]], {'timing': 'fixed'}, 'needs durations'),
+])
+def test_bad_input_is_a_clear_error(poses, kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        plan_tool_path(poses, ARM, **{**LIMITS, **kwargs})
