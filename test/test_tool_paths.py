@@ -193,3 +193,16 @@ def test_orientation_alone_can_drive_the_refinement():
 def test_bad_input_is_a_clear_error(poses, kwargs, message):
     with pytest.raises(ValueError, match=message):
         plan_tool_path(poses, ARM, **{**LIMITS, **kwargs})
+
+
+def test_demo_table_and_figure(tmp_path):
+    from splines445_ros.tools.tool_path_demo import markdown_table, plot_refined_paths, \
+        refine_triangle
+    runs = refine_triangle(methods=('434',), timings=('uniform',))
+    table = markdown_table(runs)
+    row = table.splitlines()[2].split('|')
+    assert row[1].strip() == '434' and float(row[4]) <= 1.0 and float(row[5]) <= 1.0
+    path = str(tmp_path / 'refined.png')
+    plot_refined_paths(runs, path)
+    with open(path, 'rb') as handle:
+        assert handle.read(8) == b'\x89PNG\r\n\x1a\n'
