@@ -150,3 +150,15 @@ def test_planar_kinematics_needs_three_joints(system):
          'max_acceleration': [1.0, 1.0], 'max_jerk': [0.0, 0.0]}))
     assert not result.successful and 'needs 3 joint_names' in result.reason, result.reason
     assert system.planner.parameters.config == before
+
+
+def test_params_file_configures_tool_paths():
+    import os
+    import yaml
+    from splines445_ros.nodes.planner_config import PlannerConfig
+    path = os.path.join(os.path.dirname(__file__), '..', 'config', 'planar_arm.yaml')
+    with open(path, encoding='utf-8') as handle:
+        values = yaml.safe_load(handle)['planner_node']['ros__parameters']
+    config = PlannerConfig.from_values(values)
+    assert config.kinematics == 'planar_3dof' and config.max_path_deviation == 1e-3
+    assert config.tool_kinematics().d1 == 1.1
