@@ -21,7 +21,9 @@ JERK_LIMIT = 200.0  # config/planar_arm.yaml
 
 @pytest.fixture
 def system():
-    with InProcessSystem(arm_parameters={'initial_positions': W[0].tolist()},
+    # The params file simulates the arm's dynamics; these tests check exact playback.
+    with InProcessSystem(arm_parameters={'initial_positions': W[0].tolist(),
+                                         'simulation': 'kinematic'},
                          params_file=CONFIG) as s:
         yield s
 
@@ -167,6 +169,7 @@ def test_invalid_planner_parameters_are_rejected_with_a_reason(system):
 def test_params_file_is_loaded(system):
     assert list(system.planner.get_parameter('max_jerk').value) == [JERK_LIMIT] * 3
     assert list(system.arm.get_parameter('link_lengths').value) == [1.1, 0.9]
+    assert list(system.arm.get_parameter('torque_limits').value) == [1000.0, 300.0, 30.0]
 
 
 def test_invalid_arm_parameters_are_rejected(system):

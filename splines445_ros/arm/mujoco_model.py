@@ -56,7 +56,7 @@ class PlanarArmModel:
     link_masses: Tuple[float, ...] = (20.0, 12.0, 4.0)
     rotor_inertia: Tuple[float, ...] = (10.0, 4.0, 0.1)
     joint_damping: Tuple[float, ...] = (10.0, 4.0, 0.2)
-    joint_friction: Tuple[float, ...] = (10.0, 4.0, 0.5)
+    joint_friction: Tuple[float, ...] = (10.0, 4.0, 0.2)
     joint_stiffness: Tuple[float, ...] = (0.0, 0.0, 0.0)
     spring_damping_ratio: float = 0.02
     gravity: bool = True

@@ -316,6 +316,7 @@ class ArmSimNode(Node):
         now = self._now_ns()
         if self.dynamic is not None:
             self._advance_dynamic(now)
+            now = self._sim_ns  # the physics time of the state (at most one step earlier)
         else:
             self._advance(now)
         stamp = Time(nanoseconds=now).to_msg()

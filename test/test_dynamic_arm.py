@@ -1,0 +1,268 @@
+"""
+arm_sim_node with ``simulation: dynamic``: tracking, effort, saturation, user models, errors.
+
+Every test runs the node in-process (LocalRos) with a test client; the
+simulations are short (about a second of motion each).
+"""
+
+import math
+
+from builtin_interfaces.msg import Time as TimeMsg
+from diagnostic_msgs.msg import DiagnosticStatus
+from geometry_msgs.msg import PoseStamped
+import numpy as np
+import pytest
+from rclpy.node import Node
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
+from splines445_ros.nodes import topics
+from splines445_ros.nodes.arm_sim_config import ArmSimConfig
+from splines445_ros.nodes.arm_sim_node import ArmSimNode
+from splines445_ros.nodes.diagnostics import status_values
+from splines445_ros.nodes.ros_conversions import trajectory_to_msg
+from splines445_ros.planning import plan
+from splines445_ros.tools.in_process import LocalRos, overrides, stamp_ns
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+pytest.importorskip('mujoco')
+JOINTS = ('joint1', 'joint2', 'joint3')
+START = np.array([0.0, 0.5, 0.0])
+GOAL = np.array([0.3, 0.8, -0.3])
+# The PD loop needs friction / kp of error before a joint moves (the feed-forward
+# does not compensate dry friction): at most 0.25 mrad with the defaults.  Twice that.
+DEADBAND = float(np.max(np.array(ArmSimConfig().joint_friction) / np.array(ArmSimConfig().kp)))
+TOLERANCE = 2.0 * DEADBAND
+TWO_LINK = """<mujoco model="two_link">
+  <option gravity="0 0 -9.81"/>
+  <worldbody>
+    <body name="upper">
+      <joint name="shoulder" type="hinge" axis="0 0 1" damping="0.5"/>
+      <geom type="capsule" fromto="0 0 0 0.5 0 0" size="0.02" mass="2"/>
+      <body name="lower" pos="0.5 0 0">
+        <joint name="elbow" type="hinge" axis="0 0 1" damping="0.2"/>
+        <geom type="capsule" fromto="0 0 0 0.4 0 0" size="0.02" mass="1"/>
+        <site name="tip" pos="0.4 0 0"/>
+      </body>
+    </body>
+  </worldbody>
+  <actuator><position joint="shoulder" kp="5"/></actuator>
+</mujoco>
+"""
+
+
+class Harness:
+    """One arm node and a client recording its outputs."""
+
+    def __init__(self, ros, parameters):
+        self.ros = ros
+        self.node = ros.add(ArmSimNode(context=ros.context,
+                                       parameter_overrides=overrides(parameters)))
+        self.client = ros.add(Node('dynamic_client', context=ros.context))
+        self.publisher = self.client.create_publisher(JointTrajectory, topics.JOINT_TRAJECTORY,
+                                                      topics.LATCHED)
+        self.states, self.status, self.poses = [], [], []
+        self.client.create_subscription(JointState, topics.JOINT_STATES, self.states.append,
+                                        topics.STATE_QOS)
+        self.client.create_subscription(DiagnosticStatus, '/arm_sim_node/status',
+                                        self.status.append, topics.STATUS_QOS)
+        self.client.create_subscription(PoseStamped, topics.TOOL_POSE, self.poses.append,
+                                        topics.STATE_QOS)
+        assert ros.spin_until(lambda: self.publisher.get_subscription_count() >= 1
+                              and len(self.states) >= 2, 5.0)
+
+    def finished(self, n):
+        """Wait for the status that ends the trajectory accepted after status n."""
+        assert self.ros.spin_until(lambda: len(self.status) > n, 5.0)
+        accepted = self.status[n]
+        assert accepted.level == DiagnosticStatus.OK, accepted.message
+        duration = float(status_values(accepted)['duration'])
+        assert self.ros.spin_until(lambda: len(self.status) > n + 1, duration + 5.0)
+        return accepted, self.status[n + 1]
+
+
+def slow_plan(start=START, goal=GOAL):
+    return plan(np.array([start, 0.5 * (start + goal) + [0.05, -0.05, 0.05], goal]), '445',
+                'uniform', max_velocity=[0.4] * 3, max_acceleration=[2.0] * 3)
+
+
+def test_dynamic_arm_follows_a_slow_trajectory_and_settles():
+    traj = slow_plan()
+    with LocalRos() as ros:
+        arm = Harness(ros, {'simulation': 'dynamic', 'initial_positions': START.tolist(),
+                            'publish_rate': 100.0})
+        n = len(arm.status)
+        arm.publisher.publish(trajectory_to_msg(traj.sample(0.01), JOINTS))
+        accepted, done = arm.finished(n)
+        start = int(status_values(accepted)['start_ns'])
+        moving = [s for s in arm.states if start <= stamp_ns(s) <= start + traj.duration * 1e9]
+        assert len(moving) > 0.5 * traj.duration * 100
+        t = np.array([(stamp_ns(s) - start) * 1e-9 for s in moving])
+        measured = np.array([s.position for s in moving])
+        error = np.abs(traj.evaluate(t) - measured)
+        assert error.max() < TOLERANCE, error.max(axis=0)
+        # It really moves (not a frozen arm that happens to be near the path).
+        assert np.ptp(measured[:, 0]) > 0.25
+        effort = np.array([s.effort for s in moving])
+        assert effort.shape == (len(moving), 3) and np.all(np.isfinite(effort))
+        assert np.abs(effort).max() > 10.0  # gravity and inertia need torque
+        # The end-of-trajectory status, 0.5 s after the end.
+        assert done.level == DiagnosticStatus.OK, done.message
+        values = status_values(done)
+        for key in ('tracking_rms_error', 'tracking_max_error', 'peak_effort',
+                    'peak_effort_rate', 'settling_error'):
+            assert len(values[key].split(',')) == 3, key
+        reported_max = np.array([float(v) for v in values['tracking_max_error'].split(',')])
+        assert np.all(reported_max < TOLERANCE)
+        # joint_states are stamped with the physics time: every one is a state the
+        # node measured, so the reported maximum bounds them.
+        assert np.all(error.max(axis=0) <= reported_max + 1e-6)
+        assert float(values['tool_max_error']) < 2.0 * TOLERANCE
+        peak = np.array([float(v) for v in values['peak_effort'].split(',')])
+        assert np.all(peak >= np.abs(effort).max(axis=0) - 1e-9)
+        assert values['saturated_steps'] == '0'
+        settling = np.array([float(v) for v in values['settling_error'].split(',')])
+        assert np.all(settling < 2.0 * DEADBAND + 1e-6)
+        np.testing.assert_allclose(arm.states[-1].position, GOAL, atol=2.0 * DEADBAND + 1e-6)
+        # The tool pose is the forward kinematics of the measured joints.
+        ros.spin_for(0.05)
+        q = np.array(arm.states[-1].position)
+        pose = arm.poses[-1].pose
+        x = 1.1 * math.cos(q[0]) + 0.9 * math.cos(q[0] + q[1])
+        y = 1.1 * math.sin(q[0]) + 0.9 * math.sin(q[0] + q[1])
+        assert (pose.position.x, pose.position.y) == pytest.approx((x, y), abs=1e-3)
+        assert 2.0 * math.atan2(pose.orientation.z, pose.orientation.w) == pytest.approx(
+            q.sum(), abs=1e-3)
+
+
+def test_saturation_is_reported_as_a_warning():
+    traj = slow_plan()
+    limits = [60.0, 40.0, 5.0]  # below the ~200 N m gravity needs at the shoulder
+    with LocalRos() as ros:
+        arm = Harness(ros, {'simulation': 'dynamic', 'initial_positions': START.tolist(),
+                            'torque_limits': limits})
+        n = len(arm.status)
+        arm.publisher.publish(trajectory_to_msg(traj.sample(0.01), JOINTS))
+        _, done = arm.finished(n)
+        assert done.level == DiagnosticStatus.WARN, done.message
+        assert 'saturated' in done.message
+        assert int(status_values(done)['saturated_steps']) > 0
+        effort = np.abs(np.array([s.effort for s in arm.states]))
+        assert np.all(effort <= np.array(limits) * (1 + 1e-9))
+        assert effort[:, 0].max() == pytest.approx(limits[0], rel=1e-6)
+        # The arm cannot hold itself up: it has sagged far from the goal.
+        assert abs(arm.states[-1].position[0] - GOAL[0]) > 0.1
+
+
+def test_a_user_model_with_its_own_joint_names(tmp_path):
+    path = tmp_path / 'two_link.xml'
+    path.write_text(TWO_LINK)
+    goal = np.array([0.6, -0.4])
+    traj = plan(np.array([[0.0, 0.0], [0.3, -0.1], goal]), '445', 'uniform',
+                max_velocity=[1.0, 1.0], max_acceleration=[5.0, 5.0])
+    with LocalRos() as ros:
+        arm = Harness(ros, {'simulation': 'dynamic', 'model_file': str(path),
+                            'joint_names': ['shoulder', 'elbow'], 'tool_site': 'tip',
+                            'initial_positions': [0.0, 0.0], 'torque_limits': [20.0, 10.0],
+                            'kp': [400.0, 200.0], 'kd': [20.0, 8.0]})
+        assert list(arm.states[-1].name) == ['shoulder', 'elbow']
+        n = len(arm.status)
+        arm.publisher.publish(trajectory_to_msg(traj.sample(0.01), ['elbow', 'shoulder'][::-1]))
+        _, done = arm.finished(n)
+        assert done.level == DiagnosticStatus.OK, done.message
+        state = arm.states[-1]
+        np.testing.assert_allclose(state.position, goal, atol=0.01)
+        assert len(state.effort) == 2 and np.all(np.isfinite(state.effort))
+        ros.spin_for(0.05)
+        q = np.array(arm.states[-1].position)
+        tip = (0.5 * math.cos(q[0]) + 0.4 * math.cos(q.sum()),
+               0.5 * math.sin(q[0]) + 0.4 * math.sin(q.sum()))
+        pose = arm.poses[-1].pose.position
+        assert (pose.x, pose.y, pose.z) == pytest.approx((*tip, 0.0), abs=1e-6)
+
+
+def test_bad_parameters_and_model_files_are_rejected_and_the_arm_lives_on(tmp_path):
+    broken = tmp_path / 'broken.xml'
+    broken.write_text('<mujoco><worldbody><body name="a"></worldbody></mujoco>')
+    other = tmp_path / 'other.xml'
+    other.write_text(TWO_LINK)
+    cases = [
+        ({'simulation': 'wobbly'}, 'simulation must be one of'),
+        ({'model_file': str(tmp_path / 'absent.xml')}, 'no such file'),
+        ({'model_file': str(broken)}, 'cannot load MJCF'),
+        ({'model_file': str(other)}, "has no joint(s) ['joint1', 'joint2', 'joint3']"),
+        ({'tool_site': 'gripper'}, "no site 'gripper'"),
+        ({'kp': [1.0, -2.0, 3.0]}, 'kp must be 3 values'),
+        ({'torque_limits': [10.0, 10.0]}, 'torque_limits must be 3 values'),
+        ({'physics_rate': 500.0}, 'physics_rate'),
+        ({'link_masses': [1.0, 0.0, 1.0]}, 'link_masses'),
+        ({'joint_stiffness': [1e9, 0.0, 0.0]}, 'too stiff for physics_rate'),
+        ({'kd': [1e6, 700.0, 20.0]}, 'too high for physics_rate'),
+        ({'actuator_time_constant': -0.1}, 'actuator_time_constant'),
+    ]
+    with LocalRos() as ros:
+        arm = Harness(ros, {'simulation': 'dynamic', 'initial_positions': START.tolist()})
+        before = arm.node.parameters.config
+        for values, reason in cases:
+            result = arm.node.set_parameters(overrides(values))[0]
+            assert not result.successful, values
+            assert reason in result.reason, (values, result.reason)
+            assert arm.node.parameters.config == before
+        # Still alive and holding: a good trajectory afterwards is played.
+        n = len(arm.status)
+        arm.publisher.publish(trajectory_to_msg(slow_plan().sample(0.01), JOINTS))
+        _, done = arm.finished(n)
+        assert done.level == DiagnosticStatus.OK
+        np.testing.assert_allclose(arm.states[-1].position, GOAL, atol=1e-3)
+        # A good change of the model is taken while running (elastic joints, lighter tool).
+        result = arm.node.set_parameters(overrides({'joint_stiffness': [2e5, 3e4, 300.0],
+                                                    'link_masses': [20.0, 12.0, 2.0]}))[0]
+        assert result.successful, result.reason
+        n = len(arm.states)
+        assert ros.spin_until(lambda: len(arm.states) > n + 3, 5.0)
+        np.testing.assert_allclose(arm.states[-1].position, GOAL, atol=5e-3)
+
+
+def test_a_bad_model_file_at_start_up_is_an_error():
+    with LocalRos() as ros:
+        with pytest.raises(ValueError, match='no such file'):
+            ArmSimNode(context=ros.context, parameter_overrides=overrides(
+                {'simulation': 'dynamic', 'model_file': '/nonexistent/arm.xml'}))
+
+
+def test_dynamic_arm_follows_simulated_time():
+    goal = [0.2, 0.6, 0.1]
+    with LocalRos() as ros:
+        node = ros.add(ArmSimNode(context=ros.context, parameter_overrides=overrides(
+            {'use_sim_time': True, 'simulation': 'dynamic', 'publish_rate': 50.0,
+             'initial_positions': START.tolist()})))
+        client = ros.add(Node('clock_driver', context=ros.context))
+        clock = client.create_publisher(Clock, '/clock', 10)
+        trajectories = client.create_publisher(JointTrajectory, topics.JOINT_TRAJECTORY,
+                                               topics.LATCHED)
+        states = []
+        client.create_subscription(JointState, topics.JOINT_STATES, states.append,
+                                   topics.STATE_QOS)
+
+        def set_clock(seconds):
+            clock.publish(Clock(clock=TimeMsg(sec=int(seconds),
+                                              nanosec=int(round(seconds % 1 * 1e9)))))
+            ros.spin_for(0.3)
+
+        assert ros.spin_until(lambda: clock.get_subscription_count()
+                              and trajectories.get_subscription_count(), 3.0)
+        set_clock(100.0)
+        msg = JointTrajectory(joint_names=list(JOINTS))
+        point = JointTrajectoryPoint(positions=goal, velocities=[0.0] * 3,
+                                     accelerations=[0.0] * 3)
+        point.time_from_start.sec = 1
+        msg.points = [point]
+        trajectories.publish(msg)
+        ros.spin_for(0.3)  # wall time only: the physics does not advance
+        held = np.array(states[-1].position)
+        np.testing.assert_allclose(held, START, atol=1e-3)
+        for seconds in np.arange(100.1, 101.81, 0.1):
+            set_clock(seconds)
+        assert stamp_ns(states[-1]) == 101_800_000_000
+        assert node.dynamic.time == pytest.approx(1.8, abs=2e-3)  # stepped with /clock
+        np.testing.assert_allclose(states[-1].position, goal, atol=2e-3)
+        assert len(states[-1].effort) == 3
