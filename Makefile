@@ -35,7 +35,8 @@ LINTED := splines445_ros test scripts benchmarks setup.py
 help:
 	@echo "make demo   set up, build, run the paper's example through both nodes"
 	@echo "make test   set up, build, colcon test, colcon test-result --verbose"
-	@echo "make bench  planning time and optimal durations against scipy and TOPP-RA"
+	@echo "make bench  planning time and optimal durations against scipy and TOPP-RA,"
+	@echo "            tracking and torque of every method on the dynamic arm"
 	@echo "make lint   ament_flake8 and ament_pep257 on the sources"
 	@echo "make clean  remove build products (keeps .venv)"
 
@@ -66,6 +67,7 @@ demo: build
 bench: build
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_planning.py
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_optimal.py
+	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_smoothness.py
 
 lint: env
 	$(BIN)ament_flake8 $(LINTED)
