@@ -3,7 +3,8 @@
 import math
 
 from diagnostic_msgs.msg import DiagnosticStatus
-from geometry_msgs.msg import PoseArray
+from geometry_msgs.msg import Pose, PoseArray
+from hypothesis import given, settings, strategies as st
 import numpy as np
 import pytest
 from splines445_ros.arm import paper_example as pe
@@ -126,6 +127,27 @@ def test_bad_tool_requests_get_an_error_and_the_node_keeps_serving(system):
     assert traj is not None
     counters = [int(status_values(s)['request']) for s in system.planner_status]
     assert counters == list(range(1, len(counters) + 1))  # one status per message
+
+
+ANY_FLOAT = st.one_of(st.floats(-3.0, 3.0), st.floats(allow_nan=True, allow_infinity=True),
+                      st.sampled_from([0.0, 1e300, -1e-300]))
+
+
+@settings(max_examples=40)
+@given(rows=st.lists(st.tuples(*[ANY_FLOAT] * 7), max_size=6))
+def test_random_pose_arrays_get_one_status_each_and_never_an_internal_error(system, rows):
+    msg = PoseArray()
+    for x, y, z, qx, qy, qz, qw in rows:
+        pose = Pose()
+        pose.position.x, pose.position.y, pose.position.z = x, y, z
+        pose.orientation.x, pose.orientation.y = qx, qy
+        pose.orientation.z, pose.orientation.w = qz, qw
+        msg.poses.append(pose)
+    count = len(system.planner_status)
+    status, traj = system.request(msg)
+    assert len(system.planner_status) == count + 1
+    assert 'internal error' not in status.message, status.message
+    assert (traj is not None) == (status.level == DiagnosticStatus.OK), status.message
 
 
 @pytest.mark.parametrize('values, reason', [

@@ -189,11 +189,13 @@ def tool_pose_array(poses):
 def _inverse(kinematics, poses, describe):
     """IK of ``poses``; on failure name the first unreachable one with ``describe(k)``."""
     try:
-        joints = np.asarray(kinematics.inverse(poses), dtype=float)
+        with np.errstate(over='ignore', invalid='ignore'):  # huge poses are unreachable
+            joints = np.asarray(kinematics.inverse(poses), dtype=float)
     except ValueError:
         for k, pose in enumerate(poses):
             try:
-                kinematics.inverse(pose[None, :])
+                with np.errstate(over='ignore', invalid='ignore'):
+                    kinematics.inverse(pose[None, :])
             except ValueError as exc:
                 raise ValueError(f'{describe(k)} at (x, y, yaw) = '
                                  f'({pose[0]:.6g}, {pose[1]:.6g}, {pose[2]:.6g}) is '

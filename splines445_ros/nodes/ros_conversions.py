@@ -113,10 +113,11 @@ def parse_tool_request(msg):
         if not np.all(np.isfinite(values)):
             raise ValueError(f'tool waypoint {k} is not finite: position ({p.x}, {p.y}, {p.z}),'
                              f' orientation ({q.x}, {q.y}, {q.z}, {q.w})')
-        norm = float(np.linalg.norm(values[3:]))
-        if norm < 1e-9:
+        scale = float(np.max(np.abs(values[3:])))
+        if scale < 1e-9:
             raise ValueError(f'tool waypoint {k} has a zero orientation quaternion')
-        qx, qy, qz, qw = values[3:] / norm
+        quaternion = values[3:] / scale  # no overflow for huge components
+        qx, qy, qz, qw = quaternion / np.linalg.norm(quaternion)
         tilt = 2.0 * np.arcsin(min(1.0, float(np.hypot(qx, qy))))
         if tilt > MAX_TOOL_TILT:
             raise ValueError(f'tool waypoint {k}: the orientation tilts {tilt:.3g} rad away '
