@@ -48,7 +48,10 @@ on ``GRID`` points per segment (both knots included), and every grid local
 maximum is refined by a vectorised golden-section search over the bracket
 between its two grid neighbours (``GOLDEN_STEPS`` steps shrink the bracket to
 below 1e-6 of its width), so every maximum the grid brackets is found to
-round-off.  A maximum the grid does not bracket would have to sit between two
+round-off.  Only grid maxima above a quarter of the tolerance are searched
+(and the largest few, for an exact reported maximum): with 24 points per
+segment the grid misses a smooth bump's height by well under 1 %, so a
+bump below a quarter of the tolerance on the grid cannot exceed it.  A maximum the grid does not bracket would have to sit between two
 grid points and exceed the larger of them; since the distance to a segment is
 1-Lipschitz in the tool position, it exceeds it by at most half the tool's
 arc length between the two points (``grid_slack`` of :class:`Deviation`
@@ -77,6 +80,10 @@ from ..planning import merge_duplicates, plan
 
 GRID = 24
 GOLDEN_STEPS = 30
+# Grid maxima searched: those above this fraction of the tolerance, and the
+# largest few (so the reported maximum is exact even far below it).
+REFINE_FRACTION = 0.25
+ALWAYS_REFINED = 8
 DEFAULT_MAX_INSERTED = 200
 # Edges shorter than this [m] are pure rotations: parameterised by time.
 MIN_EDGE_LENGTH = 1e-9
@@ -241,8 +248,15 @@ class _PathMeasure:
         orientation = np.abs(_wrap(pose[:, 2] - self.yaw0[e] - s * self.dyaw[e]))
         return position, orientation, pose[:, :2]
 
-    def deviation(self, grid=GRID, steps=GOLDEN_STEPS):
-        """Return the :class:`Deviation` per segment (grid, then golden-section search)."""
+    def deviation(self, tolerances=(0.0, 0.0), grid=GRID, steps=GOLDEN_STEPS):
+        """
+        Return the :class:`Deviation` per segment (grid, then golden-section search).
+
+        Searched are the grid local maxima above ``REFINE_FRACTION`` of their
+        tolerance (position, orientation; 0 = every one) and the
+        ``ALWAYS_REFINED`` largest ones of each quantity; the others keep their
+        grid value (a lower bound, far below the tolerance).
+        """
         traj = self.traj
         n_seg = traj.durations.size
         u = np.linspace(0.0, 1.0, grid)
@@ -261,7 +275,9 @@ class _PathMeasure:
         for kind, values in enumerate((pos.reshape(n_seg, grid), ori.reshape(n_seg, grid))):
             mid = values[:, 1:-1]
             peak = (mid >= values[:, :-2]) & (mid >= values[:, 2:]) & (mid > 0.0)
-            s_idx, j_idx = np.nonzero(peak)
+            top = np.sort(mid[peak])[-ALWAYS_REFINED:]
+            threshold = min(REFINE_FRACTION * tolerances[kind], top[0] if top.size else 0.0)
+            s_idx, j_idx = np.nonzero(peak & (mid >= threshold))
             cand_seg.append(s_idx)
             cand_lo.append(times[s_idx, j_idx])
             cand_hi.append(times[s_idx, j_idx + 2])
@@ -303,7 +319,7 @@ def path_deviation(tool_path, kinematics, grid=GRID):
     """Measure a :class:`ToolPath` again, e.g. with a finer ``grid`` (a :class:`Deviation`)."""
     edge_poses = tool_path.poses[np.unique(tool_path.waypoint_knots)]
     return _PathMeasure(tool_path.trajectory, kinematics, edge_poses,
-                        tool_path.segment_edges).deviation(grid)
+                        tool_path.segment_edges).deviation(grid=grid)
 
 
 def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviation=None,
@@ -373,7 +389,8 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
                 raise
             raise ValueError(f'planning the refined path ({len(knots)} waypoints, {inserted} '
                              f'inserted) failed: {exc}') from None
-        deviation = _PathMeasure(traj, kinematics, edge_poses, segment_edges).deviation()
+        deviation = _PathMeasure(traj, kinematics, edge_poses, segment_edges).deviation(
+            (tol_position, tol_orientation))
         if initial is None:
             initial = (deviation, traj.duration)
         excess = np.maximum(deviation.position / tol_position,
