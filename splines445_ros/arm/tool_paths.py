@@ -51,8 +51,9 @@ below 1e-6 of its width), so every maximum the grid brackets is found to
 round-off.  Only grid maxima above a quarter of the tolerance are searched
 (and the largest few, for an exact reported maximum): with 24 points per
 segment the grid misses a smooth bump's height by well under 1 %, so a
-bump below a quarter of the tolerance on the grid cannot exceed it.  A maximum the grid does not bracket would have to sit between two
-grid points and exceed the larger of them; since the distance to a segment is
+bump below a quarter of the tolerance on the grid cannot exceed it.  A
+maximum the grid does not bracket would have to sit between two grid points
+and exceed the larger of them; since the distance to a segment is
 1-Lipschitz in the tool position, it exceeds it by at most half the tool's
 arc length between the two points (``grid_slack`` of :class:`Deviation`
 reports half the largest chord between grid neighbours, a few millimetres on
