@@ -169,7 +169,7 @@ def test_invalid_planner_parameters_are_rejected_with_a_reason(system):
 def test_params_file_is_loaded(system):
     assert list(system.planner.get_parameter('max_jerk').value) == [JERK_LIMIT] * 3
     assert list(system.arm.get_parameter('link_lengths').value) == [1.1, 0.9]
-    assert list(system.arm.get_parameter('torque_limits').value) == [1000.0, 300.0, 30.0]
+    assert list(system.arm.get_parameter('torque_limits').value) == [1000.0, 400.0, 30.0]
 
 
 def test_invalid_arm_parameters_are_rejected(system):

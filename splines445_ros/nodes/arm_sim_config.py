@@ -48,7 +48,7 @@ class ArmSimConfig(ValidatedConfig):
     joint_friction: Tuple[float, ...] = BUILT_IN.joint_friction
     joint_stiffness: Tuple[float, ...] = BUILT_IN.joint_stiffness
     spring_damping_ratio: float = BUILT_IN.spring_damping_ratio
-    torque_limits: Tuple[float, ...] = (1000.0, 300.0, 30.0)
+    torque_limits: Tuple[float, ...] = (1000.0, 400.0, 30.0)
     actuator_time_constant: float = 0.002
     kp: Tuple[float, ...] = (90000.0, 16000.0, 1000.0)
     kd: Tuple[float, ...] = (4000.0, 700.0, 20.0)

@@ -3,23 +3,27 @@ The main job: the paper's example end to end through both nodes in one process.
 
 Plans the triangle of Section III through ``planner_node`` with 434 and 445
 (uniform timing, as in the paper) and 445 with optimal timing, lets
-``arm_sim_node`` play every trajectory, prints a table (duration, per-joint
+``arm_sim_node`` play every trajectory on the dynamic arm (MuJoCo, the
+default model and joint controller), prints a table (duration, per-joint
 peaks against the limits, the largest jumps of acceleration and jerk across
-waypoints, the tool path's largest deviation from the triangle's edges and
-where the tool ended) and writes figures and the table to a folder.
+waypoints, the tool path's largest deviation from the triangle's edges, where
+the tool ended, and the arm's tracking errors and torques from its end-of-
+trajectory status) and writes figures and the table to a folder.
 """
 
 import argparse
 import os
 import sys
 
+from diagnostic_msgs.msg import DiagnosticStatus
 import numpy as np
 
-from .figures import plot_joint_curves, plot_tool_path
-from .in_process import InProcessSystem, waypoint_message
+from .figures import plot_joint_curves, plot_tool_path, plot_tracking
+from .in_process import InProcessSystem, stamp_ns, waypoint_message
 from .report import markdown_table, run_metrics, write_csv
 from ..arm import paper_example as pe
 from ..arm.kinematics import PlanarArm
+from ..nodes.arm_sim_config import ArmSimConfig
 from ..nodes.diagnostics import status_values
 from ..planning import plan
 
@@ -27,6 +31,8 @@ RUNS = (('434', 'uniform'), ('445', 'uniform'), ('445', 'optimal'))
 PLANNER_PARAMETERS = {'max_velocity': pe.MAX_VELOCITY.tolist(),
                       'max_acceleration': pe.MAX_ACCELERATION.tolist(),
                       'max_jerk': [0.0, 0.0, 0.0]}  # the paper sets no jerk limit
+# The dynamic arm with its default model and controller; 100 Hz joint_states for tracking.png.
+ARM_PARAMETERS = {'simulation': 'dynamic', 'publish_rate': 100.0}
 
 
 def run_paper_example(runs=RUNS):
@@ -37,8 +43,9 @@ def run_paper_example(runs=RUNS):
     request = waypoint_message(pe.JOINT_NAMES, waypoints, *boundary)
     arm = PlanarArm()
     results = []
+    arm_parameters = {**ARM_PARAMETERS, 'initial_positions': waypoints[0].tolist()}
     with InProcessSystem(planner_parameters=PLANNER_PARAMETERS,
-                         arm_parameters={'initial_positions': waypoints[0].tolist()}) as system:
+                         arm_parameters=arm_parameters) as system:
         for method, timing in runs:
             outcome = system.set_planner_parameters({'method': method, 'timing': timing})
             if not all(r.successful for r in outcome):
@@ -49,8 +56,11 @@ def run_paper_example(runs=RUNS):
                 raise RuntimeError(f'{method}/{timing} failed: {status.message}')
             values = status_values(status)
             played, final = system.wait_until_played(n_arm_status, float(values['duration']))
+            tracking = _tracking_status(system, n_arm_status)
             system.spin_for(0.05)
             pose = system.tool_poses[-1].pose.position
+            start = int(status_values(system.arm_status[n_arm_status])['start_ns'])
+            settled = [s for s in system.joint_states if start <= stamp_ns(s)]
             # The planner's plan, recomputed with the core for exact curves and peaks.
             planned = plan(waypoints, method, timing, max_velocity=pe.MAX_VELOCITY,
                            max_acceleration=pe.MAX_ACCELERATION, start_velocity=boundary[0],
@@ -60,19 +70,37 @@ def run_paper_example(runs=RUNS):
             results.append({'status': values, 'trajectory': trajectory, 'plan': planned,
                             'joint_states': played, 'final_state': final,
                             'tool_path': arm.forward(positions)[:, :2],
-                            'tool_end': (pose.x, pose.y)})
+                            'tool_end': (pose.x, pose.y),
+                            'tracking': tracking, 'start_ns': start, 'states': settled,
+                            'torque_limits': ArmSimConfig().torque_limits})
     return results
 
 
+def _tracking_status(system, n_arm_status, timeout=10.0):
+    """Return the arm's end-of-trajectory status (level and values) after status n."""
+    def arrived():
+        return any('tracking_rms_error' in status_values(s)
+                   for s in system.arm_status[n_arm_status + 1:])
+    if not system.spin_until(arrived, timeout):
+        raise TimeoutError('the arm sent no tracking status')
+    status = next(s for s in system.arm_status[n_arm_status + 1:]
+                  if 'tracking_rms_error' in status_values(s))
+    names = {DiagnosticStatus.OK: 'OK', DiagnosticStatus.WARN: 'WARN'}
+    level = names.get(status.level, 'ERROR')
+    return {'level': level, 'message': status.message, **status_values(status)}
+
+
 def write_report(results, out_dir):
-    """Write joint_curves.png, tool_path.png, table.md and table.csv; return the paths."""
+    """Write joint_curves.png, tool_path.png, tracking.png and the tables; return the paths."""
     os.makedirs(out_dir, exist_ok=True)
     metrics = [run_metrics(r) for r in results]
     paths = {name: os.path.join(out_dir, name)
-             for name in ('joint_curves.png', 'tool_path.png', 'table.md', 'table.csv')}
+             for name in ('joint_curves.png', 'tool_path.png', 'tracking.png', 'table.md',
+                          'table.csv')}
     plot_joint_curves([r['plan'] for r in results], paths['joint_curves.png'], pe.JOINT_NAMES)
     plot_tool_path({f"{r['plan'].method} {r['plan'].timing}": r['tool_path'] for r in results},
                    pe.triangle_points(), pe.TRIANGLE_CORNERS, paths['tool_path.png'])
+    plot_tracking(results, paths['tracking.png'], pe.JOINT_NAMES)
     with open(paths['table.md'], 'w', encoding='utf-8') as handle:
         handle.write(markdown_table(metrics) + '\n')
     write_csv(metrics, paths['table.csv'])
@@ -93,7 +121,10 @@ def main(argv=None):
     print("Paper's example (Petrinec & Kovacic, Sec. III): 12 triangle waypoints, "
           'v <= 2 rad/s, a <= 10 rad/s^2, no jerk limit,')
     print('boundary v = [-0.1, 0.4, 0], a = [1, 3, 0] at both ends; '
-          'played by arm_sim_node; the tool should end at (1, 0).')
+          'played by arm_sim_node on the dynamic arm (MuJoCo, PD + inverse-dynamics '
+          'feed-forward);')
+    print("the tool should end at (1, 0); tracking and torques from the arm's status, "
+          'settling 0.5 s after the end.')
     print()
     print(markdown_table(metrics))
     print()

@@ -8,6 +8,8 @@ Figures of trajectories (matplotlib, headless Agg backend).
   the triangle's edges (the paper's Fig. 7).
 * :func:`plot_samples`: a sampled ``JointTrajectory`` (times, positions,
   velocities, accelerations; jerk by differencing the accelerations).
+* :func:`plot_tracking`: the dynamic arm's tracking error, torque and torque
+  rate over time per method, from the ``joint_states`` it published.
 """
 
 import matplotlib
@@ -108,6 +110,58 @@ def plot_samples(times, positions, velocities, accelerations, joint_names, path,
     for row, (name, unit) in enumerate(ROWS):
         axes[row, 0].set_ylabel(f'{name} [{unit}]' + (' (from samples)' if row == 3 else ''))
     fig.suptitle(title or 'JointTrajectory')
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+TRACKING_ROWS = (('tracking error', 'mrad'), ('torque', 'N m'), ('torque rate', 'kN m/s'))
+
+
+def plot_tracking(runs, path, joint_names):
+    """
+    Plot tracking error, torque and torque rate of every joint per run; save to ``path``.
+
+    A run is a dict with the planned core ``Trajectory`` (``'plan'``), the
+    arm's ``joint_states`` (``'states'``, with ``effort``) from the start on and
+    the start time ``'start_ns'``; the error is the plan minus the measured
+    position, the rate the difference quotient of consecutive efforts.
+    """
+    n = len(joint_names)
+    fig, axes = plt.subplots(3, n, figsize=(5 * n, 8.5), sharex='col', squeeze=False)
+    bounds = {}
+    for k, run in enumerate(runs):
+        traj, states = run['plan'], run['states']
+        t = np.array([s.header.stamp.sec * 1e9 + s.header.stamp.nanosec
+                      for s in states]) * 1e-9 - run['start_ns'] * 1e-9
+        measured = np.array([s.position for s in states])
+        effort = np.array([s.effort for s in states])
+        error = traj.evaluate(np.clip(t, 0.0, traj.duration)) - measured
+        rate = np.diff(effort, axis=0) / np.diff(t)[:, None]
+        label = _label(traj)
+        for j in range(n):
+            axes[0, j].plot(t, 1e3 * error[:, j], color=f'C{k}', lw=1.0, label=label)
+            axes[1, j].plot(t, effort[:, j], color=f'C{k}', lw=1.0, label=label)
+            axes[2, j].plot(0.5 * (t[1:] + t[:-1]), 1e-3 * rate[:, j], color=f'C{k}', lw=1.0,
+                            label=label)
+            for row in range(3):
+                axes[row, j].axvline(traj.duration, color=f'C{k}', lw=0.6, ls=':')
+            # Rows 0 and 2 are scaled to the motion, away from the start and the stop.
+            inner = (t > 0.1) & (t < traj.duration - 0.05)
+            for row, values in ((0, 1e3 * error[:, j]), (2, 1e-3 * rate[:, j])):
+                window = inner[1:] if row == 2 else inner
+                if np.any(window):
+                    bound = max(bounds.get((row, j), 0.0), 1.3 * np.abs(values[window]).max())
+                    bounds[row, j] = bound
+                    axes[row, j].set_ylim(-bound, bound)
+    for j, name in enumerate(joint_names):
+        axes[0, j].set_title(name)
+        axes[2, j].set_xlabel('time from start [s] (dotted: end of the trajectory)')
+    for row, (name, unit) in enumerate(TRACKING_ROWS):
+        axes[row, 0].set_ylabel(f'{name} [{unit}]')
+    axes[0, 0].legend(loc='best', fontsize=8)
+    fig.suptitle('Dynamic arm: tracking error, applied torque and its rate (joint_states); '
+                 'error and rate scaled to the motion, start and stop steps off-scale')
     fig.tight_layout()
     fig.savefig(path, dpi=90)
     plt.close(fig)
