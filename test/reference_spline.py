@@ -4,7 +4,7 @@ Independent formulations used to cross-check the planning core (test helpers onl
 * ``global_coefficients``: one dense linear system over *all* polynomial
   coefficients of one joint (6 per segment), written from the method's
   definition (degrees, waypoints, boundary values, continuity), not from the
-  paper's reduced banded system.
+  paper's reduced banded system (nor from the core's method definitions).
 * ``exact_peaks``: per-segment peaks with ``numpy.roots`` on each segment.
 """
 
@@ -22,10 +22,14 @@ def _row(T, derivative, at_end):
     return row
 
 
+# Derivatives continuous at interior knots, from each method's published definition.
+CONTINUOUS = {'445': (1, 2, 3), '434': (1, 2), '555': (1, 2, 3, 4)}
+
+
 def degrees(method, n_segments):
     """Polynomial degree of every segment for the method's definition."""
-    if n_segments == 1:
-        return [5]
+    if n_segments == 1 or method == '555':
+        return [5] * n_segments
     if method == '445':
         return [4] * (n_segments - 1) + [5]
     return [4] + [3] * (n_segments - 2) + [4]
@@ -53,9 +57,8 @@ def global_coefficients(method, points, durations, v0, a0, ve, ae):
     add(0, _row(durations[0], 2, False), a0)
     add(S - 1, _row(durations[-1], 1, True), ve)
     add(S - 1, _row(durations[-1], 2, True), ae)
-    continuous = (1, 2, 3) if method == '445' else (1, 2)
     for s in range(S - 1):
-        for d in continuous:
+        for d in CONTINUOUS[method]:
             r = np.zeros(6 * S)
             r[6 * s:6 * s + 6] = _row(durations[s], d, True)
             r[6 * (s + 1):6 * (s + 1) + 6] = -_row(durations[s + 1], d, False)

@@ -3,7 +3,7 @@
 from hypothesis import assume, given, settings, strategies as st
 import numpy as np
 import pytest
-from reference_spline import exact_peaks
+from reference_spline import CONTINUOUS, exact_peaks
 from splines445_ros.planning import plan
 
 
@@ -39,7 +39,7 @@ def feasible(traj, vmax, amax, jmax, rtol=1e-7):
     return True
 
 
-@pytest.mark.parametrize('method', ['445', '434'])
+@pytest.mark.parametrize('method', ['445', '434', '555'])
 @settings(max_examples=15)
 @given(req=small_requests())
 def test_optimal_is_feasible_not_longer_than_uniform_and_segments_are_limited(method, req):
@@ -65,7 +65,7 @@ def test_optimal_is_feasible_not_longer_than_uniform_and_segments_are_limited(me
     np.testing.assert_allclose(optimal.evaluate([0.0], 2)[0], a0, atol=1e-6)
     np.testing.assert_allclose(optimal.evaluate([optimal.duration], 1)[0], ve, atol=1e-7)
     np.testing.assert_allclose(optimal.evaluate([optimal.duration], 2)[0], ae, atol=1e-6)
-    for d in ((1, 2, 3) if method == '445' else (1, 2)):
+    for d in CONTINUOUS[method]:
         scale = max(1.0, float(np.max(np.abs(optimal.ppoly.c))))
         assert np.max(optimal.knot_jumps(d)) <= 1e-6 * scale
     # Every segment binds a limit, or shortening it alone breaks a limit elsewhere
@@ -88,7 +88,7 @@ def test_optimal_beats_uniform_on_the_paper_example():
                             (pe.BOUNDARY_VELOCITY, pe.BOUNDARY_ACCELERATION,
                              pe.BOUNDARY_VELOCITY, pe.BOUNDARY_ACCELERATION))
     points = pe.joint_waypoints()
-    for method in ('445', '434'):
+    for method in ('445', '434', '555'):
         uniform = plan(points, method, 'uniform', **kwargs)
         optimal = plan(points, method, 'optimal', **kwargs)
         assert feasible(optimal, pe.MAX_VELOCITY, pe.MAX_ACCELERATION, None)

@@ -50,8 +50,9 @@ CASES = [
     ('durations count', {'timing': 'fixed', 'durations': [1.0, 1.0]}, r'one value per segment'),
     ('durations with uniform', {'durations': [1.0, 1.0, 1.0]}, r'only used with timing'),
     ('all waypoints equal', {'waypoints': np.ones((4, 2))}, r'all waypoints coincide'),
-    ('optimal too long', {'timing': 'optimal', 'waypoints': np.cumsum(np.ones((302, 2)), axis=0)},
-     r'at most 300 segments, got 301'),
+    ('integer method not a method', {'method': 345},
+     r'unknown method 345: expected one of \(.445., .434., .555.\)'),
+    ('boolean method', {'method': True}, r'unknown method True'),
 ]
 
 
@@ -63,7 +64,7 @@ def test_bad_input_raises_value_error_naming_the_problem(name, change, message):
         plan(**kwargs)
 
 
-@pytest.mark.parametrize('method', ['445', '434'])
+@pytest.mark.parametrize('method', ['445', '434', '555'])
 def test_consecutive_duplicates_are_merged_and_reported(method):
     dup = np.array([W[0], W[1], W[1], W[2], W[2], W[2], W[3], W[3]])
     traj = plan(dup, method, 'uniform', **LIM)

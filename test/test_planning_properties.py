@@ -3,10 +3,10 @@
 from hypothesis import assume, given, strategies as st
 import numpy as np
 import pytest
-from reference_spline import exact_peaks, global_coefficients
+from reference_spline import CONTINUOUS, exact_peaks, global_coefficients
 from splines445_ros.planning import plan
 
-METHODS = ['445', '434']
+METHODS = ['445', '434', '555']
 coordinate = st.floats(-3.0, 3.0, allow_nan=False)
 
 
@@ -59,7 +59,7 @@ def test_fixed_timing_interpolates_meets_boundary_and_is_continuous(method, req)
         np.testing.assert_allclose(traj.evaluate([t], 1)[0], v, atol=1e-7 * scale_of(v))
         np.testing.assert_allclose(traj.evaluate([t], 2)[0], a, atol=1e-7 * scale_of(a))
     if len(points) > 2:
-        for derivative in ((1, 2, 3) if method == '445' else (1, 2)):
+        for derivative in CONTINUOUS[method]:
             left, right = knot_values(traj.ppoly, derivative)
             np.testing.assert_allclose(left, right, rtol=1e-7, atol=1e-7 * scale_of(left))
 

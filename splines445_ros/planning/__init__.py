@@ -1,5 +1,5 @@
 """
-Planning core: 445 and 434 splines with limit-respecting timing (no ROS imports).
+Planning core: 445, 434 and 555 splines with limit-respecting timing (no ROS imports).
 
 Usage::
 
@@ -14,11 +14,12 @@ nothing from the rest of the package (:mod:`splines445_ros.arm`, ``nodes``,
 """
 
 from .limits import BindingLimit, JointLimits
-from .planner import merge_duplicates, METHODS, plan, TIMINGS
+from .methods import get_method, Method, METHOD_DEFINITIONS, METHODS
+from .planner import merge_duplicates, plan, TIMINGS
 from .timing import chord_durations
 from .trajectory import Samples, Trajectory
 
 __all__ = [
-    'BindingLimit', 'chord_durations', 'JointLimits', 'merge_duplicates', 'METHODS',
-    'plan', 'Samples', 'TIMINGS', 'Trajectory',
+    'BindingLimit', 'chord_durations', 'get_method', 'JointLimits', 'merge_duplicates',
+    'Method', 'METHOD_DEFINITIONS', 'METHODS', 'plan', 'Samples', 'TIMINGS', 'Trajectory',
 ]

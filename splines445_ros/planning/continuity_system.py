@@ -1,11 +1,14 @@
 """
 The banded linear system that makes the spline continuous at interior knots.
 
-For 445 the unknowns are the knot velocities and accelerations
-``[v_2, a_2, ..., v_{N-1}, a_{N-1}]`` (2N-4 per joint) and the equations are the
-acceleration (28) and jerk (29), (33) continuity conditions at every interior
-knot.  For 434 (Ho & Cook) the unknowns are the interior knot velocities only
-and the equations are acceleration continuity.
+What is unknown and what is made continuous is the method's definition
+(:mod:`methods`).  For 445 the unknowns are the knot velocities and
+accelerations ``[v_2, a_2, ..., v_{N-1}, a_{N-1}]`` (2N-4 per joint) and the
+equations are the acceleration (28) and jerk (29), (33) continuity conditions
+at every interior knot.  For 555 the unknowns are the same and the equations
+are jerk and snap continuity between the quintics of eqs. (13)-(23).  For 434
+(Ho & Cook) the unknowns are the interior knot velocities only and the
+equations are acceleration continuity.
 
 Instead of transcribing (28), (29) and (33) entry by entry, every equation is
 built from the segment maps of :mod:`segments`: the derivative at the end of
@@ -20,18 +23,10 @@ Rows are equilibrated (scaled by their largest entry) before the solve.
 import numpy as np
 from scipy.linalg import LinAlgError, solve_banded
 
+from .methods import ACC, get_method, VEL
 from .segments import (
-    A_END, A_START, derivative_weights, DP, input_maps, segment_types, V_END, V_START,
+    A_END, A_START, derivative_weights, DP, input_maps, INPUT_ORDER, V_END, V_START,
 )
-
-# Knot state components: velocity and acceleration.
-VEL, ACC = 0, 1
-
-_CONTINUITY = {
-    # method: (derivatives made continuous at knots, unknown knot state components)
-    '445': ((2, 3), (VEL, ACC)),
-    '434': ((2,), (VEL,)),
-}
 
 
 def spline_coefficients(method, points, durations, boundary):
@@ -62,21 +57,21 @@ class ContinuitySystem:
 
     def __init__(self, method, durations):
         """Assemble the banded matrix for ``method`` and the (S,) or (B, S) ``durations``."""
-        if method not in _CONTINUITY:
-            raise ValueError(f'unknown method {method!r}: expected "445" or "434"')
-        self.method = method
+        self.definition = get_method(method)
+        self.method = self.definition.name
         self.durations = np.asarray(durations, dtype=float)
         self.batched = self.durations.ndim == 2
         batch = np.atleast_2d(self.durations)
         self.n_batch, n_seg = batch.shape
         self.n_knots = n_seg + 1
-        self.types = segment_types(method, n_seg)
+        self.types = self.definition.segment_types(n_seg)
         flat = batch.reshape(-1)
         maps = input_maps(np.tile(self.types, self.n_batch), flat)
         self._maps = maps.reshape(self.n_batch, n_seg, *maps.shape[1:])
         self.maps = self._maps if self.batched else self._maps[0]
-        derivatives, unknowns = _CONTINUITY[method]
-        self._unknowns = unknowns
+        derivatives = self.definition.continuous
+        self._derivatives = np.array(derivatives)
+        self._unknowns = self.definition.unknowns
         self._n_interior = self.n_knots - 2
         if self._n_interior == 0:
             return
@@ -90,6 +85,7 @@ class ContinuitySystem:
 
         left = forms(True)[:, :, :-1]    # segment k-1, ending at interior knot k
         right = forms(False)[:, :, 1:]   # segment k, starting at interior knot k
+        self._left, self._right = left, right
         # Coefficients of each equation (n_q, B, K) on the states of knots
         # k-1, k, k+1: shape (n_q, B, K, 3 knots, 2 components).
         coeff = np.zeros(left.shape[:3] + (3, 2))
@@ -172,6 +168,50 @@ class ContinuitySystem:
         if not self.batched:
             return vel[0], acc[0]
         return vel, acc
+
+    def duration_derivatives(self, dP, vel, acc, segments, columns, n_columns):
+        """
+        Return knot-state derivatives with respect to segment durations (exact).
+
+        For the solution ``vel, acc`` (N, m) of this (unbatched) system, the
+        derivative of every knot velocity and acceleration with respect to the
+        duration of each segment in ``segments`` is the solution of the same
+        banded system with the derivative of the equations as right-hand side
+        (the equations are homogeneous in each duration, see
+        :mod:`segments`).  Segment ``segments[i]`` goes into right-hand-side
+        column ``columns[i]``; several segments may share a column (their
+        responses add up, which is exact as long as they do not overlap).
+        Returns shape (N, 2, n_columns, m): axis 1 is velocity, acceleration;
+        components that are not unknowns of the method are zero.
+        """
+        m = dP.shape[1]
+        out = np.zeros((self.n_knots, 2, n_columns, m))
+        K = self._n_interior
+        if K == 0:
+            return out
+        segments = np.asarray(segments)
+        columns = np.asarray(columns)
+        T = self.durations
+        inputs = self.segment_inputs(dP, vel, acc)           # (S, 5, m)
+        order = INPUT_ORDER[None, :] - self._derivatives[:, None]   # (n_q, 5)
+        rhs = np.zeros((len(self._derivatives), K, n_columns, m))
+        # Segment s ends at interior knot s + 1 (equation s) when s < K ...
+        ends = segments < K
+        s = segments[ends]
+        d_left = self._left[:, 0, s] * order[:, None, :] / T[s][None, :, None]
+        rhs[:, s, columns[ends]] += np.einsum('qpi,pim->qpm', d_left, inputs[s])
+        # ... and starts at interior knot s (equation s - 1) when s >= 1.
+        starts = segments >= 1
+        s = segments[starts]
+        d_right = self._right[:, 0, s - 1] * order[:, None, :] / T[s][None, :, None]
+        rhs[:, s - 1, columns[starts]] -= np.einsum('qpi,pim->qpm', d_right, inputs[s])
+        rhs = rhs.transpose(1, 0, 2, 3).reshape(-1, n_columns * m) * self._row_scale[:, None]
+        x = solve_banded((self._bandwidth, self._bandwidth), self._band, rhs,
+                         overwrite_b=True, check_finite=False)
+        x = -x.reshape(K, len(self._unknowns), n_columns, m)
+        for ui, comp in enumerate(self._unknowns):
+            out[1:-1, comp] = x[:, ui]
+        return out
 
     @staticmethod
     def segment_inputs(dP, vel, acc):

@@ -5,122 +5,262 @@ The paper scales all durations by one factor, so the limits bind on one
 segment only.  Here the N-1 durations are chosen to minimise the total time
 subject to every joint's velocity, acceleration and (when given) jerk limit::
 
-    minimise  sum_k T_k   subject to  r_{s,j,q}(T) <= 1  for every segment s,
-                                      joint j and limited quantity q,
+    minimise  sum_k T_k   subject to  log r_{s,j,q}(log T) <= 0  for every
+                                      segment s, joint j, limited quantity q
 
-    r_{s,j,q} = (peak_{s,j,q} / limit_{j,q})^(1/q)
+with the peak ratios r of :mod:`sensitivity` (exact values and exact
+sparse derivatives, linear in N to compute).  The variables are
+log-durations, started from the uniform (paper) solution.
 
-(q = 1, 2, 3 for velocity, acceleration, jerk; the root makes every
-constraint behave like a time scale: shortening segment s alone by a factor
-c raises r_{s,.,.} by about 1/c).  One smooth constraint per peak, rather
-than one per segment (their maximum), lets SLSQP converge in tens of
-iterations instead of stalling at the kinks of the maximum.  The variables
-are log-durations, started from the uniform (paper) solution.  The
-constraint Jacobian is a forward difference, computed for all segments at
-once: the S perturbed duration vectors are independent spline systems
-stacked into one banded solve (:class:`ContinuitySystem` with a batch of
-durations) and one batched peak computation.
+The solver is a trust-region sequential linear program: at every iterate the
+constraints are linearised and a sparse LP (HiGHS, through
+``scipy.optimize.linprog``) gives the step within a box ``|dx| <= radius``.
+Constraints already violated are elastic (a penalised slack each), so an
+infeasible start is pulled into the feasible set.  The merit of an iterate
+is its *restored total*: its total time after scaling every duration by the
+largest ratio, which is what the final common factor does (exact for
+rest-to-rest requests).  A step is taken when the merit decreases by at
+least :data:`ACCEPT` of what the linear model predicts; otherwise half the
+step is tried, then a smaller box.  Only constraints the box can bring to
+their limit enter the LP, so an LP has about as many rows as there are
+segments near a limit: the cost of an iteration grows linearly with N (the
+number of iterations, 15 to 25 for 434 and 555, hardly grows).
 
 Afterwards feasibility is restored exactly by the smallest common factor
 (the same search as uniform timing, from exact polynomial peaks), and the
 uniform solution is kept if it is not longer.
 
 Every segment of the result either binds a limit, or cannot be shortened on
-its own without another segment exceeding a limit (the splines couple all
+its own without another segment exceeding a limit (the splines couple the
 segments: a 445 spline carries a disturbance undamped to its end), or sits
 at the lower bound ``MIN_FRACTION`` times its uniform duration.
 """
 
 import numpy as np
-from scipy.optimize import minimize
+from scipy.optimize import linprog
+from scipy.sparse import coo_matrix
 
-from .continuity_system import spline_coefficients
-from .limits import limit_ratios
+from .methods import get_method
+from .sensitivity import PeakRatios
 from .timing import ScaledSpline, uniform_scale
 from .trajectory import Trajectory
 
-# Forward-difference step in log-duration.
-FD_STEP = 1e-7
-# Bounds of every duration relative to its uniform-timing value.
+# Bounds of every duration relative to its starting value.
 MIN_FRACTION = 1e-2
 MAX_FRACTION = 10.0
 MAX_ITERATIONS = 200
-# Largest number of segments optimised (SLSQP's subproblem grows with the
-# square of it: about 2 s at 100 segments x 7 joints).
-MAX_SEGMENTS = 300
-# Stop when the total time changes by less than this fraction of the uniform total.
+# Stop when the predicted decrease of the total time is below this fraction of it.
 RELATIVE_TOLERANCE = 1e-7
-_ROOTS = 1.0 / np.arange(1, 4)
-# Segments a duration change reaches above round-off, as (upstream, downstream)
-# segment counts: the influence decays by about 0.1 per knot upstream and not
-# at all downstream for 445 (roots 5 - sqrt(24) and -1 of the recursion), and
-# by about 0.27 per knot both ways for 434 (2 - sqrt(3)); 0.1^8 and 0.27^15
-# are below 1e-8, under the forward-difference noise.
-INFLUENCE = {'445': (8, None), '434': (15, 15)}
+# Trust region in log-duration: first, smallest and largest radius.  A small
+# box keeps the LPs of long requests small (fewer constraints can reach a limit).
+INITIAL_RADIUS = 0.1
+MIN_RADIUS = 1e-7
+MAX_RADIUS = 0.1
+# Radius after a rejected step, relative to that step.
+SHRINK = 0.5
+# Smallest ratio of actual to predicted merit decrease for a step to be taken.
+ACCEPT = 0.1
+# Stop when the restored total improved by less than this fraction over that
+# many accepted steps.
+STALL_TOLERANCE = 1e-4
+STALL_ITERATIONS = 3
+# Penalty on constraint violation, relative to the largest starting duration.
+PENALTY = 10.0
+# Repair of a final iterate that exceeds a limit (non-zero boundary values):
+# penalty factor, largest number of LP steps and the log-ratio accepted.
+REPAIR_PENALTY = 1e4
+REPAIR_ITERATIONS = 10
+REPAIR_TOLERANCE = 1e-6
+# Constraints below this ratio never enter the LP.
+_INACTIVE = 1e-3
 
 
-class SegmentScales:
-    """The constraint values r(T) and their Jacobian for one request (value cached)."""
+def _lp_step(state, jac, radius, lower, upper, penalty):
+    """
+    Solve the trust-region LP; return (step, predicted merit decrease) or (None, 0).
 
-    def __init__(self, method, points, boundary, limits):
-        """Keep the request; nothing is solved yet."""
-        self.method = method
-        self.points = points
-        self.boundary = boundary
-        self.limits = limits
-        self._value_key = None
-        self._value = None
-        self.evaluations = 0
-        # One constraint per segment, joint and limited quantity.
-        self._limited = np.array([True, True, bool(np.any(np.isfinite(limits.jerk)))])
-        self.n_constraints = (len(points) - 1) * points.shape[1] * int(self._limited.sum())
+    The LP minimises the linearised total time within the box
+    ``|step| <= radius`` subject to the linearised constraints.  Constraints
+    already violated are elastic (a slack each, costing ``penalty``), so the
+    LP is always feasible.  Only constraints that can reach their limit
+    within the box enter it.  A Jacobian tail (445) enters as running sums
+    ``z``, one free variable per segment and joint, tied to the step by
+    bidiagonal equalities, so the LP stays sparse.
+    """
+    T = state['durations']
+    log_ratios = state['log_ratios'].reshape(-1)
+    reach = radius * jac.abs_row_sums()
+    active = np.flatnonzero((log_ratios > np.log(_INACTIVE)) & (log_ratios + reach >= 0.0))
+    A = jac.band[active]
+    b_ub = -log_ratios[active]
+    n_rows, n_seg = A.shape
+    n_run = n_seg * jac.n_joints if jac.has_tail else 0
+    violated = np.flatnonzero(b_ub < 0.0)
+    n_slack = violated.size
+    n_var = n_seg + n_run + n_slack
+    cost = np.concatenate([T, np.zeros(n_run), np.full(n_slack, penalty)])
+    bounds = np.concatenate([
+        np.column_stack([np.maximum(-radius, lower), np.minimum(radius, upper)]),
+        np.full((n_run, 2), [-np.inf, np.inf]),
+        np.column_stack([np.zeros(n_slack), np.full(n_slack, np.inf)])])
+    blocks = [A.tocoo()]
+    slack_columns = n_seg + n_run + np.arange(n_slack)
+    blocks.append(coo_matrix((np.full(n_slack, -1.0), (violated, slack_columns)),
+                             shape=(n_rows, n_var)))
+    A_eq = b_eq = None
+    if n_run:
+        rows, running = jac.tail_columns(active)
+        blocks.append(coo_matrix((jac.beta[active[rows]], (rows, n_seg + running)),
+                                 shape=(n_rows, n_var)))
+        # z[m, j] - z[m - 1, j] - weight[m, j] * step[m] = 0.
+        m = np.repeat(np.arange(n_seg), jac.n_joints)
+        eq = np.arange(n_run)
+        later = eq[jac.n_joints:]
+        A_eq = coo_matrix((np.concatenate([np.ones(n_run), -np.ones(later.size),
+                                           -jac.weight.reshape(-1)]),
+                           (np.concatenate([eq, later, eq]),
+                            np.concatenate([n_seg + eq, n_seg + later - jac.n_joints, m]))),
+                          shape=(n_run, n_var)).tocsr()
+        b_eq = np.zeros(n_run)
+    A_ub = None
+    if n_rows:
+        A_ub = coo_matrix((np.concatenate([b.data for b in blocks]),
+                           (np.concatenate([b.row for b in blocks]),
+                            np.concatenate([b.col for b in blocks]))),
+                          shape=(n_rows, n_var)).tocsr()
+    else:
+        b_ub = None
+    result = linprog(cost, A_ub=A_ub, b_ub=b_ub, A_eq=A_eq, b_eq=b_eq, bounds=bounds,
+                     method='highs')
+    if result.status != 0:
+        return None, 0.0
+    step = result.x[:n_seg]
+    return step, _predicted(state, jac, step)
 
-    def batch(self, log_durations, rows=None, fill=None):
-        """
-        Return r for a (B, S) batch of log-durations: (B, n_constraints), inf if singular.
 
-        With a (B, S) boolean ``rows``, peaks are computed only for those
-        segments; the others take their values from ``fill`` (n_constraints,).
-        """
-        durations = np.exp(log_durations)
-        n_batch, n_seg = durations.shape
-        self.evaluations += n_batch
-        try:
-            coeffs = spline_coefficients(self.method, self.points, durations, self.boundary)
-        except ValueError:  # a singular system somewhere in the batch
-            if n_batch == 1:
-                return np.full((1, self.n_constraints), np.inf)
-            return np.vstack([
-                self.batch(row[None, :], None if rows is None else rows[i:i + 1], fill)
-                for i, row in enumerate(log_durations)])
-        if rows is None:
-            rows = np.ones((n_batch, n_seg), dtype=bool)
-        ratios = limit_ratios(coeffs[rows], durations[rows], self.limits)
-        scales = ratios[..., self._limited] ** _ROOTS[None, None, self._limited]
-        out = np.empty((n_batch, n_seg) + scales.shape[1:])
-        if fill is not None:
-            out[:] = fill.reshape((1, n_seg) + scales.shape[1:])
-        out[rows] = scales
-        return out.reshape(n_batch, -1)
+def _predicted(state, jac, step):
+    """Decrease of the merit (:func:`_restored_total`) that the linear model predicts."""
+    T = state['durations']
+    log_ratios = state['log_ratios'].reshape(-1)
+    finite = np.isfinite(log_ratios)
+    worst = np.max((log_ratios + jac @ step)[finite], initial=0.0)
+    return _restored_total(state) - (T.sum() + T @ step) * np.exp(worst)
 
-    def value(self, x):
-        """Return the scaled peak ratios at x, shape (n_constraints,)."""
-        key = x.tobytes()
-        if key != self._value_key:
-            self._value_key, self._value = key, self.batch(x[None, :])[0]
-        return self._value
 
-    def jacobian(self, x):
-        """Return their Jacobian (n_constraints, S): forward differences, one batched solve."""
-        n = x.size
-        trial = np.tile(x, (n, 1)) + FD_STEP * np.eye(n)
-        up, down = INFLUENCE[self.method]
-        offset = np.arange(n)[None, :] - np.arange(n)[:, None]  # segment - perturbed one
-        rows = offset >= -up
-        if down is not None:
-            rows &= offset <= down
-        base = self.value(x)
-        return ((self.batch(trial, rows, base) - base[None, :]) / FD_STEP).T
+def _restored_total(state):
+    """
+    Return the total time after scaling by the largest ratio (the merit of an iterate).
+
+    Exact for rest-to-rest requests, where every ratio r scales as 1 / factor;
+    an estimate otherwise (the final common factor is searched exactly).
+    """
+    if state is None:
+        return np.inf
+    return float(state['durations'].sum() * np.exp(max(0.0, np.max(state['log_ratios']))))
+
+
+def minimise_total_time(method, points, start, boundary, limits):
+    """
+    Run the trust-region SLP from the (S,) ``start`` durations.
+
+    Returns (durations, info) where ``info`` counts iterations and
+    evaluations; the durations are the iterate with the shortest restored
+    total (:func:`_restored_total`) and may be slightly infeasible (see the
+    module docstring: feasibility is restored afterwards).  Stops when the
+    LP predicts less than :data:`RELATIVE_TOLERANCE` of the total, or when
+    the restored total improved by less than :data:`STALL_TOLERANCE` over
+    :data:`STALL_ITERATIONS` accepted steps.
+    """
+    ratios = PeakRatios(method, points, boundary, limits)
+    x = np.log(start)
+    lower_x, upper_x = x + np.log(MIN_FRACTION), x + np.log(MAX_FRACTION)
+    penalty = PENALTY * float(np.max(start))
+    state = ratios.evaluate(x)
+    if state is None:
+        return start, {'iterations': 0, 'evaluations': ratios.evaluations,
+                       'message': 'singular at the start'}
+    with_boundary = bool(np.any([np.any(b) for b in boundary]))
+    radius = INITIAL_RADIUS
+    message = 'iteration limit reached'
+    iteration = 0
+    jac = None
+    best_x, best = x, _restored_total(state)
+    history = [best]
+    while iteration < MAX_ITERATIONS:
+        iteration += 1
+        if jac is None:
+            jac = ratios.jacobian(state)
+        step, predicted = _lp_step(state, jac, radius, lower_x - x, upper_x - x, penalty)
+        if step is None:
+            message = 'LP failed'
+            break
+        if predicted <= RELATIVE_TOLERANCE * state['durations'].sum():
+            message = 'converged'
+            break
+        trial = ratios.evaluate(x + step)
+        rho = (_restored_total(state) - _restored_total(trial)) / predicted
+        if rho <= ACCEPT:
+            # Before a new LP, try half the step (an evaluation only).
+            step = 0.5 * step
+            trial = ratios.evaluate(x + step)
+            rho = (_restored_total(state) - _restored_total(trial)) / _predicted(
+                state, jac, step)
+            if rho <= ACCEPT:
+                radius = SHRINK * np.max(np.abs(step))
+                if radius < MIN_RADIUS:
+                    message = 'trust region collapsed'
+                    break
+                continue
+            radius = np.max(np.abs(step))
+        x, state, jac = x + step, trial, None
+        if rho > 0.75 and np.max(np.abs(step)) > 0.9 * radius:
+            radius = min(2.0 * radius, MAX_RADIUS)
+        restored = _restored_total(state)
+        if restored < best:
+            best_x, best = x, restored
+        history.append(best)
+        if (len(history) > STALL_ITERATIONS and
+                history[-1 - STALL_ITERATIONS] - best < STALL_TOLERANCE * best):
+            message = 'stalled'
+            break
+    if with_boundary:
+        best_x, extra = _repair(ratios, best_x, radius, lower_x, upper_x, penalty)
+        iteration += extra
+    return np.exp(best_x), {'iterations': iteration, 'evaluations': ratios.evaluations,
+                            'message': message}
+
+
+def _repair(ratios, x, radius, lower_x, upper_x, penalty):
+    """
+    Bring an iterate that exceeds a limit back to the limits by LP steps; return (x, steps).
+
+    With non-zero boundary values the ratios do not scale with a common
+    factor, so the point the restored-total merit ends at, once scaled, is
+    not a local optimum (its binding constraints do not all come back to
+    their limits).  Here the violations are removed instead by LP steps that
+    only lengthen segments, with every constraint hard (a penalty
+    :data:`REPAIR_PENALTY` times larger), taken while they reduce the
+    largest violation.
+    """
+    state = ratios.evaluate(x)
+    steps = 0
+    radius = 4.0 * max(float(np.max(state['log_ratios'])), REPAIR_TOLERANCE)
+    while steps < REPAIR_ITERATIONS and state is not None:
+        worst = float(np.max(state['log_ratios']))
+        if worst <= REPAIR_TOLERANCE:
+            break
+        steps += 1
+        jac = ratios.jacobian(state)
+        step, _ = _lp_step(state, jac, radius, np.zeros_like(x), upper_x - x,
+                           REPAIR_PENALTY * penalty)
+        if step is None:
+            break
+        trial = ratios.evaluate(x + step)
+        if trial is None or np.max(trial['log_ratios']) >= worst:
+            radius *= SHRINK
+            continue
+        x, state = x + step, trial
+    return x, steps
 
 
 def optimal_durations(method, points, start, boundary, limits, dropped, uniform=None):
@@ -129,20 +269,12 @@ def optimal_durations(method, points, start, boundary, limits, dropped, uniform=
 
     ``uniform`` is the feasible uniform-timing trajectory (kept when not
     longer), or None when uniform timing found no feasible factor; the
-    optimiser then starts from infeasible durations and its constraints pull
-    it into the feasible set.  Raises ValueError when the result cannot be
-    made feasible.
+    optimiser then starts from infeasible durations and its elastic
+    constraints pull it into the feasible set.  Raises ValueError when the
+    result cannot be made feasible.
     """
-    scales = SegmentScales(method, points, boundary, limits)
-    x0 = np.log(start)
-    bounds = list(zip(x0 + np.log(MIN_FRACTION), x0 + np.log(MAX_FRACTION)))
-    result = minimize(
-        lambda x: float(np.sum(np.exp(x))), x0, jac=np.exp, method='SLSQP', bounds=bounds,
-        constraints=[{'type': 'ineq',
-                      'fun': lambda x: 1.0 - scales.value(x),
-                      'jac': lambda x: -scales.jacobian(x)}],
-        options={'maxiter': MAX_ITERATIONS, 'ftol': RELATIVE_TOLERANCE * start.sum()})
-    candidate = np.exp(result.x) if np.all(np.isfinite(result.x)) else start
+    name = get_method(method).name
+    candidate, info = minimise_total_time(method, points, start, boundary, limits)
     refined = ScaledSpline(method, points, candidate, boundary)
     try:
         factor, ratios = uniform_scale(refined, limits)
@@ -155,9 +287,8 @@ def optimal_durations(method, points, start, boundary, limits, dropped, uniform=
         durations = None
     if uniform is not None and (durations is None or durations.sum() >= uniform.duration):
         durations, coeffs, ratios = uniform.durations, uniform.coefficients, uniform.limit_ratios()
-    traj = Trajectory(method, 'optimal', points, durations, coeffs, boundary, limits,
+    traj = Trajectory(name, 'optimal', points, durations, coeffs, boundary, limits,
                       None, dropped, ratios=ratios)
-    traj.optimizer = {'iterations': int(result.nit), 'evaluations': scales.evaluations,
-                      'message': str(result.message),
-                      'uniform_duration': None if uniform is None else uniform.duration}
+    info['uniform_duration'] = None if uniform is None else uniform.duration
+    traj.optimizer = info
     return traj

@@ -109,3 +109,39 @@ def segment_peak_times(coeffs, durations, derivative):
     best = np.argmax(values, axis=1)
     x = candidates[np.arange(S * m), best].reshape(S, m)
     return x * np.asarray(durations, dtype=float)[:, None]
+
+
+def peak_sensitivities(coeffs, durations, derivative):
+    """
+    Peaks (S, m) of |d-th derivative| and how they change with the coefficients.
+
+    A peak sits at the end of its segment or at a stationary point of the
+    d-th derivative, so to first order it moves only through the values at
+    the same relative position ``x = tau / T`` (the envelope theorem).
+    Returns ``(peaks, weights, slope)``: ``d peak = weights . d coeffs +
+    slope * d T`` with ``weights`` (S, m, 6) on the ascending coefficients of
+    the same segment and joint, and ``slope`` (S, m) for a change of that
+    segment's own duration ``T`` (non-zero only for a peak at ``tau = T``).
+    """
+    c = np.asarray(coeffs, dtype=float)
+    T = np.asarray(durations, dtype=float)
+    S, n_coeffs, m = c.shape
+    candidates, values = _candidates(c, T, derivative)
+    best = np.argmax(values, axis=1)
+    rows = np.arange(S * m)
+    x = candidates[rows, best].reshape(S, m)
+    peaks = values[rows, best].reshape(S, m)
+    tau = x * T[:, None]
+    powers = np.arange(n_coeffs)
+    falling = np.ones(n_coeffs)
+    for j in range(derivative):
+        falling = falling * np.clip(powers - j, 0, None)
+    exponent = np.clip(powers - derivative, 0, None)
+    weights = falling[None, None, :] * tau[..., None] ** exponent[None, None, :]
+    value = np.einsum('smi,sim->sm', weights, c)
+    next_falling = falling * np.clip(powers - derivative, 0, None)
+    next_exponent = np.clip(powers - derivative - 1, 0, None)
+    next_value = np.einsum('smi,sim->sm',
+                           next_falling[None, None, :] * tau[..., None] ** next_exponent, c)
+    sign = np.sign(value)
+    return peaks, sign[..., None] * weights, sign * next_value * x

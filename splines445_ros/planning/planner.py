@@ -4,12 +4,12 @@ import numpy as np
 
 from .continuity_system import spline_coefficients
 from .limits import check_boundary_feasible, JointLimits
-from .optimal import MAX_SEGMENTS, optimal_durations
+from .methods import get_method
+from .optimal import optimal_durations
 from .timing import chord_durations, rest_to_rest_scale, scaled_spline, ScaledSpline
 from .trajectory import Trajectory
 from .validation import boundary_vector, duration_array, waypoint_array
 
-METHODS = ('445', '434')
 TIMINGS = ('uniform', 'fixed', 'optimal')
 
 # Chords shorter than this (relative to the largest |coordinate|, at least 1)
@@ -55,7 +55,10 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
     waypoints : array_like (N, n)
         Joint positions the trajectory passes through, in order.
     method : "445" (Petrinec & Kovacic: quartics and a final quintic, jerk
-        continuous) or "434" (Ho & Cook: quartic, cubics, quartic; C2).
+        continuous), "434" (Ho & Cook: quartic, cubics, quartic; C2) or "555"
+        (quintics, jerk and snap continuous; stable on long lists).  The
+        integer 555 (as a ROS parameter typed on the command line) is accepted
+        too; see :mod:`methods`.
     timing : "fixed" uses ``durations``; "uniform" scales the chord
         durations of eq. (11) by the smallest common factor that meets every
         limit; "optimal" chooses every duration to minimise the total time.
@@ -77,8 +80,7 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
 
 def _plan(waypoints, method, timing, durations, max_velocity, max_acceleration, max_jerk,
           start_velocity, start_acceleration, end_velocity, end_acceleration):
-    if method not in METHODS:
-        raise ValueError(f'unknown method {method!r}: expected one of {METHODS}')
+    method = get_method(method).name
     if timing not in TIMINGS:
         raise ValueError(f'unknown timing {timing!r}: expected one of {TIMINGS}')
     points = waypoint_array(waypoints)
@@ -103,9 +105,6 @@ def _plan(waypoints, method, timing, durations, max_velocity, max_acceleration, 
     if durations is not None:
         raise ValueError(f'durations are only used with timing="fixed", not {timing!r}')
     points, dropped = merge_duplicates(points)
-    if timing == 'optimal' and len(points) - 1 > MAX_SEGMENTS:
-        raise ValueError(f'timing "optimal" handles at most {MAX_SEGMENTS} segments, got '
-                         f'{len(points) - 1}; use timing "uniform" for long waypoint lists')
     chords = chord_durations(points)
     if not np.all(np.isfinite(chords)):
         raise ValueError('waypoints too large: chord lengths overflow')

@@ -1,5 +1,5 @@
 """
-Polynomial segments of the 445 and 434 splines as linear maps of their end conditions.
+Polynomial segments of the 445, 434 and 555 splines as linear maps of their end conditions.
 
 Every segment k runs from waypoint ``P_k`` to ``P_{k+1}`` in local time
 ``tau in [0, T]``.  Its coefficients (ascending powers, ``c0 .. c5``) are linear
@@ -9,14 +9,21 @@ in the *segment inputs*::
 
 plus ``c0 = P_k``.  A segment type is therefore a matrix ``B(T)`` of shape
 ``(6, 5)`` with ``c = B u`` (row 0 is zero: ``c0`` is added separately).  A
-type ignores the inputs it does not use (their columns are zero).
+type ignores the inputs it does not use (their columns are zero).  Which
+segments of a spline have which type is the method's definition
+(:mod:`methods`).
+
+Every entry is homogeneous in ``T``: ``B[i, input]`` is a constant times
+``T**(e - i)`` with ``e`` = 0, 1, 2 for a position, velocity, acceleration
+input (:data:`INPUT_ORDER`), so ``dB/dT = B * (e - i) / T`` exactly
+(:func:`input_map_derivatives`; used for exact Jacobians in optimal timing).
 
 The closed forms are the paper's:
 
 * ``QUARTIC``: eqs. (3)-(9), meets ``P_k, v_k, a_k`` at 0 and ``P_{k+1}, v_{k+1}``
   at ``T`` (every 445 segment but the last, and the first 434 segment).
 * ``QUINTIC``: eqs. (13)-(23), meets position, velocity and acceleration at both
-  ends (the last 445 segment; the only segment when N = 2).
+  ends (the last 445 segment; the only segment when N = 2; every 555 segment).
 * ``CUBIC``: Ho & Cook's intermediate segments, position and velocity at both ends.
 * ``QUARTIC_REVERSED``: Ho & Cook's last segment, ``P_k, v_k`` at 0 and
   ``P_{k+1}, v_{k+1}, a_{k+1}`` at ``T`` (the time reversal of ``QUARTIC``).
@@ -32,6 +39,8 @@ QUARTIC_REVERSED = 3
 N_COEFFS = 6
 N_INPUTS = 5
 DP, V_START, A_START, V_END, A_END = range(N_INPUTS)
+# Time order of every input (position 0, velocity 1, acceleration 2).
+INPUT_ORDER = np.array([0, 1, 2, 1, 2])
 
 
 def _quartic(T, B):
@@ -101,23 +110,6 @@ _FILLERS = {
 }
 
 
-def segment_types(method, n_segments):
-    """Return the segment type of every segment for ``method`` ("445" or "434")."""
-    types = np.empty(n_segments, dtype=int)
-    if n_segments == 1:
-        types[:] = QUINTIC
-    elif method == '445':
-        types[:] = QUARTIC
-        types[-1] = QUINTIC
-    elif method == '434':
-        types[:] = CUBIC
-        types[0] = QUARTIC
-        types[-1] = QUARTIC_REVERSED
-    else:
-        raise ValueError(f'unknown method {method!r}: expected "445" or "434"')
-    return types
-
-
 def input_maps(types, durations):
     """
     Return ``B`` of shape (S, 6, 5): coefficients = ``B @ u`` for every segment.
@@ -137,6 +129,13 @@ def input_maps(types, durations):
             fill(T[mask], block)
             B[mask] = block
     return B
+
+
+def input_map_derivatives(maps, durations):
+    """Return ``dB/dT`` (S, 6, 5) of the (S, 6, 5) ``maps`` for their ``durations``."""
+    T = np.asarray(durations, dtype=float)
+    exponent = INPUT_ORDER[None, :] - np.arange(N_COEFFS)[:, None]
+    return maps * exponent[None, :, :] / T[:, None, None]
 
 
 def derivative_weights(durations, derivative, at_end):

@@ -110,9 +110,22 @@ def _excess(spline, limits, scale):
 
 
 def _scan(spline, limits, guess):
-    """Excess ``max_ratio - 1`` on the scan grid around ``guess``: (grid, excess)."""
+    """
+    Excess ``max_ratio - 1`` on the scan grid around ``guess``: (grid, excess).
+
+    When even the smallest grid factor is feasible (the rest-to-rest guess
+    can be far too large, e.g. after a very short chord), the grid is
+    extended downwards, :data:`SCAN_GRID`'s span at a time, until a factor
+    is infeasible or the factors reach ``1e-12 * guess``.
+    """
     grid = guess * SCAN_GRID
-    return grid, spline.max_ratios(grid, limits) - 1.0
+    excess = spline.max_ratios(grid, limits) - 1.0
+    span = SCAN_GRID[0] / SCAN_GRID[-1]
+    while excess[0] <= 0.0 and grid[0] > 1e-12 * guess:
+        lower = grid[0] * span * SCAN_GRID[:-1] / SCAN_GRID[0]
+        grid = np.concatenate([lower, grid])
+        excess = np.concatenate([spline.max_ratios(lower, limits) - 1.0, excess])
+    return grid, excess
 
 
 def _refine(spline, limits, grid, excess):

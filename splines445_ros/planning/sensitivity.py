@@ -1,0 +1,254 @@
+"""
+Peak ratios of a spline as functions of its segment durations, with exact derivatives.
+
+The constraints of optimal timing (:mod:`optimal`) are, for every segment s,
+joint j and limited quantity q (1 velocity, 2 acceleration, 3 jerk)::
+
+    r_{s,j,q}(T) = (peak_{s,j,q} / limit_{j,q})^(1/q)
+
+used as ``log r`` of ``log T``: a segment's own constraint is then exactly
+linear when only its time scale changes (``log r = log r_0 - log(T / T_0)``).
+
+Derivatives (:func:`peak_jacobian`) are exact, not finite differences.  A
+change of ``T_k`` changes the equations of the banded continuity system
+(:mod:`continuity_system`) at the two knots of segment k only; the knot
+states respond by one banded solve with that right-hand side
+(:meth:`ContinuitySystem.duration_derivatives`), the coefficients through
+the segment maps (eqs. 3-23) and their exact ``T`` derivatives, and a peak
+through the coefficients at its fixed relative position (envelope theorem,
+:func:`peaks.peak_sensitivities`).
+
+The response decays away from segment k by the method's ``reach``
+(:mod:`methods`), so the Jacobian is banded and responses of segments one
+window apart share one right-hand-side column: a few dozen columns give the
+whole Jacobian, at a cost linear in N.  445's response does not decay
+downstream (the -1 root of its knot recursion): beyond a few knots every
+column is the same undamped mode ``psi`` with its own amplitude, so the
+Jacobian is the band plus a lower-triangular part of rank one per joint,
+``beta_{s,j,q} * alpha_{k,j}`` (a semi-separable matrix), still linear in N
+to compute and to use (:class:`PeakJacobian`).
+"""
+
+import numpy as np
+from scipy.linalg import solve_banded
+from scipy.sparse import csr_matrix
+
+from .continuity_system import ContinuitySystem
+from .limits import QUANTITIES
+from .methods import get_method
+from .peaks import peak_sensitivities
+from .segments import input_map_derivatives
+
+# Jacobian entries (d log r / d log T) below this are dropped.
+NEGLIGIBLE = 1e-6
+
+
+class PeakRatios:
+    """The constraint values log r(log T) of one request and their exact Jacobian."""
+
+    def __init__(self, method, points, boundary, limits):
+        """Keep the request; nothing is solved yet."""
+        self.method = get_method(method)
+        self.points = points
+        self.dP = np.diff(points, axis=0)
+        self.boundary = boundary
+        self.limits = limits
+        bounds = limits.as_array()
+        self._quantities = [q for q in range(len(QUANTITIES))
+                            if not np.all(np.isinf(bounds[q]))]
+        self._bounds = bounds[self._quantities]        # (n_q, n)
+        self.evaluations = 0
+
+    def evaluate(self, log_durations):
+        """
+        Return the state at ``log_durations``: a dict, or None when the system is singular.
+
+        ``state['log_ratios']`` (S, n, n_q) are the constraint values (-inf for
+        a zero peak); the rest is what :meth:`jacobian` needs.
+        """
+        durations = np.exp(log_durations)
+        self.evaluations += 1
+        try:
+            system = ContinuitySystem(self.method, durations)
+            vel, acc = system.solve(self.dP, *self.boundary)
+        except ValueError:  # singular for these durations
+            return None
+        coeffs = system.coefficients(self.points[:-1], self.dP, vel, acc)
+        sens = [peak_sensitivities(coeffs, durations, q + 1) for q in self._quantities]
+        peaks = np.stack([s[0] for s in sens], axis=-1)      # (S, n, n_q)
+        if not np.all(np.isfinite(peaks)):
+            return None
+        order = np.array(self._quantities) + 1.0
+        with np.errstate(divide='ignore'):
+            log_ratios = np.log(peaks / self._bounds.T[None]) / order
+        return {'durations': durations, 'system': system, 'vel': vel, 'acc': acc,
+                'peaks': peaks, 'order': order, 'log_ratios': log_ratios,
+                'weights': np.stack([s[1] for s in sens], axis=2),   # (S, n, n_q, 6)
+                'slope': np.stack([s[2] for s in sens], axis=-1)}    # (S, n, n_q)
+
+    def jacobian(self, state):
+        """Return d log r / d log T at ``state`` as a :class:`PeakJacobian`."""
+        return peak_jacobian(self.method, self.dP, state)
+
+
+class PeakJacobian:
+    """
+    The Jacobian: a sparse band plus an optional semi-separable tail.
+
+    Row ``(s * n + j) * n_q + q`` is segment s, joint j, quantity q; column k
+    is ``log T_k``.  The tail (445 only) is ``beta[row] * weight[k, j]`` for
+    ``k <= s - lag``, that is ``beta[row] * z[s - lag, j]`` with the running
+    sums ``z[m, j] = sum_{k <= m} weight[k, j] * dx_k``.
+    """
+
+    def __init__(self, band, n_joints, n_q, beta=None, weight=None, lag=0):
+        """Wrap the (rows, S) CSR ``band`` and the tail ``beta`` (rows,), ``weight`` (S, n)."""
+        self.band = band
+        self.shape = band.shape
+        self.n_joints = n_joints
+        self.n_q = n_q
+        self.beta = beta
+        self.weight = weight
+        self.lag = lag
+        rows = np.arange(self.shape[0])
+        self.row_segment = rows // (n_joints * n_q)
+        self.row_joint = rows // n_q % n_joints
+        self.has_tail = beta is not None
+        if self.has_tail:
+            self._tail_rows = np.flatnonzero(self.row_segment >= lag)
+
+    def _tail(self, running):
+        """Add ``beta * running[s - lag, j]`` over the rows that have a tail."""
+        out = np.zeros(self.shape[0])
+        r = self._tail_rows
+        out[r] = self.beta[r] * running[self.row_segment[r] - self.lag, self.row_joint[r]]
+        return out
+
+    def __matmul__(self, step):
+        """Return the Jacobian times ``step`` (S,)."""
+        out = self.band @ step
+        if self.has_tail:
+            out += self._tail(np.cumsum(self.weight * step[:, None], axis=0))
+        return out
+
+    def abs_row_sums(self):
+        """Return the sum of |entries| of every row (rows,)."""
+        out = np.asarray(abs(self.band).sum(axis=1)).ravel()
+        if self.has_tail:
+            out += np.abs(self._tail(np.cumsum(np.abs(self.weight), axis=0)))
+        return out
+
+    def tail_columns(self, rows):
+        """Return (positions in ``rows``, running-sum indices m * n + j) of their tail entries."""
+        rows = np.asarray(rows)
+        segment = self.row_segment[rows]
+        has = np.flatnonzero(segment >= self.lag)
+        return has, (segment[has] - self.lag) * self.n_joints + self.row_joint[rows[has]]
+
+
+def _batches(n_seg, up, down):
+    """Yield (segments, columns, n_columns): which segments share which solve column."""
+    window = up + down + 2
+    if window < n_seg:
+        segments = np.arange(n_seg)
+        yield segments, segments % window, window
+        return
+    yield np.arange(n_seg), np.arange(n_seg), n_seg
+
+
+def _undamped_mode(system, n_knots):
+    """Return the knot-state shape (N, 2) of a response far downstream of its cause."""
+    rhs = np.zeros((system._band.shape[1], 1))
+    rhs[0] = 1.0
+    x = solve_banded((system._bandwidth, system._bandwidth), system._band, rhs,
+                     check_finite=False)
+    psi = np.zeros((n_knots, 2))
+    x = x.reshape(n_knots - 2, len(system._unknowns))
+    for ui, comp in enumerate(system._unknowns):
+        psi[1:-1, comp] = x[:, ui]
+    return psi / np.max(np.abs(psi))
+
+
+def peak_jacobian(method, dP, state):
+    """
+    Exact d log r / d log T at ``state`` (see the module docstring).
+
+    Band entries are kept for segments ``k - up .. k + down`` of a change
+    of ``T_k`` (the method's ``reach``); for a method without downstream
+    decay (445) the band reaches ``up`` segments downstream and the rest is
+    the rank-one-per-joint tail.
+    """
+    method = get_method(method)
+    system = state['system']
+    T = state['durations']
+    n_seg, n, n_q = state['log_ratios'].shape
+    up, down = method.reach
+    tail = down is None
+    down = up if tail else down
+    up, down = min(up, n_seg - 1), min(down, n_seg - 1)
+    vel, acc = state['vel'], state['acc']
+    inputs = system.segment_inputs(dP, vel, acc)                       # (S, 5, n)
+    maps = system.maps                                                 # (S, 6, 5)
+    with np.errstate(divide='ignore'):
+        scale = 1.0 / (state['order'][None, None, :] * state['peaks'])
+    scale[~np.isfinite(scale)] = 0.0                                   # zero peaks
+    # d log r = scale * (weights . d coeffs + slope d T), d coeffs = B d inputs
+    # (+ dB/dT inputs d T for the own segment): fold B into the weights.
+    weights = state['weights'] * scale[..., None]                      # (S, n, n_q, 6)
+    knot_weights = np.ascontiguousarray(
+        (weights @ maps[:, None])[..., 1:].transpose(3, 0, 1, 2))      # (4, S, n, n_q)
+    own_coeffs = input_map_derivatives(maps, T) @ inputs               # (S, 6, n)
+    own = np.einsum('sjqi,sij->sjq', weights, own_coeffs) + state['slope'] * scale
+    # Band: entry (s, j, q, i) is d log r_{s,j,q} / d log T_{s - offsets[i]}.
+    offsets = np.arange(down, -up - 1, -1)
+    band = np.zeros((n_seg, n, n_q, offsets.size))
+    lag = down + 1
+    with_tail = tail and n_seg > lag
+    beta = weight = None
+    segments, columns, n_columns = next(_batches(n_seg, up, down))
+    response = system.duration_derivatives(dP, vel, acc, segments, columns, n_columns)
+    if with_tail:
+        psi = _undamped_mode(system, n_seg + 1)                        # (N, 2)
+        # Tails of the earlier segments sharing a column: subtract them.
+        probe = np.arange(n_seg - lag)                                 # segments with a tail
+        at = probe + lag                                               # knot past the band
+        norm = np.sum(psi[at] ** 2, axis=1)
+        running = np.einsum('kc,kcj->kj', psi[at], response[at, :, columns[probe]]) / \
+            norm[:, None]                                              # (P, n)
+        earlier = np.zeros((n_seg, n))
+        if n_columns < n_seg:
+            # Same column, one window earlier (always a segment with a tail).
+            earlier[n_columns:] = running[:n_seg - n_columns]
+        amplitude = np.zeros((n_seg, n))
+        amplitude[:n_seg - lag] = running - earlier[:n_seg - lag]
+        weight = amplitude * T[:, None]
+        mode = [psi[:-1, 0], psi[:-1, 1], psi[1:, 0], psi[1:, 1]]       # inputs of segment s
+        beta = sum(w * m[:, None, None] for w, m in zip(knot_weights, mode))
+    for i, offset in enumerate(offsets):
+        # Perturbed segments k in [lo, hi), affected segments s = k + offset.
+        lo, hi = max(0, -offset), min(n_seg, n_seg - offset)
+        if lo >= hi:
+            continue
+        s = slice(lo + offset, hi + offset)
+        index = np.arange(lo + offset, hi + offset)
+        col = columns[lo:hi]
+        start = response[index, :, col][..., None]                     # (P, 2, n, 1)
+        end = response[index + 1, :, col][..., None]
+        if with_tail:
+            start = start - (earlier[lo:hi, None, :] * psi[index, :, None])[..., None]
+            end = end - (earlier[lo:hi, None, :] * psi[index + 1, :, None])[..., None]
+        d_ratios = (knot_weights[0, s] * start[:, 0] + knot_weights[1, s] * start[:, 1] +
+                    knot_weights[2, s] * end[:, 0] + knot_weights[3, s] * end[:, 1])
+        if offset == 0:
+            d_ratios += own[s]
+        band[s, :, :, i] = d_ratios * T[lo:hi, None, None]             # d log r / d log T_k
+    cols = np.arange(n_seg)[:, None] - offsets[None, :]                # (S, n_off)
+    keep = (np.abs(band) > NEGLIGIBLE) & ((cols >= 0) & (cols < n_seg))[:, None, None, :]
+    keep = keep.reshape(n_seg * n * n_q, offsets.size)
+    indptr = np.concatenate([[0], np.cumsum(keep.sum(axis=1))])
+    indices = np.broadcast_to(cols[:, None, None, :], band.shape).reshape(keep.shape)[keep]
+    matrix = csr_matrix((band.reshape(keep.shape)[keep], indices, indptr),
+                        shape=(n_seg * n * n_q, n_seg))
+    if with_tail:
+        return PeakJacobian(matrix, n, n_q, beta.reshape(-1), weight, lag)
+    return PeakJacobian(matrix, n, n_q)
