@@ -45,7 +45,7 @@ TWO_LINK = """<mujoco model="two_link">
       </body>
     </body>
   </worldbody>
-  <actuator><position joint="shoulder" kp="5"/></actuator>
+  <actuator><position joint="shoulder" kp="50"/></actuator>
 </mujoco>
 """
 
