@@ -4,9 +4,12 @@ Optimal timing against TOPP-RA: durations and planning times, one run.
 20 random rest-to-rest requests (fixed seed; 3 and 7 joints; 5 to 50
 waypoints; v <= 2, a <= 10 per joint, no jerk limit).  For each: the
 time-optimal duration TOPP-RA (toppra) finds along its spline through the
-same waypoints, and the durations of 445 and 434 with uniform (paper) and
-optimal timing, as ratios to TOPP-RA, with planning times.  Then the
-paper's example and a 100 x 7 request.
+same waypoints, and the durations of 445, 434 and 555 with uniform (paper)
+and optimal timing, as ratios to TOPP-RA, with planning times; then the
+median and worst ratios and whether every limit held.  Then the paper's
+example, and the planning time of optimal timing against TOPP-RA's on the
+same 100 x 7 and 1000 x 7 requests (ratios from this run;
+SPLINES445_BENCH_QUICK=1 skips 1000 x 7).
 """
 
 import logging
@@ -23,6 +26,7 @@ from splines445_ros.planning import plan  # noqa: E402
 
 SEED = 2024
 N_CASES = 20
+METHODS = ('445', '434', '555')
 
 
 def timed(func):
@@ -32,15 +36,22 @@ def timed(func):
     return time.perf_counter() - started, result
 
 
+def limits_held(traj, rtol=1e-7):
+    """Return True when every exact peak is within its limit."""
+    return traj.within_limits(rtol=rtol)
+
+
 def main():
     """Run the comparison and print the tables."""
     logging.getLogger('toppra').setLevel(logging.ERROR)
+    quick = os.environ.get('SPLINES445_BENCH_QUICK') == '1'
     rng = np.random.default_rng(SEED)
+    keys = [f'{m} {t}' for m in METHODS for t in ('uniform', 'optimal')]
     print('Optimal timing vs TOPP-RA: duration ratio to TOPP-RA (planning time [ms])')
-    print('| case | N x n | TOPP-RA [s] (ms) | 445 uniform | 445 optimal | 434 uniform '
-          '| 434 optimal |')
-    print('|' + '---|' * 7)
-    ratios = {key: [] for key in ('445 uniform', '445 optimal', '434 uniform', '434 optimal')}
+    print('| case | N x n | TOPP-RA [s] (ms) | ' + ' | '.join(keys) + ' |')
+    print('|' + '---|' * (3 + len(keys)))
+    ratios = {key: [] for key in keys}
+    held = dict.fromkeys(keys, True)
     for case in range(N_CASES):
         n_joints = 3 if case % 2 == 0 else 7
         n_points = int(rng.integers(5, 51))
@@ -48,36 +59,49 @@ def main():
         vmax, amax = np.full(n_joints, 2.0), np.full(n_joints, 10.0)
         t_top, d_top = timed(lambda: toppra_plan(waypoints, vmax, amax))
         cells = []
-        for method in ('445', '434'):
-            for timing in ('uniform', 'optimal'):
-                elapsed, traj = timed(lambda: plan(waypoints, method, timing,
-                                                   max_velocity=vmax, max_acceleration=amax))
-                ratio = traj.duration / d_top
-                ratios[f'{method} {timing}'].append(ratio)
-                cells.append(f'{ratio:.2f} ({1e3 * elapsed:.0f})')
+        for key in keys:
+            method, timing = key.split()
+            elapsed, traj = timed(lambda: plan(waypoints, method, timing,
+                                               max_velocity=vmax, max_acceleration=amax))
+            ratio = traj.duration / d_top
+            ratios[key].append(ratio)
+            held[key] &= limits_held(traj)
+            cells.append(f'{ratio:.2f} ({1e3 * elapsed:.0f})')
         print(f'| {case} | {n_points} x {n_joints} | {d_top:.2f} ({1e3 * t_top:.0f}) | '
               + ' | '.join(cells) + ' |')
         sys.stdout.flush()
     print()
+    print('| method, timing | median ratio to TOPP-RA | worst | all limits held |')
+    print('|---|---|---|---|')
     for key, values in ratios.items():
-        print(f'{key}: median ratio {np.median(values):.2f}, worst {np.max(values):.2f}')
+        print(f'| {key} | {np.median(values):.3f} | {np.max(values):.3f} | {held[key]} |')
     print()
     kwargs = pe.plan_kwargs()
     waypoints = pe.joint_waypoints()
-    print("Paper's example (v <= 2, a <= 10, no jerk limit, paper boundary values):")
-    for method in ('445', '434'):
-        for timing in ('uniform', 'optimal'):
-            elapsed, traj = timed(lambda: plan(waypoints, method, timing, **kwargs))
-            print(f'  {method} {timing}: {traj.duration:.4f} s, planned in '
-                  f'{1e3 * elapsed:.1f} ms')
-    waypoints = np.cumsum(rng.uniform(-1.0, 1.0, (100, 7)), axis=0)
-    print('100 x 7 random walk:')
-    for method in ('445', '434'):
-        elapsed, traj = timed(lambda: plan(waypoints, method, 'optimal',
-                                           max_velocity=np.full(7, 2.0),
-                                           max_acceleration=np.full(7, 10.0)))
-        print(f'  {method} optimal: {traj.duration:.2f} s (uniform '
-              f'{traj.optimizer["uniform_duration"]:.2f} s), planned in {elapsed:.2f} s')
+    print("Paper's example (v <= 2, a <= 10, no jerk limit, paper boundary values), "
+          'best of 5:')
+    for key in keys:
+        method, timing = key.split()
+        elapsed = min(timed(lambda: plan(waypoints, method, timing, **kwargs))[0]
+                      for _ in range(5))
+        traj = plan(waypoints, method, timing, **kwargs)
+        print(f'  {key}: {traj.duration:.4f} s, planned in {1e3 * elapsed:.1f} ms')
+    print()
+    print('Optimal timing against TOPP-RA on the same requests (one run each):')
+    print('| N x n | method | optimal duration [s] | uniform [s] | TOPP-RA [s] '
+          '| planning time [s] | TOPP-RA time [s] | time / TOPP-RA time |')
+    print('|---|---|---|---|---|---|---|---|')
+    for n_points in ((100,) if quick else (100, 1000)):
+        waypoints = np.cumsum(rng.uniform(-1.0, 1.0, (n_points, 7)), axis=0)
+        vmax, amax = np.full(7, 2.0), np.full(7, 10.0)
+        t_top, d_top = timed(lambda: toppra_plan(waypoints, vmax, amax))
+        for method in ('555', '434', '445'):
+            elapsed, traj = timed(lambda: plan(waypoints, method, 'optimal',
+                                               max_velocity=vmax, max_acceleration=amax))
+            print(f'| {n_points} x 7 | {method} | {traj.duration:.2f} '
+                  f'| {traj.optimizer["uniform_duration"]:.2f} | {d_top:.2f} '
+                  f'| {elapsed:.2f} | {t_top:.2f} | {elapsed / t_top:.2f} |')
+            sys.stdout.flush()
     return 0
 
 

@@ -1,13 +1,13 @@
 """
-Planning-time benchmark: 445/434 uniform timing against scipy and TOPP-RA.
+Planning-time benchmark: 445/434/555 uniform timing against scipy and TOPP-RA.
 
 Prints a table of planning times (best of several runs, all in this one run,
 so the ratios compare like with like on a noisy machine) for random
 rest-to-rest requests of 12x3, 100x7, 1000x7 and 10000x7 waypoints x joints
 (v <= 2, a <= 10 per joint, fixed seed):
 
-* 445 and 434 with timing="uniform" (plan() from the waypoints to a PPoly,
-  limits met exactly);
+* 445, 434 and 555 with timing="uniform" (plan() from the waypoints to a
+  PPoly, limits met exactly), and the durations they reach;
 * scipy.interpolate.CubicSpline fitted to the same waypoints over chord
   length (a fit only: no timing, no limits) - the floor of what any spline
   fit costs;
@@ -32,6 +32,7 @@ from splines445_ros.arm import paper_example as pe  # noqa: E402
 from splines445_ros.planning import chord_durations, plan  # noqa: E402
 
 SIZES = ((12, 3), (100, 7), (1000, 7), (10000, 7))
+METHODS = ('445', '434', '555')
 SEED = 445
 
 
@@ -79,35 +80,37 @@ def main():
     full = os.environ.get('SPLINES445_BENCH_FULL') == '1'
     rng = np.random.default_rng(SEED)
     print('Planning time, best of k runs [ms]; ratios from the same run.')
-    print('| waypoints x joints | 445 uniform | 434 uniform | CubicSpline fit | TOPP-RA '
-          '| 445 / CubicSpline | TOPP-RA / 445 | 445 duration [s] | 434 duration [s] '
-          '| TOPP-RA duration [s] |')
-    print('|' + '---|' * 10)
+    print('| waypoints x joints | 445 uniform | 434 uniform | 555 uniform | CubicSpline fit '
+          '| TOPP-RA | 555 / CubicSpline | TOPP-RA / 555 | 445 duration [s] '
+          '| 434 duration [s] | 555 duration [s] | TOPP-RA duration [s] |')
+    print('|' + '---|' * 12)
     for n_points, n_joints in SIZES:
         waypoints, vmax, amax = random_request(n_points, n_joints, rng)
         repeats = 50 if n_points <= 100 else (10 if n_points <= 1000 else 3)
-        t445, traj445 = best_time(lambda: plan(waypoints, '445', max_velocity=vmax,
-                                               max_acceleration=amax), repeats)
-        t434, traj434 = best_time(lambda: plan(waypoints, '434', max_velocity=vmax,
-                                               max_acceleration=amax), repeats)
+        times, trajs = {}, {}
+        for method in METHODS:
+            times[method], trajs[method] = best_time(
+                lambda: plan(waypoints, method, max_velocity=vmax, max_acceleration=amax),
+                repeats)
         tfit, _ = best_time(lambda: cubic_fit(waypoints), repeats)
         if n_points <= 1000 or full:
             ttop, dtop = best_time(lambda: toppra_plan(waypoints, vmax, amax),
                                    3 if n_points <= 100 else 1)
             top = f'{1e3 * ttop:.1f}'
-            top_ratio = f'{ttop / t445:.0f}x'
+            top_ratio = f'{ttop / times["555"]:.0f}x'
             top_duration = f'{dtop:.2f}'
         else:
             top, top_ratio, top_duration = 'skipped', '-', '-'
-        print(f'| {n_points} x {n_joints} | {1e3 * t445:.2f} | {1e3 * t434:.2f} '
-              f'| {1e3 * tfit:.2f} | {top} | {t445 / tfit:.1f}x | {top_ratio} '
-              f'| {traj445.duration:.2f} | {traj434.duration:.2f} | {top_duration} |')
+        cells = ' | '.join(f'{1e3 * times[m]:.2f}' for m in METHODS)
+        durations = ' | '.join(f'{trajs[m].duration:.2f}' for m in METHODS)
+        print(f'| {n_points} x {n_joints} | {cells} | {1e3 * tfit:.2f} | {top} '
+              f'| {times["555"] / tfit:.1f}x | {top_ratio} | {durations} | {top_duration} |')
         sys.stdout.flush()
     kwargs = pe.plan_kwargs()
     waypoints = pe.joint_waypoints()
     print()
     print("Paper's example (12 x 3, non-zero boundary values, factor searched):")
-    for method in ('434', '445'):
+    for method in METHODS:
         elapsed, traj = best_time(lambda: plan(waypoints, method, **kwargs), 50)
         print(f'  {method} uniform: {1e3 * elapsed:.2f} ms, duration {traj.duration:.4f} s')
     return 0
