@@ -44,8 +44,12 @@ def distance_to_polyline(points, corners):
 
 
 def test_a_tool_request_is_refined_end_to_end(system):
+    n_arm_status = len(system.arm_status)
     status, msg = system.request(tool_waypoint_message(TRIANGLE))
     assert status.level == DiagnosticStatus.OK, status.message
+    # The arm simulation accepted the refined trajectory.
+    assert system.spin_until(lambda: len(system.arm_status) > n_arm_status, 10.0)
+    assert system.arm_status[n_arm_status].level == DiagnosticStatus.OK
     values = status_values(status)
     assert values['tool_waypoints'] == '12'
     assert int(values['inserted_waypoints']) > 0
@@ -69,6 +73,30 @@ def test_a_tool_request_is_refined_end_to_end(system):
     np.testing.assert_allclose(msg.points[-1].velocities, 0.0, atol=1e-12)
     vel = np.array([p.velocities for p in msg.points])
     assert np.all(np.abs(vel) <= pe.MAX_VELOCITY * (1 + 1e-9))
+
+
+@pytest.mark.parametrize('method', ['445', '555'])
+def test_optimal_timing_and_an_orientation_tolerance(system, method):
+    poses = np.array([[1.2, 0.0, 0.0], [1.2, 0.6, 1.0], [0.8, 0.9, -0.5]])
+    assert system.set_planner_parameters({'method': method, 'timing': 'optimal',
+                                          'max_path_deviation': 5e-3,
+                                          'max_orientation_deviation': 0.01})[0].successful
+    try:
+        status, msg = system.request(tool_waypoint_message(poses))
+    finally:
+        system.set_planner_parameters({'method': '434', 'timing': 'uniform',
+                                       'max_path_deviation': 1e-3,
+                                       'max_orientation_deviation': 0.0})
+    assert status.level == DiagnosticStatus.OK, status.message
+    values = status_values(status)
+    assert (values['method'], values['timing']) == (method, 'optimal')
+    assert int(values['inserted_waypoints']) > 0
+    assert float(values['max_path_deviation_reached']) <= 5e-3
+    assert float(values['max_orientation_deviation_reached']) <= 0.01
+    played = sampled_trajectory_from_msg(msg, pe.JOINT_NAMES)
+    t = np.arange(0.0, played.times[-1], 1e-3)
+    tool = tool_of(np.array([played.state_at(x)[0] for x in t]))
+    assert distance_to_polyline(tool[:, :2], poses[:, :2]).max() <= 5e-3 + 1e-5
 
 
 def test_no_tolerance_plans_the_unrefined_path(system):
