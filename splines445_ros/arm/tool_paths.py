@@ -390,6 +390,10 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
                 raise
             raise ValueError(f'planning the refined path ({len(knots)} waypoints, {inserted} '
                              f'inserted) failed: {exc}') from None
+        if traj.dropped_waypoints:
+            raise ValueError(f'the refinement made segments too short to plan (knots '
+                             f'{list(traj.dropped_waypoints)} coincide with their predecessors '
+                             f'after {inserted} inserted waypoints)')
         deviation = _PathMeasure(traj, kinematics, edge_poses, segment_edges).deviation(
             (tol_position, tol_orientation))
         if initial is None:
