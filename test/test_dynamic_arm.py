@@ -115,10 +115,10 @@ def test_dynamic_arm_follows_a_slow_trajectory_and_settles():
         assert np.all(reported_max < TOLERANCE)
         # joint_states are stamped with the physics time: every one is a state the
         # node measured, so the reported maximum bounds them.
-        assert np.all(error.max(axis=0) <= reported_max + 1e-6)
+        assert np.all(error.max(axis=0) <= reported_max * (1 + 1e-5) + 1e-6)
         assert float(values['tool_max_error']) < 2.0 * TOLERANCE
         peak = np.array([float(v) for v in values['peak_effort'].split(',')])
-        assert np.all(peak >= np.abs(effort).max(axis=0) - 1e-9)
+        assert np.all(peak * (1 + 1e-5) >= np.abs(effort).max(axis=0))  # 6 digits
         assert values['saturated_steps'] == '0'
         settling = np.array([float(v) for v in values['settling_error'].split(',')])
         assert np.all(settling < 2.0 * DEADBAND + 1e-6)
