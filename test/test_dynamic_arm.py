@@ -9,7 +9,9 @@ import math
 
 from builtin_interfaces.msg import Time as TimeMsg
 from diagnostic_msgs.msg import DiagnosticStatus
+from fuzz_messages import arm_trajectories
 from geometry_msgs.msg import PoseStamped
+from hypothesis import given, HealthCheck, settings, strategies as st
 import numpy as np
 import pytest
 from rclpy.node import Node
@@ -78,6 +80,12 @@ class Harness:
         duration = float(status_values(accepted)['duration'])
         assert self.ros.spin_until(lambda: len(self.status) > n + 1, duration + 5.0)
         return accepted, self.status[n + 1]
+
+
+@pytest.fixture(scope='module')
+def dynamic_arm():
+    with LocalRos() as ros:
+        yield Harness(ros, {'simulation': 'dynamic', 'initial_positions': START.tolist()})
 
 
 def slow_plan(start=START, goal=GOAL):
@@ -266,3 +274,24 @@ def test_dynamic_arm_follows_simulated_time():
         assert node.dynamic.time == pytest.approx(1.8, abs=2e-3)  # stepped with /clock
         np.testing.assert_allclose(states[-1].position, goal, atol=2e-3)
         assert len(states[-1].effort) == 3
+
+
+@settings(max_examples=100, suppress_health_check=list(HealthCheck), deadline=None)
+@given(case=arm_trajectories(), huge=st.sampled_from([1.0, 1.0, 1e3, 1e300]))
+def test_fuzzed_trajectories_never_break_the_dynamic_arm(dynamic_arm, case, huge):
+    msg, good = case
+    for point in msg.points:  # far out of reach, or absurd: the torque limits hold it
+        point.positions = [huge * v for v in point.positions]
+    n = len(dynamic_arm.status)
+    dynamic_arm.publisher.publish(msg)
+    assert dynamic_arm.ros.spin_until(
+        lambda: any('tracking_rms_error' not in status_values(s)
+                    for s in dynamic_arm.status[n:]), 10.0), 'no status'
+    answered = [s for s in dynamic_arm.status[n:] if 'tracking_rms_error' not in
+                status_values(s)]
+    assert len(answered) == 1
+    assert (answered[0].level == DiagnosticStatus.OK) == good, answered[0].message
+    dynamic_arm.ros.spin_for(0.02)
+    node = dynamic_arm.node
+    assert np.all(np.isfinite(node.position)) and np.all(np.isfinite(node.effort))
+    assert np.all(np.abs(node.effort) <= np.array(ArmSimConfig().torque_limits))

@@ -210,6 +210,10 @@ class TrackingMetrics:
         K = len(q_d)
         if K == 0:
             return
+        with np.errstate(over='ignore', invalid='ignore'):  # absurd references: inf
+            self._update(q_d, log, K)
+
+    def _update(self, q_d, log, K):
         error = np.abs(q_d - log['position'])
         self.steps += K
         self.sum_sq += np.sum(error ** 2, axis=0)
