@@ -150,6 +150,8 @@ class ArmSimNode(Node):
             self._sim_ns = self._now_ns()
             if self._active is None:
                 self._hold = position.copy()
+        if dynamic is None:
+            self._settling = self._metrics = None  # kinematic playback reports no tracking
         self.dynamic = dynamic
         self.effort = None if dynamic is None else dynamic.efforts()
         if dynamic is not None and self._active is not None and self._metrics is None:
