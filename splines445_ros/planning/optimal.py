@@ -14,7 +14,7 @@ log-durations, started from the uniform (paper) solution.
 
 The solver is a trust-region sequential linear program: at every iterate the
 constraints are linearised and a sparse LP (HiGHS, through
-``scipy.optimize.linprog``) gives the step within a box ``|dx| <= radius``.
+``scipy.optimize.milp`` without integer variables) gives the step within a box ``|dx| <= radius``.
 Constraints already violated are elastic (a penalised slack each), so an
 infeasible start is pulled into the feasible set.  The merit of an iterate
 is its *restored total*: its total time after scaling every duration by the
@@ -37,9 +37,10 @@ at the lower bound ``MIN_FRACTION`` times its uniform duration.
 """
 
 import numpy as np
-from scipy.optimize import linprog
-from scipy.sparse import coo_matrix
+from scipy.optimize import Bounds, LinearConstraint, milp
+from scipy.sparse import csc_array
 
+from .limits import limit_ratios
 from .methods import get_method
 from .sensitivity import PeakRatios
 from .timing import ScaledSpline, uniform_scale
@@ -63,7 +64,10 @@ ACCEPT = 0.1
 # Stop when the restored total improved by less than this fraction over that
 # many accepted steps.
 STALL_TOLERANCE = 1e-4
-STALL_ITERATIONS = 3
+STALL_ITERATIONS = 2
+# Warm start (per-segment scaling): most steps, smallest relative gain per step.
+WARM_STEPS = 8
+WARM_GAIN = 5e-3
 # Penalty on constraint violation, relative to the largest starting duration.
 PENALTY = 10.0
 # Repair of a final iterate that exceeds a limit (non-zero boundary values):
@@ -103,36 +107,32 @@ def _lp_step(state, jac, radius, lower, upper, penalty):
         np.column_stack([np.maximum(-radius, lower), np.minimum(radius, upper)]),
         np.full((n_run, 2), [-np.inf, np.inf]),
         np.column_stack([np.zeros(n_slack), np.full(n_slack, np.inf)])])
-    blocks = [A.tocoo()]
-    slack_columns = n_seg + n_run + np.arange(n_slack)
-    blocks.append(coo_matrix((np.full(n_slack, -1.0), (violated, slack_columns)),
-                             shape=(n_rows, n_var)))
-    A_eq = b_eq = None
+    # One constraint matrix: the kept rows, then (445) the running-sum equalities.
+    rows = [np.repeat(np.arange(n_rows), np.diff(A.indptr)), violated]
+    cols = [A.indices, n_seg + n_run + np.arange(n_slack)]
+    vals = [A.data, np.full(n_slack, -1.0)]
+    lower_b, upper_b = np.full(n_rows, -np.inf), b_ub
     if n_run:
-        rows, running = jac.tail_columns(active)
-        blocks.append(coo_matrix((jac.beta[active[rows]], (rows, n_seg + running)),
-                                 shape=(n_rows, n_var)))
+        tail_rows, running = jac.tail_columns(active)
+        rows.append(tail_rows)
+        cols.append(n_seg + running)
+        vals.append(jac.beta[active[tail_rows]])
         # z[m, j] - z[m - 1, j] - weight[m, j] * step[m] = 0.
-        m = np.repeat(np.arange(n_seg), jac.n_joints)
         eq = np.arange(n_run)
         later = eq[jac.n_joints:]
-        A_eq = coo_matrix((np.concatenate([np.ones(n_run), -np.ones(later.size),
-                                           -jac.weight.reshape(-1)]),
-                           (np.concatenate([eq, later, eq]),
-                            np.concatenate([n_seg + eq, n_seg + later - jac.n_joints, m]))),
-                          shape=(n_run, n_var)).tocsr()
-        b_eq = np.zeros(n_run)
-    A_ub = None
-    if n_rows:
-        A_ub = coo_matrix((np.concatenate([b.data for b in blocks]),
-                           (np.concatenate([b.row for b in blocks]),
-                            np.concatenate([b.col for b in blocks]))),
-                          shape=(n_rows, n_var)).tocsr()
-    else:
-        b_ub = None
-    result = linprog(cost, A_ub=A_ub, b_ub=b_ub, A_eq=A_eq, b_eq=b_eq, bounds=bounds,
-                     method='highs')
-    if result.status != 0:
+        rows += [n_rows + eq, n_rows + later, n_rows + eq]
+        cols += [n_seg + eq, n_seg + later - jac.n_joints, eq // jac.n_joints]
+        vals += [np.ones(n_run), -np.ones(later.size), -jac.weight.reshape(-1)]
+        lower_b = np.concatenate([lower_b, np.zeros(n_run)])
+        upper_b = np.concatenate([upper_b, np.zeros(n_run)])
+    constraints = ()
+    if n_rows + n_run:
+        matrix = csc_array((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                           shape=(n_rows + n_run, n_var))
+        constraints = LinearConstraint(matrix, lower_b, upper_b)
+    # milp without integrality is HiGHS's LP solver with less overhead than linprog.
+    result = milp(cost, constraints=constraints, bounds=Bounds(bounds[:, 0], bounds[:, 1]))
+    if result.status != 0 or result.x is None:
         return None, 0.0
     step = result.x[:n_seg]
     return step, _predicted(state, jac, step)
@@ -159,6 +159,27 @@ def _restored_total(state):
     return float(state['durations'].sum() * np.exp(max(0.0, np.max(state['log_ratios']))))
 
 
+def _warm_start(ratios, x, state):
+    """
+    Scale every segment by its own largest ratio while that shortens the restored total.
+
+    Each step is one evaluation (no Jacobian, no LP): ``log T_s -= -log
+    max_{j,q} r_{s,j,q}``, which would make every segment bind if the
+    segments were independent.  Coupling makes the iteration diverge
+    eventually (at once for 445), so steps are kept only while the restored
+    total falls by at least :data:`WARM_GAIN`; at most :data:`WARM_STEPS`.
+    """
+    for _ in range(WARM_STEPS):
+        per_segment = np.max(state['log_ratios'], axis=(1, 2))
+        if not np.all(np.isfinite(per_segment)):
+            break
+        trial = ratios.evaluate(x + per_segment)
+        if _restored_total(trial) > (1.0 - WARM_GAIN) * _restored_total(state):
+            break
+        x, state = x + per_segment, trial
+    return x, state
+
+
 def minimise_total_time(method, points, start, boundary, limits):
     """
     Run the trust-region SLP from the (S,) ``start`` durations.
@@ -178,7 +199,8 @@ def minimise_total_time(method, points, start, boundary, limits):
     state = ratios.evaluate(x)
     if state is None:
         return start, {'iterations': 0, 'evaluations': ratios.evaluations,
-                       'message': 'singular at the start'}
+                       'message': 'singular at the start', 'worst_log_ratio': np.inf}
+    x, state = _warm_start(ratios, x, state)
     with_boundary = bool(np.any([np.any(b) for b in boundary]))
     radius = INITIAL_RADIUS
     message = 'iteration limit reached'
@@ -226,8 +248,10 @@ def minimise_total_time(method, points, start, boundary, limits):
     if with_boundary:
         best_x, extra = _repair(ratios, best_x, radius, lower_x, upper_x, penalty)
         iteration += extra
+    final = ratios.evaluate(best_x)
+    worst = np.inf if final is None else float(np.max(final['log_ratios']))
     return np.exp(best_x), {'iterations': iteration, 'evaluations': ratios.evaluations,
-                            'message': message}
+                            'message': message, 'worst_log_ratio': worst}
 
 
 def _repair(ratios, x, radius, lower_x, upper_x, penalty):
@@ -263,6 +287,24 @@ def _repair(ratios, x, radius, lower_x, upper_x, penalty):
     return x, steps
 
 
+def _restoring_factor(spline, limits, worst_log_ratio):
+    """
+    Return the common factor that makes the optimised durations feasible, and the ratios.
+
+    The iterate ends within round-off of the limits (or slightly past them),
+    so the factor ``exp(worst log-ratio)`` is tried first (exact for
+    rest-to-rest requests); when it does not meet every limit exactly (a
+    non-zero boundary value), the smallest feasible factor is searched as in
+    uniform timing.  Raises ValueError when there is none.
+    """
+    factor = float(np.exp(max(worst_log_ratio, 0.0))) * (1.0 + 1e-12)
+    if np.isfinite(factor):
+        ratios = limit_ratios(spline.coefficients(factor), spline.durations(factor), limits)
+        if np.max(ratios) <= 1.0:
+            return factor, ratios
+    return uniform_scale(spline, limits)
+
+
 def optimal_durations(method, points, start, boundary, limits, dropped, uniform=None):
     """
     Plan with time-optimal durations, starting from the (S,) ``start`` durations.
@@ -277,7 +319,7 @@ def optimal_durations(method, points, start, boundary, limits, dropped, uniform=
     candidate, info = minimise_total_time(method, points, start, boundary, limits)
     refined = ScaledSpline(method, points, candidate, boundary)
     try:
-        factor, ratios = uniform_scale(refined, limits)
+        factor, ratios = _restoring_factor(refined, limits, info.pop('worst_log_ratio'))
         durations, coeffs = refined.durations(factor), refined.coefficients(factor)
     except ValueError:
         if uniform is None:

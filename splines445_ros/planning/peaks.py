@@ -3,10 +3,10 @@ Exact per-segment peaks of |velocity|, |acceleration| and |jerk|.
 
 A polynomial's extreme values on ``[0, T]`` are at the ends or at the real roots
 of its next derivative inside the interval.  Here those roots are computed
-directly: the next derivative of a quintic's velocity is a cubic (roots from
-companion-matrix eigenvalues, for the few segments where the cubic term is
-present), everything else is at most quadratic and solved in closed form for
-all segments and joints at once.  No sampling is involved.
+directly: the next derivative of a quintic's velocity is a cubic (closed
+form, polished by Newton steps; eigenvalues of the companion matrix for
+nearly degenerate cubics), everything else is at most quadratic and solved
+in closed form for all segments and joints at once.  No sampling is involved.
 """
 
 import numpy as np
@@ -14,6 +14,8 @@ import numpy as np
 # Relative size below which a leading coefficient counts as zero (in the
 # interval-normalised variable x = tau / T, where all terms are comparable).
 _DEGENERATE = 1e-13
+# Scaled leading coefficient below which a cubic's roots come from eigenvalues.
+_SMALL_CUBIC = 1e-6
 
 
 def derivative_coefficients(coeffs, derivative):
@@ -35,6 +37,59 @@ def _horner(coeffs, x):
     return out
 
 
+def _companion_roots(q):
+    """Real roots (K, 3) of ascending cubics ``q`` (K, 4) from companion-matrix eigenvalues."""
+    companion = np.zeros((q.shape[0], 3, 3))
+    companion[:, 1, 0] = 1.0
+    companion[:, 2, 1] = 1.0
+    companion[:, :, 2] = -q[:, :3] / q[:, 3:4]
+    eig = np.linalg.eigvals(companion)
+    real = np.abs(eig.imag) <= 1e-9 * np.maximum(1.0, np.abs(eig.real))
+    return np.where(real, eig.real, np.nan)
+
+
+def _cubic_roots(q):
+    """
+    Real roots (K, 3) of ascending cubics ``q`` (K, 4), NaN where a root is not real.
+
+    Closed form (trigonometric for three real roots, Cardano for one), then
+    two Newton steps on the original cubic; cubics whose leading coefficient
+    is small next to the others (scaled, below :data:`_SMALL_CUBIC`) use
+    companion-matrix eigenvalues instead.
+    """
+    roots = np.full((q.shape[0], 3), np.nan)
+    small = np.abs(q[:, 3]) < _SMALL_CUBIC
+    if np.any(small):
+        roots[small] = _companion_roots(q[small])
+    ok = ~small
+    a = q[ok, 3]
+    B, C, D = q[ok, 2] / a, q[ok, 1] / a, q[ok, 0] / a
+    # Depressed cubic t^3 + p t + r = 0 with x = t - B / 3.
+    p = C - B * B / 3.0
+    r = (2.0 * B * B - 9.0 * C) * B / 27.0 + D
+    disc = 0.25 * r * r + p * p * p / 27.0
+    three = disc <= 0.0
+    t = np.full((a.size, 3), np.nan)
+    with np.errstate(invalid='ignore', divide='ignore'):
+        m = 2.0 * np.sqrt(np.maximum(-p[three], 0.0) / 3.0)
+        cos_arg = np.clip(np.where(m > 0.0, 3.0 * r[three] / (p[three] * m), 0.0), -1.0, 1.0)
+        theta = np.arccos(cos_arg) / 3.0
+        t[three] = m[:, None] * np.cos(theta[:, None] -
+                                       2.0 * np.pi / 3.0 * np.arange(3)[None, :])
+        one = ~three
+        u = np.cbrt(-0.5 * r[one] - np.copysign(np.sqrt(disc[one]), r[one]))
+        t[one, 0] = np.where(u != 0.0, u - p[one] / (3.0 * u), 0.0)
+    x = t - B[:, None] / 3.0
+    c0, c1, c2, c3 = (q[ok, i][:, None] for i in range(4))
+    for _ in range(2):
+        value = ((c3 * x + c2) * x + c1) * x + c0
+        slope = (3.0 * c3 * x + 2.0 * c2) * x + c1
+        with np.errstate(invalid='ignore', divide='ignore'):
+            x = np.where(slope != 0.0, x - value / slope, x)
+    roots[ok] = x
+    return roots
+
+
 def _unit_interval_roots(q, out):
     """
     Write the real roots in (0, 1) of ascending polynomials ``q`` (K, <=4) into ``out``.
@@ -49,14 +104,7 @@ def _unit_interval_roots(q, out):
     cubic = (np.abs(q[:, 3]) > _DEGENERATE) if width == 4 else np.zeros(K, dtype=bool)
     roots = np.full((K, 3), np.nan)
     if np.any(cubic):
-        qc = q[cubic]
-        companion = np.zeros((qc.shape[0], 3, 3))
-        companion[:, 1, 0] = 1.0
-        companion[:, 2, 1] = 1.0
-        companion[:, :, 2] = -qc[:, :3] / qc[:, 3:4]
-        eig = np.linalg.eigvals(companion)
-        real = np.abs(eig.imag) <= 1e-9 * np.maximum(1.0, np.abs(eig.real))
-        roots[cubic] = np.where(real, eig.real, np.nan)
+        roots[cubic] = _cubic_roots(q[cubic])
         rest = ~cubic
         a, b, c = q[rest, 2], q[rest, 1], q[rest, 0]
     else:

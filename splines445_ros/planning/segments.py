@@ -138,14 +138,22 @@ def input_map_derivatives(maps, durations):
     return maps * exponent[None, :, :] / T[:, None, None]
 
 
-def derivative_weights(durations, derivative, at_end):
-    """Weights ``w`` (S, 6) so that ``w @ c`` is the derivative at tau = 0 or tau = T."""
-    T = np.asarray(durations, dtype=float)
+def _falling_factors(derivative):
+    """``i! / (i - d)!`` and the exponent ``i - d`` (0 below d) for i = 0 .. 5."""
     powers = np.arange(N_COEFFS)
     falling = np.ones(N_COEFFS)
     for j in range(derivative):
-        falling = falling * np.clip(powers - j, 0, None)
-    exponent = np.clip(powers - derivative, 0, None)
+        falling = falling * np.maximum(powers - j, 0)
+    return falling, np.maximum(powers - derivative, 0)
+
+
+_FALLING = [_falling_factors(d) for d in range(N_COEFFS)]
+
+
+def derivative_weights(durations, derivative, at_end):
+    """Weights ``w`` (S, 6) so that ``w @ c`` is the derivative at tau = 0 or tau = T."""
+    T = np.asarray(durations, dtype=float)
+    falling, exponent = _FALLING[derivative]
     if at_end:
         return falling[None, :] * T[:, None] ** exponent[None, :]
     weights = np.zeros((T.size, N_COEFFS))
