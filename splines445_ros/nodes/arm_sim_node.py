@@ -226,7 +226,7 @@ class ArmSimNode(Node):
     def _advance_dynamic(self, now):
         dt_ns = int(round(self.dynamic.timestep * 1e9))
         if now < self._sim_ns or now - self._sim_ns > MAX_CATCH_UP * 1e9:
-            if now > self._sim_ns:
+            if now > self._sim_ns > 0:  # (0: a simulated clock that had not started)
                 self.get_logger().warning(
                     f'the clock jumped ahead by {(now - self._sim_ns) * 1e-9:.3g} s: the '
                     f'physics is not stepped across more than {MAX_CATCH_UP:g} s')
