@@ -13,6 +13,7 @@ import pytest
 from rclpy.parameter import Parameter
 from splines445_ros.arm import paper_example as pe
 from splines445_ros.nodes.arm_sim_node import ArmSimNode
+from splines445_ros.nodes.diagnostics import status_values
 from splines445_ros.nodes.planner_node import PlannerNode
 from splines445_ros.tools.in_process import InProcessSystem, LocalRos, waypoint_message
 
@@ -79,5 +80,5 @@ def test_planner_with_integer_method_serves_requests():
         status, trajectory = system.request(waypoint_message(
             pe.JOINT_NAMES, pe.joint_waypoints()))
         assert status.level == DiagnosticStatus.OK, status.message
-        assert dict((kv.key, kv.value) for kv in status.values)['method'] == '434'
+        assert status_values(status)['method'] == '434'
         assert trajectory is not None
