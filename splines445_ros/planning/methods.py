@@ -10,10 +10,11 @@ spline family:
   banded system, :mod:`continuity_system`);
 * the knot-state components that are unknowns of that system (velocity, or
   velocity and acceleration);
-* how many segments a duration change reaches, upstream and downstream
-  (None: no decay), counted until its effect has decayed below about 1e-4 of
-  that on its own segment; optimal timing keeps its Jacobian banded to that
-  reach (:mod:`optimal`), which is accurate enough for its linear model.
+* how many segments a duration change reaches, upstream and downstream,
+  counted until its effect has decayed below about 1e-4 of that on its own
+  segment (None: it does not decay); optimal timing's Jacobian is banded to
+  that reach, plus a rank-one tail where it does not decay
+  (:mod:`sensitivity`), which is accurate enough for its linear model.
 
 Adding a method is adding one :class:`Method` to :data:`METHOD_DEFINITIONS`.
 """

@@ -12,23 +12,28 @@ with the peak ratios r of :mod:`sensitivity` (exact values and exact
 sparse derivatives, linear in N to compute).  The variables are
 log-durations, started from the uniform (paper) solution.
 
-The solver is a trust-region sequential linear program: at every iterate the
-constraints are linearised and a sparse LP (HiGHS, through
-``scipy.optimize.milp`` without integer variables) gives the step within a box ``|dx| <= radius``.
-Constraints already violated are elastic (a penalised slack each), so an
-infeasible start is pulled into the feasible set.  The merit of an iterate
-is its *restored total*: its total time after scaling every duration by the
+The solver is a trust-region sequential linear program.  A warm start
+first scales every segment by its own largest ratio while that helps
+(:func:`_warm_start`).  Then at every iterate the constraints are linearised
+and a sparse LP (HiGHS, through ``scipy.optimize.milp`` without integer
+variables) gives the step within a box ``|dx| <= radius``.  Constraints
+already violated are elastic (a penalised slack each), so an infeasible
+start is pulled into the feasible set.  The merit of an iterate is its
+*restored total*: its total time after scaling every duration by the
 largest ratio, which is what the final common factor does (exact for
 rest-to-rest requests).  A step is taken when the merit decreases by at
 least :data:`ACCEPT` of what the linear model predicts; otherwise half the
 step is tried, then a smaller box.  Only constraints the box can bring to
 their limit enter the LP, so an LP has about as many rows as there are
-segments near a limit: the cost of an iteration grows linearly with N (the
-number of iterations, 15 to 25 for 434 and 555, hardly grows).
+constraints near a limit: the cost of an iteration grows linearly with N,
+and the number of iterations (15 to 25 for 434 and 555) hardly grows.  With
+non-zero boundary values the last iterate is brought back to the limits by
+a few lengthening-only LP steps (:func:`_repair`).
 
-Afterwards feasibility is restored exactly by the smallest common factor
-(the same search as uniform timing, from exact polynomial peaks), and the
-uniform solution is kept if it is not longer.
+Afterwards feasibility is restored exactly by a common factor (the same
+search as uniform timing, from exact polynomial peaks, unless the factor
+``exp(largest log-ratio)`` already meets every limit), and the uniform
+solution is kept if it is not longer.
 
 Every segment of the result either binds a limit, or cannot be shortened on
 its own without another segment exceeding a limit (the splines couple the
@@ -46,7 +51,7 @@ from .sensitivity import PeakRatios
 from .timing import ScaledSpline, uniform_scale
 from .trajectory import Trajectory
 
-# Bounds of every duration relative to its starting value.
+# Bounds of every duration relative to its starting (uniform) value.
 MIN_FRACTION = 1e-2
 MAX_FRACTION = 10.0
 MAX_ITERATIONS = 200
