@@ -77,14 +77,16 @@ def run_paper_example(runs=RUNS):
 
 
 def _tracking_status(system, n_arm_status, timeout=10.0):
-    """Return the arm's end-of-trajectory status (level and values) after status n."""
-    def arrived():
-        return any('tracking_rms_error' in status_values(s)
-                   for s in system.arm_status[n_arm_status + 1:])
-    if not system.spin_until(arrived, timeout):
-        raise TimeoutError('the arm sent no tracking status')
-    status = next(s for s in system.arm_status[n_arm_status + 1:]
-                  if 'tracking_rms_error' in status_values(s))
+    """Return the end-of-trajectory status (level and values) of the trajectory accepted at n."""
+    start = status_values(system.arm_status[n_arm_status])['start_ns']
+
+    def finished():
+        return [s for s in system.arm_status[n_arm_status + 1:]
+                if status_values(s).get('start_ns') == start
+                and 'settling_error' in status_values(s)]
+    if not system.spin_until(finished, timeout):
+        raise TimeoutError('the arm did not report the end of the trajectory (replaced?)')
+    status = finished()[0]
     names = {DiagnosticStatus.OK: 'OK', DiagnosticStatus.WARN: 'WARN'}
     level = names.get(status.level, 'ERROR')
     return {'level': level, 'message': status.message, **status_values(status)}
