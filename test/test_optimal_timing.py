@@ -124,3 +124,16 @@ def test_optimal_timing_plans_requests_uniform_timing_cannot():
         if cases == 8:
             break
     assert cases == 8 and rescued >= 6, (cases, rescued)
+
+
+@pytest.mark.parametrize('method', ['434', '555'])
+def test_optimal_timing_has_no_segment_cap(method):
+    """400 waypoints (the old limit was 300 segments): feasible and much shorter than uniform."""
+    rng = np.random.default_rng(400)
+    points = np.cumsum(rng.uniform(-0.5, 0.5, (400, 2)), axis=0)
+    kwargs = request_kwargs(np.full(2, 2.0), np.full(2, 10.0), None, [np.zeros(2)] * 4)
+    uniform = plan(points, method, 'uniform', **kwargs)
+    optimal = plan(points, method, 'optimal', **kwargs)
+    assert feasible(optimal, kwargs['max_velocity'], kwargs['max_acceleration'], None)
+    assert optimal.duration < 0.9 * uniform.duration
+    np.testing.assert_allclose(optimal.evaluate(optimal.breakpoints), points, atol=1e-9)

@@ -75,16 +75,22 @@ WARM_STEPS = 8
 WARM_GAIN = 5e-3
 # Penalty on constraint violation, relative to the largest starting duration.
 PENALTY = 10.0
+# With non-zero boundary values, iterations go on with the exact l1 merit when
+# the restored-total merit ends past a limit by more than this log-ratio.
+EXACT_MERIT_EXCESS = 1e-4
 # Repair of a final iterate that exceeds a limit (non-zero boundary values):
-# penalty factor, largest number of LP steps and the log-ratio accepted.
+# penalty factor, largest number of LP steps and the log-ratio margin aimed at
+# (above HiGHS's feasibility tolerance, 1e-7; a common factor need not restore
+# feasibility here: with boundary values lengthening every segment can raise
+# a ratio).
 REPAIR_PENALTY = 1e4
 REPAIR_ITERATIONS = 10
-REPAIR_TOLERANCE = 1e-6
+REPAIR_MARGIN = 1e-6
 # Constraints below this ratio never enter the LP.
 _INACTIVE = 1e-3
 
 
-def _lp_step(state, jac, radius, lower, upper, penalty):
+def _lp_step(state, jac, radius, lower, upper, penalty, merit_penalty=None, margin=0.0):
     """
     Solve the trust-region LP; return (step, predicted merit decrease) or (None, 0).
 
@@ -101,7 +107,7 @@ def _lp_step(state, jac, radius, lower, upper, penalty):
     reach = radius * jac.abs_row_sums()
     active = np.flatnonzero((log_ratios > np.log(_INACTIVE)) & (log_ratios + reach >= 0.0))
     A = jac.band[active]
-    b_ub = -log_ratios[active]
+    b_ub = -log_ratios[active] - margin
     n_rows, n_seg = A.shape
     n_run = n_seg * jac.n_joints if jac.has_tail else 0
     violated = np.flatnonzero(b_ub < 0.0)
@@ -140,16 +146,37 @@ def _lp_step(state, jac, radius, lower, upper, penalty):
     if result.status != 0 or result.x is None:
         return None, 0.0
     step = result.x[:n_seg]
-    return step, _predicted(state, jac, step)
+    return step, _predicted(state, jac, step, merit_penalty)
 
 
-def _predicted(state, jac, step):
-    """Decrease of the merit (:func:`_restored_total`) that the linear model predicts."""
+def _predicted(state, jac, step, penalty):
+    """Decrease of the merit (:func:`_merit`) that the linear model predicts for ``step``."""
     T = state['durations']
     log_ratios = state['log_ratios'].reshape(-1)
     finite = np.isfinite(log_ratios)
-    worst = np.max((log_ratios + jac @ step)[finite], initial=0.0)
-    return _restored_total(state) - (T.sum() + T @ step) * np.exp(worst)
+    model = (log_ratios + jac @ step)[finite]
+    if penalty is None:
+        value = (T.sum() + T @ step) * np.exp(np.max(model, initial=0.0))
+    else:
+        value = T.sum() + T @ step + penalty * np.sum(np.maximum(model, 0.0))
+    return _merit(state, penalty) - value
+
+
+def _merit(state, penalty):
+    """
+    Return the merit of an iterate: :func:`_restored_total`, or with a ``penalty`` l1.
+
+    The restored total is what the final common factor gives when the
+    ratios scale exactly with it (rest-to-rest requests).  With non-zero
+    boundary values they do not, and the merit is the exact l1 penalty
+    function: total time plus ``penalty`` times the summed log-ratio excess.
+    """
+    if state is None:
+        return np.inf
+    if penalty is None:
+        return _restored_total(state)
+    return float(state['durations'].sum() +
+                 penalty * np.sum(np.maximum(state['log_ratios'], 0.0)))
 
 
 def _restored_total(state):
@@ -164,22 +191,23 @@ def _restored_total(state):
     return float(state['durations'].sum() * np.exp(max(0.0, np.max(state['log_ratios']))))
 
 
-def _warm_start(ratios, x, state):
+def _warm_start(ratios, x, state, merit):
     """
     Scale every segment by its own largest ratio while that shortens the restored total.
 
     Each step is one evaluation (no Jacobian, no LP): ``log T_s -= -log
     max_{j,q} r_{s,j,q}``, which would make every segment bind if the
     segments were independent.  Coupling makes the iteration diverge
-    eventually (at once for 445), so steps are kept only while the restored
-    total falls by at least :data:`WARM_GAIN`; at most :data:`WARM_STEPS`.
+    eventually (at once for 445), so steps are kept only while the merit
+    (:func:`_merit`) falls by at least :data:`WARM_GAIN`; at most
+    :data:`WARM_STEPS`.
     """
     for _ in range(WARM_STEPS):
         per_segment = np.max(state['log_ratios'], axis=(1, 2))
         if not np.all(np.isfinite(per_segment)):
             break
         trial = ratios.evaluate(x + per_segment)
-        if _restored_total(trial) > (1.0 - WARM_GAIN) * _restored_total(state):
+        if _merit(trial, merit) > (1.0 - WARM_GAIN) * _merit(state, merit):
             break
         x, state = x + per_segment, trial
     return x, state
@@ -190,48 +218,80 @@ def minimise_total_time(method, points, start, boundary, limits):
     Run the trust-region SLP from the (S,) ``start`` durations.
 
     Returns (durations, info) where ``info`` counts iterations and
-    evaluations; the durations are the iterate with the shortest restored
-    total (:func:`_restored_total`) and may be slightly infeasible (see the
-    module docstring: feasibility is restored afterwards).  Stops when the
-    LP predicts less than :data:`RELATIVE_TOLERANCE` of the total, or when
-    the restored total improved by less than :data:`STALL_TOLERANCE` over
-    :data:`STALL_ITERATIONS` accepted steps.
+    evaluations.  First the merit is the restored total (fast: violations
+    are priced as the common factor would price them); with non-zero
+    boundary values, where that is only an estimate, the iterations then go
+    on from the best point with the exact l1 merit when that point exceeds a
+    limit by more than :data:`EXACT_MERIT_EXCESS` (in log-ratio), and the
+    end point is repaired (:func:`_repair`).  The durations may still exceed a limit by
+    round-off (see the module docstring: feasibility is restored afterwards).
     """
     ratios = PeakRatios(method, points, boundary, limits)
     x = np.log(start)
-    lower_x, upper_x = x + np.log(MIN_FRACTION), x + np.log(MAX_FRACTION)
+    bounds = (x + np.log(MIN_FRACTION), x + np.log(MAX_FRACTION))
     penalty = PENALTY * float(np.max(start))
     state = ratios.evaluate(x)
     if state is None:
         return start, {'iterations': 0, 'evaluations': ratios.evaluations,
                        'message': 'singular at the start', 'worst_log_ratio': np.inf}
-    x, state = _warm_start(ratios, x, state)
-    with_boundary = bool(np.any([np.any(b) for b in boundary]))
-    radius = INITIAL_RADIUS
+    x, state = _warm_start(ratios, x, state, None)
+    x, state, iterations, message, radius = _iterate(ratios, x, state, bounds, penalty, None,
+                                                     INITIAL_RADIUS)
+    if any(np.any(b) for b in boundary):
+        if np.max(state['log_ratios']) > EXACT_MERIT_EXCESS:
+            x, state, more, message, _ = _iterate(ratios, x, state, bounds, penalty, penalty,
+                                                  radius)
+            iterations += more
+        x, state, repairs = _repair(ratios, x, state, bounds[1], penalty)
+        iterations += repairs
+    return np.exp(x), {'iterations': iterations, 'evaluations': ratios.evaluations,
+                       'message': message,
+                       'worst_log_ratio': float(np.max(state['log_ratios']))}
+
+
+def _iterate(ratios, x, state, bounds, penalty, merit, radius):
+    """
+    Take trust-region SLP steps with the merit ``merit`` (see :func:`_merit`).
+
+    Returns the best iterate, its state, the number of LPs, why it stopped
+    and the last radius.  Stops when the LP predicts less than
+    :data:`RELATIVE_TOLERANCE` of the total, or when the merit improved by
+    less than :data:`STALL_TOLERANCE` over :data:`STALL_ITERATIONS` accepted
+    steps.
+    """
+    lower_x, upper_x = bounds
     message = 'iteration limit reached'
     iteration = 0
     jac = None
-    best_x, best = x, _restored_total(state)
+    best_x, best_state, best = x, state, _merit(state, merit)
     history = [best]
     while iteration < MAX_ITERATIONS:
         iteration += 1
         if jac is None:
             jac = ratios.jacobian(state)
-        step, predicted = _lp_step(state, jac, radius, lower_x - x, upper_x - x, penalty)
+        step, predicted = _lp_step(state, jac, radius, lower_x - x, upper_x - x, penalty, merit)
         if step is None:
             message = 'LP failed'
             break
         if predicted <= RELATIVE_TOLERANCE * state['durations'].sum():
+            excess = float(np.max(state['log_ratios']))
+            if merit is None and excess > RELATIVE_TOLERANCE:
+                # The LP prices violations above what the common factor would
+                # cost (the restored total): rescale to the limits, then go on.
+                rescaled = ratios.evaluate(x + excess)
+                if rescaled is not None:
+                    x, state, jac = x + excess, rescaled, None
+                    continue
             message = 'converged'
             break
         trial = ratios.evaluate(x + step)
-        rho = (_restored_total(state) - _restored_total(trial)) / predicted
+        rho = (_merit(state, merit) - _merit(trial, merit)) / predicted
         if rho <= ACCEPT:
             # Before a new LP, try half the step (an evaluation only).
             step = 0.5 * step
             trial = ratios.evaluate(x + step)
-            rho = (_restored_total(state) - _restored_total(trial)) / _predicted(
-                state, jac, step)
+            rho = (_merit(state, merit) - _merit(trial, merit)) / _predicted(
+                state, jac, step, merit)
             if rho <= ACCEPT:
                 radius = SHRINK * np.max(np.abs(step))
                 if radius < MIN_RADIUS:
@@ -242,26 +302,22 @@ def minimise_total_time(method, points, start, boundary, limits):
         x, state, jac = x + step, trial, None
         if rho > 0.75 and np.max(np.abs(step)) > 0.9 * radius:
             radius = min(2.0 * radius, MAX_RADIUS)
-        restored = _restored_total(state)
-        if restored < best:
-            best_x, best = x, restored
+        value = _merit(state, merit)
+        if value < best:
+            best_x, best_state, best = x, state, value
         history.append(best)
         if (len(history) > STALL_ITERATIONS and
                 history[-1 - STALL_ITERATIONS] - best < STALL_TOLERANCE * best):
             message = 'stalled'
             break
-    if with_boundary:
-        best_x, extra = _repair(ratios, best_x, radius, lower_x, upper_x, penalty)
-        iteration += extra
-    final = ratios.evaluate(best_x)
-    worst = np.inf if final is None else float(np.max(final['log_ratios']))
-    return np.exp(best_x), {'iterations': iteration, 'evaluations': ratios.evaluations,
-                            'message': message, 'worst_log_ratio': worst}
+    return best_x, best_state, iteration, message, radius
 
 
-def _repair(ratios, x, radius, lower_x, upper_x, penalty):
+def _repair(ratios, x, state, upper_x, penalty):
     """
-    Bring an iterate that exceeds a limit back to the limits by LP steps; return (x, steps).
+    Bring an iterate that exceeds a limit back to the limits by LP steps.
+
+    Returns the repaired ``x``, its state and the number of LP steps.
 
     With non-zero boundary values the ratios do not scale with a common
     factor, so the point the restored-total merit ends at, once scaled, is
@@ -271,17 +327,16 @@ def _repair(ratios, x, radius, lower_x, upper_x, penalty):
     :data:`REPAIR_PENALTY` times larger), taken while they reduce the
     largest violation.
     """
-    state = ratios.evaluate(x)
     steps = 0
-    radius = 4.0 * max(float(np.max(state['log_ratios'])), REPAIR_TOLERANCE)
-    while steps < REPAIR_ITERATIONS and state is not None:
+    radius = 4.0 * max(float(np.max(state['log_ratios'])), REPAIR_MARGIN)
+    while steps < REPAIR_ITERATIONS:
         worst = float(np.max(state['log_ratios']))
-        if worst <= REPAIR_TOLERANCE:
+        if worst <= 0.0:
             break
         steps += 1
         jac = ratios.jacobian(state)
         step, _ = _lp_step(state, jac, radius, np.zeros_like(x), upper_x - x,
-                           REPAIR_PENALTY * penalty)
+                           REPAIR_PENALTY * penalty, margin=REPAIR_MARGIN)
         if step is None:
             break
         trial = ratios.evaluate(x + step)
@@ -289,7 +344,7 @@ def _repair(ratios, x, radius, lower_x, upper_x, penalty):
             radius *= SHRINK
             continue
         x, state = x + step, trial
-    return x, steps
+    return x, state, steps
 
 
 def _restoring_factor(spline, limits, worst_log_ratio):
@@ -302,7 +357,9 @@ def _restoring_factor(spline, limits, worst_log_ratio):
     non-zero boundary value), the smallest feasible factor is searched as in
     uniform timing.  Raises ValueError when there is none.
     """
-    factor = float(np.exp(max(worst_log_ratio, 0.0))) * (1.0 + 1e-12)
+    factor = float(np.exp(max(worst_log_ratio, 0.0)))
+    if worst_log_ratio > 0.0:
+        factor *= 1.0 + 1e-12
     if np.isfinite(factor):
         ratios = limit_ratios(spline.coefficients(factor), spline.durations(factor), limits)
         if np.max(ratios) <= 1.0:
