@@ -39,7 +39,7 @@ def test_figures_exist_and_are_non_trivial(demo):
     check_png(paths['tracking.png'], 80_000, 3_000_000)
     with open(paths['table.md'], encoding='utf-8') as handle:
         lines = handle.read().strip().splitlines()
-    assert len(lines) == 2 + 3 and all(line.startswith('|') for line in lines)
+    assert len(lines) == 2 + 5 and all(line.startswith('|') for line in lines)
     assert all(line.count('|') == 17 for line in lines)  # 16 columns, none empty
 
 
@@ -48,7 +48,8 @@ def test_table_numbers_match_the_published_trajectories(demo):
     with open(paths['table.csv'], encoding='utf-8') as handle:
         rows = list(csv.DictReader(handle))
     assert [(r['method'], r['timing']) for r in rows] == [
-        ('434', 'uniform'), ('445', 'uniform'), ('445', 'optimal')]
+        ('434', 'uniform'), ('445', 'uniform'), ('445', 'optimal'), ('555', 'uniform'),
+        ('555', 'optimal')]
     arm = PlanarArm()
     for row, result in zip(rows, results):
         msg = result['trajectory']
@@ -78,6 +79,11 @@ def test_table_numbers_match_the_published_trajectories(demo):
     assert float(r445['duration_s']) > float(r434['duration_s'])
     assert float(r445['max_tool_deviation']) > float(r434['max_tool_deviation'])
     assert float(rows[2]['duration_s']) < float(r445['duration_s'])
+    # 555 is jerk-continuous too, and on this example faster than 445 (issue 10).
+    r555, r555_optimal = rows[3], rows[4]
+    assert float(r555['max_jerk_jump']) < 1e-6
+    assert float(r555['duration_s']) < float(r445['duration_s'])
+    assert float(r555_optimal['duration_s']) < float(r555['duration_s'])
 
 
 def check_tracking_columns(row, result):

@@ -42,7 +42,9 @@ PARAMETER_DESCRIPTIONS = {
     'max_acceleration': 'Per-joint |acceleration| limit [rad/s^2 or m/s^2], > 0.',
     'max_jerk': 'Per-joint |jerk| limit [rad/s^3 or m/s^3]; 0 = no jerk limit '
                 'on that joint; an empty array = no jerk limit at all.',
-    'method': '"445" (jerk-continuous, Petrinec & Kovacic) or "434" (Ho & Cook, C2).',
+    'method': '"445" (jerk-continuous, Petrinec & Kovacic; default), "434" (Ho & Cook, C2) '
+              'or "555" (C4 quintic spline: jerk-continuous and stable on long paths); '
+              'numbers as typed (-p method:=555) are accepted.',
     'timing': '"uniform" (chord durations, one common scale factor), "optimal" '
               '(minimum total time) or "fixed" (durations from time_from_start).',
     'sample_period': 'Period of the published trajectory points [s], >= 1e-4.',

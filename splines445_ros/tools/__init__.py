@@ -2,7 +2,8 @@
 User tools on top of the nodes: the demo, reports, figures, plot_trajectory, the harness.
 
 Lives here: the ``demo`` and ``plot_trajectory`` executables, the demo's
-tables and figures (matplotlib, Agg backend) and the in-process harness that
+tables and figures (matplotlib, Agg backend), the straight-tool-path part of
+the demo (``tool_path_demo``) and the in-process harness that
 spins both nodes and a client in one executor (used by the demo and the tests).
 
 May import: everything in the package (:mod:`splines445_ros.planning`,

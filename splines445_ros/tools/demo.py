@@ -2,13 +2,16 @@
 The main job: the paper's example end to end through both nodes in one process.
 
 Plans the triangle of Section III through ``planner_node`` with 434 and 445
-(uniform timing, as in the paper) and 445 with optimal timing, lets
+(uniform timing, as in the paper), 445 with optimal timing and the C4 quintic
+555 with uniform and optimal timing, lets
 ``arm_sim_node`` play every trajectory on the dynamic arm (MuJoCo, the
 default model and joint controller), prints a table (duration, per-joint
 peaks against the limits, the largest jumps of acceleration and jerk across
 waypoints, the tool path's largest deviation from the triangle's edges, where
 the tool ended, and the arm's tracking errors and torques from its end-of-
-trajectory status) and writes figures and the table to a folder.
+trajectory status) and writes figures and the table to a folder.  Then it
+refines the triangle's tool path to 1 mm (Taylor's method, the paper's remedy)
+for every method and timing and prints and writes that table and figure too.
 """
 
 import argparse
@@ -21,13 +24,15 @@ import numpy as np
 from .figures import plot_joint_curves, plot_tool_path, plot_tracking
 from .in_process import InProcessSystem, stamp_ns, waypoint_message
 from .report import markdown_table, run_metrics, write_csv
+from .tool_path_demo import run_tool_path_demo, TOLERANCE
 from ..arm import paper_example as pe
 from ..arm.kinematics import PlanarArm
 from ..nodes.arm_sim_config import ArmSimConfig
 from ..nodes.diagnostics import status_values
 from ..planning import plan
 
-RUNS = (('434', 'uniform'), ('445', 'uniform'), ('445', 'optimal'))
+RUNS = (('434', 'uniform'), ('445', 'uniform'), ('445', 'optimal'), ('555', 'uniform'),
+        ('555', 'optimal'))
 PLANNER_PARAMETERS = {'max_velocity': pe.MAX_VELOCITY.tolist(),
                       'max_acceleration': pe.MAX_ACCELERATION.tolist(),
                       'max_jerk': [0.0, 0.0, 0.0]}  # the paper sets no jerk limit
@@ -119,6 +124,7 @@ def main(argv=None):
     except KeyboardInterrupt:
         return 130
     metrics, paths = write_report(results, args.out)
+    tool_table, tool_paths = run_tool_path_demo(args.out)
     print()
     print("Paper's example (Petrinec & Kovacic, Sec. III): 12 triangle waypoints, "
           'v <= 2 rad/s, a <= 10 rad/s^2, no jerk limit,')
@@ -130,8 +136,13 @@ def main(argv=None):
     print()
     print(markdown_table(metrics))
     print()
+    print(f'Straight tool paths: the triangle refined to {1e3 * TOLERANCE:g} mm of the lines '
+          "between its tool waypoints (Taylor's method; rest to rest, no boundary values):")
+    print()
+    print(tool_table)
+    print()
     print(f'Figures and tables written to {os.path.abspath(args.out)}/: '
-          + ', '.join(os.path.basename(p) for p in paths.values()))
+          + ', '.join(os.path.basename(p) for p in list(paths.values()) + tool_paths))
     return 0
 
 
