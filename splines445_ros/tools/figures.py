@@ -24,6 +24,15 @@ ROWS = (('position', 'rad'), ('velocity', 'rad/s'), ('acceleration', 'rad/s²'),
 POINTS_PER_SEGMENT = 200
 
 
+def _label_grid(axes, joint_names, row_labels, xlabel):
+    """Title every column with its joint, label every row and the bottom time axes."""
+    for j, name in enumerate(joint_names):
+        axes[0, j].set_title(name)
+        axes[-1, j].set_xlabel(xlabel)
+    for row, label in enumerate(row_labels):
+        axes[row, 0].set_ylabel(label)
+
+
 def _label(traj):
     return f'{traj.method} {traj.timing}'
 
@@ -56,11 +65,7 @@ def plot_joint_curves(trajectories, path, joint_names):
                     if np.isfinite(bound):
                         for sign in (1, -1):
                             axes[row, j].axhline(sign * bound, color='k', ls='--', lw=0.8)
-    for j, name in enumerate(joint_names):
-        axes[0, j].set_title(name)
-        axes[3, j].set_xlabel('time [s]')
-    for row, (name, unit) in enumerate(ROWS):
-        axes[row, 0].set_ylabel(f'{name} [{unit}]')
+    _label_grid(axes, joint_names, [f'{name} [{unit}]' for name, unit in ROWS], 'time [s]')
     axes[0, 0].legend(loc='best', fontsize=8)
     fig.suptitle('Joint trajectories (dashed: limits; thin lines: waypoint times)')
     fig.tight_layout()
@@ -104,11 +109,9 @@ def plot_samples(times, positions, velocities, accelerations, joint_names, path,
                 continue
             t = times if row < 3 else 0.5 * (times[1:] + times[:-1])
             ax.plot(t, values[:, j], lw=1.0)
-    for j, name in enumerate(joint_names):
-        axes[0, j].set_title(name)
-        axes[3, j].set_xlabel('time from start [s]')
-    for row, (name, unit) in enumerate(ROWS):
-        axes[row, 0].set_ylabel(f'{name} [{unit}]' + (' (from samples)' if row == 3 else ''))
+    _label_grid(axes, joint_names,
+                [f'{name} [{unit}]' + (' (from samples)' if row == 3 else '')
+                 for row, (name, unit) in enumerate(ROWS)], 'time from start [s]')
     fig.suptitle(title or 'JointTrajectory')
     fig.tight_layout()
     fig.savefig(path, dpi=90)
@@ -154,11 +157,8 @@ def plot_tracking(runs, path, joint_names):
                     bound = max(bounds.get((row, j), 0.0), 1.3 * np.abs(values[window]).max())
                     bounds[row, j] = bound
                     axes[row, j].set_ylim(-bound, bound)
-    for j, name in enumerate(joint_names):
-        axes[0, j].set_title(name)
-        axes[2, j].set_xlabel('time from start [s] (dotted: end of the trajectory)')
-    for row, (name, unit) in enumerate(TRACKING_ROWS):
-        axes[row, 0].set_ylabel(f'{name} [{unit}]')
+    _label_grid(axes, joint_names, [f'{name} [{unit}]' for name, unit in TRACKING_ROWS],
+                'time from start [s] (dotted: end of the trajectory)')
     axes[0, 0].legend(loc='best', fontsize=8)
     fig.suptitle('Dynamic arm: tracking error, applied torque and its rate (joint_states); '
                  'error and rate scaled to the motion, start and stop steps off-scale')
