@@ -87,17 +87,11 @@ class ArmSimConfig(ValidatedConfig):
         if len(self.initial_positions) != n or not _finite(self.initial_positions):
             raise ValueError(f'initial_positions must be {n} finite angles, got '
                              f'{list(self.initial_positions)}')
-        if not (math.isfinite(self.publish_rate)
-                and MIN_PUBLISH_RATE <= self.publish_rate <= MAX_PUBLISH_RATE):
-            raise ValueError(f'publish_rate = {self.publish_rate}: must be in '
-                             f'[{MIN_PUBLISH_RATE}, {MAX_PUBLISH_RATE}] Hz')
+        self.require_in_range('publish_rate', MIN_PUBLISH_RATE, MAX_PUBLISH_RATE, 'Hz')
         if self.simulation not in SIMULATIONS:
             raise ValueError(f'simulation must be one of {list(SIMULATIONS)}, got '
                              f'{self.simulation!r}')
-        if not (math.isfinite(self.physics_rate)
-                and MIN_PHYSICS_RATE <= self.physics_rate <= MAX_PHYSICS_RATE):
-            raise ValueError(f'physics_rate = {self.physics_rate}: must be in '
-                             f'[{MIN_PHYSICS_RATE:g}, {MAX_PHYSICS_RATE:g}] Hz')
+        self.require_in_range('physics_rate', MIN_PHYSICS_RATE, MAX_PHYSICS_RATE, 'Hz')
         if not isinstance(self.gravity, bool):
             raise ValueError(f'gravity must be true or false, got {self.gravity!r}')
         self._validate_built_in()
@@ -109,10 +103,7 @@ class ArmSimConfig(ValidatedConfig):
             if len(values) != n or not _finite(values, low, high, low_open):
                 raise ValueError(f'{name} must be {n} values (one per joint), each {words}, '
                                  f'got {list(values)}')
-        if not (math.isfinite(self.actuator_time_constant)
-                and 0.0 <= self.actuator_time_constant <= MAX_TIME_CONSTANT):
-            raise ValueError(f'actuator_time_constant = {self.actuator_time_constant}: must '
-                             f'be in [0, {MAX_TIME_CONSTANT:g}] s')
+        self.require_in_range('actuator_time_constant', 0.0, MAX_TIME_CONSTANT, 's')
         if not self.model_file:
             self._validate_discretisation()
 
@@ -131,10 +122,7 @@ class ArmSimConfig(ValidatedConfig):
             if k > 0.0 and rotor <= 0.0:
                 raise ValueError(f'joint {j + 1} is elastic (joint_stiffness > 0): its '
                                  f'rotor_inertia must be positive, got {rotor}')
-        if not (math.isfinite(self.spring_damping_ratio)
-                and 0.0 <= self.spring_damping_ratio <= 2.0):
-            raise ValueError(f'spring_damping_ratio = {self.spring_damping_ratio}: must be '
-                             f'in [0, 2]')
+        self.require_in_range('spring_damping_ratio', 0.0, 2.0)
 
     def _validate_discretisation(self):
         """Reject gains and springs the built-in arm's fixed-step physics cannot carry."""

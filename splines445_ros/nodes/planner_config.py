@@ -73,10 +73,7 @@ class PlannerConfig(ValidatedConfig):
         if not (math.isfinite(self.sample_period) and self.sample_period >= MIN_SAMPLE_PERIOD):
             raise ValueError(f'sample_period = {self.sample_period}: must be at least '
                              f'{MIN_SAMPLE_PERIOD} s')
-        if not (math.isfinite(self.replan_lead_time)
-                and 0.0 <= self.replan_lead_time <= MAX_LEAD_TIME):
-            raise ValueError(f'replan_lead_time = {self.replan_lead_time}: must be in '
-                             f'[0, {MAX_LEAD_TIME}] s')
+        self.require_in_range('replan_lead_time', 0.0, MAX_LEAD_TIME, 's')
 
         if self.max_trajectory_points < 2:
             raise ValueError(f'max_trajectory_points = {self.max_trajectory_points}: must be '

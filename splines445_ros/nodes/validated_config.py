@@ -1,6 +1,7 @@
 """Base of the nodes' frozen config dataclasses (pure Python, no rclpy)."""
 
 from dataclasses import fields
+import math
 
 
 class ValidatedConfig:
@@ -23,3 +24,10 @@ class ValidatedConfig:
     def validate(self):
         """Raise ValueError with the reason when any value is unusable."""
         raise NotImplementedError
+
+    def require_in_range(self, name, low, high, unit=''):
+        """Raise ValueError unless the field ``name`` is finite and in [low, high]."""
+        value = getattr(self, name)
+        if not (math.isfinite(value) and low <= value <= high):
+            raise ValueError(f'{name} = {value}: must be in [{low:g}, {high:g}]'
+                             + (f' {unit}' if unit else ''))
