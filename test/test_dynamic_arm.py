@@ -7,7 +7,6 @@ simulations are short (about a second of motion each).
 
 import math
 
-from builtin_interfaces.msg import Time as TimeMsg
 from diagnostic_msgs.msg import DiagnosticStatus
 from fuzz_messages import arm_trajectories
 from geometry_msgs.msg import PoseStamped
@@ -15,8 +14,8 @@ from hypothesis import given, HealthCheck, settings, strategies as st
 import numpy as np
 import pytest
 from rclpy.node import Node
-from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
+from sim_clock import ClockDriver
 from splines445_ros.nodes import topics
 from splines445_ros.nodes.arm_sim_config import ArmSimConfig
 from splines445_ros.nodes.arm_sim_node import ArmSimNode
@@ -243,28 +242,13 @@ def test_dynamic_arm_follows_simulated_time():
         node = ros.add(ArmSimNode(context=ros.context, parameter_overrides=overrides(
             {'use_sim_time': True, 'simulation': 'dynamic', 'publish_rate': 50.0,
              'initial_positions': START.tolist()})))
-        client = ros.add(Node('clock_driver', context=ros.context))
-        clock = client.create_publisher(Clock, '/clock', 10)
-        trajectories = client.create_publisher(JointTrajectory, topics.JOINT_TRAJECTORY,
-                                               topics.LATCHED)
-        states = []
-        client.create_subscription(JointState, topics.JOINT_STATES, states.append,
-                                   topics.STATE_QOS)
-
-        def set_clock(seconds):
-            clock.publish(Clock(clock=TimeMsg(sec=int(seconds),
-                                              nanosec=int(round(seconds % 1 * 1e9)))))
-            ros.spin_for(0.3)
-
-        assert ros.spin_until(lambda: clock.get_subscription_count()
-                              and trajectories.get_subscription_count(), 3.0)
+        driver = ClockDriver(ros)
+        states, set_clock = driver.states, driver.set_clock
         set_clock(100.0)
-        msg = JointTrajectory(joint_names=list(JOINTS))
         point = JointTrajectoryPoint(positions=goal, velocities=[0.0] * 3,
                                      accelerations=[0.0] * 3)
         point.time_from_start.sec = 1
-        msg.points = [point]
-        trajectories.publish(msg)
+        driver.send(JOINTS, point)
         ros.spin_for(0.3)  # wall time only: the physics does not advance
         held = np.array(states[-1].position)
         np.testing.assert_allclose(held, START, atol=1e-3)
