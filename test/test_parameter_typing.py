@@ -82,3 +82,21 @@ def test_planner_with_integer_method_serves_requests():
         assert status.level == DiagnosticStatus.OK, status.message
         assert status_values(status)['method'] == '434'
         assert trajectory is not None
+
+
+def test_rejected_parameter_updates_are_reported_on_status():
+    with InProcessSystem() as system:
+        n_planner, n_arm = len(system.planner_status), len(system.arm_status)
+        assert not system.set_planner_parameters({'method': 'quintic'})[0].successful
+        assert not system.arm.set_parameters([Parameter('publish_rate', value=-1.0)])[0].successful
+        assert system.spin_until(lambda: len(system.planner_status) > n_planner
+                                 and len(system.arm_status) > n_arm, 5.0)
+        for status, name, words in ((system.planner_status[n_planner], 'method', 'quintic'),
+                                    (system.arm_status[n_arm], 'publish_rate', '-1.0')):
+            assert status.level == DiagnosticStatus.ERROR
+            assert words in status.message and 'rejected' in status.message
+            assert status_values(status)['parameters'] == name
+        # Both keep serving: a request after the rejection is planned and played.
+        status, trajectory = system.request(waypoint_message(
+            pe.JOINT_NAMES, [[0.0, 0.0, 0.0], [0.3, 0.2, 0.1]]))
+        assert status.level == DiagnosticStatus.OK and trajectory is not None

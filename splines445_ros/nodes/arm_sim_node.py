@@ -48,7 +48,8 @@ PARAMETER_DESCRIPTIONS = {
                    'joints of model_file to drive otherwise.',
     'link_lengths': 'Lengths d1, d2 of the two links [m] (paper: 1.1, 0.9).',
     'initial_positions': f'Joint angles at start-up [rad], {PER_JOINT}.',
-    'publish_rate': 'Rate of joint_states and tool_pose [Hz], in [0.001, 1000].',
+    'publish_rate': 'Rate of joint_states and tool_pose [Hz], in [0.001, 1000]; '
+                    'at least 1 with simulation dynamic (the physics steps with it).',
     'frame_id': 'Frame of tool_pose.',
     'simulation': 'kinematic (exact playback of the commanded state) or dynamic (MuJoCo '
                   'physics with a joint controller).',
@@ -84,7 +85,8 @@ class ArmSimNode(Node):
         """Declare parameters, build the simulation, topics and the publishing timer."""
         super().__init__('arm_sim_node', **kwargs)
         self.parameters = ConfigParameters(self, ArmSimConfig, PARAMETER_DESCRIPTIONS,
-                                           on_change=self._on_config)
+                                           on_change=self._on_config,
+                                           on_reject=self._on_parameters_rejected)
         config = self.parameters.config
         self.arm = PlanarArm(*config.link_lengths)
         n = len(config.joint_names)
@@ -123,6 +125,12 @@ class ArmSimNode(Node):
         arm = DynamicArm(model, config.kp, config.kd, config.torque_limits)
         arm.set_state(position, velocity)
         return arm
+
+    def _on_parameters_rejected(self, reason, names):
+        # Already logged by ConfigParameters; monitors see it on ~/status too.
+        self.status_publisher.publish(status_message(
+            self._status_name, False, f'parameter update {reason}',
+            {'parameters': ' '.join(names)}))
 
     def _on_config(self, config):
         """Apply a validated config; ValueError (model does not load) rejects it."""

@@ -48,11 +48,18 @@ def _numeric_string(parameter):
 class ConfigParameters:
     """Declare ``config_cls``'s fields on ``node`` and keep ``self.config`` valid."""
 
-    def __init__(self, node, config_cls, descriptions, on_change=None):
-        """Declare, read and validate (ValueError on a bad start-up value)."""
+    def __init__(self, node, config_cls, descriptions, on_change=None, on_reject=None):
+        """
+        Declare, read and validate (ValueError on a bad start-up value).
+
+        ``on_change(config)`` applies an accepted config (a ValueError from it
+        rejects the update); ``on_reject(reason, names)`` reports a rejected
+        update (the nodes put it on ``~/status``).
+        """
         self._node = node
         self._config_cls = config_cls
         self._on_change = on_change
+        self._on_reject = on_reject
         defaults = config_cls()
         self.names = [f.name for f in fields(config_cls)]
         self._string_names = {n for n in self.names if isinstance(getattr(defaults, n), str)}
@@ -93,6 +100,8 @@ class ConfigParameters:
         except (TypeError, ValueError) as exc:
             reason = f'rejected: {exc}'
             self._node.get_logger().warning(reason)
+            if self._on_reject is not None:
+                self._on_reject(reason, [p.name for p in parameters])
             return SetParametersResult(successful=False, reason=reason)
         self.config = new
         return SetParametersResult(successful=True)

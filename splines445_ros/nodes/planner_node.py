@@ -74,7 +74,8 @@ class PlannerNode(Node):
     def __init__(self, **kwargs):
         """Declare parameters, topics and the planning worker."""
         super().__init__('planner_node', **kwargs)
-        self.parameters = ConfigParameters(self, PlannerConfig, PARAMETER_DESCRIPTIONS)
+        self.parameters = ConfigParameters(self, PlannerConfig, PARAMETER_DESCRIPTIONS,
+                                           on_reject=self._on_parameters_rejected)
         self._status_name = self.get_fully_qualified_name()
         self._requests = queue.Queue()
         self._request_count = 0
@@ -195,6 +196,12 @@ class PlannerNode(Node):
         if not (np.all(np.isfinite(position)) and np.all(np.isfinite(velocity))):
             raise ValueError('start_from_current_state: the latest joint_states are not finite')
         return position, velocity, np.zeros(len(order))
+
+    def _on_parameters_rejected(self, reason, names):
+        # Already logged by ConfigParameters; monitors see it on ~/status too.
+        self.status_publisher.publish(status_message(
+            self._status_name, False, f'parameter update {reason}',
+            {'parameters': ' '.join(names)}))
 
     def _report(self, ok, message, values):
         if ok:

@@ -22,6 +22,7 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from ..nodes import topics
 from ..nodes.arm_sim_node import ArmSimNode
+from ..nodes.diagnostics import status_values
 from ..nodes.planner_node import PlannerNode
 from ..nodes.ros_conversions import seconds_to_duration
 
@@ -176,9 +177,12 @@ class InProcessSystem(LocalRos):
             self.tool_waypoint_publisher.publish(msg)
         else:
             self.waypoint_publisher.publish(msg)
-        if not self.spin_until(lambda: len(self.planner_status) > n_status, timeout):
+        # The planner's answer to a request carries its number (parameter
+        # rejections are on ~/status too, without one).
+        status = self._next_status(self.planner_status, n_status,
+                                   lambda values: 'request' in values, timeout)
+        if status is None:
             raise TimeoutError('no status from the planner')
-        status = self.planner_status[n_status]
         if status.level != DiagnosticStatus.OK:
             return status, None
         if not self.spin_until(lambda: len(self.trajectories) > n_traj, timeout):
@@ -192,9 +196,14 @@ class InProcessSystem(LocalRos):
         Returns the ``joint_states`` published while it moved and the first one
         published after its end.
         """
-        if not self.spin_until(lambda: len(self.arm_status) > n_arm_status, timeout):
+        # The arm's answer to a trajectory: accepted (with its start) or an
+        # ERROR; not a parameter rejection nor an earlier trajectory's report.
+        status = self._next_status(
+            self.arm_status, n_arm_status,
+            lambda values: 'parameters' not in values and 'tracking_rms_error' not in values,
+            timeout)
+        if status is None:
             raise TimeoutError('the arm did not accept the trajectory')
-        status = self.arm_status[n_arm_status]
         if status.level != DiagnosticStatus.OK:
             raise RuntimeError(f'the arm rejected the trajectory: {status.message}')
         start = int({kv.key: kv.value for kv in status.values}['start_ns'])
@@ -204,6 +213,13 @@ class InProcessSystem(LocalRos):
             raise TimeoutError('the arm did not finish the trajectory')
         played = [s for s in self.joint_states if start <= stamp_ns(s) <= end]
         return played, self.joint_states[-1]
+
+    def _next_status(self, statuses, first, wanted, timeout):
+        """Return the first of ``statuses[first:]`` whose values satisfy ``wanted``, or None."""
+        def found():
+            return next((s for s in statuses[first:] if wanted(status_values(s))), None)
+        self.spin_until(lambda: found() is not None, timeout)
+        return found()
 
     def set_planner_parameters(self, values):
         """Set planner parameters; return the SetParametersResult list."""
