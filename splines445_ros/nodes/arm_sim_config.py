@@ -9,6 +9,8 @@ from .validated_config import ValidatedConfig
 from ..arm.mujoco_model import PlanarArmModel
 
 MIN_PUBLISH_RATE = 0.001
+# The dynamic arm steps its physics in the publishing timer: at least this rate.
+MIN_DYNAMIC_PUBLISH_RATE = 1.0
 MAX_PUBLISH_RATE = 1000.0
 SIMULATIONS = ('kinematic', 'dynamic')
 MIN_PHYSICS_RATE = 1000.0
@@ -88,6 +90,10 @@ class ArmSimConfig(ValidatedConfig):
             raise ValueError(f'initial_positions must be {n} finite angles, got '
                              f'{list(self.initial_positions)}')
         self.require_in_range('publish_rate', MIN_PUBLISH_RATE, MAX_PUBLISH_RATE, 'Hz')
+        if self.simulation == 'dynamic' and self.publish_rate < MIN_DYNAMIC_PUBLISH_RATE:
+            raise ValueError(f'publish_rate = {self.publish_rate}: the dynamic simulation '
+                             'steps its physics at every publication, so it needs at least '
+                             f'{MIN_DYNAMIC_PUBLISH_RATE:g} Hz')
         if self.simulation not in SIMULATIONS:
             raise ValueError(f'simulation must be one of {list(SIMULATIONS)}, got '
                              f'{self.simulation!r}')
