@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from splines445_ros.arm import paper_example as pe
 from splines445_ros.nodes.diagnostics import status_values
-from splines445_ros.nodes.ros_conversions import sampled_trajectory_from_msg
+from splines445_ros.nodes.ros_conversions import parse_tool_request, sampled_trajectory_from_msg
 from splines445_ros.tools.in_process import InProcessSystem, overrides, tool_waypoint_message
 
 D1, D2 = 1.1, 0.9
@@ -212,3 +212,24 @@ def test_params_file_configures_tool_paths():
     config = PlannerConfig.from_values(values)
     assert config.kinematics == 'planar_3dof' and config.max_path_deviation == 1e-3
     assert config.tool_kinematics().d1 == 1.1
+
+
+@settings(max_examples=60, deadline=None)
+@given(yaw=st.floats(-10.0, 10.0), sign=st.sampled_from([1.0, -1.0]))
+def test_yaw_of_a_quaternion_is_the_same_for_q_and_minus_q(yaw, sign):
+    # q and -q are one rotation: the same yaw, wrapped into (-pi, pi], so a
+    # request never asks joint 3 for a needless full turn.
+    msg = PoseArray()
+    for x in (1.0, 0.5):
+        pose = Pose()
+        pose.position.x = x
+        pose.orientation.z = sign * math.sin(0.5 * yaw)
+        pose.orientation.w = sign * math.cos(0.5 * yaw)
+        msg.poses.append(pose)
+    parsed = parse_tool_request(msg)[:, 2]
+    wrapped = math.remainder(yaw, 2.0 * math.pi)
+    assert np.all(parsed > -math.pi - 1e-12) and np.all(parsed <= math.pi + 1e-12)
+    # Equal as angles (at +-pi either sign is the same orientation).
+    np.testing.assert_allclose(np.cos(parsed - wrapped), 1.0, atol=1e-12)
+    if abs(abs(wrapped) - math.pi) > 1e-6:
+        np.testing.assert_allclose(parsed, wrapped, atol=1e-9)

@@ -122,7 +122,9 @@ def parse_tool_request(msg):
         if tilt > MAX_TOOL_TILT:
             raise ValueError(f'tool waypoint {k}: the orientation tilts {tilt:.3g} rad away '
                              'from a rotation about z (a planar tool has yaw only)')
-        poses[k] = (p.x, p.y, 2.0 * np.arctan2(qz, qw))
+        # Yaw in (-pi, pi], the same for q and -q (the same rotation).
+        yaw = np.arctan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
+        poses[k] = (p.x, p.y, yaw)
     return poses
 
 
