@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 from rclpy.node import Node
 from rclpy.time import Time
+from sensor_msgs.msg import JointState
 from splines445_ros.arm import paper_example as pe
 from splines445_ros.nodes import topics
 from splines445_ros.nodes.diagnostics import status_values
@@ -94,3 +95,26 @@ def test_a_missed_switch_time_is_rejected_and_the_old_trajectory_continues(lead)
         status, traj = system.request(waypoint_message(pe.JOINT_NAMES, W))
         assert status.level == DiagnosticStatus.ERROR and traj is None
         assert 'longer than replan_lead_time' in status.message
+
+
+def test_replanning_from_malformed_joint_states_is_a_clear_error():
+    with LocalRos() as ros:
+        node = ros.add(PlannerNode(context=ros.context, parameter_overrides=overrides(
+            {'start_from_current_state': True})))
+        client = ros.add(Node('client', context=ros.context))
+        statuses = []
+        client.create_subscription(DiagnosticStatus, '/planner_node/status', statuses.append,
+                                   topics.STATUS_QOS)
+        publisher = client.create_publisher(JointTrajectory, topics.WAYPOINTS,
+                                            topics.REQUEST_QOS)
+        states = client.create_publisher(JointState, topics.JOINT_STATES, topics.STATE_QOS)
+        assert ros.spin_until(lambda: publisher.get_subscription_count()
+                              and states.get_subscription_count()
+                              and node.status_publisher.get_subscription_count(), 4.0)
+        # Three names, two positions: before, an IndexError reported as internal.
+        states.publish(JointState(name=list(pe.JOINT_NAMES), position=[0.0, 0.0]))
+        assert ros.spin_until(lambda: node._latest_joint_state is not None, 4.0)
+        publisher.publish(waypoint_message(pe.JOINT_NAMES, W))
+        assert ros.spin_until(lambda: statuses, 10.0)
+        assert statuses[0].level == DiagnosticStatus.ERROR
+        assert '2 positions for 3 names' in statuses[0].message, statuses[0].message

@@ -190,6 +190,9 @@ class PlannerNode(Node):
         except ValueError:
             raise ValueError(f'start_from_current_state: joint_states names {names} do not '
                              f'cover {list(config.joint_names)}') from None
+        if len(state.position) != len(names):
+            raise ValueError(f'start_from_current_state: the latest joint_states have '
+                             f'{len(state.position)} positions for {len(names)} names')
         position = np.array([state.position[i] for i in order], dtype=float)
         velocity = (np.array([state.velocity[i] for i in order], dtype=float)
                     if len(state.velocity) == len(names) else np.zeros(len(order)))
