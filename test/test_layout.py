@@ -41,7 +41,8 @@ ROS_MODULES = {'rclpy', 'rcl_interfaces', 'builtin_interfaces', 'launch', 'launc
 def is_ros_module(name):
     """Return True for rclpy and ROS 2 message / runtime packages."""
     top = name.split('.')[0]
-    return top in ROS_MODULES or top.endswith('_msgs') or top.startswith('rosidl')
+    return (top in ROS_MODULES or top.endswith(('_msgs', '_srvs')) or top.startswith('rosidl')
+            or top.startswith('tf2'))
 
 
 def modules(root):
@@ -134,7 +135,7 @@ def test_checker_flags_bad_imports(tmp_path):
     _write(root, 'planning/core.py', 'import numpy\nfrom rclpy.node import Node\n')
     _write(root, 'planning/sneaky.py', 'def f():\n    from ..arm import kinematics\n')
     _write(root, 'arm/sim.py', 'from .. import planning\nfrom geometry_msgs.msg import Pose\n')
-    _write(root, 'arm/up.py', 'import pkg.nodes.node\n')
+    _write(root, 'arm/up.py', 'import pkg.nodes.node\nimport tf2_ros\n')
     _write(root, 'nodes/node.py',
            'import rclpy\nfrom ..arm import sim\nfrom pkg.tools import demo\n')
     _write(root, 'tools/demo.py', 'from ..nodes import node\nfrom ..planning import core\n')
@@ -144,6 +145,7 @@ def test_checker_flags_bad_imports(tmp_path):
         'pkg.stray: outside the layer folders',
         'pkg/arm/sim.py:2: arm imports ROS module geometry_msgs.msg',
         'pkg/arm/up.py:1: arm imports pkg.nodes.node',
+        'pkg/arm/up.py:2: arm imports ROS module tf2_ros',
         'pkg/nodes/node.py:3: nodes imports pkg.tools',
         'pkg/planning/core.py:2: planning imports ROS module rclpy.node',
         'pkg/planning/sneaky.py:2: planning imports pkg.arm',
