@@ -68,18 +68,23 @@ def test_replanning_mid_motion_is_continuous_and_reaches_the_new_goal():
         np.testing.assert_allclose(final.position, SECOND[-1], atol=1e-9)
 
 
+def replanning_planner(ros):
+    """Return a replanning planner alone, a client publishing requests, its statuses."""
+    node = ros.add(PlannerNode(context=ros.context, parameter_overrides=overrides(
+        {'start_from_current_state': True})))
+    client = ros.add(Node('client', context=ros.context))
+    statuses = []
+    client.create_subscription(DiagnosticStatus, '/planner_node/status', statuses.append,
+                               topics.STATUS_QOS)
+    publisher = client.create_publisher(JointTrajectory, topics.WAYPOINTS, topics.REQUEST_QOS)
+    assert ros.spin_until(lambda: publisher.get_subscription_count()
+                          and node.status_publisher.get_subscription_count(), 4.0)
+    return node, client, publisher, statuses
+
+
 def test_replanning_without_any_state_says_so():
     with LocalRos() as ros:
-        node = ros.add(PlannerNode(context=ros.context, parameter_overrides=overrides(
-            {'start_from_current_state': True})))
-        client = ros.add(Node('client', context=ros.context))
-        statuses = []
-        client.create_subscription(DiagnosticStatus, '/planner_node/status', statuses.append,
-                                   topics.STATUS_QOS)
-        publisher = client.create_publisher(JointTrajectory, topics.WAYPOINTS,
-                                            topics.REQUEST_QOS)
-        assert ros.spin_until(lambda: publisher.get_subscription_count()
-                              and node.status_publisher.get_subscription_count(), 4.0)
+        _, _, publisher, statuses = replanning_planner(ros)
         publisher.publish(waypoint_message(pe.JOINT_NAMES, W))
         assert ros.spin_until(lambda: statuses, 10.0)
         assert statuses[0].level == DiagnosticStatus.ERROR
@@ -99,18 +104,9 @@ def test_a_missed_switch_time_is_rejected_and_the_old_trajectory_continues(lead)
 
 def test_replanning_from_malformed_joint_states_is_a_clear_error():
     with LocalRos() as ros:
-        node = ros.add(PlannerNode(context=ros.context, parameter_overrides=overrides(
-            {'start_from_current_state': True})))
-        client = ros.add(Node('client', context=ros.context))
-        statuses = []
-        client.create_subscription(DiagnosticStatus, '/planner_node/status', statuses.append,
-                                   topics.STATUS_QOS)
-        publisher = client.create_publisher(JointTrajectory, topics.WAYPOINTS,
-                                            topics.REQUEST_QOS)
+        node, client, publisher, statuses = replanning_planner(ros)
         states = client.create_publisher(JointState, topics.JOINT_STATES, topics.STATE_QOS)
-        assert ros.spin_until(lambda: publisher.get_subscription_count()
-                              and states.get_subscription_count()
-                              and node.status_publisher.get_subscription_count(), 4.0)
+        assert ros.spin_until(lambda: states.get_subscription_count(), 4.0)
         # Three names, two positions: before, an IndexError reported as internal.
         states.publish(JointState(name=list(pe.JOINT_NAMES), position=[0.0, 0.0]))
         assert ros.spin_until(lambda: node._latest_joint_state is not None, 4.0)
