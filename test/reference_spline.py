@@ -6,6 +6,8 @@ Independent formulations used to cross-check the planning core (test helpers onl
   definition (degrees, waypoints, boundary values, continuity), not from the
   paper's reduced banded system (nor from the core's method definitions).
 * ``exact_peaks``: per-segment peaks with ``numpy.roots`` on each segment.
+* ``random_limits``: limits and boundary values of a random request (the
+  ranges every property test of the planning core draws from).
 """
 
 from math import factorial
@@ -87,3 +89,18 @@ def exact_peaks(ppoly, derivative):
                     cand.append(r.real)
             out[s, j] = max(abs(np.polyval(dpp.c[:, s, j], c)) for c in cand)
     return out
+
+
+def random_limits(rng, n_joints, boundary_fraction):
+    """
+    Random (vmax, amax, jmax or None, boundary) for ``n_joints`` joints.
+
+    The boundary values (v_start, a_start, v_end, a_end) are uniform up to
+    ``boundary_fraction`` of the velocity and acceleration limits.
+    """
+    vmax = rng.uniform(0.5, 3.0, n_joints)
+    amax = rng.uniform(1.0, 20.0, n_joints)
+    jmax = rng.uniform(5.0, 200.0, n_joints) if rng.random() < 0.5 else None
+    boundary = [boundary_fraction * rng.uniform(-1, 1, n_joints) * lim
+                for lim in (vmax, amax, vmax, amax)]
+    return vmax, amax, jmax, boundary

@@ -15,7 +15,7 @@ The 555 method (C4 quintic spline) against independent routes and its defining p
 from hypothesis import assume, given, settings, strategies as st
 import numpy as np
 import pytest
-from reference_spline import exact_peaks
+from reference_spline import exact_peaks, random_limits
 from scipy.interpolate import make_interp_spline
 from splines445_ros.planning import get_method, METHODS, plan
 
@@ -160,12 +160,7 @@ def limited_requests(draw, boundary_fraction):
     n_joints = draw(st.integers(1, 4))
     points = np.cumsum(rng.uniform(-1.0, 1.0, (n_points, n_joints)), axis=0)
     assume(np.all(np.linalg.norm(np.diff(points, axis=0), axis=1) > 1e-3))
-    vmax = rng.uniform(0.5, 3.0, n_joints)
-    amax = rng.uniform(1.0, 20.0, n_joints)
-    jmax = rng.uniform(5.0, 200.0, n_joints) if draw(st.booleans()) else None
-    boundary = [boundary_fraction * rng.uniform(-1, 1, n_joints) * lim
-                for lim in (vmax, amax, vmax, amax)]
-    return points, vmax, amax, jmax, boundary
+    return (points,) + random_limits(rng, n_joints, boundary_fraction)
 
 
 def peak_ratios(traj, vmax, amax, jmax):

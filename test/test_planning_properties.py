@@ -3,7 +3,7 @@
 from hypothesis import assume, given, strategies as st
 import numpy as np
 import pytest
-from reference_spline import CONTINUOUS, exact_peaks, global_coefficients
+from reference_spline import CONTINUOUS, exact_peaks, global_coefficients, random_limits
 from splines445_ros.planning import plan
 
 METHODS = ['445', '434', '555']
@@ -91,12 +91,7 @@ def limited_requests(draw, boundary_fraction=0.0):
     points, _, _ = draw(requests(max_points=9))
     n = points.shape[1]
     rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
-    vmax = rng.uniform(0.5, 3.0, n)
-    amax = rng.uniform(1.0, 20.0, n)
-    jmax = rng.uniform(5.0, 200.0, n) if draw(st.booleans()) else None
-    boundary = [boundary_fraction * rng.uniform(-1, 1, n) * lim
-                for lim in (vmax, amax, vmax, amax)]
-    return points, vmax, amax, jmax, boundary
+    return (points,) + random_limits(rng, n, boundary_fraction)
 
 
 def assume_distinct(points):
