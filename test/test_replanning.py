@@ -6,11 +6,14 @@ import pytest
 from rclpy.node import Node
 from rclpy.time import Time
 from sensor_msgs.msg import JointState
+from sim_clock import ClockDriver
 from splines445_ros.arm import paper_example as pe
 from splines445_ros.nodes import topics
 from splines445_ros.nodes.diagnostics import status_values
 from splines445_ros.nodes.planner_node import PlannerNode
+from splines445_ros.nodes.request_planning import REPLAN_MAX_DELAY
 from splines445_ros.nodes.ros_conversions import sampled_trajectory_from_msg
+from splines445_ros.planning import plan
 from splines445_ros.tools.in_process import (
     InProcessSystem, LocalRos, overrides, stamp_ns, waypoint_message)
 from trajectory_msgs.msg import JointTrajectory
@@ -68,10 +71,10 @@ def test_replanning_mid_motion_is_continuous_and_reaches_the_new_goal():
         np.testing.assert_allclose(final.position, SECOND[-1], atol=1e-9)
 
 
-def replanning_planner(ros):
+def replanning_planner(ros, **parameters):
     """Return a replanning planner alone, a client publishing requests, its statuses."""
     node = ros.add(PlannerNode(context=ros.context, parameter_overrides=overrides(
-        {'start_from_current_state': True})))
+        {'start_from_current_state': True, **parameters})))
     client = ros.add(Node('client', context=ros.context))
     statuses = []
     client.create_subscription(DiagnosticStatus, '/planner_node/status', statuses.append,
@@ -114,3 +117,45 @@ def test_replanning_from_malformed_joint_states_is_a_clear_error():
         assert ros.spin_until(lambda: statuses, 10.0)
         assert statuses[0].level == DiagnosticStatus.ERROR
         assert '2 positions for 3 names' in statuses[0].message, statuses[0].message
+
+
+def test_a_switch_state_without_a_plan_switches_later_on_the_running_trajectory():
+    limits = {'max_velocity': [VMAX] * 3, 'max_acceleration': [AMAX] * 3}
+    running = plan(W, method='445', **limits)
+
+    def plannable(t):
+        p, v, a = (running.evaluate([t], d)[0] for d in (0, 1, 2))
+        try:
+            plan(np.vstack([p, SECOND]), start_velocity=v, start_acceleration=a, **limits)
+        except ValueError:
+            return False
+        return True
+    stuck = next(t for t in np.arange(0.5, running.duration - 1.0, 0.01) if not plannable(t))
+    with LocalRos() as ros:
+        node, client, publisher, statuses = replanning_planner(
+            ros, use_sim_time=True, replan_lead_time=0.5, max_jerk=[0.0] * 3, **limits)
+        driver = ClockDriver(ros, arm=False)
+        states = client.create_publisher(JointState, topics.JOINT_STATES, topics.STATE_QOS)
+        assert ros.spin_until(lambda: states.get_subscription_count(), 4.0)
+        states.publish(JointState(name=list(pe.JOINT_NAMES), position=W[0].tolist(),
+                                  velocity=[0.0] * 3))
+        assert ros.spin_until(lambda: node._latest_joint_state is not None, 4.0)
+        driver.set_clock(100.0)
+        publisher.publish(waypoint_message(pe.JOINT_NAMES, W))
+        assert ros.spin_until(lambda: statuses, 10.0)
+        assert statuses[0].level == DiagnosticStatus.OK, statuses[0].message
+        assert int(status_values(statuses[0])['switch_time_ns']) == 100_500_000_000
+        # Simulated time stands still while the node plans: the switch is requested
+        # exactly at a state from which the planning core finds no plan.
+        driver.set_clock(100.0 + stuck)
+        publisher.publish(waypoint_message(pe.JOINT_NAMES, SECOND))
+        assert ros.spin_until(lambda: len(statuses) > 1, 10.0)
+        status = statuses[1]
+        assert status.level == DiagnosticStatus.OK, status.message
+        values = status_values(status)
+        delay = float(values['switch_delay'])
+        assert 0.0 < delay <= REPLAN_MAX_DELAY
+        assert 'switching' in status.message
+        switch = (int(values['switch_time_ns']) - 100_500_000_000) * 1e-9
+        assert switch == pytest.approx(stuck + delay, abs=1e-9)
+        assert plannable(switch)

@@ -32,8 +32,8 @@ from .diagnostics import status_message
 from .node_main import run_node
 from .parameters import ConfigParameters
 from .planner_config import PlannerConfig
-from .request_planning import (plan_request, plan_tool_request, start_from_state,
-                               summary_values, tool_summary_values)
+from .request_planning import (plan_from_running, plan_request, plan_tool_request,
+                               start_from_state, summary_values, tool_summary_values)
 from .ros_conversions import parse_tool_request, parse_waypoint_request, trajectory_to_msg
 
 PARAMETER_DESCRIPTIONS = {
@@ -49,7 +49,9 @@ PARAMETER_DESCRIPTIONS = {
               '(minimum total time) or "fixed" (durations from time_from_start).',
     'sample_period': 'Period of the published trajectory points [s], >= 1e-4.',
     'start_from_current_state': 'Start every trajectory from the commanded state at '
-                                'now + replan_lead_time (continuous replanning).',
+                                'now + replan_lead_time (continuous replanning), or up '
+                                'to 1 s later along the running trajectory when no plan '
+                                'exists from that state.',
     'replan_lead_time': 'How far ahead of now a replanned trajectory takes over [s]; '
                         'planning must finish within it.',
     'max_trajectory_points': 'Largest number of points a published trajectory may have; '
@@ -121,6 +123,7 @@ class PlannerNode(Node):
         config = self.parameters.config
         started = time.perf_counter()
         switch_ns = None
+        switch_delay = 0.0
         tool_values = {}
         try:
             if isinstance(msg, PoseArray):
@@ -130,10 +133,13 @@ class PlannerNode(Node):
             else:
                 request = parse_waypoint_request(msg, config.joint_names)
                 if config.start_from_current_state:
-                    switch_ns = (self.get_clock().now().nanoseconds
-                                 + int(config.replan_lead_time * 1e9))
-                    request = start_from_state(request, *self._state_at(switch_ns, config))
-                traj = plan_request(config, request)
+                    requested_ns = (self.get_clock().now().nanoseconds
+                                    + int(config.replan_lead_time * 1e9))
+                    switch_ns, traj = self._replan(config, request, requested_ns)
+                    if switch_ns != requested_ns:
+                        switch_delay = 1e-9 * (switch_ns - requested_ns)
+                else:
+                    traj = plan_request(config, request)
             n_points = int(traj.duration / config.sample_period) + 2
             if n_points > config.max_trajectory_points:
                 raise ValueError(
@@ -163,6 +169,7 @@ class PlannerNode(Node):
                   'publishing_time_ms': f'{1e3 * (published - planned):.3f}'}
         if switch_ns is not None:
             values['switch_time_ns'] = switch_ns
+            values['switch_delay'] = f'{switch_delay:.9g}'
         values.update(summary_values(traj, config.joint_names))
         values.update(tool_values)
         through = f'{traj.waypoints.shape[0]} waypoints'
@@ -170,16 +177,34 @@ class PlannerNode(Node):
             through = (f"{tool_values['tool_waypoints']} tool waypoints "
                        f"({tool_values['inserted_waypoints']} inserted, deviation "
                        f"{tool_values['max_path_deviation_reached']} m)")
+        delayed = ''
+        if switch_delay > 0.0:
+            delayed = (f'; switching {switch_delay:.3f} s after now + replan_lead_time, '
+                       'since no plan met the limits from the state there')
         self._report(True, f'request {request_id}: {traj.method}/{traj.timing} through '
-                           f'{through} in {traj.duration:.4f} s', values)
+                           f'{through} in {traj.duration:.4f} s{delayed}', values)
 
-    def _state_at(self, switch_ns, config):
-        """Position, velocity, acceleration the arm is commanded to have at ``switch_ns``."""
+    def _replan(self, config, request, switch_ns):
+        """
+        Plan ``request`` from the state commanded at ``switch_ns``; return (switch_ns, traj).
+
+        While the last published trajectory runs, its state is the start (a
+        later switch along it when none plans there: see plan_from_running);
+        otherwise the latest joint_states are.
+        """
         if self._active is not None:
-            traj, start_ns = self._active
+            running, start_ns = self._active
             t = (switch_ns - start_ns) * 1e-9
-            if t < traj.duration and traj.n_joints == len(config.joint_names):
-                return tuple(traj.evaluate([t], d)[0] for d in (0, 1, 2))
+            if t < running.duration and running.n_joints == len(config.joint_names):
+                def clock():
+                    return (self.get_clock().now().nanoseconds - start_ns) * 1e-9
+                used, traj = plan_from_running(config, request, running, t, clock)
+                return max(switch_ns, start_ns + int(round(used * 1e9))), traj
+        return switch_ns, plan_request(config, start_from_state(request,
+                                                                *self._joint_state_start(config)))
+
+    def _joint_state_start(self, config):
+        """Position, velocity and zero acceleration from the latest joint_states."""
         state = self._latest_joint_state
         if state is None:
             raise ValueError('start_from_current_state: no trajectory is running and no '

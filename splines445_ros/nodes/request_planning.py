@@ -16,6 +16,13 @@ from ..planning import plan
 # that came through nanosecond Durations) before it is rejected.
 FIXED_TIMING_RTOL = 1e-6
 
+# Replanning from a running trajectory: when no plan exists from its state at
+# the requested switch time, the switch is tried this much later [s], ...
+REPLAN_RETRY_STEP = 0.05
+# ... at most this much later [s] (the running trajectory's end state included
+# when it comes earlier).
+REPLAN_MAX_DELAY = 1.0
+
 
 def plan_request(config, request):
     """
@@ -107,6 +114,49 @@ def start_from_state(request, position, velocity, acceleration):
         np.vstack([position, request.waypoints]), np.asarray(velocity, dtype=float),
         np.asarray(acceleration, dtype=float), request.end_velocity, request.end_acceleration,
         times)
+
+
+def plan_from_running(config, request, running, switch_time, clock=None):
+    """
+    Plan ``request`` from the state of the ``running`` Trajectory at ``switch_time``.
+
+    ``switch_time`` is in seconds into ``running``.  A state the running
+    trajectory passes through may admit no plan: a polynomial first segment
+    cannot always turn a given velocity and acceleration towards the next
+    waypoint within the limits (the paper example's 445 uniform plan has such
+    windows, each about 0.1 s long).  Since following the running trajectory
+    a little longer is always within the limits, later switch times are tried
+    too, every :data:`REPLAN_RETRY_STEP` up to :data:`REPLAN_MAX_DELAY` later,
+    ending with the running trajectory's end state when it comes earlier.
+    ``clock()``, when given, returns the current time in the running
+    trajectory's time; candidates it has already passed are skipped.
+
+    Returns ``(time, trajectory)``: the switch time used and the plan.  Raises
+    the requested switch time's ValueError (noting the later times tried)
+    when no candidate plans.
+    """
+    n_retries = int(np.floor(REPLAN_MAX_DELAY / REPLAN_RETRY_STEP + 1e-9))
+    candidates = switch_time + REPLAN_RETRY_STEP * np.arange(n_retries + 1)
+    candidates = [float(t) for t in candidates if t < running.duration]
+    if running.duration <= switch_time + REPLAN_MAX_DELAY:
+        candidates.append(float(max(running.duration, switch_time)))
+    first_error = None
+    tried = 0
+    for t in candidates:
+        if clock is not None and tried and clock() >= t:
+            continue
+        tried += 1
+        state = tuple(running.evaluate([t], d)[0] for d in (0, 1, 2))
+        try:
+            return t, plan_request(config, start_from_state(request, *state))
+        except ValueError as exc:
+            if first_error is None:
+                first_error = exc
+    if tried > 1:
+        raise ValueError(f'{first_error} (from the state of the running trajectory at the switch '
+                         f'time and {tried - 1} later times up to '
+                         f'{candidates[-1] - switch_time:.3g} s later)') from first_error
+    raise first_error
 
 
 def summary_values(traj, joint_names):
