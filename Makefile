@@ -36,7 +36,8 @@ help:
 	@echo "make demo   set up, build, run the paper's example through both nodes"
 	@echo "make test   set up, build, colcon test, colcon test-result --verbose"
 	@echo "make bench  planning time and optimal durations against scipy and TOPP-RA,"
-	@echo "            tracking and torque of every method on the dynamic arm"
+	@echo "            tracking and torque of every method on the dynamic arm,"
+	@echo "            replanning from moving states"
 	@echo "make lint   ament_flake8 and ament_pep257 on the sources"
 	@echo "make clean  remove build products (keeps .venv)"
 
@@ -68,6 +69,7 @@ bench: build
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_planning.py
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_optimal.py
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_smoothness.py
+	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_replanning.py
 
 lint: env
 	$(BIN)ament_flake8 $(LINTED)

@@ -1,0 +1,91 @@
+"""
+Replanning from a moving arm: how often a state admits no plan, and the delay that costs.
+
+The planner node replans from the state of the running trajectory at the
+switch time; when no plan exists from that state it switches later along the
+running trajectory (``nodes.request_planning.plan_from_running``).  This
+counts, for every method and timing, the share of switch times (every
+20 ms along the running trajectory) from which the planning core finds no
+plan, and the switch delay the node's retry then takes (mean and worst),
+and whether any switch time stays without a plan.
+
+Cases: the paper's example running, a new goal of three waypoints
+(``test_replanning.py``'s), v <= 2 rad/s, a <= 10 rad/s^2, no jerk limit;
+and 6 random running paths (fixed seed) with random new goals.
+
+Run: ``make bench`` or ``python benchmarks/bench_replanning.py``.
+"""
+
+import os
+
+import numpy as np
+
+os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but the rule holds
+
+from splines445_ros.arm import paper_example as pe  # noqa: E402
+from splines445_ros.nodes.planner_config import PlannerConfig  # noqa: E402
+from splines445_ros.nodes.request_planning import plan_from_running  # noqa: E402
+from splines445_ros.nodes.ros_conversions import WaypointRequest  # noqa: E402
+from splines445_ros.planning import METHODS, plan  # noqa: E402
+
+SECOND = np.array([[0.2, 2.0, -2.0], [0.6, 1.6, -2.2], [0.9, 1.2, -1.5]])
+VMAX, AMAX = 2.0, 10.0
+STEP = 0.02  # s between the switch times tried
+N_RANDOM = 6
+
+
+def cases():
+    """(name, running waypoints, new goal waypoints) of the paper and random paths."""
+    yield 'paper', pe.joint_waypoints(), SECOND
+    rng = np.random.default_rng(445)
+    for i in range(N_RANDOM):
+        running = np.cumsum(rng.uniform(-0.8, 0.8, (int(rng.integers(4, 9)), 3)), axis=0)
+        goal = running[-1] + np.cumsum(rng.uniform(-0.8, 0.8, (3, 3)), axis=0)
+        yield f'random {i}', running, goal
+
+
+def measure(method, timing, running_points, goal):
+    """Return (switch times tried, times without a direct plan, delays, none planned)."""
+    limits = {'max_velocity': [VMAX] * 3, 'max_acceleration': [AMAX] * 3}
+    running = plan(running_points, method=method, timing=timing, **limits)
+    config = PlannerConfig(max_velocity=(VMAX,) * 3, max_acceleration=(AMAX,) * 3,
+                           max_jerk=(), method=method, timing=timing)
+    zero = np.zeros(3)
+    request = WaypointRequest(goal, zero, zero, zero, zero, None)
+    times = np.arange(0.0, running.duration, STEP)
+    stuck, delays, failed = 0, [], 0
+    for t in times:
+        try:
+            used, _ = plan_from_running(config, request, running, float(t))
+        except ValueError:
+            failed += 1
+            continue
+        if used > t:
+            stuck += 1
+            delays.append(used - t)
+    return len(times), stuck + failed, delays, failed
+
+
+def main():
+    """Print the table."""
+    print(f'Replanning from a moving state: v <= {VMAX}, a <= {AMAX}, switch every '
+          f'{STEP * 1e3:.0f} ms along the running trajectory')
+    print('| method | timing | paths | states without a plan | retry delay mean / worst '
+          '[s] | states never planned |')
+    print('|---|---|---|---|---|---|')
+    all_cases = list(cases())
+    for method in METHODS:
+        for timing in ('uniform', 'optimal'):
+            for subset, chosen in (('paper', all_cases[:1]), ('random', all_cases[1:])):
+                tried, stuck, delays, failed = 0, 0, [], 0
+                for _, running_points, goal in chosen:
+                    n, s, d, f = measure(method, timing, running_points, goal)
+                    tried, stuck, failed = tried + n, stuck + s, failed + f
+                    delays += d
+                delay = (f'{np.mean(delays):.3f} / {np.max(delays):.3f}' if delays else '-')
+                print(f'| {method} | {timing} | {subset} | {stuck} of {tried} '
+                      f'({100.0 * stuck / tried:.1f}%) | {delay} | {failed} |')
+
+
+if __name__ == '__main__':
+    main()
