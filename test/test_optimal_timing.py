@@ -43,6 +43,32 @@ def feasible(traj, vmax, amax, jmax, rtol=1e-7):
 @settings(max_examples=15)
 @given(req=small_requests())
 def test_optimal_is_feasible_not_longer_than_uniform_and_segments_are_limited(method, req):
+    check_optimal(method, req)
+
+
+# Requests on which the property above once failed (drawn by hypothesis).
+REGRESSIONS = {
+    # The l1 phase ended 3% past a velocity limit with a penalty below the
+    # multiplier; the repair then lengthened segments 0-3 and 5 by 18%.
+    '555 boundary values': ('555', (
+        np.array([[0.45979699, 0.38682991], [1.34363902, -0.49386597],
+                  [1.72468097, 0.35092907], [1.67604732, 0.02771045],
+                  [1.87981293, 0.48896597], [1.10433812, -0.29377747],
+                  [1.3788607, -1.20912002]]),
+        np.array([0.61928346, 1.29817996]), np.array([5.01290472, 15.74867113]),
+        np.array([163.50343843, 50.92189743]),
+        [np.array([-0.22294306, -0.16870735]), np.array([0.14859078, 0.66719295]),
+         np.array([-0.0742372, -0.08872158]), np.array([-0.69848942, -3.5510552])])),
+}
+
+
+@pytest.mark.parametrize('name', sorted(REGRESSIONS))
+def test_optimal_regressions(name):
+    check_optimal(*REGRESSIONS[name])
+
+
+def check_optimal(method, req):
+    """Check the optimal plan of ``req`` (see the property test above)."""
     points, vmax, amax, jmax, boundary = req
     kwargs = request_kwargs(vmax, amax, jmax, boundary)
     try:

@@ -38,7 +38,11 @@ solution is kept if it is not longer.
 Every segment of the result either binds a limit, or cannot be shortened on
 its own without another segment exceeding a limit (the splines couple the
 segments: a 445 spline carries a disturbance undamped to its end), or sits
-at the lower bound ``MIN_FRACTION`` times its uniform duration.
+at the lower bound ``MIN_FRACTION`` times its uniform duration.  This is what
+the method aims at, not a guarantee: on 1375 random small requests (3-7
+waypoints, 1-3 joints, half with boundary values) it failed once, a 445
+request with boundary values where the iterations ended longer than the
+uniform solution, which was kept, and one of its segments could shrink 1%.
 """
 
 import numpy as np
@@ -78,6 +82,12 @@ PENALTY = 10.0
 # With non-zero boundary values, iterations go on with the exact l1 merit when
 # the restored-total merit ends past a limit by more than this log-ratio.
 EXACT_MERIT_EXCESS = 1e-4
+# An l1 penalty is exact only above the constraints' multipliers: when the l1
+# iterations still end past a limit by that much, the penalty grows by this
+# factor and they go on, at most this many rounds in all.  (Without it, the
+# repair below lengthened such an end point by up to 18% on random requests.)
+PENALTY_GROWTH = 10.0
+PENALTY_ROUNDS = 3
 # Repair of a final iterate that exceeds a limit (non-zero boundary values):
 # penalty factor, largest number of LP steps and the log-ratio margin aimed at
 # (above HiGHS's feasibility tolerance, 1e-7; a common factor need not restore
@@ -222,7 +232,8 @@ def minimise_total_time(method, points, start, boundary, limits):
     are priced as the common factor would price them); with non-zero
     boundary values, where that is only an estimate, the iterations then go
     on from the best point with the exact l1 merit when that point exceeds a
-    limit by more than :data:`EXACT_MERIT_EXCESS` (in log-ratio), and the
+    limit by more than :data:`EXACT_MERIT_EXCESS` (in log-ratio), with a
+    penalty grown by :data:`PENALTY_GROWTH` while the end still does, and the
     end point is repaired (:func:`_repair`).  The durations may still exceed a limit by
     round-off (see the module docstring: feasibility is restored afterwards).
     """
@@ -238,10 +249,14 @@ def minimise_total_time(method, points, start, boundary, limits):
     x, state, iterations, message, radius = _iterate(ratios, x, state, bounds, penalty, None,
                                                      INITIAL_RADIUS)
     if any(np.any(b) for b in boundary):
-        if np.max(state['log_ratios']) > EXACT_MERIT_EXCESS:
-            x, state, more, message, _ = _iterate(ratios, x, state, bounds, penalty, penalty,
-                                                  radius)
+        merit = penalty
+        for _ in range(PENALTY_ROUNDS):
+            if np.max(state['log_ratios']) <= EXACT_MERIT_EXCESS:
+                break
+            x, state, more, message, radius = _iterate(ratios, x, state, bounds, merit, merit,
+                                                       radius)
             iterations += more
+            merit *= PENALTY_GROWTH
         x, state, repairs = _repair(ratios, x, state, bounds[1], penalty)
         iterations += repairs
     return np.exp(x), {'iterations': iterations, 'evaluations': ratios.evaluations,
