@@ -81,7 +81,7 @@ def replanning_planner(ros, **parameters):
                                topics.STATUS_QOS)
     publisher = client.create_publisher(JointTrajectory, topics.WAYPOINTS, topics.REQUEST_QOS)
     assert ros.spin_until(lambda: publisher.get_subscription_count()
-                          and node.status_publisher.get_subscription_count(), 4.0)
+                          and node.status_publisher.get_subscription_count(), 10.0)
     return node, client, publisher, statuses
 
 
@@ -109,10 +109,10 @@ def test_replanning_from_malformed_joint_states_is_a_clear_error():
     with LocalRos() as ros:
         node, client, publisher, statuses = replanning_planner(ros)
         states = client.create_publisher(JointState, topics.JOINT_STATES, topics.STATE_QOS)
-        assert ros.spin_until(lambda: states.get_subscription_count(), 4.0)
+        assert ros.spin_until(lambda: states.get_subscription_count(), 10.0)
         # Three names, two positions: before, an IndexError reported as internal.
         states.publish(JointState(name=list(pe.JOINT_NAMES), position=[0.0, 0.0]))
-        assert ros.spin_until(lambda: node._latest_joint_state is not None, 4.0)
+        assert ros.spin_until(lambda: node._latest_joint_state is not None, 10.0)
         publisher.publish(waypoint_message(pe.JOINT_NAMES, W))
         assert ros.spin_until(lambda: statuses, 10.0)
         assert statuses[0].level == DiagnosticStatus.ERROR
@@ -134,12 +134,12 @@ def test_a_switch_state_without_a_plan_switches_later_on_the_running_trajectory(
     with LocalRos() as ros:
         node, client, publisher, statuses = replanning_planner(
             ros, use_sim_time=True, replan_lead_time=0.5, max_jerk=[0.0] * 3, **limits)
-        driver = ClockDriver(ros, arm=False)
+        driver = ClockDriver(ros, arm=False, clock_of=node)
         states = client.create_publisher(JointState, topics.JOINT_STATES, topics.STATE_QOS)
-        assert ros.spin_until(lambda: states.get_subscription_count(), 4.0)
+        assert ros.spin_until(lambda: states.get_subscription_count(), 10.0)
         states.publish(JointState(name=list(pe.JOINT_NAMES), position=W[0].tolist(),
                                   velocity=[0.0] * 3))
-        assert ros.spin_until(lambda: node._latest_joint_state is not None, 4.0)
+        assert ros.spin_until(lambda: node._latest_joint_state is not None, 10.0)
         driver.set_clock(100.0)
         publisher.publish(waypoint_message(pe.JOINT_NAMES, W))
         assert ros.spin_until(lambda: statuses, 10.0)
