@@ -126,12 +126,22 @@ class InProcessSystem(LocalRos):
     def __init__(self, planner_parameters=None, arm_parameters=None, params_file=None):
         """Start everything; ``*_parameters`` are dicts of overrides."""
         super().__init__()
+        try:
+            self._start(planner_parameters, arm_parameters, params_file)
+        except BaseException:
+            # A node that failed to start (bad parameters, no connection)
+            # must not stay in the domain, answering later systems' requests.
+            self.close()
+            raise
+
+    def _start(self, planner_parameters, arm_parameters, params_file):
         cli = ['--ros-args', '--params-file', params_file] if params_file else None
-        self.planner = PlannerNode(context=self.context, cli_args=cli,
-                                   parameter_overrides=overrides(planner_parameters or {}))
-        self.arm = ArmSimNode(context=self.context, cli_args=cli,
-                              parameter_overrides=overrides(arm_parameters or {}))
-        self.client = Node('splines445_client', context=self.context)
+        self.planner = self.add(PlannerNode(
+            context=self.context, cli_args=cli,
+            parameter_overrides=overrides(planner_parameters or {})))
+        self.arm = self.add(ArmSimNode(context=self.context, cli_args=cli,
+                                       parameter_overrides=overrides(arm_parameters or {})))
+        self.client = self.add(Node('splines445_client', context=self.context))
         self.waypoint_publisher = self.client.create_publisher(
             JointTrajectory, topics.WAYPOINTS, topics.REQUEST_QOS)
         self.tool_waypoint_publisher = self.client.create_publisher(
@@ -153,8 +163,6 @@ class InProcessSystem(LocalRos):
         self._subscriptions = [
             self.client.create_subscription(msg_type, topic, record.append, qos)
             for msg_type, topic, record, qos in recorders]
-        for node in (self.planner, self.arm, self.client):
-            self.add(node)
         self.wait_for_connections()
 
     def wait_for_connections(self, timeout=10.0):
