@@ -9,7 +9,8 @@ from splines445_ros.arm import paper_example as pe
 from splines445_ros.nodes.diagnostics import status_values
 from splines445_ros.nodes.ros_conversions import duration_to_seconds, sampled_trajectory_from_msg
 from splines445_ros.planning import plan
-from splines445_ros.tools.in_process import InProcessSystem, overrides, waypoint_message
+from splines445_ros.tools.in_process import (
+    InProcessSystem, overrides, stamp_ns, waypoint_message)
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 CONFIG = os.path.join(os.path.dirname(__file__), '..', 'config', 'planar_arm.yaml')
@@ -77,7 +78,8 @@ def test_paper_example_through_both_nodes(system, method):
     assert len(played) > 10 and max(np.abs(s.velocity).max() for s in played) > 0.5
     np.testing.assert_allclose(final.position, W[-1], atol=1e-9)
     np.testing.assert_array_equal(final.velocity, 0.0)
-    system.spin_for(0.1)
+    assert system.spin_until(lambda: system.tool_poses
+                             and stamp_ns(system.tool_poses[-1]) >= stamp_ns(final), 10.0)
     pose = system.tool_poses[-1].pose
     assert (pose.position.x, pose.position.y) == pytest.approx((1.0, 0.0), abs=1e-9)
     assert pose.orientation.z == pytest.approx(0.0, abs=1e-9)
