@@ -177,6 +177,21 @@ def test_metrics_of_a_known_log():
     assert summary['saturated_steps'] == 1
 
 
+def test_metrics_follow_a_physics_step_change():
+    # Effort ramps at 200 N m/s for 3 steps of 10 ms, then for 4 steps of 1 ms
+    # (the physics rate changed mid-trajectory): the peak rate stays 200.
+    metrics = TrackingMetrics(1, 0.01)
+    times = np.concatenate([0.01 * np.arange(3), 0.02 + 0.001 * np.arange(1, 5)])
+    effort = 200.0 * times[:, None]
+    log = {'position': np.zeros((7, 1)), 'effort': effort, 'command': effort,
+           'saturated': np.zeros(7, dtype=bool)}
+    metrics.update(np.zeros((3, 1)), {k: v[:3] for k, v in log.items()})
+    metrics.update(np.zeros((4, 1)), {k: v[3:] for k, v in log.items()}, timestep=0.001)
+    summary = metrics.summary()
+    np.testing.assert_allclose(summary['peak_effort_rate'], [200.0])
+    np.testing.assert_allclose(summary['max_command_rate_jump'], [0.0], atol=1e-9)
+
+
 def test_vectorised_playback_matches_the_scalar_one():
     rng = np.random.default_rng(3)
     times = np.cumsum(rng.uniform(0.05, 0.2, 8))

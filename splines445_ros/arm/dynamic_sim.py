@@ -205,8 +205,16 @@ class TrackingMetrics:
         self._last_command = None
         self._last_command_rate = None
 
-    def update(self, q_d, log):
-        """Add a step log of :meth:`DynamicArm.run` and its reference positions (K, n)."""
+    def update(self, q_d, log, timestep=None):
+        """
+        Add a step log of :meth:`DynamicArm.run` and its reference positions (K, n).
+
+        ``timestep`` [s] is the physics step the log was taken at, when it is
+        not the one given at construction (the physics rate can change while
+        a trajectory runs); rates across the border use the new step.
+        """
+        if timestep is not None:
+            self.dt = timestep
         K = len(q_d)
         if K == 0:
             return

@@ -249,7 +249,7 @@ class ArmSimNode(Node):
             q_d, v_d, a_d = self._reference(times)
             log = self.dynamic.run(q_d, v_d, a_d)
             if self._metrics is not None:
-                self._metrics.update(q_d, log)
+                self._metrics.update(q_d, log, self.dynamic.timestep)
             self._sim_ns += int(steps) * dt_ns
         self._handle_events()
         arm = self.dynamic
