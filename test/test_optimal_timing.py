@@ -4,7 +4,8 @@ from hypothesis import assume, given, settings, strategies as st
 import numpy as np
 import pytest
 from reference_spline import CONTINUOUS, exact_peaks
-from splines445_ros.planning import plan
+from splines445_ros.planning import plan, planner
+from splines445_ros.planning.optimal import optimal_durations
 
 
 @st.composite
@@ -67,8 +68,36 @@ def test_optimal_regressions(name):
     check_optimal(*REGRESSIONS[name])
 
 
-def check_optimal(method, req):
-    """Check the optimal plan of ``req`` (see the property test above)."""
+@pytest.mark.parametrize('method', ['445', '434', '555'])
+@settings(max_examples=10)
+@given(req=small_requests(), seed=st.integers(0, 2**32 - 1))
+def test_a_warm_start_anywhere_keeps_every_property(method, req, seed):
+    # Start from durations up to e times off the chord durations, either way.
+    chords = np.linalg.norm(np.diff(req[0], axis=0), axis=1)
+    start = chords * np.exp(np.random.default_rng(seed).uniform(-1.0, 1.0, chords.size))
+    check_optimal(method, req, start)
+
+
+def test_a_warm_start_joins_the_durations_of_a_dropped_duplicate(monkeypatch):
+    starts = []
+
+    def recording(method, points, start, *args, **kwargs):
+        starts.append(np.array(start))
+        return optimal_durations(method, points, start, *args, **kwargs)
+    monkeypatch.setattr(planner, 'optimal_durations', recording)
+    points = np.array([[0.0, 0.0], [1.0, 0.5], [1.0, 0.5], [1.5, -0.5], [2.5, 0.0]])
+    kwargs = {'max_velocity': [1.0, 2.0], 'max_acceleration': [5.0, 8.0]}
+    traj = plan(points, '555', 'optimal', durations=[1.0, 0.3, 0.7, 1.2], **kwargs)
+    assert traj.dropped_waypoints == (2,)
+    # Waypoint 2 repeats waypoint 1: segments 1 (zero length) and 2 become one.
+    np.testing.assert_allclose(starts[-1], [1.0, 1.0, 1.2], rtol=1e-15)
+    plan(points, '555', 'optimal', **kwargs)  # without: the uniform solution's durations
+    uniform = plan(points, '555', 'uniform', **kwargs)
+    np.testing.assert_allclose(starts[-1], uniform.durations, rtol=1e-15)
+
+
+def check_optimal(method, req, start=None):
+    """Check the optimal plan of ``req`` (see the property test above), from ``start``."""
     points, vmax, amax, jmax, boundary = req
     kwargs = request_kwargs(vmax, amax, jmax, boundary)
     try:
@@ -77,7 +106,7 @@ def check_optimal(method, req):
         assert 'infeasible' in str(exc)
         uniform = None
     try:
-        optimal = plan(points, method, 'optimal', **kwargs)
+        optimal = plan(points, method, 'optimal', durations=start, **kwargs)
     except ValueError as exc:
         assert uniform is None and 'infeasible' in str(exc)
         return

@@ -63,7 +63,11 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         durations of eq. (11) by the smallest common factor that meets every
         limit; "optimal" chooses every duration to minimise the total time.
     durations : array_like (N-1,)
-        Positive segment durations in seconds ("fixed" only).
+        Positive segment durations in seconds: the timing for "fixed"; for
+        "optimal", optionally where the optimisation starts instead of the
+        uniform solution (a warm start, e.g. the optimal durations of a
+        similar request; the uniform solution is still kept when the result
+        is not shorter).  Not used by "uniform".
     max_velocity, max_acceleration : (n,) positive limits, needed for
         "uniform" and "optimal", optional for "fixed" (then only checked).
     max_jerk : (n,) positive limits or None (no jerk limit); +inf entries
@@ -102,9 +106,14 @@ def _plan(waypoints, method, timing, durations, max_velocity, max_acceleration, 
         coeffs = spline_coefficients(method, points, seg_durations, boundary)
         return Trajectory(method, timing, points, seg_durations, coeffs, boundary, limits)
 
-    if durations is not None:
-        raise ValueError(f'durations are only used with timing="fixed", not {timing!r}')
+    if durations is not None and timing != 'optimal':
+        raise ValueError(f'durations are only used with timing "fixed" or "optimal", '
+                         f'not {timing!r}')
+    start = None if durations is None else duration_array(durations, points.shape[0] - 1)
     points, dropped = merge_duplicates(points)
+    if start is not None and dropped:
+        # A dropped waypoint's segment joins the one before it.
+        start = np.diff(np.delete(np.concatenate([[0.0], np.cumsum(start)]), dropped))
     chords = chord_durations(points)
     if not np.all(np.isfinite(chords)):
         raise ValueError('waypoints too large: chord lengths overflow')
@@ -116,14 +125,16 @@ def _plan(waypoints, method, timing, durations, max_velocity, max_acceleration, 
         if timing != 'optimal':
             raise ValueError(f'{exc} (timing "optimal" may still find durations)') from None
         # The paper's common factor cannot meet the limits: optimise from the
-        # rest-to-rest factor's durations, which are infeasible.
-        start = chords * rest_to_rest_scale(ScaledSpline(method, points, chords, boundary),
-                                            limits)
+        # rest-to-rest factor's durations (unless given), which are infeasible.
+        if start is None:
+            start = chords * rest_to_rest_scale(
+                ScaledSpline(method, points, chords, boundary), limits)
         return optimal_durations(method, points, start, boundary, limits, dropped)
     uniform = Trajectory(method, 'uniform', points, spline.durations(scale),
                          spline.coefficients(scale), boundary, limits, scale, dropped,
                          ratios=ratios)
     if timing == 'optimal':
-        return optimal_durations(method, points, uniform.durations, boundary, limits, dropped,
-                                 uniform)
+        return optimal_durations(method, points,
+                                 uniform.durations if start is None else start,
+                                 boundary, limits, dropped, uniform)
     return uniform
