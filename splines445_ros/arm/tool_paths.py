@@ -80,7 +80,11 @@ import numpy as np
 from ..planning import merge_duplicates, plan
 
 GRID = 24
-GOLDEN_STEPS = 30
+# Golden-section steps on each bracket of two grid cells: 16 shrink it to
+# 0.618**16 = 5e-4 of its width, and the maximum found is off by the square
+# of that (second order).  On the triangle at 1 mm the maxima agree with a
+# 50 kHz sampling to 1e-12 m, as with 30 steps, in 3/4 of the time.
+GOLDEN_STEPS = 16
 # Grid maxima searched: those above this fraction of the tolerance, and the
 # largest few (so the reported maximum is exact even far below it).
 REFINE_FRACTION = 0.25
