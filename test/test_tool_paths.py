@@ -13,7 +13,7 @@ import pytest
 from splines445_ros.arm import paper_example as pe
 from splines445_ros.arm.kinematics import PlanarArm
 from splines445_ros.arm.tool_paths import path_deviation, plan_tool_path
-from splines445_ros.planning import METHODS
+from splines445_ros.planning import METHODS, plan
 
 D1, D2 = 1.1, 0.9
 ARM = PlanarArm(D1, D2)
@@ -119,6 +119,27 @@ def test_optimal_timing_stays_within_the_tolerance_everywhere(poses, method):
         return
     event(f'refined: {result.inserted > 0}')
     check_result(result, poses, 5e-3, 5e-2)
+
+
+def test_optimal_refinement_restarts_from_the_split_optimum(monkeypatch):
+    from splines445_ros.arm import tool_paths
+    calls = []
+
+    def recording(waypoints, **kwargs):
+        traj = plan(waypoints, **kwargs)
+        calls.append((kwargs['durations'], traj.durations))
+        return traj
+    monkeypatch.setattr(tool_paths, 'plan', recording)
+    poses = np.column_stack([pe.triangle_points()[:4], np.zeros(4)])
+    result = plan_tool_path(poses, ARM, 5e-3, max_inserted=200, method='555',
+                            timing='optimal', **LIMITS)
+    assert result.inserted > 0 and len(calls) > 1
+    assert calls[0][0] is None  # the first plan starts from the uniform solution
+    for (_, before), (start, _) in zip(calls[:-1], calls[1:]):
+        # Every later one from the previous optimum, each split segment's
+        # duration shared between its halves.
+        assert start.size > before.size
+        assert start.sum() == pytest.approx(before.sum(), rel=1e-12)
 
 
 @pytest.mark.parametrize('method', ['434', '555'])

