@@ -33,7 +33,8 @@ from .node_main import run_node
 from .parameters import ConfigParameters
 from .planner_config import PlannerConfig
 from .request_planning import (plan_from_running, plan_request, plan_tool_request,
-                               start_from_state, summary_values, tool_summary_values)
+                               REPLAN_MAX_DELAY, start_from_state, summary_values,
+                               tool_summary_values)
 from .ros_conversions import parse_tool_request, parse_waypoint_request, trajectory_to_msg
 
 PARAMETER_DESCRIPTIONS = {
@@ -50,8 +51,8 @@ PARAMETER_DESCRIPTIONS = {
     'sample_period': 'Period of the published trajectory points [s], >= 1e-4.',
     'start_from_current_state': 'Start every trajectory from the commanded state at '
                                 'now + replan_lead_time (continuous replanning), or up '
-                                'to 1 s later along the running trajectory when no plan '
-                                'exists from that state.',
+                                f'to {REPLAN_MAX_DELAY:g} s later along the running '
+                                'trajectory when no plan exists from that state.',
     'replan_lead_time': 'How far ahead of now a replanned trajectory takes over [s]; '
                         'planning must finish within it.',
     'max_trajectory_points': 'Largest number of points a published trajectory may have; '
@@ -136,8 +137,7 @@ class PlannerNode(Node):
                     requested_ns = (self.get_clock().now().nanoseconds
                                     + int(config.replan_lead_time * 1e9))
                     switch_ns, traj = self._replan(config, request, requested_ns)
-                    if switch_ns != requested_ns:
-                        switch_delay = 1e-9 * (switch_ns - requested_ns)
+                    switch_delay = 1e-9 * (switch_ns - requested_ns)
                 else:
                     traj = plan_request(config, request)
             n_points = int(traj.duration / config.sample_period) + 2
