@@ -83,9 +83,7 @@ class ArmSimConfig(ValidatedConfig):
         if len(set(names)) != len(names):
             raise ValueError(f'joint_names has duplicates: {list(names)}')
         n = len(names)
-        if len(self.link_lengths) != 2 or not _finite(self.link_lengths, 0.0, low_open=True):
-            raise ValueError(f'link_lengths must be 2 positive lengths, got '
-                             f'{list(self.link_lengths)}')
+        self.require_positive('link_lengths', 2)
         if len(self.initial_positions) != n or not _finite(self.initial_positions):
             raise ValueError(f'initial_positions must be {n} finite angles, got '
                              f'{list(self.initial_positions)}')

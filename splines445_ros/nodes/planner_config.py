@@ -84,11 +84,7 @@ class PlannerConfig(ValidatedConfig):
         if self.kinematics not in KINEMATICS:
             raise ValueError(f'kinematics must be one of {list(KINEMATICS)} ("" = joint space '
                              f'only), got {self.kinematics!r}')
-        if len(self.link_lengths) != 2:
-            raise ValueError(f'link_lengths needs 2 values (d1, d2), got {len(self.link_lengths)}')
-        for i, v in enumerate(self.link_lengths):
-            if not (math.isfinite(v) and v > 0.0):
-                raise ValueError(f'link_lengths[{i}] = {v}: must be positive and finite')
+        self.require_positive('link_lengths', 2)
         if self.kinematics == 'planar_3dof' and len(self.joint_names) != 3:
             raise ValueError(f'kinematics "planar_3dof" needs 3 joint_names (shoulder, elbow, '
                              f'tool), got {len(self.joint_names)}')

@@ -31,3 +31,12 @@ class ValidatedConfig:
         if not (math.isfinite(value) and low <= value <= high):
             raise ValueError(f'{name} = {value}: must be in [{low:g}, {high:g}]'
                              + (f' {unit}' if unit else ''))
+
+    def require_positive(self, name, count):
+        """Raise ValueError unless the field ``name`` holds ``count`` positive finite values."""
+        values = getattr(self, name)
+        if len(values) != count:
+            raise ValueError(f'{name} needs {count} values, got {len(values)}: {list(values)}')
+        for i, v in enumerate(values):
+            if not (math.isfinite(v) and v > 0.0):
+                raise ValueError(f'{name}[{i}] = {v}: must be positive and finite')
