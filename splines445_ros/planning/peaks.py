@@ -11,6 +11,8 @@ in closed form for all segments and joints at once.  No sampling is involved.
 
 import numpy as np
 
+from .segments import falling_factors
+
 # Relative size below which a leading coefficient counts as zero (in the
 # interval-normalised variable x = tau / T, where all terms are comparable).
 _DEGENERATE = 1e-13
@@ -173,22 +175,17 @@ def peak_sensitivities(coeffs, durations, derivative):
     """
     c = np.asarray(coeffs, dtype=float)
     T = np.asarray(durations, dtype=float)
-    S, n_coeffs, m = c.shape
+    S, _, m = c.shape
     candidates, values = _candidates(c, T, derivative)
     best = np.argmax(values, axis=1)
     rows = np.arange(S * m)
     x = candidates[rows, best].reshape(S, m)
     peaks = values[rows, best].reshape(S, m)
     tau = x * T[:, None]
-    powers = np.arange(n_coeffs)
-    falling = np.ones(n_coeffs)
-    for j in range(derivative):
-        falling = falling * np.clip(powers - j, 0, None)
-    exponent = np.clip(powers - derivative, 0, None)
+    falling, exponent = falling_factors(derivative)
     weights = falling[None, None, :] * tau[..., None] ** exponent[None, None, :]
     value = np.einsum('smi,sim->sm', weights, c)
-    next_falling = falling * np.clip(powers - derivative, 0, None)
-    next_exponent = np.clip(powers - derivative - 1, 0, None)
+    next_falling, next_exponent = falling_factors(derivative + 1)
     next_value = np.einsum('smi,sim->sm',
                            next_falling[None, None, :] * tau[..., None] ** next_exponent, c)
     sign = np.sign(value)

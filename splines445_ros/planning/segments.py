@@ -150,10 +150,20 @@ def _falling_factors(derivative):
 _FALLING = [_falling_factors(d) for d in range(N_COEFFS)]
 
 
+def falling_factors(derivative):
+    """
+    Return ``(i! / (i - d)!, i - d)`` for i = 0 .. 5, d = ``derivative``.
+
+    The d-th derivative of ``sum_i c_i tau**i`` is
+    ``sum_i falling_i * c_i * tau**exponent_i`` (falling is 0 for i < d).
+    """
+    return _FALLING[derivative]
+
+
 def derivative_weights(durations, derivative, at_end):
     """Weights ``w`` (S, 6) so that ``w @ c`` is the derivative at tau = 0 or tau = T."""
     T = np.asarray(durations, dtype=float)
-    falling, exponent = _FALLING[derivative]
+    falling, exponent = falling_factors(derivative)
     if at_end:
         return falling[None, :] * T[:, None] ** exponent[None, :]
     weights = np.zeros((T.size, N_COEFFS))
