@@ -54,12 +54,7 @@ class PlannerConfig(ValidatedConfig):
             raise ValueError(f'joint_names has duplicates: {list(names)}')
         n = len(names)
         for name in ('max_velocity', 'max_acceleration'):
-            values = getattr(self, name)
-            if len(values) != n:
-                raise ValueError(f'{name} needs one value per joint ({n}), got {len(values)}')
-            for i, v in enumerate(values):
-                if not (math.isfinite(v) and v > 0.0):
-                    raise ValueError(f'{name}[{i}] = {v}: must be positive and finite')
+            self.require_positive(name, n, f'one value per joint ({n})')
         if len(self.max_jerk) not in (0, n):
             raise ValueError(f'max_jerk needs one value per joint ({n}) or none, '
                              f'got {len(self.max_jerk)}')

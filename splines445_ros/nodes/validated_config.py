@@ -32,11 +32,16 @@ class ValidatedConfig:
             raise ValueError(f'{name} = {value}: must be in [{low:g}, {high:g}]'
                              + (f' {unit}' if unit else ''))
 
-    def require_positive(self, name, count):
-        """Raise ValueError unless the field ``name`` holds ``count`` positive finite values."""
+    def require_positive(self, name, count, count_text=None):
+        """
+        Raise ValueError unless the field ``name`` holds ``count`` positive finite values.
+
+        ``count_text`` says how many in the error (default "<count> values").
+        """
         values = getattr(self, name)
         if len(values) != count:
-            raise ValueError(f'{name} needs {count} values, got {len(values)}: {list(values)}')
+            raise ValueError(f'{name} needs {count_text or f"{count} values"}, '
+                             f'got {len(values)}')
         for i, v in enumerate(values):
             if not (math.isfinite(v) and v > 0.0):
                 raise ValueError(f'{name}[{i}] = {v}: must be positive and finite')
