@@ -159,12 +159,16 @@ def _lp_step(state, jac, radius, lower, upper, penalty, merit_penalty=None, marg
     return step, _predicted(state, jac, step, merit_penalty)
 
 
+def _model_log_ratios(state, jac, step):
+    """Finite log-ratios after ``step`` as the linear model predicts them."""
+    log_ratios = state['log_ratios'].reshape(-1)
+    return (log_ratios + jac @ step)[np.isfinite(log_ratios)]
+
+
 def _predicted(state, jac, step, penalty):
     """Decrease of the merit (:func:`_merit`) that the linear model predicts for ``step``."""
     T = state['durations']
-    log_ratios = state['log_ratios'].reshape(-1)
-    finite = np.isfinite(log_ratios)
-    model = (log_ratios + jac @ step)[finite]
+    model = _model_log_ratios(state, jac, step)
     if penalty is None:
         value = (T.sum() + T @ step) * np.exp(np.max(model, initial=0.0))
     else:
@@ -359,9 +363,7 @@ def _repair(ratios, x, state, upper_x, penalty):
             break
         trial = ratios.evaluate(x + step)
         if trial is None or np.max(trial['log_ratios']) >= worst:
-            log_ratios = state['log_ratios'].reshape(-1)
-            finite = np.isfinite(log_ratios)
-            if np.max((log_ratios + jac @ step)[finite], initial=0.0) > 0.0:
+            if np.max(_model_log_ratios(state, jac, step), initial=0.0) > 0.0:
                 radius = min(REPAIR_GROWTH * radius, MAX_RADIUS)
             else:
                 radius *= SHRINK
