@@ -6,8 +6,32 @@ from typing import NamedTuple
 import numpy as np
 from scipy.interpolate import PPoly
 
+from .continuity_system import spline_coefficients
 from .limits import binding_limit, limit_ratios, QUANTITIES
-from .peaks import segment_peaks
+from .peaks import position_extrema, segment_peaks
+from .segments import falling_factors
+
+# Most samples ``sample()`` returns: a period that would give more is a
+# mistake (1e-12 s on a 4 s trajectory would need 44 TiB), not a request.
+MAX_SAMPLES = 10_000_000
+# Relative difference between a duration and its PPoly width above which the
+# spline is solved again on the width (below it, the difference is round-off).
+REBUILD_RTOL = 1e-12
+# Stretches of a rebuilt "uniform" or "optimal" trajectory back to its limits.
+REBUILD_STRETCHES = 3
+
+
+def representable_durations(durations):
+    """
+    Return the segment widths that a PPoly on ``cumsum(durations)`` really has.
+
+    Breakpoints are rounded sums, so a short segment after a long total gets a
+    width that differs from its duration by up to the total's round-off.
+    Coefficients must be built on these widths, or positions at the knots
+    jump and peaks are not those of the evaluated polynomials.
+    """
+    d = np.asarray(durations, dtype=float)
+    return np.diff(np.concatenate([[0.0], np.cumsum(d)], axis=-1), axis=-1)
 
 
 class Samples(NamedTuple):
@@ -43,6 +67,8 @@ class Trajectory:
         """
         Wrap ascending per-segment ``coefficients`` (S, 6, n) into a PPoly.
 
+        The coefficients are used on the PPoly's own widths, so they must be
+        built on :func:`representable_durations` (:meth:`build` does that).
         ``ratios`` (S, n, 3), when the caller already has them, are the exact
         peak / limit ratios of these coefficients (they are computed otherwise).
         """
@@ -63,6 +89,42 @@ class Trajectory:
         self._ratios = ratios
         self._derivatives = {0: self.ppoly}
         self._segment_peaks = {}
+        self._position_extrema = None
+
+    @classmethod
+    def build(cls, method, timing, points, durations, boundary, limits=None, coefficients=None,
+              ratios=None, **extra):
+        """
+        Return the Trajectory of ``method`` through ``points`` for ``durations``, checked.
+
+        ``coefficients`` (and their ``ratios``), when the caller has them for
+        ``durations``, are kept unless the PPoly's widths
+        (:func:`representable_durations`) differ from the durations by more
+        than round-off (:data:`REBUILD_RTOL`); then the spline is solved again
+        on the widths, and for "uniform" and "optimal" timing, which promise
+        the limits, all durations are stretched by the largest ratio while
+        one exceeds 1 (exact for rest-to-rest requests).  Raises ValueError
+        when a segment is below the resolution of the time axis or the
+        result is not finite (absurd limits or durations overflow).
+        """
+        durations = np.asarray(durations, dtype=float)
+        for _ in range(REBUILD_STRETCHES + 1):
+            widths = representable_durations(durations)
+            if not np.all(widths > 0.0):
+                k = int(np.flatnonzero(~(widths > 0.0))[0])
+                raise ValueError(f'segment {k} ({durations[k]:.3g} s) is shorter than the '
+                                 'resolution of the time axis at its start time')
+            mismatch = np.max(np.abs(widths - durations) / durations)
+            if coefficients is None or not mismatch <= REBUILD_RTOL:
+                coefficients, ratios = spline_coefficients(method, points, widths, boundary), None
+            traj = cls(method, timing, points, widths, coefficients, boundary, limits,
+                       ratios=ratios, **extra)
+            _check_finite(traj)
+            if timing == 'fixed' or ratios is not None or traj.within_limits(rtol=0.0):
+                return traj
+            durations = widths * float(np.max(traj.limit_ratios()))
+            coefficients = None
+        return traj
 
     @property
     def n_joints(self):
@@ -92,10 +154,17 @@ class Trajectory:
         A regular sample closer than ``period / 2`` to the end is dropped so
         that the final interval is never tiny.
         """
-        period = float(period)
+        try:
+            period = float(period)
+        except (TypeError, ValueError):
+            raise ValueError(f'sample period must be a number, got {period!r}') from None
         if not np.isfinite(period) or period <= 0.0:
             raise ValueError(f'sample period must be positive and finite, got {period}')
-        count = int(np.floor(self.duration / period))
+        count = np.floor(self.duration / period)
+        if count + 2 > MAX_SAMPLES:
+            raise ValueError(f'sample period {period:g} s gives about {count:.3g} samples of '
+                             f'this {self.duration:.6g} s trajectory, more than {MAX_SAMPLES}')
+        count = int(count)
         times = np.arange(count + 1) * period
         keep = times < self.duration - 0.5 * period
         keep[0] = True  # t = 0 always, even for a trajectory shorter than period / 2
@@ -118,6 +187,47 @@ class Trajectory:
     def peaks(self):
         """Return a dict quantity -> (n,) peak |value| over the whole trajectory."""
         return {name: self.segment_peaks(d + 1).max(axis=0) for d, name in enumerate(QUANTITIES)}
+
+    def position_extrema(self):
+        """
+        Exact position range: ``(low, high, low_time, high_time)``, each (n,).
+
+        From the polynomials (segment ends and roots of the velocity), like
+        the peaks; the times are in seconds from the start.
+        """
+        if self._position_extrema is None:
+            low, high, t_low, t_high = position_extrema(self.coefficients, self.durations)
+            i_low, i_high = np.argmin(low, axis=0), np.argmax(high, axis=0)
+            joints = np.arange(self.n_joints)
+            self._position_extrema = (
+                low[i_low, joints], high[i_high, joints],
+                self.breakpoints[i_low] + t_low[i_low, joints],
+                self.breakpoints[i_high] + t_high[i_high, joints])
+        return self._position_extrema
+
+    def excursion(self):
+        """
+        How far each joint goes beyond the range of its waypoints: (n,), >= 0.
+
+        A spline may overshoot between waypoints; a large excursion means an
+        absurd plan (e.g. near-duplicate waypoints next to a rest end).
+        """
+        low, high = self.position_extrema()[:2]
+        return np.maximum.reduce([high - self.waypoints.max(axis=0),
+                                  self.waypoints.min(axis=0) - low,
+                                  np.zeros(self.n_joints)])
+
+    def duration_lower_bound(self):
+        """
+        Return a simple lower bound of the duration: sum over segments of max_j |dq_j| / v_j.
+
+        No trajectory through the same waypoints within the velocity limits
+        is shorter; None without limits.
+        """
+        if self.limits is None:
+            return None
+        steps = np.abs(np.diff(self.waypoints, axis=0)) / self.limits.velocity[None, :]
+        return float(np.sum(np.max(steps, axis=1)))
 
     def limit_ratios(self):
         """Peak / limit per segment, joint and quantity (S, n, 3); needs limits."""
@@ -155,3 +265,26 @@ class Trajectory:
             left = left * ends + row  # Horner: segment k at its end
         right = c[-1, 1:]  # segment k + 1 at its start
         return np.max(np.abs(right - left), axis=0)
+
+
+def _check_finite(traj):
+    """
+    Raise ValueError unless ``traj`` is finite: breakpoints, coefficients and values.
+
+    Finite coefficients can still overflow when evaluated (``c5 * T**5`` with
+    T = 1e62 s), so position to jerk are evaluated at every segment's middle
+    and end too.
+    """
+    if not np.all(np.isfinite(traj.breakpoints)):
+        raise ValueError('the segment durations overflow: the plan is not finite')
+    ok = np.all(np.isfinite(traj.coefficients))
+    if ok:
+        c = traj.coefficients
+        for tau in (0.5 * traj.durations, traj.durations):
+            for derivative in range(4):
+                falling, exponent = falling_factors(derivative)
+                weights = falling[None, :] * tau[:, None] ** exponent[None, :]
+                ok = ok and np.all(np.isfinite(np.einsum('si,sin->sn', weights, c)))
+    if not ok:
+        raise ValueError('the plan is not finite (the limits, durations or waypoints are too '
+                         'extreme for floating point)')
