@@ -152,6 +152,50 @@ def segment_peaks(coeffs, durations, derivative):
     return values.max(axis=1).reshape(S, m)
 
 
+def position_extrema(coeffs, durations):
+    """
+    Smallest and largest position of every segment and joint, and where.
+
+    Returns ``(low, high, low_time, high_time)``, each (S, m), with local
+    times ``tau`` in ``[0, T_s]``.  Exact like the peaks: the candidates are
+    the segment ends and the real roots in the interval of the velocity, a
+    quartic for a quintic segment, found as eigenvalues of its companion
+    matrix (all segments at once; an error in a root moves the extreme
+    value only to second order, since the velocity vanishes there).
+    """
+    T = np.asarray(durations, dtype=float)
+    c = np.asarray(coeffs, dtype=float)
+    S, width, m = c.shape
+    p = c * (T[:, None, None] ** np.arange(width)[None, :, None])
+    flat_p = p.transpose(0, 2, 1).reshape(S * m, width)
+    dp = flat_p[:, 1:] * np.arange(1, width)[None, :]
+    scale = np.max(np.abs(dp), axis=1)
+    scale[scale == 0.0] = 1.0
+    dp = dp / scale[:, None]
+    candidates = np.zeros((S * m, width + 1))
+    candidates[:, 1] = 1.0
+    degree = np.zeros(S * m, dtype=int)
+    for d in range(1, dp.shape[1]):
+        degree[np.abs(dp[:, d]) > _DEGENERATE] = d
+    for d in range(1, dp.shape[1]):
+        rows = np.flatnonzero(degree == d)
+        if rows.size == 0:
+            continue
+        companion = np.zeros((rows.size, d, d))
+        companion[:, np.arange(1, d), np.arange(d - 1)] = 1.0
+        companion[:, :, d - 1] = -dp[rows, :d] / dp[rows, d:d + 1]
+        eig = np.linalg.eigvals(companion)
+        real = np.abs(eig.imag) <= 1e-9 * np.maximum(1.0, np.abs(eig.real))
+        inside = real & (eig.real > 0.0) & (eig.real < 1.0)
+        candidates[rows, 2:2 + d] = np.where(inside, eig.real, 0.0)
+    values = _horner(flat_p, candidates)
+    rows = np.arange(S * m)
+    low, high = np.argmin(values, axis=1), np.argmax(values, axis=1)
+    return (values[rows, low].reshape(S, m), values[rows, high].reshape(S, m),
+            candidates[rows, low].reshape(S, m) * T[:, None],
+            candidates[rows, high].reshape(S, m) * T[:, None])
+
+
 def segment_peak_times(coeffs, durations, derivative):
     """Local time (S, m) at which each segment's |d-th derivative| peaks."""
     S, _, m = np.shape(coeffs)
