@@ -15,11 +15,13 @@ nothing from the rest of the package (:mod:`splines445_ros.arm`, ``nodes``,
 
 from .limits import BindingLimit, JointLimits
 from .methods import get_method, Method, METHOD_DEFINITIONS, METHODS
-from .planner import merge_duplicates, plan, TIMINGS
+from .planner import (check_position_limits, DEFAULT_WAYPOINT_TOLERANCE, merge_duplicates,
+                      plan, TIMINGS)
 from .timing import chord_durations
 from .trajectory import Samples, Trajectory
 
 __all__ = [
-    'BindingLimit', 'chord_durations', 'get_method', 'JointLimits', 'merge_duplicates',
+    'BindingLimit', 'check_position_limits', 'chord_durations', 'DEFAULT_WAYPOINT_TOLERANCE',
+    'get_method', 'JointLimits', 'merge_duplicates',
     'Method', 'METHOD_DEFINITIONS', 'METHODS', 'plan', 'Samples', 'TIMINGS', 'Trajectory',
 ]

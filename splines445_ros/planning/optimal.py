@@ -416,8 +416,8 @@ def optimal_durations(method, points, start, boundary, limits, dropped, uniform=
         durations = None
     if uniform is not None and (durations is None or durations.sum() >= uniform.duration):
         durations, coeffs, ratios = uniform.durations, uniform.coefficients, uniform.limit_ratios()
-    traj = Trajectory(name, 'optimal', points, durations, coeffs, boundary, limits,
-                      None, dropped, ratios=ratios)
+    traj = Trajectory.build(name, 'optimal', points, durations, boundary, limits, coeffs,
+                            ratios, dropped_waypoints=dropped)
     info['uniform_duration'] = None if uniform is None else uniform.duration
     traj.optimizer = info
     return traj

@@ -2,53 +2,78 @@
 
 import numpy as np
 
-from .continuity_system import spline_coefficients
 from .limits import check_boundary_feasible, JointLimits
 from .methods import get_method
 from .optimal import optimal_durations
-from .timing import chord_durations, rest_to_rest_scale, scaled_spline, ScaledSpline
+from .timing import (chord_durations, rest_to_rest_durations, rest_to_rest_scale,
+                     scaled_spline, ScaledSpline, uniform_scale)
 from .trajectory import Trajectory
-from .validation import boundary_vector, duration_array, waypoint_array
+from .validation import (boundary_vector, duration_array, non_negative,
+                         position_limit_vector, waypoint_array)
 
 TIMINGS = ('uniform', 'fixed', 'optimal')
 
 # Chords shorter than this (relative to the largest |coordinate|, at least 1)
-# count as zero: such waypoints are duplicates and are merged for chord timing.
+# count as zero: such waypoints are exact duplicates, merged whatever the tolerance.
 DUPLICATE_RTOL = 1e-12
+# Default waypoint_tolerance [rad, or m for a prismatic joint]: four times the
+# dead band within which the dynamic arm comes to rest (2.5e-4 rad), so that a
+# request that starts at the commanded pose replans cleanly from the measured
+# one; 0.057 degrees, below anything taught as two distinct points.
+DEFAULT_WAYPOINT_TOLERANCE = 1e-3
 
 
-def merge_duplicates(waypoints):
+def merge_duplicates(waypoints, tolerance=0.0):
     """
-    Drop every waypoint equal to its predecessor; return (kept, dropped indices).
+    Merge consecutive near-duplicate waypoints; return (kept, dropped indices).
 
-    A zero chord would give a zero duration (eq. 11), so chord-based timing
-    plans through the distinct waypoints only.  The trajectory passes through
-    every dropped waypoint anyway, since it equals a kept one.
+    Two waypoints are near-duplicates when every joint differs by at most
+    ``tolerance`` (or by round-off, :data:`DUPLICATE_RTOL`, when it is 0).
+    Each waypoint is compared with the last one kept.  The first waypoint is
+    always kept (it is where the robot is), and so is the last (the goal): a
+    kept waypoint just before it that is its near-duplicate is dropped
+    instead (of exact duplicates, the later ones are dropped, as anywhere).
+    A tiny chord next to a rest end would get a tiny duration (eq. 11) and
+    make the spline swing far out, so chord-based timing plans through the
+    kept waypoints only; the trajectory passes within ``tolerance`` of every
+    dropped one.
     """
-    tol = DUPLICATE_RTOL * max(1.0, float(np.max(np.abs(waypoints))))
-    chord = chord_durations(waypoints)
-    keep = np.concatenate([[True], chord > tol])
-    dropped = np.flatnonzero(~keep)
-    if keep.sum() < 2:
-        raise ValueError('all waypoints coincide: need at least 2 distinct waypoints '
-                         'for chord-length timing')
-    return waypoints[keep], tuple(int(i) for i in dropped)
+    exact = DUPLICATE_RTOL * max(1.0, float(np.max(np.abs(waypoints))))
+    tol = max(float(tolerance), exact)
+    steps = np.max(np.abs(np.diff(waypoints, axis=0)), axis=1)
+    if np.all(steps > tol):
+        return waypoints, ()
+    keep = [0]
+    for i in range(1, waypoints.shape[0]):
+        step = np.max(np.abs(waypoints[i] - waypoints[keep[-1]]))
+        if step > tol:
+            keep.append(i)
+        elif i == waypoints.shape[0] - 1 and len(keep) > 1 and step > exact:
+            keep[-1] = i
+    if len(keep) < 2:
+        if np.max(np.abs(waypoints[-1] - waypoints[0])) <= exact:
+            raise ValueError('all waypoints coincide: need at least 2 distinct waypoints '
+                             'for chord-length timing')
+        keep.append(waypoints.shape[0] - 1)
+    dropped = sorted(set(range(waypoints.shape[0])) - set(keep))
+    return waypoints[keep], tuple(dropped)
 
 
 def plan(waypoints, method='445', timing='uniform', durations=None,
          max_velocity=None, max_acceleration=None, max_jerk=None,
          start_velocity=None, start_acceleration=None,
-         end_velocity=None, end_acceleration=None):
+         end_velocity=None, end_acceleration=None,
+         waypoint_tolerance=DEFAULT_WAYPOINT_TOLERANCE, min_position=None, max_position=None):
     """
     Plan a trajectory through ``waypoints`` (N, n_joints).
 
-    Consecutive duplicate waypoints are merged for "uniform" and "optimal"
-    timing (see :func:`merge_duplicates`, reported in
+    Consecutive near-duplicate waypoints (every joint within
+    ``waypoint_tolerance``) are merged for "uniform" and "optimal" timing
+    (see :func:`merge_duplicates`, reported in
     ``Trajectory.dropped_waypoints``); "fixed" keeps them, since the caller's
     durations define the timing.  Raises ValueError naming the problem (and
-    its index) for bad or infeasible input.  Floating-point overflow on absurd
-    input (e.g. waypoints of 1e300) is not warned about: every result is
-    checked for finiteness and such input ends in a ValueError.
+    its index) for bad or infeasible input, and for a result that is not
+    finite (absurd limits, durations or waypoints).
 
     Parameters
     ----------
@@ -74,24 +99,66 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         leave that joint's jerk unlimited.
     start_velocity, start_acceleration, end_velocity, end_acceleration : (n,)
         boundary values, zero when None.
+    waypoint_tolerance : float >= 0, in joint units (rad or m)
+        Consecutive waypoints closer than this in every joint are merged
+        (default :data:`DEFAULT_WAYPOINT_TOLERANCE`; 0 merges exact
+        duplicates only).
+    min_position, max_position : (n,) or None
+        Joint position limits (-inf / +inf entries: none), checked exactly
+        on the polynomials; a plan that leaves them is rejected with the
+        joint, the time and the excess.
 
     """
-    with np.errstate(over='ignore', invalid='ignore', divide='ignore'):
-        return _plan(waypoints, method, timing, durations, max_velocity, max_acceleration,
-                     max_jerk, start_velocity, start_acceleration, end_velocity,
-                     end_acceleration)
+    if not isinstance(timing, str) or timing not in TIMINGS:
+        raise ValueError(f'unknown timing {timing!r}: expected one of {TIMINGS}')
+    with np.errstate(over='ignore', invalid='ignore', divide='ignore', under='ignore'):
+        traj = _plan(waypoints, method, timing, durations, max_velocity, max_acceleration,
+                     max_jerk, (start_velocity, start_acceleration, end_velocity,
+                                end_acceleration), waypoint_tolerance)
+        check_position_limits(traj, min_position, max_position)
+    return traj
+
+
+def check_position_limits(traj, min_position=None, max_position=None, joint_names=None):
+    """
+    Raise ValueError when ``traj`` leaves [min_position, max_position] on any joint.
+
+    The check is exact (the polynomials' position extremes,
+    :meth:`Trajectory.position_extrema`); the error names the joint (its
+    index, and its name from ``joint_names`` when given), the time and the
+    excess of the worst violation.
+    """
+    if min_position is None and max_position is None:
+        return
+    n = traj.n_joints
+    low = position_limit_vector('min_position', min_position, n, -np.inf)
+    high = position_limit_vector('max_position', max_position, n, np.inf)
+    bad = np.flatnonzero(low > high)
+    if bad.size:
+        j = int(bad[0])
+        raise ValueError(f'min_position[{j}] = {low[j]} is above max_position[{j}] = {high[j]}')
+    q_low, q_high, t_low, t_high = traj.position_extrema()
+    excess = np.stack([low - q_low, q_high - high])
+    if np.all(excess <= 0.0):
+        return
+    side, j = np.unravel_index(int(np.argmax(excess)), excess.shape)
+    joint = f'joint {j}' + ('' if joint_names is None else f' ({joint_names[j]})')
+    if side == 0:
+        raise ValueError(f'{joint} goes to {q_low[j]:.6g} at t = {t_low[j]:.6g} s, '
+                         f'{excess[0, j]:.3g} below min_position[{j}] = {low[j]:g}')
+    raise ValueError(f'{joint} goes to {q_high[j]:.6g} at t = {t_high[j]:.6g} s, '
+                     f'{excess[1, j]:.3g} above max_position[{j}] = {high[j]:g}')
 
 
 def _plan(waypoints, method, timing, durations, max_velocity, max_acceleration, max_jerk,
-          start_velocity, start_acceleration, end_velocity, end_acceleration):
+          boundary, waypoint_tolerance):
     method = get_method(method).name
-    if timing not in TIMINGS:
-        raise ValueError(f'unknown timing {timing!r}: expected one of {TIMINGS}')
     points = waypoint_array(waypoints)
     n = points.shape[1]
-    boundary = tuple(boundary_vector(name, value, n) for name, value in (
-        ('start_velocity', start_velocity), ('start_acceleration', start_acceleration),
-        ('end_velocity', end_velocity), ('end_acceleration', end_acceleration)))
+    boundary = tuple(boundary_vector(name, value, n) for name, value in zip(
+        ('start_velocity', 'start_acceleration', 'end_velocity', 'end_acceleration'),
+        boundary))
+    tolerance = non_negative('waypoint_tolerance', waypoint_tolerance)
     limits = None
     if max_velocity is not None or max_acceleration is not None or max_jerk is not None:
         if max_velocity is None or max_acceleration is None:
@@ -103,14 +170,13 @@ def _plan(waypoints, method, timing, durations, max_velocity, max_acceleration, 
 
     if timing == 'fixed':
         seg_durations = duration_array(durations, points.shape[0] - 1)
-        coeffs = spline_coefficients(method, points, seg_durations, boundary)
-        return Trajectory(method, timing, points, seg_durations, coeffs, boundary, limits)
+        return Trajectory.build(method, timing, points, seg_durations, boundary, limits)
 
     if durations is not None and timing != 'optimal':
         raise ValueError(f'durations are only used with timing "fixed" or "optimal", '
                          f'not {timing!r}')
     start = None if durations is None else duration_array(durations, points.shape[0] - 1)
-    points, dropped = merge_duplicates(points)
+    points, dropped = merge_duplicates(points, tolerance)
     if start is not None and dropped:
         # A dropped waypoint's segment joins the one before it.
         start = np.diff(np.delete(np.concatenate([[0.0], np.cumsum(start)]), dropped))
@@ -130,11 +196,34 @@ def _plan(waypoints, method, timing, durations, max_velocity, max_acceleration, 
             start = chords * rest_to_rest_scale(
                 ScaledSpline(method, points, chords, boundary), limits)
         return optimal_durations(method, points, start, boundary, limits, dropped)
-    uniform = Trajectory(method, 'uniform', points, spline.durations(scale),
-                         spline.coefficients(scale), boundary, limits, scale, dropped,
-                         ratios=ratios)
+    uniform = Trajectory.build(method, 'uniform', points, spline.durations(scale), boundary,
+                               limits, spline.coefficients(scale), ratios, scale=scale,
+                               dropped_waypoints=dropped)
     if timing == 'optimal':
-        return optimal_durations(method, points,
-                                 uniform.durations if start is None else start,
-                                 boundary, limits, dropped, uniform)
+        if start is None:
+            start = optimal_start(method, points, boundary, limits, uniform)
+        return optimal_durations(method, points, start, boundary, limits, dropped, uniform)
     return uniform
+
+
+def optimal_start(method, points, boundary, limits, uniform):
+    """
+    Return where optimal timing starts: the better of uniform and rest-to-rest durations.
+
+    Uniform timing gives a near-duplicate waypoint (above the tolerance) a
+    tiny chord duration and then stretches the whole path; the optimiser
+    bounds every duration relative to its start (``MIN_FRACTION``), so it
+    cannot recover from such a start.  Each segment's rest-to-rest time
+    under every joint's v/a/j limits (:func:`rest_to_rest_durations`) is
+    well scaled whatever the chords; scaled by its own smallest feasible
+    common factor, it is used when its total is shorter than uniform's.
+    """
+    guess = rest_to_rest_durations(points, limits)
+    try:
+        spline = ScaledSpline(method, points, guess, boundary)
+        scale = uniform_scale(spline, limits)[0]
+    except (ValueError, np.linalg.LinAlgError):
+        return uniform.durations
+    if np.isfinite(scale) and scale * guess.sum() < uniform.duration:
+        return scale * guess
+    return uniform.durations

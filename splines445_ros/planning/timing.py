@@ -27,6 +27,8 @@ SCAN_GRID = np.geomspace(1.0 / 30.0, 1000.0, 32)
 _BISECTION_RTOL = 1e-9
 # First-segment shares tried when no common factor is feasible (see scaled_spline).
 FIRST_SEGMENT_SHARES = np.geomspace(1.0 / 8.0, 8.0, 13)
+# Largest ratio of neighbouring durations in the rest-to-rest starting guess.
+NEIGHBOUR_RATIO = 20.0
 # Safety factor applied to closed-form factors against round-off.
 _ROUNDOFF = 1.0 + 1e-12
 
@@ -34,6 +36,58 @@ _ROUNDOFF = 1.0 + 1e-12
 def chord_durations(waypoints):
     """Eq. (11): T_k = sqrt(sum_j (q_{j,k+1} - q_{j,k})^2), 'every joint at unit speed'."""
     return np.sqrt(np.sum(np.diff(waypoints, axis=0) ** 2, axis=1))
+
+
+def rest_to_rest_durations(waypoints, limits):
+    """
+    Per-segment time of the fastest rest-to-rest move of its slowest joint: (S,).
+
+    Joint j moves ``d = |dq_j|`` under ``v, a, j`` limits (jerk may be inf)
+    with the classic jerk-limited profile (jerk ramps of ``a / j``,
+    constant acceleration, cruise): a well-scaled starting point for optimal
+    timing, since a tiny chord gets about ``sqrt(d / a)`` rather than a time
+    proportional to ``d`` (eq. 11), which a rest end turns into a swing;
+    then :func:`graded`.
+    """
+    d = np.abs(np.diff(waypoints, axis=0))
+    v, a, j = (q[None, :] for q in (limits.velocity, limits.acceleration, limits.jerk))
+    ramp = a / j  # 0 without a jerk limit
+
+    def accelerate(peak):
+        # Time to reach the speed ``peak`` from rest (a full acceleration
+        # phase once peak >= a^2 / j; always without a jerk limit).
+        full = peak * j >= a * a
+        return np.where(full, peak / a + ramp, 2.0 * np.sqrt(peak / j))
+
+    with np.errstate(invalid='ignore', divide='ignore', over='ignore'):
+        time_to_v = accelerate(v)
+        cruising = d >= v * time_to_v
+        # Peak speed below v: with a full acceleration phase it solves
+        # peak^2 / a + peak * ramp = d, otherwise peak^1.5 * 2 / sqrt(j) = d.
+        peak_full = 0.5 * (-a * ramp + np.sqrt((a * ramp) ** 2 + 4.0 * a * d))
+        peak_short = np.cbrt((0.5 * d * np.sqrt(j)) ** 2)
+        peak = np.where(peak_full * j >= a * a, peak_full, peak_short)
+        times = np.where(cruising, time_to_v + d / v, 2.0 * accelerate(peak))
+    return graded(np.max(np.where(d > 0.0, times, 0.0), axis=1))
+
+
+def graded(durations, ratio=None):
+    """
+    Lengthen durations so that neighbours differ by at most ``ratio`` (S,).
+
+    A segment far shorter than its neighbour cannot absorb the speed the
+    neighbour brings (next to a rest end it must stop within its tiny
+    chord), and the spline swings; with neighbours within
+    :data:`NEIGHBOUR_RATIO` of each other it does not (the issue's 555
+    example: 2895 s from [2, 2, 0.002] s, 3.40 s from [2, 2, 0.1] s).
+    """
+    ratio = NEIGHBOUR_RATIO if ratio is None else ratio
+    out = np.array(durations, dtype=float)
+    for k in range(1, out.size):
+        out[k] = max(out[k], out[k - 1] / ratio)
+    for k in range(out.size - 2, -1, -1):
+        out[k] = max(out[k], out[k + 1] / ratio)
+    return out
 
 
 class ScaledSpline:

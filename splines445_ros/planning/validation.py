@@ -8,12 +8,27 @@ def _first_bad(mask):
     return ', '.join(str(i) for i in index)
 
 
+def real_array(name, value):
+    """
+    Return ``value`` as a float array; ValueError if it is not numeric or is complex.
+
+    numpy would drop an imaginary part with only a ComplexWarning.
+    """
+    try:
+        raw = np.asarray(value)
+        if np.iscomplexobj(raw) or (raw.dtype == object and any(
+                isinstance(v, complex) for v in raw.reshape(-1))):
+            raise ValueError(f'{name} must be real numbers, got complex values')
+        return np.array(raw, dtype=float)
+    except (TypeError, ValueError) as exc:
+        if 'complex' in str(exc) and str(exc).startswith(name):
+            raise
+        raise ValueError(f'{name} must be numeric: {exc}') from None
+
+
 def finite_array(name, value, shape=None, ndim=None):
     """Return ``value`` as a float array, checking shape and that it is finite."""
-    try:
-        arr = np.array(value, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f'{name} must be numeric: {exc}') from None
+    arr = real_array(name, value)
     if ndim is not None and arr.ndim != ndim:
         raise ValueError(f'{name} must have {ndim} dimension(s), got shape {arr.shape}')
     if shape is not None and arr.shape != tuple(shape):
@@ -41,10 +56,7 @@ def waypoint_array(waypoints):
 
 def positive_array(name, value, n, allow_inf=False):
     """Return an (n,) array of positive limits; ``allow_inf`` admits +inf (no limit)."""
-    try:
-        arr = np.array(value, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f'{name} must be numeric: {exc}') from None
+    arr = real_array(name, value)
     if arr.shape != (n,):
         raise ValueError(f'{name} must have one value per joint, shape ({n},), got {arr.shape}')
     bad = np.isnan(arr) | (arr <= 0.0) | (np.isinf(arr) & (not allow_inf))
@@ -74,4 +86,30 @@ def duration_array(durations, n_segments):
     if np.any(bad):
         i = int(np.argwhere(bad)[0][0])
         raise ValueError(f'durations[{i}] = {arr[i]}: durations must be positive')
+    return arr
+
+
+def non_negative(name, value):
+    """Return ``value`` as a finite float >= 0."""
+    if isinstance(value, (bool, np.bool_)):
+        raise ValueError(f'{name} must be a number, got {value!r}')
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f'{name} must be a number, got {value!r}') from None
+    if not (np.isfinite(number) and number >= 0.0):
+        raise ValueError(f'{name} = {number}: must be >= 0 and finite')
+    return number
+
+
+def position_limit_vector(name, value, n, default):
+    """Return (n,) position limits, ``default`` (+-inf) where None; NaN is rejected."""
+    if value is None:
+        return np.full(n, default)
+    arr = real_array(name, value)
+    if arr.shape != (n,):
+        raise ValueError(f'{name} must have one value per joint, shape ({n},), got {arr.shape}')
+    bad = np.isnan(arr)
+    if np.any(bad):
+        raise ValueError(f'{name}[{int(np.flatnonzero(bad)[0])}] is nan')
     return arr
