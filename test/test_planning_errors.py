@@ -1,5 +1,6 @@
 """Every bad input to plan() is a ValueError that names the problem (and index)."""
 
+from hypothesis import given, settings, strategies as st
 import numpy as np
 import pytest
 from splines445_ros.planning import plan
@@ -57,6 +58,23 @@ CASES = [
     ('integer method not a method', {'method': 345},
      r'unknown method 345: expected one of \(.445., .434., .555.\)'),
     ('boolean method', {'method': True}, r'unknown method True'),
+    ('complex waypoints', {'waypoints': W + 1e-3j}, r'waypoints must be real'),
+    ('complex limit', {'max_velocity': [1.0 + 1j, 1.0]}, r'max_velocity must be real'),
+    ('timing as an array', {'timing': np.array(['uniform'])}, r'unknown timing'),
+    ('position limit shape', {'max_position': [1.0]}, r'max_position must have one value'),
+    ('NaN position limit', {'min_position': [np.nan, 0.0]}, r'min_position\[0\] is nan'),
+    ('crossed position limits', {'min_position': [0.0, 1.0], 'max_position': [5.0, 0.0]},
+     r'min_position\[1\] = 1\.0 is above max_position\[1\]'),
+    # Issue 18: these gave inf/NaN coefficients and no error.
+    ('huge limits', {'max_velocity': [1e300] * 2, 'max_acceleration': [1e300] * 2},
+     r'not finite|no finite time scale'),
+    ('tiny limits', {'max_velocity': [1e-81] * 2, 'max_acceleration': [1e-81] * 2},
+     r'not finite|no finite time scale'),
+    ('tiny fixed durations', {'timing': 'fixed', 'durations': [1e-63] * 3},
+     r'not finite|numerically singular'),
+    ('huge fixed durations', {'timing': 'fixed', 'durations': [1e100] * 3}, r'not finite'),
+    ('segment below time resolution', {'timing': 'fixed', 'durations': [1e20, 1e-3, 1.0]},
+     r'segment 1 .* shorter than the resolution'),
 ]
 
 
@@ -99,6 +117,40 @@ def test_evaluate_rejects_unknown_derivative_and_sample_bad_period():
     traj = plan(W, '445', 'uniform', **LIM)
     with pytest.raises(ValueError, match='derivative'):
         traj.evaluate([0.0], derivative=4)
-    for period in (0.0, -1.0, np.nan):
+    for period in (0.0, -1.0, np.nan, None, 'a', [0.01]):
         with pytest.raises(ValueError, match='sample period'):
             traj.sample(period)
+    # A period that would need more than MAX_SAMPLES samples (44 TiB, issue 18).
+    with pytest.raises(ValueError, match='more than'):
+        traj.sample(1e-12)
+    assert len(traj.sample(traj.duration / 1000).times) == 1001
+
+
+def test_coefficients_are_built_on_the_widths_the_ppoly_uses():
+    # cumsum([1e4, 1e-4]) leaves the second width off by 2e-12 s: with
+    # coefficients built on 1e-4 the end acceleration came out as -7.1e-6.
+    traj = plan([[0.0], [1.0], [1.0 + 1e-6]], '555', 'fixed', durations=[1e4, 1e-4])
+    widths = np.diff(traj.ppoly.x)
+    np.testing.assert_array_equal(traj.durations, widths)
+    end = traj.duration
+    assert abs(traj.evaluate([end], 2)[0, 0]) < 1e-9
+    assert traj.evaluate([end])[0, 0] == pytest.approx(1.0 + 1e-6, abs=1e-12)
+    assert abs(traj.evaluate([end], 1)[0, 0]) < 1e-9
+
+
+@settings(max_examples=40)
+@given(st.floats(-90, 300), st.floats(-90, 300), st.floats(-70, 110),
+       st.sampled_from(['445', '434', '555']), st.sampled_from(['uniform', 'optimal', 'fixed']))
+def test_every_returned_trajectory_is_finite(log_v, log_a, log_t, method, timing):
+    kwargs = {'max_velocity': [10.0 ** log_v] * 2, 'max_acceleration': [10.0 ** log_a] * 2}
+    if timing == 'fixed':
+        kwargs['durations'] = [10.0 ** log_t] * 3
+    try:
+        traj = plan(W, method, timing, **kwargs)
+    except ValueError:
+        return
+    assert np.all(np.isfinite(traj.ppoly.c)) and np.all(np.isfinite(traj.breakpoints))
+    samples = traj.sample(traj.duration / 50)
+    for values in samples:
+        assert np.all(np.isfinite(values))
+    assert np.all(np.isfinite(traj.evaluate(traj.breakpoints, 3)))
