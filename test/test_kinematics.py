@@ -44,3 +44,8 @@ def test_unreachable_pose_and_bad_links_are_rejected():
         PlanarArm().inverse([[3.0, 0.0, 0.0]])
     with pytest.raises(ValueError, match='link length d2'):
         PlanarArm(1.0, 0.0)
+    # Issue 18: these raised TypeError and IndexError.
+    with pytest.raises(ValueError, match='link length d1 must be a number'):
+        PlanarArm(None, 1.0)
+    with pytest.raises(ValueError, match=r'poses must be \(K, 3\)'):
+        PlanarArm().inverse([[1.0, 0.0]])

@@ -210,6 +210,10 @@ def test_orientation_alone_can_drive_the_refinement():
     ([[1, 0], [1, 1]], {}, r'shape \(N, 3\)'),
     ([[1, 0, 0], [1, 1, 0]], {'max_deviation': -1.0}, 'max_deviation = -1.0'),
     ([[1, 0, 0], [1, 1, 0]], {'timing': 'fixed'}, 'needs durations'),
+    # Issue 18: these raised OverflowError and TypeError.
+    ([[1, 0, 0], [1, 1, 0]], {'max_inserted': float('inf')}, 'max_inserted = inf'),
+    ([[1, 0, 0], [1, 1, 0]], {'max_inserted': None}, 'max_inserted = None'),
+    ([[1, 0, 0], [1, 1, 0]], {'max_deviation': [1e-3]}, r'max_deviation must be a number'),
 ])
 def test_bad_input_is_a_clear_error(poses, kwargs, message):
     with pytest.raises(ValueError, match=message):

@@ -21,7 +21,11 @@ class PlanarArm:
         """Reject non-positive or non-finite link lengths."""
         for name in ('d1', 'd2'):
             value = getattr(self, name)
-            if not np.isfinite(value) or value <= 0.0:
+            try:
+                number = float(value)
+            except (TypeError, ValueError):
+                raise ValueError(f'link length {name} must be a number, got {value!r}') from None
+            if not np.isfinite(number) or number <= 0.0:
                 raise ValueError(f'link length {name} must be positive and finite, got {value}')
 
     def forward(self, joints):
@@ -42,6 +46,8 @@ class PlanarArm:
         never jump by 2*pi.  Raises ValueError for an unreachable pose.
         """
         p = np.atleast_2d(np.asarray(poses, dtype=float))
+        if p.ndim != 2 or p.shape[1] != 3:
+            raise ValueError(f'poses must be (K, 3) = (X, Y, O) rows, got shape {p.shape}')
         x, y, o = p[:, 0], p[:, 1], p[:, 2]
         cos_q2 = (x**2 + y**2 - self.d1**2 - self.d2**2) / (2.0 * self.d1 * self.d2)
         unreachable = np.abs(cos_q2) > 1.0 + 1e-12

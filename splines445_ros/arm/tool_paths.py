@@ -74,6 +74,7 @@ lengths of the two halves (eq. 11 of the paper, within the segment).
 
 from dataclasses import dataclass
 import math
+import numbers
 
 import numpy as np
 
@@ -173,6 +174,8 @@ def _tolerance(name, value):
     """Return a tolerance: None or 0 -> inf (unchecked); ValueError if negative or NaN."""
     if value is None:
         return math.inf
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ValueError(f'{name} must be a number, got {value!r}')
     value = float(value)
     if math.isnan(value) or value < 0.0:
         raise ValueError(f'{name} = {value}: must be >= 0 (0 = not checked)')
@@ -362,7 +365,9 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
     request = tool_pose_array(poses)
     tol_position = _tolerance('max_deviation', max_deviation)
     tol_orientation = _tolerance('max_orientation_deviation', max_orientation_deviation)
-    if int(max_inserted) != max_inserted or max_inserted < 0:
+    if (isinstance(max_inserted, bool) or not isinstance(max_inserted, numbers.Real)
+            or not math.isfinite(max_inserted) or int(max_inserted) != max_inserted
+            or max_inserted < 0):
         raise ValueError(f'max_inserted = {max_inserted}: must be a non-negative integer')
     joints = _inverse(kinematics, request, lambda k: f'tool waypoint {k}')
     n_req = len(request)
@@ -388,8 +393,9 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
     initial = None
     for iteration in range(1, max_inserted + 2):
         try:
+            # Inserted knots are deliberate, however close: no waypoint tolerance.
             traj = plan(knot_joints, method=method, timing=timing, durations=seg_durations,
-                        **plan_kwargs)
+                        waypoint_tolerance=0.0, **plan_kwargs)
         except ValueError as exc:
             if not inserted:
                 raise
