@@ -12,7 +12,8 @@ String parameters accept numbers as users type them: ``-p method:=434``
 arrives as an INTEGER, so string fields are declared with dynamic typing and
 a number given for one is stored as its string (``'434'``), at start-up and
 on every ``set_parameters``; any other type is rejected by validation with
-the reason.
+the reason.  Array fields whose default is empty (``min_position``) are
+dynamically typed as well, so ``[-1, 1]`` typed as integers is accepted.
 """
 
 from dataclasses import fields
@@ -63,9 +64,12 @@ class ConfigParameters:
         defaults = config_cls()
         self.names = [f.name for f in fields(config_cls)]
         self._string_names = {n for n in self.names if isinstance(getattr(defaults, n), str)}
+        # rclpy types an empty array default as a byte array: such arrays are
+        # declared with dynamic typing and checked by the config instead.
+        dynamic = self._string_names | {n for n in self.names if getattr(defaults, n) == ()}
         for name in self.names:
             default = getattr(defaults, name)
-            if name in self._string_names:
+            if name in dynamic:
                 descriptor = ParameterDescriptor(
                     name=name, dynamic_typing=True, description=descriptions[name])
             else:

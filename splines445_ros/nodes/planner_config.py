@@ -13,7 +13,7 @@ from typing import Tuple
 
 from .validated_config import ValidatedConfig
 from ..arm.kinematics import PlanarArm
-from ..planning import METHODS, TIMINGS
+from ..planning import DEFAULT_WAYPOINT_TOLERANCE, METHODS, TIMINGS
 
 DEFAULT_JOINTS = ('joint1', 'joint2', 'joint3')
 MIN_SAMPLE_PERIOD = 1e-4
@@ -21,6 +21,8 @@ MAX_LEAD_TIME = 10.0
 # Values of the ``kinematics`` parameter: '' = joint space only.
 KINEMATICS = ('', 'planar_3dof')
 MAX_INSERTED_WAYPOINTS = 100000
+# A waypoint tolerance above this [rad or m] would merge distinct taught points.
+MAX_WAYPOINT_TOLERANCE = 0.1
 
 
 @dataclass(frozen=True)
@@ -42,6 +44,9 @@ class PlannerConfig(ValidatedConfig):
     max_path_deviation: float = 0.0
     max_orientation_deviation: float = 0.0
     max_inserted_waypoints: int = 200
+    waypoint_tolerance: float = DEFAULT_WAYPOINT_TOLERANCE
+    min_position: Tuple[float, ...] = ()
+    max_position: Tuple[float, ...] = ()
 
     def validate(self):
         """Raise ValueError with the reason when any value is unusable."""
@@ -69,11 +74,34 @@ class PlannerConfig(ValidatedConfig):
             raise ValueError(f'sample_period = {self.sample_period}: must be at least '
                              f'{MIN_SAMPLE_PERIOD} s')
         self.require_in_range('replan_lead_time', 0.0, MAX_LEAD_TIME, 's')
+        self.require_in_range('waypoint_tolerance', 0.0, MAX_WAYPOINT_TOLERANCE)
+        self._validate_position_limits(n)
 
         if self.max_trajectory_points < 2:
             raise ValueError(f'max_trajectory_points = {self.max_trajectory_points}: must be '
                              'at least 2')
         self._validate_tool_paths()
+
+    def _validate_position_limits(self, n):
+        for name in ('min_position', 'max_position'):
+            values = getattr(self, name)
+            if len(values) not in (0, n):
+                raise ValueError(f'{name} needs one value per joint ({n}) or none, '
+                                 f'got {len(values)}')
+            for i, v in enumerate(values):
+                if math.isnan(v):
+                    raise ValueError(f'{name}[{i}] is nan')
+        if self.min_position and self.max_position:
+            for i, (low, high) in enumerate(zip(self.min_position, self.max_position)):
+                if low > high:
+                    raise ValueError(f'min_position[{i}] = {low} is above '
+                                     f'max_position[{i}] = {high}')
+
+    def position_limits(self):
+        """Return the position limits (None where unset) and joint names as keyword arguments."""
+        return {'min_position': list(self.min_position) or None,
+                'max_position': list(self.max_position) or None,
+                'joint_names': self.joint_names}
 
     def _validate_tool_paths(self):
         if self.kinematics not in KINEMATICS:

@@ -31,11 +31,12 @@ from . import topics
 from .diagnostics import status_message
 from .node_main import run_node
 from .parameters import ConfigParameters
-from .planner_config import PlannerConfig
+from .planner_config import MAX_WAYPOINT_TOLERANCE, PlannerConfig
 from .request_planning import (plan_from_running, plan_request, plan_tool_request,
-                               REPLAN_MAX_DELAY, start_from_state, summary_values,
-                               tool_summary_values)
+                               REPLAN_MAX_DELAY, slow_plan_warning, start_from_state,
+                               summary_values, tool_summary_values)
 from .ros_conversions import parse_tool_request, parse_waypoint_request, trajectory_to_msg
+from ..planning import DEFAULT_WAYPOINT_TOLERANCE
 
 PARAMETER_DESCRIPTIONS = {
     'joint_names': 'Joints planned, in the order of the limit arrays.',
@@ -66,6 +67,16 @@ PARAMETER_DESCRIPTIONS = {
                                  'interpolation between tool waypoints; 0 = not checked.',
     'max_inserted_waypoints': 'Most waypoints the refinement of one tool request may insert; '
                               'a request that needs more is rejected.',
+    'waypoint_tolerance': 'Consecutive waypoints whose every joint differs by at most this '
+                          '[rad or m] are merged (uniform and optimal timing), and a '
+                          'replanning start state this close to the first waypoint replaces '
+                          f'it; default {DEFAULT_WAYPOINT_TOLERANCE:g} (four times the '
+                          "dynamic arm's rest dead band), 0 = exact duplicates only, "
+                          f'at most {MAX_WAYPOINT_TOLERANCE:g}.',
+    'min_position': 'Per-joint lower position limit [rad or m], checked exactly on the '
+                    'plan; empty = none; -.inf for a joint without one.',
+    'max_position': 'Per-joint upper position limit [rad or m], checked exactly on the '
+                    'plan; empty = none; .inf for a joint without one.',
 }
 
 _STOP = object()
@@ -181,8 +192,11 @@ class PlannerNode(Node):
         if switch_delay > 0.0:
             delayed = (f'; switching {switch_delay:.3f} s after now + replan_lead_time, '
                        'since no plan met the limits from the state there')
+        warning = slow_plan_warning(traj)
         self._report(True, f'request {request_id}: {traj.method}/{traj.timing} through '
-                           f'{through} in {traj.duration:.4f} s{delayed}', values)
+                           f'{through} in {traj.duration:.4f} s{delayed}'
+                           + ('' if warning is None else f'; WARNING: {warning}'),
+                     values, warn=warning is not None)
 
     def _replan(self, config, request, switch_ns):
         """
@@ -200,8 +214,8 @@ class PlannerNode(Node):
                     return (self.get_clock().now().nanoseconds - start_ns) * 1e-9
                 used, traj = plan_from_running(config, request, running, t, clock)
                 return max(switch_ns, start_ns + int(round(used * 1e9))), traj
-        return switch_ns, plan_request(config, start_from_state(request,
-                                                                *self._joint_state_start(config)))
+        return switch_ns, plan_request(config, start_from_state(
+            request, *self._joint_state_start(config), config.waypoint_tolerance))
 
     def _joint_state_start(self, config):
         """Position, velocity and zero acceleration from the latest joint_states."""
@@ -231,12 +245,15 @@ class PlannerNode(Node):
             self._status_name, False, f'parameter update {reason}',
             {'parameters': ' '.join(names)}))
 
-    def _report(self, ok, message, values):
-        if ok:
-            self.get_logger().info(message)
-        else:
+    def _report(self, ok, message, values, warn=False):
+        if not ok:
             self.get_logger().error(message)
-        self.status_publisher.publish(status_message(self._status_name, ok, message, values))
+        elif warn:
+            self.get_logger().warning(message)
+        else:
+            self.get_logger().info(message)
+        self.status_publisher.publish(status_message(self._status_name, ok, message, values,
+                                                     warn))
 
     def destroy_node(self):
         """Stop the planning worker, then destroy the node."""

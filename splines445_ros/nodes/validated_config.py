@@ -1,6 +1,6 @@
 """Base of the nodes' frozen config dataclasses (pure Python, no rclpy)."""
 
-from dataclasses import fields
+from dataclasses import fields, replace
 import math
 
 
@@ -18,6 +18,19 @@ class ValidatedConfig:
             value = getattr(config, field.name)
             if isinstance(field.default, str) and not isinstance(value, str):
                 raise ValueError(f'{field.name} must be a string, got {value!r}')
+        # Arrays that default to empty are declared with dynamic typing too
+        # (rclpy types an empty default as a byte array): numbers only, as floats.
+        changes = {}
+        for field in fields(cls):
+            if field.default == ():
+                value = getattr(config, field.name)
+                if not isinstance(value, tuple) or any(
+                        isinstance(v, (bool, str, bytes)) or not isinstance(v, (int, float))
+                        for v in value):
+                    raise ValueError(f'{field.name} must be an array of numbers, got {value!r}')
+                changes[field.name] = tuple(float(v) for v in value)
+        if changes:
+            config = replace(config, **changes)
         config.validate()
         return config
 
