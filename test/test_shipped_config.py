@@ -23,7 +23,11 @@ def test_the_shipped_config_refines_the_paper_triangle_for_every_method():
         for method in ('445', '434', '555'):
             assert system.set_planner_parameters({'method': method})[0].successful
             status, trajectory = system.request(request)
-            assert status.level == DiagnosticStatus.OK, (method, status.message)
+            # 445 uniform, refined and jerk-limited, lasts 70 s, 37 times the
+            # lower bound: a WARN that suggests optimal timing, not an error.
+            assert status.level in (DiagnosticStatus.OK, DiagnosticStatus.WARN), status.message
+            assert (status.level == DiagnosticStatus.WARN) == (method == '445'), status.message
+            assert status.level == DiagnosticStatus.OK or 'optimal' in status.message
             values = status_values(status)
             assert float(values['max_path_deviation_reached']) <= 1e-3
             assert int(values['inserted_waypoints']) > 0 and trajectory is not None
