@@ -191,8 +191,9 @@ class InProcessSystem(LocalRos):
                                    lambda values: 'request' in values, timeout)
         if status is None:
             raise TimeoutError('no status from the planner')
-        if status.level != DiagnosticStatus.OK:
+        if status.level == DiagnosticStatus.ERROR:
             return status, None
+        # OK, or WARN (a slow plan): a trajectory was published.
         if not self.spin_until(lambda: len(self.trajectories) > n_traj, timeout):
             raise TimeoutError('planner reported success but no trajectory arrived')
         return status, self.trajectories[-1]
