@@ -94,14 +94,15 @@ def path_with_near_duplicate(draw, low, high, places=('start', 'middle', 'end'))
     return points, np.insert(points, k if before else k + 1, copy, axis=0), limits
 
 
-@given(path_with_near_duplicate(1e-12, DEFAULT_WAYPOINT_TOLERANCE),
+@given(path_with_near_duplicate(1e-12, DEFAULT_WAYPOINT_TOLERANCE * (1.0 - 1e-9)),
        st.sampled_from(METHODS), st.sampled_from(TIMINGS))
 def test_a_near_duplicate_within_the_tolerance_changes_a_duration_by_at_most_1_percent(
         case, method, timing):
     points, doubled, limits = case
     clean = plan(points, method, timing, **limits)
     traj = plan(doubled, method, timing, **limits)
-    assert len(traj.dropped_waypoints) == 1
+    # (The random path may hold a near-duplicate of its own.)
+    assert len(traj.dropped_waypoints) == len(clean.dropped_waypoints) + 1
     assert traj.duration == pytest.approx(clean.duration, rel=0.01)
 
 
