@@ -21,6 +21,8 @@ MAX_LEAD_TIME = 10.0
 # Values of the ``kinematics`` parameter: '' = joint space only.
 KINEMATICS = ('', 'planar_3dof')
 MAX_INSERTED_WAYPOINTS = 100000
+# Values of the ``output`` parameter: a point every sample_period, or one per knot.
+OUTPUTS = ('sampled', 'knots')
 
 
 @dataclass(frozen=True)
@@ -42,6 +44,7 @@ class PlannerConfig(ValidatedConfig):
     max_path_deviation: float = 0.0
     max_orientation_deviation: float = 0.0
     max_inserted_waypoints: int = 200
+    output: str = 'sampled'
 
     def validate(self):
         """Raise ValueError with the reason when any value is unusable."""
@@ -69,6 +72,8 @@ class PlannerConfig(ValidatedConfig):
             raise ValueError(f'sample_period = {self.sample_period}: must be at least '
                              f'{MIN_SAMPLE_PERIOD} s')
         self.require_in_range('replan_lead_time', 0.0, MAX_LEAD_TIME, 's')
+        if self.output not in OUTPUTS:
+            raise ValueError(f'output must be one of {list(OUTPUTS)}, got {self.output!r}')
 
         if self.max_trajectory_points < 2:
             raise ValueError(f'max_trajectory_points = {self.max_trajectory_points}: must be '
