@@ -30,6 +30,7 @@ from splines445_ros.nodes.planner_config import PlannerConfig
 from splines445_ros.nodes.request_planning import output_samples
 from splines445_ros.nodes.ros_conversions import sampled_trajectory_from_msg, trajectory_to_msg
 from splines445_ros.planning import plan
+from splines445_ros.tools.plot_trajectory import controller_view
 
 NANOS = 1_000_000_000
 METHODS = ['434', '445', '555']
@@ -297,3 +298,16 @@ def test_output_is_validated_and_knots_count_against_max_trajectory_points():
     # The same limit with samples: 0.01 s over about 3.3 s is about 336 points.
     with pytest.raises(ValueError, match='sample_period'):
         output_samples(PlannerConfig(max_trajectory_points=12), traj)
+
+
+def test_plot_trajectory_shows_the_controllers_motion_between_knots():
+    traj = plan(pe.joint_waypoints(), '555', 'uniform', **pe.plan_kwargs())
+    ns, (p, v, a) = message_arrays(knots_message(traj, pe.JOINT_NAMES))
+    t, pos, vel, acc, interpolated = controller_view(ns * 1e-9, p, v, a, count=500)
+    assert interpolated and len(t) >= 500 and np.all(np.diff(t) > 0.0)
+    for d, values in enumerate((pos, vel, acc)):
+        scale = float(np.max(np.abs(values)))
+        np.testing.assert_allclose(values, traj.ppoly(t, d), rtol=0, atol=RTOL * scale)
+    # Dense samples (output: sampled) are plotted as they are.
+    many = np.linspace(0.0, 1.0, 600)
+    assert not controller_view(many, np.zeros((600, 1)), np.zeros((600, 1)), None, 500)[4]
