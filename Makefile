@@ -38,6 +38,8 @@ help:
 	@echo "make bench  planning time and optimal durations against scipy and TOPP-RA,"
 	@echo "            tracking and torque of every method on the dynamic arm,"
 	@echo "            replanning from moving states, near-duplicate waypoints"
+	@echo "            replanning from moving states, message size and publishing"
+	@echo "            time of output: sampled against output: knots"
 	@echo "make lint   ament_flake8 and ament_pep257 on the sources"
 	@echo "make clean  remove build products (keeps .venv)"
 
@@ -71,6 +73,7 @@ bench: build
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_smoothness.py
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_replanning.py
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_near_duplicates.py
+	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_output.py
 
 lint: env
 	$(BIN)ament_flake8 $(LINTED)

@@ -23,6 +23,8 @@ KINEMATICS = ('', 'planar_3dof')
 MAX_INSERTED_WAYPOINTS = 100000
 # A waypoint tolerance above this [rad or m] would merge distinct taught points.
 MAX_WAYPOINT_TOLERANCE = 0.1
+# Values of the ``output`` parameter: a point every sample_period, or one per knot.
+OUTPUTS = ('sampled', 'knots')
 
 
 @dataclass(frozen=True)
@@ -47,6 +49,7 @@ class PlannerConfig(ValidatedConfig):
     waypoint_tolerance: float = DEFAULT_WAYPOINT_TOLERANCE
     min_position: Tuple[float, ...] = ()
     max_position: Tuple[float, ...] = ()
+    output: str = 'sampled'
 
     def validate(self):
         """Raise ValueError with the reason when any value is unusable."""
@@ -76,6 +79,8 @@ class PlannerConfig(ValidatedConfig):
         self.require_in_range('replan_lead_time', 0.0, MAX_LEAD_TIME, 's')
         self.require_in_range('waypoint_tolerance', 0.0, MAX_WAYPOINT_TOLERANCE)
         self._validate_position_limits(n)
+        if self.output not in OUTPUTS:
+            raise ValueError(f'output must be one of {list(OUTPUTS)}, got {self.output!r}')
 
         if self.max_trajectory_points < 2:
             raise ValueError(f'max_trajectory_points = {self.max_trajectory_points}: must be '

@@ -5,9 +5,10 @@ Subscribes ``waypoints`` (trajectory_msgs/JointTrajectory) and
 ``tool_waypoints`` (geometry_msgs/PoseArray, tool poses: inverse kinematics
 of ``kinematics``, refined until the tool stays within ``max_path_deviation``
 of the straight lines), plans with the planning core and the limits from its
-parameters, publishes ``joint_trajectory`` sampled every ``sample_period`` and
-reports every request's outcome on ``~/status``
-(diagnostic_msgs/DiagnosticStatus).
+parameters, publishes ``joint_trajectory`` (sampled every ``sample_period``, or
+with ``output: knots`` one point per knot of the spline, which the quintic
+interpolation of joint_trajectory_controller reproduces exactly) and reports
+every request's outcome on ``~/status`` (diagnostic_msgs/DiagnosticStatus).
 
 Planning runs on a worker thread, so a large request never blocks the node's
 other callbacks (parameter services, state subscriptions).  A bad request is
@@ -32,9 +33,9 @@ from .diagnostics import status_message
 from .node_main import run_node
 from .parameters import ConfigParameters
 from .planner_config import MAX_WAYPOINT_TOLERANCE, PlannerConfig
-from .request_planning import (plan_from_running, plan_request, plan_tool_request,
-                               REPLAN_MAX_DELAY, slow_plan_warning, start_from_state,
-                               summary_values, tool_summary_values)
+from .request_planning import (output_samples, plan_from_running, plan_request,
+                               plan_tool_request, REPLAN_MAX_DELAY, slow_plan_warning,
+                               start_from_state, summary_values, tool_summary_values)
 from .ros_conversions import parse_tool_request, parse_waypoint_request, trajectory_to_msg
 from ..planning import DEFAULT_WAYPOINT_TOLERANCE
 
@@ -49,7 +50,8 @@ PARAMETER_DESCRIPTIONS = {
               'numbers as typed (-p method:=555) are accepted.',
     'timing': '"uniform" (chord durations, one common scale factor), "optimal" '
               '(minimum total time) or "fixed" (durations from time_from_start).',
-    'sample_period': 'Period of the published trajectory points [s], >= 1e-4.',
+    'sample_period': 'Period of the published trajectory points [s], >= 1e-4 (output '
+                     '"sampled").',
     'start_from_current_state': 'Start every trajectory from the commanded state at '
                                 'now + replan_lead_time (continuous replanning), or up '
                                 f'to {REPLAN_MAX_DELAY:g} s later along the running '
@@ -57,7 +59,8 @@ PARAMETER_DESCRIPTIONS = {
     'replan_lead_time': 'How far ahead of now a replanned trajectory takes over [s]; '
                         'planning must finish within it.',
     'max_trajectory_points': 'Largest number of points a published trajectory may have; '
-                             'a longer one is rejected (raise sample_period instead).',
+                             'a longer one is rejected (raise sample_period or use output '
+                             '"knots" instead).',
     'kinematics': 'Kinematics for tool_waypoints requests: "" (none: joint space only) or '
                   '"planar_3dof" (the paper\'s arm with link_lengths, elbow branch +1).',
     'link_lengths': 'd1, d2 of the planar_3dof arm [m], > 0.',
@@ -77,6 +80,10 @@ PARAMETER_DESCRIPTIONS = {
                     'plan; empty = none; -.inf for a joint without one.',
     'max_position': 'Per-joint upper position limit [rad or m], checked exactly on the '
                     'plan; empty = none; .inf for a joint without one.',
+    'output': '"sampled" (a point every sample_period; default) or "knots" (one point per '
+              'knot of the spline, with its exact position, velocity and acceleration: the '
+              'quintic interpolation of joint_trajectory_controller between them reproduces '
+              'the planned trajectory).',
 }
 
 _STOP = object()
@@ -151,18 +158,12 @@ class PlannerNode(Node):
                     switch_delay = 1e-9 * (switch_ns - requested_ns)
                 else:
                     traj = plan_request(config, request)
-            n_points = int(traj.duration / config.sample_period) + 2
-            if n_points > config.max_trajectory_points:
-                raise ValueError(
-                    f'the trajectory lasts {traj.duration:.6g} s: about {n_points} points at '
-                    f'sample_period {config.sample_period} s, more than max_trajectory_points '
-                    f'({config.max_trajectory_points})')
+            planned = time.perf_counter()
+            samples = output_samples(config, traj)
         except ValueError as exc:
             self._report(False, f'request {request_id} rejected: {exc}',
                          {'request': request_id})
             return
-        planned = time.perf_counter()
-        samples = traj.sample(config.sample_period)
         stamp = None if switch_ns is None else Time(nanoseconds=switch_ns).to_msg()
         out = trajectory_to_msg(samples, config.joint_names, stamp)
         now_ns = self.get_clock().now().nanoseconds

@@ -29,6 +29,9 @@ REPLAN_MAX_DELAY = 1.0
 # (434, 555) and 41 (445, whose undamped mode makes long paths slow); the
 # near-duplicate plans this guards against took 100 to 1e6 times it.
 SLOW_PLAN_FACTOR = 20.0
+# Resolution of time_from_start (builtin_interfaces/Duration) [s]: knots are
+# published at their times rounded to it.
+TIME_RESOLUTION = 1e-9
 
 
 def plan_request(config, request):
@@ -92,6 +95,31 @@ def plan_tool_request(config, poses):
                                max_jerk=config.jerk_limits())
     check_position_limits(tool_path.trajectory, **config.position_limits())
     return tool_path
+
+
+def output_samples(config, traj):
+    """
+    Return the points to publish for ``traj``: samples every ``sample_period`` or its knots.
+
+    ``output: knots`` gives one point per breakpoint of ``traj.ppoly`` (inner
+    knots included), at its time rounded to the nanosecond with the spline's
+    exact state there (see ``Trajectory.knots``).  Raises ValueError when
+    there would be more than ``max_trajectory_points`` points (checked before
+    sampling) or when two knots are less than a nanosecond apart.
+    """
+    if config.output == 'knots':
+        n_points = traj.ppoly.x.size
+        what = f'{n_points} knots'
+    else:
+        n_points = int(traj.duration / config.sample_period) + 2
+        what = f'about {n_points} points at sample_period {config.sample_period} s'
+    if n_points > config.max_trajectory_points:
+        raise ValueError(
+            f'the trajectory lasts {traj.duration:.6g} s: {what}, more than '
+            f'max_trajectory_points ({config.max_trajectory_points})')
+    if config.output == 'knots':
+        return traj.knots(TIME_RESOLUTION)
+    return traj.sample(config.sample_period)
 
 
 def tool_summary_values(tool_path):

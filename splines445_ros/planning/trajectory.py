@@ -1,6 +1,7 @@
 """The planned trajectory: one scipy PPoly for all joints, plus what limits it met."""
 
 from dataclasses import replace
+from math import comb, perm
 from typing import NamedTuple
 
 import numpy as np
@@ -176,6 +177,56 @@ class Trajectory:
         velocities[-1] = self.end_velocity
         accelerations[-1] = self.end_acceleration
         return Samples(times, positions, velocities, accelerations)
+
+    def knots(self, resolution=0.0):
+        """
+        Return the state at every breakpoint of ``ppoly`` (every knot, inner knots too).
+
+        A quintic Hermite interpolation between consecutive knots through their
+        positions, velocities and accelerations (what ros2_control's
+        joint_trajectory_controller does) reproduces this trajectory exactly:
+        every segment is a polynomial of degree <= 5, fixed by those six values.
+
+        The state at a knot is the start of the segment that begins there (its
+        coefficients, no evaluation round-off); the last knot is the last
+        waypoint with the end velocity and acceleration.  ``resolution`` > 0
+        [s] rounds the knot times to multiples of it (1e-9 for
+        ``time_from_start`` of a ROS message) and moves each state along its
+        polynomial to the rounded time (the last one along the last segment
+        beyond the end), so that the interpolation between the rounded times
+        still reproduces the spline: to round-off where the jerk is
+        continuous (445, 555); where it jumps (434) the interpolation before a
+        knot is off by the jump times the rounding (in acceleration).  Raises
+        ValueError when two knots round to the same time.
+        """
+        resolution = float(resolution)
+        if not np.isfinite(resolution) or resolution < 0.0:
+            raise ValueError(f'resolution must be >= 0 and finite, got {resolution}')
+        times = self.breakpoints
+        if resolution > 0.0:
+            times = np.round(times / resolution) * resolution
+            close = np.flatnonzero(np.diff(times) <= 0.0)
+            if close.size:
+                k = int(close[0])
+                raise ValueError(f'knots {k} and {k + 1} are {self.durations[k]:.3g} s apart: '
+                                 f'closer than the time resolution {resolution:g} s of the '
+                                 'output')
+        # Taylor coefficients (K, 6, n) of the state at every knot: each segment's
+        # own at its start, the last segment's at its end for the last knot.
+        last = self.coefficients[-1]
+        h = self.durations[-1]
+        end = np.array([sum(comb(m, i) * last[m] * h ** (m - i) for m in range(i, 6))
+                        for i in range(6)])
+        end[:3] = self.waypoints[-1], self.end_velocity, 0.5 * self.end_acceleration
+        taylor = np.concatenate([self.coefficients, end[None]])
+        tau = (times - self.breakpoints)[:, None]
+        states = []
+        for d in range(3):
+            value = np.zeros_like(taylor[:, 0])
+            for i in range(5, d - 1, -1):  # Horner in tau of the d-th derivative
+                value = value * tau + perm(i, d) * taylor[:, i]
+            states.append(value)
+        return Samples(times.copy(), *states)
 
     def segment_peaks(self, derivative):
         """Exact per-segment peak |derivative| (S, n); 1 = velocity, 2 = acc, 3 = jerk."""

@@ -12,7 +12,10 @@ Two sources:
 
 The figure shows positions, velocities and accelerations of every joint over
 ``time_from_start`` and the jerk as the difference quotient of the sampled
-accelerations.
+accelerations.  Sparse points that carry velocities (``output: knots``: one
+per spline knot) are interpolated as joint_trajectory_controller does
+(quintic with accelerations, cubic without) at :data:`PLOT_POINTS` times, so
+the figure shows the motion the controller runs, not a polyline.
 """
 
 import argparse
@@ -23,6 +26,10 @@ import numpy as np
 import yaml
 
 from .figures import plot_samples
+from ..arm.playback import SampledTrajectory
+
+# Fewer points than this (with velocities) are interpolated for the figure.
+PLOT_POINTS = 2000
 
 
 def _seconds(duration):
@@ -46,6 +53,26 @@ def samples_from_dict(message):
         else:
             columns.append(None)
     return times, columns[0], columns[1], columns[2], names
+
+
+def controller_view(times, positions, velocities, accelerations, count=PLOT_POINTS):
+    """
+    Return the points, interpolated like joint_trajectory_controller when sparse.
+
+    With velocities on every point and fewer than ``count`` points, the
+    result holds ``count`` evenly spaced times plus the points' own, with the
+    controller's interpolation between them; otherwise the points as given.
+    Returns times, positions, velocities, accelerations and whether it
+    interpolated.
+    """
+    if velocities is None or len(times) < 2 or len(times) >= count:
+        return times, positions, velocities, accelerations, False
+    played = SampledTrajectory(times, positions, velocities, accelerations)
+    t = np.union1d(np.linspace(times[0], times[-1], count), times)[:-1]
+    pos, vel, acc = played.states_at(t)
+    last_acc = np.zeros((1, positions.shape[1])) if accelerations is None else accelerations[-1:]
+    return (np.append(t, times[-1]), np.vstack([pos, positions[-1:]]),
+            np.vstack([vel, velocities[-1:]]), np.vstack([acc, last_acc]), True)
 
 
 def message_to_dict(msg):
@@ -111,8 +138,11 @@ def main(argv=None):
         return 1
     except KeyboardInterrupt:
         return 130
+    n_points = len(times)
+    times, pos, vel, acc, interpolated = controller_view(times, pos, vel, acc)
+    how = ', interpolated like joint_trajectory_controller' if interpolated else ''
     plot_samples(times, pos, vel, acc, names, args.out,
-                 title=f'{args.file or args.topic}: {len(times)} points, {times[-1]:.3f} s')
+                 title=f'{args.file or args.topic}: {n_points} points{how}, {times[-1]:.3f} s')
     print(f'wrote {args.out}')
     return 0
 
