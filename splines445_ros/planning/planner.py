@@ -3,6 +3,7 @@
 import numpy as np
 
 from .continuity_system import spline_coefficients
+from .inner_knots import inner_knot_count, with_inner_knots
 from .limits import check_boundary_feasible, JointLimits
 from .methods import get_method
 from .optimal import optimal_durations
@@ -38,7 +39,7 @@ def merge_duplicates(waypoints):
 def plan(waypoints, method='445', timing='uniform', durations=None,
          max_velocity=None, max_acceleration=None, max_jerk=None,
          start_velocity=None, start_acceleration=None,
-         end_velocity=None, end_acceleration=None):
+         end_velocity=None, end_acceleration=None, inner_knots=0):
     """
     Plan a trajectory through ``waypoints`` (N, n_joints).
 
@@ -74,12 +75,23 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         leave that joint's jerk unlimited.
     start_velocity, start_acceleration, end_velocity, end_acceleration : (n,)
         boundary values, zero when None.
+    inner_knots : int, 0 to 8
+        Free inner knots per segment for method "555" with timing
+        "optimal" (:mod:`inner_knots`): the result is still a C4 quintic
+        spline through every waypoint, passed at ``waypoint_times``; its
+        ``breakpoints`` include the inner knots.  0 (the default) keeps knots
+        at the waypoints only.  Used for rest-to-rest requests; with
+        non-zero boundary values the knots-only optimum is returned.
 
     """
+    inner_knots = inner_knot_count(inner_knots, get_method(method).name, timing)
     with np.errstate(over='ignore', invalid='ignore', divide='ignore'):
-        return _plan(waypoints, method, timing, durations, max_velocity, max_acceleration,
+        traj = _plan(waypoints, method, timing, durations, max_velocity, max_acceleration,
                      max_jerk, start_velocity, start_acceleration, end_velocity,
                      end_acceleration)
+        if inner_knots:
+            traj = with_inner_knots(traj, inner_knots)
+    return traj
 
 
 def _plan(waypoints, method, timing, durations, max_velocity, max_acceleration, max_jerk,
