@@ -66,6 +66,11 @@ PARAMETER_DESCRIPTIONS = {
                                  'interpolation between tool waypoints; 0 = not checked.',
     'max_inserted_waypoints': 'Most waypoints the refinement of one tool request may insert; '
                               'a request that needs more is rejected.',
+    'inner_knots': 'Free inner knots per segment for method "555" with timing "optimal", '
+                   'in [0, 8]: a C4 spline with free knots between the waypoints, much '
+                   'shorter (rest-to-rest waypoint requests; replanning from a moving state '
+                   'and tool_waypoints keep knots at the waypoints); 0 = knots at the '
+                   'waypoints only.',
 }
 
 _STOP = object()

@@ -43,7 +43,8 @@ def plan_request(config, request):
                 max_acceleration=config.max_acceleration, max_jerk=config.jerk_limits(),
                 start_velocity=request.start_velocity,
                 start_acceleration=request.start_acceleration,
-                end_velocity=request.end_velocity, end_acceleration=request.end_acceleration)
+                end_velocity=request.end_velocity, end_acceleration=request.end_acceleration,
+                inner_knots=config.plan_inner_knots())
     if not traj.within_limits(rtol=FIXED_TIMING_RTOL):
         b = traj.binding
         raise ValueError(
@@ -167,6 +168,7 @@ def summary_values(traj, joint_names):
         'timing': traj.timing,
         'duration': f'{traj.duration:.9g}',
         'waypoints': traj.waypoints.shape[0],
+        'knots': traj.breakpoints.size,
         'dropped_waypoints': ' '.join(str(i) for i in traj.dropped_waypoints),
         'peak_velocity': format_vector(peaks['velocity']),
         'peak_acceleration': format_vector(peaks['acceleration']),
