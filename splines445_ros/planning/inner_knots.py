@@ -76,12 +76,12 @@ SAMPLES = 5
 # Per-joint scale iteration (step 1): most LPs, and the relative fall of the
 # scale below which it stops.
 SCALE_ITERATIONS = 12
-SCALE_TOLERANCE = 1e-4
+SCALE_TOLERANCE = 1e-3
 # Largest relative shortening in one LP of step 1 (keeps 1 + q d positive).
 MAX_SHRINK = 0.3
 # Redistribution (step 2): most rounds, first and smallest trust-region radius,
 # and the relative fall of the total for a step to be kept.
-ROUNDS = 8
+ROUNDS = 5
 INITIAL_RADIUS = 0.3
 MIN_RADIUS = 0.01
 ROUND_GAIN = 1e-4
