@@ -161,6 +161,18 @@ def test_warm_start_with_inserted_knots_is_the_same_spline(n_inner):
         assert np.max(np.abs(ours - expected)) <= 1e-9 * scale, d
 
 
+def test_a_joint_that_does_not_move_does_not_stop_the_refinement():
+    rng = np.random.default_rng(5)
+    points = np.cumsum(rng.uniform(-1.0, 1.0, (6, 3)), axis=0)
+    points[:, 1] = 0.7
+    kwargs = limits(np.full(3, 2.0), np.full(3, 10.0), np.full(3, 100.0))
+    traj = plan(points, '555', 'optimal', inner_knots=2, **kwargs)
+    assert traj.optimizer['inner_knots'] == 2
+    assert np.max(np.abs(traj.ppoly(dense_times(traj))[:, 1] - 0.7)) <= 1e-9
+    check_limits(traj, *kwargs.values())
+    check_waypoints(traj, points)
+
+
 def test_zero_inner_knots_is_todays_plan():
     rng = np.random.default_rng(3)
     points = np.cumsum(rng.uniform(-1.0, 1.0, (8, 2)), axis=0)

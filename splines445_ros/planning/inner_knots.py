@@ -301,7 +301,10 @@ def _best_scale(points, waypoint_knots, pieces, limits, joint, iterations):
         p, v, a = solved[0]
         coeffs = quintic_coefficients(c * pieces, p[:, None], v[:, None], a[:, None])
         f = float(np.max(exact_factors(coeffs, c * pieces, one))) * _ROUNDOFF
-        if not np.isfinite(f) or f <= 0.0:
+        if f == 0.0:
+            # The joint does not move: it meets its limits at any scale.
+            return 0.0, np.stack([p, np.zeros_like(v), np.zeros_like(a)])
+        if not np.isfinite(f):
             break
         if best is None or c * f < best[0]:
             best = (c * f, np.stack([p, v / f, a / f ** 2]))
@@ -328,7 +331,7 @@ def _common_scale(points, waypoint_knots, pieces, limits, iterations=SCALE_ITERA
     for j, (own, joint_states) in enumerate(found):
         # A joint feasible at its own scale <= c stays feasible when slowed
         # down to c (exact rest-to-rest scaling).
-        s = c / own
+        s = c / own if own > 0.0 else 1.0
         states[:, :, j] = joint_states / np.array([1.0, s, s * s])[:, None]
     # Fixed LP variables come back as their bounds; set them exactly anyway.
     states[0, waypoint_knots] = points
