@@ -62,6 +62,7 @@ import numpy as np
 from scipy.optimize import Bounds, LinearConstraint, linprog, milp
 from scipy.sparse import csc_array, csr_array
 
+from .continuity_system import ContinuitySystem
 from .limits import limit_ratios
 from .segments import (
     A_END, A_START, derivative_weights, DP, falling_factors, input_maps, QUINTIC, V_END,
@@ -141,6 +142,21 @@ def insert_knots(traj, pieces):
     times = np.concatenate([[0.0], np.cumsum(pieces)])
     times[-1] = min(times[-1], traj.duration)
     return np.stack([traj.ppoly(times, nu=d) for d in range(3)])
+
+
+def c4_states(pieces, positions):
+    """
+    Knot states (3, K, n) of the C4 quintic spline through ``positions`` (K, n), at rest.
+
+    Velocities and accelerations come from the banded continuity system of
+    555 (:mod:`continuity_system`, jerk and snap continuity) over all knots:
+    the LP's own values meet those equations only to its tolerance, these
+    to round-off.
+    """
+    zero = np.zeros(positions.shape[1])
+    vel, acc = ContinuitySystem('555', pieces).solve(np.diff(positions, axis=0), zero, zero,
+                                                     zero, zero)
+    return np.stack([positions, vel, acc])
 
 
 def exact_factors(coeffs, pieces, limits):
@@ -298,7 +314,7 @@ def _best_scale(points, waypoint_knots, pieces, limits, joint, iterations):
                         np.ones(1), (-MAX_SHRINK, np.inf))
         if solved is None:
             break
-        p, v, a = solved[0]
+        p, v, a = c4_states(c * pieces, solved[0][0][:, None])[:, :, 0]
         coeffs = quintic_coefficients(c * pieces, p[:, None], v[:, None], a[:, None])
         f = float(np.max(exact_factors(coeffs, c * pieces, one))) * _ROUNDOFF
         if f == 0.0:
@@ -335,8 +351,8 @@ def _common_scale(points, waypoint_knots, pieces, limits, iterations=SCALE_ITERA
         states[:, :, j] = joint_states / np.array([1.0, s, s * s])[:, None]
     # Fixed LP variables come back as their bounds; set them exactly anyway.
     states[0, waypoint_knots] = points
-    states[1:, [0, -1]] = 0.0
     scaled = c * pieces
+    states = c4_states(scaled, states[0])
     g = float(np.max(exact_factors(quintic_coefficients(scaled, *states), scaled, limits)))
     g *= _ROUNDOFF
     states[1] /= g
@@ -367,7 +383,8 @@ def refine_rest_to_rest(points, durations, limits, n_inner):
                             pieces, (-radius, radius))
             if solved is None:
                 return best[0], best[1], waypoint_knots
-            coeffs = quintic_coefficients(pieces, *(s[:, None] for s in solved[0]))
+            states = c4_states(pieces, solved[0][0][:, None])
+            coeffs = quintic_coefficients(pieces, *states)
             factors[:, j] = exact_factors(coeffs, pieces, _joint_limits(limits, j))[:, 0]
         per_piece = np.clip(np.max(factors, axis=1), 1.0 - radius, 1.0 + radius)
         trial = _common_scale(points, waypoint_knots, pieces * per_piece, limits,
