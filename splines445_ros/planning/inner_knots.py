@@ -407,8 +407,8 @@ def with_inner_knots(traj, n_inner):
 
     ``traj`` is the knots-only optimum.  It is returned unchanged when
     ``n_inner`` is 0, when a boundary value is non-zero (the refinement
-    relies on rest-to-rest time scaling), or when the refinement is not
-    shorter; ``traj.optimizer['inner_knots']`` says how many inner knots
+    relies on rest-to-rest time scaling), or when the refinement fails or
+    is not shorter; ``traj.optimizer['inner_knots']`` says how many inner knots
     the returned trajectory has per segment.
     """
     traj.optimizer = dict(traj.optimizer or {}, inner_knots=0)
@@ -419,7 +419,10 @@ def with_inner_knots(traj, n_inner):
     if any(np.any(b) for b in boundary):
         traj.optimizer['inner_knots_skipped'] = 'non-zero boundary values'
         return traj
-    found = refine_rest_to_rest(traj.waypoints, traj.durations, traj.limits, n_inner)
+    try:
+        found = refine_rest_to_rest(traj.waypoints, traj.durations, traj.limits, n_inner)
+    except ValueError:  # a continuity system singular for some trial durations
+        found = None
     if found is None or not found[0].sum() < traj.duration:
         return traj
     pieces, states, waypoint_knots = found
