@@ -14,6 +14,7 @@ from typing import Tuple
 from .validated_config import ValidatedConfig
 from ..arm.kinematics import PlanarArm
 from ..planning import DEFAULT_WAYPOINT_TOLERANCE, METHODS, TIMINGS
+from ..planning.inner_knots import MAX_INNER_KNOTS
 
 DEFAULT_JOINTS = ('joint1', 'joint2', 'joint3')
 MIN_SAMPLE_PERIOD = 1e-4
@@ -50,6 +51,7 @@ class PlannerConfig(ValidatedConfig):
     min_position: Tuple[float, ...] = ()
     max_position: Tuple[float, ...] = ()
     output: str = 'sampled'
+    inner_knots: int = 0
 
     def validate(self):
         """Raise ValueError with the reason when any value is unusable."""
@@ -82,6 +84,9 @@ class PlannerConfig(ValidatedConfig):
         if self.output not in OUTPUTS:
             raise ValueError(f'output must be one of {list(OUTPUTS)}, got {self.output!r}')
 
+        if not 0 <= self.inner_knots <= MAX_INNER_KNOTS:
+            raise ValueError(f'inner_knots = {self.inner_knots}: must be in '
+                             f'[0, {MAX_INNER_KNOTS}]')
         if self.max_trajectory_points < 2:
             raise ValueError(f'max_trajectory_points = {self.max_trajectory_points}: must be '
                              'at least 2')
@@ -129,6 +134,12 @@ class PlannerConfig(ValidatedConfig):
         if self.kinematics == 'planar_3dof':
             return PlanarArm(*self.link_lengths)
         return None
+
+    def plan_inner_knots(self):
+        """Inner knots per segment for plan(): ``inner_knots`` for 555 optimal, else 0."""
+        if self.method == '555' and self.timing == 'optimal':
+            return self.inner_knots
+        return 0
 
     def jerk_limits(self):
         """Jerk limits for plan(): None when no joint has one, +inf for 0 entries."""

@@ -84,6 +84,11 @@ PARAMETER_DESCRIPTIONS = {
               'knot of the spline, with its exact position, velocity and acceleration: the '
               'quintic interpolation of joint_trajectory_controller between them reproduces '
               'the planned trajectory).',
+    'inner_knots': 'Free inner knots per segment for method "555" with timing "optimal", '
+                   'in [0, 8]: a C4 spline with free knots between the waypoints, much '
+                   'shorter (rest-to-rest waypoint requests; replanning from a moving state '
+                   'and tool_waypoints keep knots at the waypoints); 0 = knots at the '
+                   'waypoints only.',
 }
 
 _STOP = object()

@@ -54,7 +54,8 @@ def plan_request(config, request):
                 start_velocity=request.start_velocity,
                 start_acceleration=request.start_acceleration,
                 end_velocity=request.end_velocity, end_acceleration=request.end_acceleration,
-                waypoint_tolerance=config.waypoint_tolerance)
+                waypoint_tolerance=config.waypoint_tolerance,
+                inner_knots=config.plan_inner_knots())
     check_position_limits(traj, **config.position_limits())
     if not traj.within_limits(rtol=FIXED_TIMING_RTOL):
         b = traj.binding
@@ -236,6 +237,7 @@ def summary_values(traj, joint_names):
         'timing': traj.timing,
         'duration': f'{traj.duration:.9g}',
         'waypoints': traj.waypoints.shape[0],
+        'knots': traj.breakpoints.size,
         'dropped_waypoints': ' '.join(str(i) for i in traj.dropped_waypoints),
         'peak_velocity': format_vector(peaks['velocity']),
         'peak_acceleration': format_vector(peaks['acceleration']),

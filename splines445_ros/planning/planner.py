@@ -2,6 +2,7 @@
 
 import numpy as np
 
+from .inner_knots import inner_knot_count, with_inner_knots
 from .limits import check_boundary_feasible, JointLimits
 from .methods import get_method
 from .optimal import optimal_durations
@@ -63,7 +64,8 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
          max_velocity=None, max_acceleration=None, max_jerk=None,
          start_velocity=None, start_acceleration=None,
          end_velocity=None, end_acceleration=None,
-         waypoint_tolerance=DEFAULT_WAYPOINT_TOLERANCE, min_position=None, max_position=None):
+         waypoint_tolerance=DEFAULT_WAYPOINT_TOLERANCE, min_position=None, max_position=None,
+         inner_knots=0):
     """
     Plan a trajectory through ``waypoints`` (N, n_joints).
 
@@ -107,14 +109,24 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         Joint position limits (-inf / +inf entries: none), checked exactly
         on the polynomials; a plan that leaves them is rejected with the
         joint, the time and the excess.
+    inner_knots : int, 0 to 8
+        Free inner knots per segment for method "555" with timing
+        "optimal" (:mod:`inner_knots`): the result is still a C4 quintic
+        spline through every waypoint, passed at ``waypoint_times``; its
+        ``breakpoints`` include the inner knots.  0 (the default) keeps knots
+        at the waypoints only.  Used for rest-to-rest requests; with
+        non-zero boundary values the knots-only optimum is returned.
 
     """
     if not isinstance(timing, str) or timing not in TIMINGS:
         raise ValueError(f'unknown timing {timing!r}: expected one of {TIMINGS}')
+    inner_knots = inner_knot_count(inner_knots, get_method(method).name, timing)
     with np.errstate(over='ignore', invalid='ignore', divide='ignore', under='ignore'):
         traj = _plan(waypoints, method, timing, durations, max_velocity, max_acceleration,
                      max_jerk, (start_velocity, start_acceleration, end_velocity,
                                 end_acceleration), waypoint_tolerance)
+        if inner_knots:
+            traj = with_inner_knots(traj, inner_knots)
         check_position_limits(traj, min_position, max_position)
     return traj
 

@@ -50,8 +50,11 @@ class Trajectory:
 
     Attributes
     ----------
-    durations : (N-1,) segment durations in seconds.
-    breakpoints : (N,) waypoint times, starting at 0.0.
+    durations : (N-1,) segment durations in seconds (one per piece when the
+        trajectory has inner knots, see :mod:`inner_knots`).
+    breakpoints : (N,) waypoint times, starting at 0.0 (with inner knots:
+        every knot's time).
+    waypoint_times : (N,) the time at which each waypoint is passed.
     duration : total time.
     ppoly : ``scipy.interpolate.PPoly``; ``x = breakpoints``, values of shape (n,).
     waypoints : (N, n) the waypoints it passes through (after merging duplicates).
@@ -79,6 +82,7 @@ class Trajectory:
         self.durations = np.asarray(durations, dtype=float)
         self.breakpoints = np.concatenate([[0.0], np.cumsum(self.durations)])
         self.duration = float(self.breakpoints[-1])
+        self.waypoint_times = self.breakpoints
         self.coefficients = coefficients
         self.ppoly = PPoly(coefficients[:, ::-1].transpose(1, 0, 2), self.breakpoints,
                            extrapolate=True)

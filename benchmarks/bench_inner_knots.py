@@ -1,0 +1,152 @@
+"""
+Free inner knots (issue 17): 555 optimal timing against TOPP-RA, one run.
+
+20 random rest-to-rest requests (fixed seed; 5 to 50 waypoints, 3 to 7
+joints, v in [1, 3] rad/s and a in [5, 15] rad/s^2 per joint).  For each:
+TOPP-RA's duration (toppra, v/a limits only, its own spline path through
+the waypoints, default grid), the lower bound LB of the issue, and the 555
+optimal duration with knots at the waypoints only (before the issue) and
+with ``inner_knots`` free knots per segment, for no jerk limit, j = 20 a
+and j = 5 a, as ratios to TOPP-RA with planning times; then the median and
+worst ratios and whether every limit held (exact peaks).  Then the paper's
+example and the planning time at 100 x 7 (and 1000 x 7 with
+SPLINES445_BENCH_FULL=1) against TOPP-RA's on the same request.
+
+Usage: ``python benchmarks/bench_inner_knots.py [inner_knots]`` (default 2).
+"""
+
+import logging
+import os
+import sys
+import time
+
+os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but the rule holds
+
+from bench_planning import toppra_plan  # noqa: E402, I100
+import numpy as np  # noqa: E402, I100
+from splines445_ros.arm import paper_example as pe  # noqa: E402
+from splines445_ros.planning import plan  # noqa: E402
+
+SEED = 17
+N_CASES = 20
+JERK_RATIOS = (None, 20.0, 5.0)
+
+
+def timed(func):
+    """Wall time [s] of one call and its result."""
+    started = time.perf_counter()
+    result = func()
+    return time.perf_counter() - started, result
+
+
+def rest_to_rest_time(distance, vmax, amax):
+    """Shortest rest-to-rest time over ``distance`` with |v| <= vmax, |a| <= amax."""
+    if distance >= vmax * vmax / amax:
+        return distance / vmax + vmax / amax
+    return 2.0 * np.sqrt(distance / amax)
+
+
+def lower_bound(waypoints, vmax, amax):
+    """
+    LB of the issue: no trajectory through the waypoints is shorter.
+
+    The larger of: every segment at the full speed of its slowest joint
+    (sum over segments of max_j |dq_j| / v_j); and, per joint, the sum of
+    rest-to-rest v/a times between its direction reversals (a joint is at
+    rest where it turns).
+    """
+    dq = np.diff(waypoints, axis=0)
+    cruise = float(np.sum(np.max(np.abs(dq) / vmax, axis=1)))
+    best = cruise
+    for j in range(waypoints.shape[1]):
+        moves = dq[:, j][dq[:, j] != 0.0]
+        if moves.size == 0:
+            continue
+        turns = np.flatnonzero(np.diff(np.sign(moves)) != 0) + 1
+        stretches = [abs(s.sum()) for s in np.split(moves, turns)]
+        best = max(best, sum(rest_to_rest_time(d, vmax[j], amax[j]) for d in stretches))
+    return best
+
+
+def random_case(rng):
+    """One request: waypoints (N, n), v and a limits (n,)."""
+    n_joints = int(rng.integers(3, 8))
+    n_points = int(rng.integers(5, 51))
+    waypoints = np.cumsum(rng.uniform(-1.0, 1.0, (n_points, n_joints)), axis=0)
+    return waypoints, rng.uniform(1.0, 3.0, n_joints), rng.uniform(5.0, 15.0, n_joints)
+
+
+def label(ratio):
+    """Column name of a jerk setting."""
+    return 'no jerk limit' if ratio is None else f'j = {ratio:g} a'
+
+
+def main():
+    """Run the comparison and print the tables."""
+    logging.getLogger('toppra').setLevel(logging.ERROR)
+    inner = int(sys.argv[1]) if len(sys.argv) > 1 else 2
+    full = os.environ.get('SPLINES445_BENCH_FULL') == '1'
+    rng = np.random.default_rng(SEED)
+    print(f'555 optimal / TOPP-RA, knots at waypoints only -> inner_knots={inner} '
+          '(planning time [s])')
+    print('| case | N x n | TOPP-RA [s] (s) | LB / TOPP-RA | '
+          + ' | '.join(label(r) for r in JERK_RATIOS) + ' |')
+    print('|' + '---|' * (4 + len(JERK_RATIOS)))
+    before = {r: [] for r in JERK_RATIOS}
+    after = {r: [] for r in JERK_RATIOS}
+    held = dict.fromkeys(JERK_RATIOS, True)
+    bounds = []
+    for case in range(N_CASES):
+        waypoints, vmax, amax = random_case(rng)
+        t_top, d_top = timed(lambda: toppra_plan(waypoints, vmax, amax))
+        bounds.append(lower_bound(waypoints, vmax, amax) / d_top)
+        cells = []
+        for ratio in JERK_RATIOS:
+            kwargs = {'max_velocity': vmax, 'max_acceleration': amax,
+                      'max_jerk': None if ratio is None else ratio * amax}
+            t0, knots_only = timed(lambda: plan(waypoints, '555', 'optimal', **kwargs))
+            t1, traj = timed(lambda: plan(waypoints, '555', 'optimal', inner_knots=inner,
+                                          **kwargs))
+            before[ratio].append(knots_only.duration / d_top)
+            after[ratio].append(traj.duration / d_top)
+            held[ratio] &= traj.within_limits(rtol=1e-9)
+            cells.append(f'{before[ratio][-1]:.3f} ({t0:.2f}) -> '
+                         f'{after[ratio][-1]:.3f} ({t1:.2f})')
+        print(f'| {case} | {len(waypoints)} x {waypoints.shape[1]} | {d_top:.2f} ({t_top:.2f}) '
+              f'| {bounds[-1]:.3f} | ' + ' | '.join(cells) + ' |')
+        sys.stdout.flush()
+    print()
+    print('| jerk limit | knots only: median / worst | '
+          f'inner_knots={inner}: median / worst | all limits held | LB / TOPP-RA median |')
+    print('|---|---|---|---|---|')
+    for ratio in JERK_RATIOS:
+        print(f'| {label(ratio)} | {np.median(before[ratio]):.3f} / {np.max(before[ratio]):.3f} '
+              f'| {np.median(after[ratio]):.3f} / {np.max(after[ratio]):.3f} '
+              f'| {held[ratio]} | {np.median(bounds):.3f} |')
+    print()
+    kwargs = pe.plan_kwargs()
+    elapsed, traj = timed(lambda: plan(pe.joint_waypoints(), '555', 'optimal',
+                                       inner_knots=inner, **kwargs))
+    print(f"Paper's example (its boundary values): 555 optimal, inner_knots={inner}: "
+          f'{traj.duration:.4f} s in {1e3 * elapsed:.0f} ms, inner knots used: '
+          f"{traj.optimizer['inner_knots']} (non-zero boundary values keep knots at the "
+          'waypoints)')
+    print()
+    print('| N x n | TOPP-RA [s] | knots only [s] | inner knots [s] | TOPP-RA time [s] '
+          '| planning time [s] | time / TOPP-RA time |')
+    print('|---|---|---|---|---|---|---|')
+    for n_points in ((100, 1000) if full else (100,)):
+        waypoints = np.cumsum(rng.uniform(-1.0, 1.0, (n_points, 7)), axis=0)
+        vmax, amax = np.full(7, 2.0), np.full(7, 10.0)
+        t_top, d_top = timed(lambda: toppra_plan(waypoints, vmax, amax))
+        elapsed, traj = timed(lambda: plan(waypoints, '555', 'optimal', inner_knots=inner,
+                                           max_velocity=vmax, max_acceleration=amax))
+        knots_only = traj.optimizer.get('knots_only_duration', traj.duration)
+        print(f'| {n_points} x 7 | {d_top:.2f} | {knots_only:.2f} '
+              f'| {traj.duration:.2f} | {t_top:.2f} | {elapsed:.2f} | {elapsed / t_top:.1f} |')
+        sys.stdout.flush()
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

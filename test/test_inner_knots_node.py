@@ -1,0 +1,75 @@
+"""
+The planner node's ``inner_knots`` parameter (issue 17).
+
+Declared with a descriptor, validated on set_parameters, used for 555
+optimal waypoint requests only, and the status reports waypoints and knots
+separately.
+"""
+
+import numpy as np
+import pytest
+from rclpy.parameter import Parameter
+from splines445_ros.nodes.planner_config import PlannerConfig
+from splines445_ros.nodes.planner_node import PlannerNode
+from splines445_ros.nodes.request_planning import plan_request, start_from_state, summary_values
+from splines445_ros.nodes.ros_conversions import WaypointRequest
+from splines445_ros.tools.in_process import LocalRos
+
+WAYPOINTS = np.array([[0.0, 0.0, 0.0], [1.0, -0.5, 0.3], [1.5, 0.5, -0.2], [0.5, 1.0, 0.4],
+                      [-0.5, 0.2, 0.0]])
+
+
+def request(waypoints=WAYPOINTS):
+    zero = np.zeros(waypoints.shape[1])
+    return WaypointRequest(waypoints, zero, zero, zero, zero, None)
+
+
+def config(**overrides):
+    values = {'method': '555', 'timing': 'optimal', 'max_jerk': (100.0, 100.0, 100.0),
+              'inner_knots': 2}
+    values.update(overrides)
+    return PlannerConfig(**values)
+
+
+def test_555_optimal_request_uses_inner_knots_and_reports_knots():
+    traj = plan_request(config(), request())
+    values = summary_values(traj, config().joint_names)
+    assert values['waypoints'] == 5
+    assert values['knots'] == 4 * 3 + 1
+    shorter = plan_request(config(inner_knots=0), request())
+    assert traj.duration < shorter.duration
+    assert summary_values(shorter, config().joint_names)['knots'] == 5
+
+
+@pytest.mark.parametrize('overrides', [{'method': '445'}, {'timing': 'uniform'}])
+def test_other_methods_and_timings_ignore_inner_knots(overrides):
+    traj = plan_request(config(**overrides), request())
+    assert traj.breakpoints.size == len(WAYPOINTS)
+
+
+def test_replanning_from_a_moving_state_keeps_knots_at_waypoints():
+    moving = start_from_state(request(), WAYPOINTS[0], np.array([0.3, -0.2, 0.1]),
+                              np.zeros(3))
+    traj = plan_request(config(), moving)
+    assert traj.breakpoints.size == len(WAYPOINTS)
+    assert traj.optimizer['inner_knots'] == 0
+
+
+@pytest.mark.parametrize('bad', [-1, 9])
+def test_config_rejects_out_of_range_inner_knots(bad):
+    with pytest.raises(ValueError, match='inner_knots'):
+        config(inner_knots=bad).validate()
+
+
+def test_node_declares_and_validates_inner_knots():
+    with LocalRos() as ros:
+        node = ros.add(PlannerNode(context=ros.context, cli_args=['--ros-args', '-p',
+                                                                  'inner_knots:=3']))
+        assert node.parameters.config.inner_knots == 3
+        descriptor = node.describe_parameter('inner_knots')
+        assert '555' in descriptor.description
+        bad = node.set_parameters([Parameter('inner_knots', value=9)])[0]
+        assert not bad.successful and 'inner_knots' in bad.reason
+        assert node.parameters.config.inner_knots == 3
+        assert node.set_parameters([Parameter('inner_knots', value=0)])[0].successful
+        assert node.parameters.config.inner_knots == 0
