@@ -34,17 +34,17 @@ import numpy as np
 from . import rotations as rot
 from .robot_model import joint_ranges
 
-POSITION_TOLERANCE = 1e-10   # m, a solved pose
-ORIENTATION_TOLERANCE = 1e-10  # rad
-STEP_TOLERANCE = 1e-6        # m and rad, intermediate continuation sub-steps
-CONTINUATION_STEP = 0.02     # m of tool travel per sub-step
-CONTINUATION_ANGLE = 0.05    # rad of tool rotation per sub-step
+POSITION_TOLERANCE = 1e-10   # m and rad, a solved pose
+STEP_TOLERANCE = 1e-4        # m and rad, intermediate continuation sub-steps
+CONTINUATION_STEP = 0.04     # m of tool travel per sub-step
+CONTINUATION_ANGLE = 0.1     # rad of tool rotation per sub-step
 MAX_JOINT_STEP = 0.5         # rad (or m) one joint may move in one sub-step
 DAMPING = 1e-4               # lambda of damped least squares [m]
 MAX_ITERATIONS = 200
 MAX_UPDATE = 0.25            # largest joint change of one iteration [rad or m]
 FIRST_POSE_RESTARTS = 16
 _CACHE_SIZE = 20000
+CACHE_MATCH = 1e-9  # rad: a walk from joints this close to the cached start is reused
 
 
 class KinematicsError(ValueError):
@@ -116,13 +116,15 @@ class ModelKinematics:
                              f'{list(self.joint_names)}')
         n = len(self.joints)
         self.base_pos, self.base_quat = base.pose(np.zeros(n))
+        self._base_mat = rot.to_matrix(self.base_quat)
         self._qpos = np.array([j.qpos for j in self.joints], dtype=int)
         self._dof = np.array([j.dof for j in self.joints], dtype=int)
         model = robot.model
         self._data = self.mujoco.MjData(model)
         self._hold = robot.hold_positions()
-        self._jacp = np.zeros((3, model.nv))
-        self._jacr = np.zeros((3, model.nv))
+        self._jac = np.zeros((6, model.nv))
+        self._jacp = self._jac[:3]  # contiguous row blocks, filled by mj_jac
+        self._jacr = self._jac[3:]
         self._cache = {}
         self.seed = robot.default_seed(self.joints) if seed is None else self.check_seed(seed)
 
@@ -143,13 +145,11 @@ class ModelKinematics:
 
     def forward(self, joints):
         """Return tool poses (..., 7) = (x, y, z, qw, qx, qy, qz) in the base frame."""
-        pos, quat = self.tool.pose(joints)
-        return np.concatenate(self._to_base(pos, quat), axis=-1)
-
-    def _to_base(self, pos, quat):
-        inverse = rot.conjugate(self.base_quat)
-        return (rot.rotate(np.broadcast_to(inverse, quat.shape), pos - self.base_pos),
-                rot.multiply(np.broadcast_to(inverse, quat.shape), quat))
+        pos, mat = self.tool.transform(joints)
+        base = self._base_mat
+        pos = (pos - self.base_pos) @ base          # R_base^T (p - p_base)
+        mat = np.swapaxes(base, -1, -2) @ mat
+        return np.concatenate([pos, rot.from_matrix(mat)], axis=-1)
 
     def _to_world(self, pose):
         return (self.base_pos + rot.rotate(self.base_quat, pose[:3]),
@@ -162,13 +162,16 @@ class ModelKinematics:
         d.qpos[self._qpos] = q
         mj.mj_kinematics(m, d)
         body = self.tool.body
-        quat = rot.multiply(d.xquat[body], self.tool.offset_quat)
-        pos = d.xpos[body] + rot.rotate(d.xquat[body], self.tool.offset_pos)
+        quat = np.empty(4)
+        mj.mju_mulQuat(quat, d.xquat[body], self.tool.offset_quat)
+        offset = np.empty(3)
+        mj.mju_rotVecQuat(offset, self.tool.offset_pos, d.xquat[body])
+        pos = d.xpos[body] + offset
         if not jacobian:
             return pos, quat, None
         mj.mj_comPos(m, d)
         mj.mj_jac(m, d, self._jacp, self._jacr, pos, body)
-        jac = np.vstack([self._jacp[:, self._dof], self._jacr[:, self._dof]])
+        jac = self._jac[:, self._dof]
         return pos, quat, jac
 
     # ------------------------------------------------------------------ inverse
@@ -179,18 +182,34 @@ class ModelKinematics:
 
         ``residual`` is (position error [m], orientation error [rad]).
         """
+        mj = self.mujoco
         q = np.array(start, dtype=float)
-        eye = DAMPING ** 2 * np.eye(6)
+        damping = np.full(6, DAMPING ** 2)
+        step = np.empty(6)
         error = (math.inf, math.inf)
+        target_quat = np.ascontiguousarray(target_quat, dtype=float)
+        inverse, turn, e = np.empty(4), np.empty(4), np.empty(6)
         for _ in range(MAX_ITERATIONS):
             pos, quat, jac = self._world_pose(q, jacobian=True)
-            e_pos = target_pos - pos
-            e_rot = rot.rotation_vector(rot.multiply(target_quat, rot.conjugate(quat)))
-            error = (float(np.linalg.norm(e_pos)), float(np.linalg.norm(e_rot)))
+            e[:3] = target_pos - pos
+            # World-frame rotation from the tool to the target, as a rotation vector.
+            mj.mju_negQuat(inverse, quat)
+            mj.mju_mulQuat(turn, target_quat, inverse)
+            if turn[0] < 0.0:
+                turn *= -1.0
+            e_rot = e[3:]
+            mj.mju_quat2Vel(e_rot, turn, 1.0)
+            error = (math.sqrt(e[0] ** 2 + e[1] ** 2 + e[2] ** 2),
+                     math.sqrt(e[3] ** 2 + e[4] ** 2 + e[5] ** 2))
             if error[0] <= tolerance and error[1] <= tolerance:
                 return q, True, error
-            e = np.concatenate([e_pos, e_rot])
-            dq = jac.T @ np.linalg.solve(jac @ jac.T + eye, e)
+            # (J J^T + lambda^2 I) is symmetric positive definite: MuJoCo's
+            # Cholesky, far cheaper than a LAPACK call on a 6x6 system.
+            normal = jac @ jac.T
+            normal[np.diag_indices(6)] += damping
+            mj.mju_cholFactor(normal, 0.0)
+            mj.mju_cholSolve(step, normal, e)
+            dq = jac.T @ step
             largest = float(np.max(np.abs(dq)))
             if largest > MAX_UPDATE:
                 dq *= MAX_UPDATE / largest
@@ -208,21 +227,27 @@ class ModelKinematics:
         out = np.empty((len(rows), self.n_joints))
         q = self.seed.copy()
         pos, quat, _ = self._world_pose(q)
+        previous = None
         for k, row in enumerate(rows):
             target = self._to_world(row)
-            key = (q.tobytes(), row.tobytes())
+            # The walk from the previous pose is deterministic: a refinement that asks
+            # again for the same pair of poses from (nearly) the same joints gets the
+            # same answer without walking again.
+            key = (None if previous is None else previous.tobytes(), row.tobytes())
             cached = self._cache.get(key)
-            if cached is None:
+            if cached is None or np.max(np.abs(cached[0] - q)) > CACHE_MATCH:
                 if k == 0:
-                    cached = self._first(row, target, q, (pos, quat))
+                    solution = self._first(row, target, q, (pos, quat))
                 else:
-                    cached = self._follow(k, row, (pos, quat), target, q)
+                    solution = self._follow(k, row, (pos, quat), target, q)
                 if len(self._cache) >= _CACHE_SIZE:
                     self._cache.clear()
+                cached = (q.copy(), solution)
                 self._cache[key] = cached
-            q = cached.copy()
+            q = cached[1].copy()
             out[k] = q
             pos, quat = target
+            previous = row
         return out
 
     def _follow(self, k, row, start, target, q):

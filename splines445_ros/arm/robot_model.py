@@ -281,67 +281,103 @@ class FrameChain:
 
     Mirrors MuJoCo's ``mj_kinematics`` along the bodies from the world to the
     frame's body (body offsets, hinge rotations about their anchors, slides),
-    in numpy over any number of configurations at once: the deviation search
-    evaluates thousands per refinement step.  Joints of the chain that are
-    not planned stay at the model's ``qpos0``.
+    with rotation matrices in numpy over any number of configurations at
+    once: the deviation search evaluates thousands per refinement step.
+    Joints of the chain that are not planned stay at the model's ``qpos0``
+    (their frame offsets are folded into constant steps).
     """
 
     def __init__(self, robot, frame, joints, parameter='frame'):
         """Build the chain of ``frame`` for the planned ``joints`` (JointInfo tuple)."""
         mj, m = robot.mujoco, robot.model
-        body, self.offset_pos, self.offset_quat = robot.frame(frame, parameter)
+        body, offset_pos, offset_quat = robot.frame(frame, parameter)
         self.body = body
+        self.offset_pos = offset_pos
+        self.offset_quat = offset_quat
         column = {j.joint_id: i for i, j in enumerate(joints)}
         chain = []
         b = body
         while b != 0:
             chain.append(b)
             b = int(m.body_parentid[b])
-        self.steps = []
         self.moving_joints = []
-        qpos0 = m.qpos0
+        # Steps: ('fixed', R (3, 3), p (3,)) composes T = T * [R p]; ('hinge', col, axis,
+        # anchor) and ('slide', col, axis) move with joint column col.
+        self.steps = []
+        hinge = int(mj.mjtJoint.mjJNT_HINGE)
+        slide = int(mj.mjtJoint.mjJNT_SLIDE)
         for b in reversed(chain):
-            motions = []
+            self._fixed(rot.to_matrix(m.body_quat[b]), m.body_pos[b])
             for j in range(int(m.body_jntadr[b]), int(m.body_jntadr[b] + m.body_jntnum[b])):
                 kind = int(m.jnt_type[j])
                 name = mj.mj_id2name(m, mj.mjtObj.mjOBJ_JOINT, j)
-                if kind not in (int(mj.mjtJoint.mjJNT_HINGE), int(mj.mjtJoint.mjJNT_SLIDE)):
+                if kind not in (hinge, slide):
                     raise ValueError(f'{parameter} {frame!r} hangs on joint {name!r}, which is '
                                      'a free or ball joint (only hinge and slide joints are '
                                      'supported)')
                 self.moving_joints.append(name)
-                ref = float(qpos0[m.jnt_qposadr[j]])
-                motions.append((kind == int(mj.mjtJoint.mjJNT_HINGE), m.jnt_axis[j].copy(),
-                                m.jnt_pos[j].copy(), column.get(j), ref))
-            self.steps.append((m.body_pos[b].copy(), m.body_quat[b].copy(), motions))
+                col = column.get(j)
+                if col is None:
+                    continue  # held at qpos0, where MuJoCo's joint displacement is zero
+                ref = float(m.qpos0[m.jnt_qposadr[j]])
+                axis = m.jnt_axis[j] / np.linalg.norm(m.jnt_axis[j])
+                x, y, z = axis
+                skew = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+                self.steps.append(('hinge' if kind == hinge else 'slide', col, ref, axis,
+                                   m.jnt_pos[j].copy(), skew, skew @ skew))
+        self._fixed(rot.to_matrix(offset_quat), offset_pos)
         self.n = len(joints)
 
-    def pose(self, joints):
-        """Return positions (..., 3) and quaternions (..., 4) of the frame in the world."""
+    def _fixed(self, rotation, position):
+        """Append a constant transform, merged into a preceding constant one."""
+        if self.steps and self.steps[-1][0] == 'fixed':
+            _, r0, p0 = self.steps[-1]
+            self.steps[-1] = ('fixed', r0 @ rotation, p0 + r0 @ position)
+        else:
+            self.steps.append(('fixed', np.array(rotation, dtype=float),
+                               np.array(position, dtype=float)))
+
+    def transform(self, joints):
+        """Return positions (..., 3) and rotation matrices (..., 3, 3) in the world."""
         q = np.asarray(joints, dtype=float)
         if q.shape[-1] != self.n:
             raise ValueError(f'need {self.n} joint positions, got {q.shape[-1]}')
         shape = q.shape[:-1]
-        pos = np.zeros(shape + (3,))
-        quat = np.zeros(shape + (4,))
-        quat[..., 0] = 1.0
-        for body_pos, body_quat, motions in self.steps:
-            pos = pos + rot.rotate(quat, np.broadcast_to(body_pos, shape + (3,)))
-            quat = rot.multiply(quat, np.broadcast_to(body_quat, shape + (4,)))
-            for hinge, axis, anchor, col, ref in motions:
-                if col is None:
-                    continue  # held at qpos0: no motion
-                value = q[..., col] - ref
-                if hinge:
-                    world_anchor = pos + rot.rotate(quat, np.broadcast_to(anchor, shape + (3,)))
-                    quat = rot.multiply(quat, rot.from_axis_angle(axis, value))
-                    pos = world_anchor - rot.rotate(quat, np.broadcast_to(anchor, shape + (3,)))
-                else:
-                    pos = pos + rot.rotate(quat, np.broadcast_to(axis, shape + (3,))) \
-                        * value[..., None]
-        pos = pos + rot.rotate(quat, np.broadcast_to(self.offset_pos, shape + (3,)))
-        quat = rot.multiply(quat, np.broadcast_to(self.offset_quat, shape + (4,)))
-        return pos, quat
+        flat = q.reshape(-1, self.n)
+        k = len(flat)
+        pos = np.zeros((k, 3))
+        mat = np.broadcast_to(np.eye(3), (k, 3, 3))
+
+        def times(m, constant):
+            # (K, 3, 3) @ (3, 3) or (3,) as one 2-D product (numpy's stacked matmul
+            # of small matrices is several times slower).
+            if constant.ndim == 1:
+                return (m.reshape(-1, 3) @ constant).reshape(k, 3)
+            return (m.reshape(-1, 3) @ constant).reshape(k, 3, 3)
+
+        for step in self.steps:
+            if step[0] == 'fixed':
+                pos = pos + times(mat, step[2])
+                mat = times(mat, step[1])
+                continue
+            kind, col, ref, axis, anchor, skew, skew2 = step
+            value = flat[:, col] - ref
+            if kind == 'slide':
+                pos = pos + times(mat, axis) * value[:, None]
+                continue
+            if anchor.any():
+                world_anchor = pos + times(mat, anchor)
+            # mat @ (I + sin K + (1 - cos) K^2), Rodrigues about the joint axis.
+            mat = (mat + np.sin(value)[:, None, None] * times(mat, skew)
+                   + (1.0 - np.cos(value))[:, None, None] * times(mat, skew2))
+            if anchor.any():
+                pos = world_anchor - times(mat, anchor)
+        return pos.reshape(shape + (3,)), mat.reshape(shape + (3, 3))
+
+    def pose(self, joints):
+        """Return positions (..., 3) and quaternions (..., 4) of the frame in the world."""
+        pos, mat = self.transform(joints)
+        return pos, rot.from_matrix(mat)
 
 
 def load_robot_model(model_file='', urdf_string=None, where=None):

@@ -8,6 +8,13 @@ convert at the node's border.
 import numpy as np
 
 
+def _cross(a, b):
+    """Cross products of (..., 3) arrays, by components (faster than np.cross for small K)."""
+    ax, ay, az = a[..., 0], a[..., 1], a[..., 2]
+    bx, by, bz = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx], axis=-1)
+
+
 def multiply(a, b):
     """Return the products a * b (..., 4) of quaternions (..., 4)."""
     a = np.asarray(a, dtype=float)
@@ -15,7 +22,7 @@ def multiply(a, b):
     aw, av = a[..., :1], a[..., 1:]
     bw, bv = b[..., :1], b[..., 1:]
     w = aw * bw - np.sum(av * bv, axis=-1, keepdims=True)
-    v = aw * bv + bw * av + np.cross(av, bv)
+    v = aw * bv + bw * av + _cross(av, bv)
     return np.concatenate([w, v], axis=-1)
 
 
@@ -30,8 +37,8 @@ def rotate(q, v):
     q = np.asarray(q, dtype=float)
     v = np.asarray(v, dtype=float)
     w, u = q[..., :1], q[..., 1:]
-    t = 2.0 * np.cross(u, v)
-    return v + w * t + np.cross(u, t)
+    t = 2.0 * _cross(u, v)
+    return v + w * t + _cross(u, t)
 
 
 def from_axis_angle(axis, angle):
@@ -95,6 +102,32 @@ def to_matrix(q):
         np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
         np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
     ], axis=-2)
+
+
+def from_matrix(mat):
+    """Return unit quaternions (..., 4), w >= 0, of rotation matrices (..., 3, 3)."""
+    m = np.asarray(mat, dtype=float)
+    m00, m11, m22 = m[..., 0, 0], m[..., 1, 1], m[..., 2, 2]
+    # Shepperd: the largest of 4 w^2, 4 x^2, 4 y^2, 4 z^2 gives the stable formula.
+    candidates = np.stack([1.0 + m00 + m11 + m22, 1.0 + m00 - m11 - m22,
+                           1.0 - m00 + m11 - m22, 1.0 - m00 - m11 + m22], axis=-1)
+    pick = np.argmax(candidates, axis=-1)
+    root = np.sqrt(np.maximum(np.take_along_axis(candidates, pick[..., None], -1)[..., 0],
+                              1e-300))
+    half = 0.5 / root
+    d21, d02, d10 = m[..., 2, 1] - m[..., 1, 2], m[..., 0, 2] - m[..., 2, 0], \
+        m[..., 1, 0] - m[..., 0, 1]
+    s21, s02, s10 = m[..., 2, 1] + m[..., 1, 2], m[..., 0, 2] + m[..., 2, 0], \
+        m[..., 1, 0] + m[..., 0, 1]
+    options = np.stack([
+        np.stack([0.5 * root, d21 * half, d02 * half, d10 * half], -1),
+        np.stack([d21 * half, 0.5 * root, s10 * half, s02 * half], -1),
+        np.stack([d02 * half, s10 * half, 0.5 * root, s21 * half], -1),
+        np.stack([d10 * half, s02 * half, s21 * half, 0.5 * root], -1),
+    ], axis=-2)
+    q = np.take_along_axis(options, pick[..., None, None], -2)[..., 0, :]
+    q = np.where(q[..., :1] < 0.0, -q, q)
+    return q / np.linalg.norm(q, axis=-1, keepdims=True)
 
 
 def continuous(q):
