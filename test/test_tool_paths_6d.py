@@ -7,7 +7,6 @@ orientations, a 1 kHz sampling of the planned trajectory.
 """
 
 import math
-import xml.etree.ElementTree as ET
 
 import numpy as np
 import pytest
@@ -19,49 +18,13 @@ from splines445_ros.arm.mujoco_model import planar_arm_mjcf, PlanarArmModel
 from splines445_ros.arm.robot_model import load_robot_model
 from splines445_ros.arm.tool_paths import plan_tool_path
 from splines445_ros.tools import vendor_robots as vr
+from urdf_reference import BatchedUrdfChain
 
 MM, DEG = 1e-3, math.radians(1.0)
 UR5_LIMITS = {'max_velocity': [3.15] * 3 + [3.2] * 3, 'max_acceleration': [8.0] * 6,
               'max_jerk': [80.0] * 6}
 PANDA_LIMITS = {'max_velocity': [2.175] * 4 + [2.61] * 3, 'max_acceleration': [6.0] * 7,
                 'max_jerk': [60.0] * 7}
-
-
-class BatchedUrdfChain:
-    """FK (K samples at once) from a URDF's <origin xyz rpy> and <axis>, written for tests."""
-
-    def __init__(self, path, base, tool, joint_names):
-        root = ET.parse(path).getroot()
-        by_child = {j.find('child').get('link'): j for j in root.findall('joint')}
-        chain, link = [], tool
-        while link != base:
-            chain.append(by_child[link])
-            link = by_child[link].find('parent').get('link')
-        self.steps = []
-        for joint in reversed(chain):
-            origin = joint.find('origin')
-            xyz = np.array([float(v) for v in origin.get('xyz', '0 0 0').split()])
-            rpy = [float(v) for v in origin.get('rpy', '0 0 0').split()]
-            rotation = Rotation.from_euler('xyz', rpy).as_matrix()  # URDF: fixed-axis r, p, y
-            index = None
-            axis = None
-            if joint.get('type') in ('revolute', 'continuous'):
-                index = joint_names.index(joint.get('name'))
-                axis = np.array([float(v) for v in joint.find('axis').get('xyz').split()])
-            self.steps.append((rotation, xyz, index, axis))
-
-    def __call__(self, q):
-        q = np.atleast_2d(q)
-        k = len(q)
-        pos = np.zeros((k, 3))
-        mat = np.tile(np.eye(3), (k, 1, 1))
-        for rotation, xyz, index, axis in self.steps:
-            pos = pos + np.einsum('kij,j->ki', mat, xyz)
-            mat = np.einsum('kij,jl->kil', mat, rotation)
-            if index is not None:
-                turn = Rotation.from_rotvec(q[:, index, None] * axis[None, :]).as_matrix()
-                mat = np.einsum('kij,kjl->kil', mat, turn)
-        return pos, mat
 
 
 def check_1khz(tool_path, poses, fk, tol_position, tol_orientation):
