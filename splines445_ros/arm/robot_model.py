@@ -456,7 +456,7 @@ def _from_mjcf(mujoco, path, where):
     try:
         spec = mujoco.MjSpec.from_file(path)
     except Exception as exc:
-        raise ValueError(f'MuJoCo cannot load {where}: {str(exc).strip()}') from None
+        raise ValueError(f'cannot load MJCF {where}: {str(exc).strip()}') from None
     try:
         model = spec.compile()
     except Exception as first:
@@ -465,7 +465,7 @@ def _from_mjcf(mujoco, path, where):
             dropped = _drop_mjcf_meshes(mujoco, spec)
             model = spec.compile()
         except Exception:
-            raise ValueError(f'MuJoCo cannot compile {where}: {str(first).strip()}') from None
+            raise ValueError(f'cannot compile MJCF {where}: {str(first).strip()}') from None
         notes.append(f'{where}: {dropped} mesh geom(s) dropped since the model did not '
                      f'compile with them ({str(first).strip()})')
         _LOG.warning(notes[-1])
@@ -476,3 +476,30 @@ def joint_ranges(joints):
     """Return the lower and upper position bounds (n,) of JointInfo ``joints``."""
     return (np.array([j.lower for j in joints], dtype=float),
             np.array([j.upper for j in joints], dtype=float))
+
+
+def urdf_spec(mujoco, path):
+    """
+    Return an MjSpec of the URDF file ``path`` for simulation, or None when it is not a URDF.
+
+    The URDF is cleaned as for :func:`load_robot_model`; contacts are
+    disabled (a URDF arm has no environment, and its collision meshes touch
+    between links).
+    """
+    try:
+        with open(path, encoding='utf-8') as stream:
+            text = stream.read(MAX_DESCRIPTION_CHARS + 1)
+    except (OSError, UnicodeDecodeError):
+        return None
+    if _root_tag(text) != 'robot':
+        return None
+    where = f'model_file {path!r}'
+    description = _UrdfDescription(text, where, os.path.dirname(os.path.abspath(path)))
+    for note in description.notes:
+        _LOG.warning(note)
+    try:
+        spec = mujoco.MjSpec.from_string(description.text)
+    except Exception as exc:  # mujoco raises ValueError or its own errors
+        raise ValueError(f'MuJoCo cannot load {where}: {str(exc).strip()}') from None
+    spec.option.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
+    return spec
