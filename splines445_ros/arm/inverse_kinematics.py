@@ -151,9 +151,16 @@ class ModelKinematics:
         mat = np.swapaxes(base, -1, -2) @ mat
         return np.concatenate([pos, rot.from_matrix(mat)], axis=-1)
 
+    def forward_transform(self, joints):
+        """Return tool positions (..., 3) and rotation matrices (..., 3, 3) in the base frame."""
+        pos, mat = self.tool.transform(joints)
+        base = self._base_mat
+        return (pos - self.base_pos) @ base, np.swapaxes(base, -1, -2) @ mat
+
     def _to_world(self, pose):
-        return (self.base_pos + rot.rotate(self.base_quat, pose[:3]),
-                rot.multiply(self.base_quat, pose[3:]))
+        quat = np.empty(4)
+        self.mujoco.mju_mulQuat(quat, self.base_quat, np.ascontiguousarray(pose[3:]))
+        return self.base_pos + self._base_mat @ pose[:3], quat
 
     def _world_pose(self, q, jacobian=False):
         """Return MuJoCo's world pose of the tool at joints ``q`` (and its Jacobian (6, n))."""
@@ -254,14 +261,27 @@ class ModelKinematics:
         """Walk from the world pose ``start`` (joints q) to ``target``; return the joints."""
         (p0, q0), (p1, q1) = start, target
         distance = float(np.linalg.norm(p1 - p0))
-        angle = float(rot.angle_between(q0, q1))
+        # The slerp as q0 * (rotation by s * angle about a fixed axis), the short way.
+        turn = rot.multiply(rot.conjugate(q0), q1)
+        if turn[0] < 0.0:
+            turn = -turn
+        sine = float(np.linalg.norm(turn[1:]))
+        angle = 2.0 * math.atan2(sine, float(turn[0]))
+        axis = turn[1:] / sine if sine > 1e-15 else np.array([1.0, 0.0, 0.0])
         steps = max(1, math.ceil(distance / CONTINUATION_STEP),
                     math.ceil(angle / CONTINUATION_ANGLE))
+        local = np.empty(4)
+        quat = np.empty(4)
         for i in range(1, steps + 1):
             s = i / steps
             last = i == steps
             p = p0 + s * (p1 - p0)
-            quat = rot.slerp(q0, q1, s)
+            if last:
+                quat = q1
+            else:
+                local[0] = math.cos(0.5 * s * angle)
+                local[1:] = math.sin(0.5 * s * angle) * axis
+                self.mujoco.mju_mulQuat(quat, q0, local)
             new, ok, error = self.solve(p, quat, q,
                                         POSITION_TOLERANCE if last else STEP_TOLERANCE)
             if not ok:

@@ -287,6 +287,20 @@ class _PathMeasure:
         if self.spatial:
             self.quat0 = a[:, 3:]
             self.quat1 = b[:, 3:]
+            self._matrices = hasattr(kinematics, 'forward_transform')
+            if self._matrices:
+                # The slerp of edge e at s is R0 Rot(axis, s angle): Rodrigues' terms.
+                turn = rot.multiply(rot.conjugate(self.quat0), self.quat1)
+                turn = np.where(turn[:, :1] < 0.0, -turn, turn)
+                sine = np.linalg.norm(turn[:, 1:], axis=1)
+                self.angle = 2.0 * np.arctan2(sine, turn[:, 0])
+                axis = turn[:, 1:] / np.where(sine > 1e-15, sine, 1.0)[:, None]
+                x, y, z = axis[:, 0], axis[:, 1], axis[:, 2]
+                zero = np.zeros_like(x)
+                self.skew = np.stack([np.stack([zero, -z, y], -1), np.stack([z, zero, -x], -1),
+                                      np.stack([-y, x, zero], -1)], -2)
+                self.skew2 = self.skew @ self.skew
+                self.rot0 = rot.to_matrix(self.quat0)
         else:
             self.yaw0 = a[:, 2]
             self.dyaw = b[:, 2] - a[:, 2]
@@ -298,10 +312,10 @@ class _PathMeasure:
 
     def __call__(self, t, seg):
         """Position and orientation deviation (K,) at times ``t`` on segments ``seg``."""
-        pose = np.asarray(self.kinematics.forward(self.traj.evaluate(t)), dtype=float)
         e = self.segment_edges[seg]
         if self.spatial:
-            return self._spatial(t, pose, e)
+            return self._spatial(t, e)
+        pose = np.asarray(self.kinematics.forward(self.traj.evaluate(t)), dtype=float)
         p = pose[:, :2] - self.start[e]
         ab = self.direction[e]
         long_edge = self.length2[e] > MIN_EDGE_LENGTH**2
@@ -313,17 +327,35 @@ class _PathMeasure:
         orientation = np.abs(_wrap(pose[:, 2] - self.yaw0[e] - s * self.dyaw[e]))
         return position, orientation, pose[:, :2]
 
-    def _spatial(self, t, pose, e):
-        p = pose[:, :3] - self.start[e]
+    def _spatial(self, t, e):
+        joints = self.traj.evaluate(t)
+        if self._matrices:
+            position, mat = self.kinematics.forward_transform(joints)
+        else:
+            pose = np.asarray(self.kinematics.forward(joints), dtype=float)
+            position = pose[:, :3]
+        p = position - self.start[e]
         ab = self.direction[e]
         long_edge = self.length2[e] > MIN_EDGE_LENGTH**2
         s_line = np.sum(p * ab, axis=1) / np.where(long_edge, self.length2[e], 1.0)
         span = self.edge_t1[e] - self.edge_t0[e]
         s_time = (t - self.edge_t0[e]) / np.where(span > 0.0, span, 1.0)
         s = np.clip(np.where(long_edge, s_line, s_time), 0.0, 1.0)
-        position = np.linalg.norm(p - s[:, None] * ab, axis=1)
-        orientation = rot.angle_between(rot.slerp(self.quat0[e], self.quat1[e], s), pose[:, 3:])
-        return position, orientation, pose[:, :3]
+        deviation = np.linalg.norm(p - s[:, None] * ab, axis=1)
+        if not self._matrices:
+            orientation = rot.angle_between(rot.slerp(self.quat0[e], self.quat1[e], s),
+                                            pose[:, 3:])
+            return deviation, orientation, position
+        # D = (R0 Rot(s angle))^T R: its angle atan2(|vee(D - D^T)| / 2, (tr D - 1) / 2).
+        a = s * self.angle[e]
+        slerp_rel = (np.eye(3) + np.sin(a)[:, None, None] * self.skew[e]
+                     + (1.0 - np.cos(a))[:, None, None] * self.skew2[e])
+        wanted = self.rot0[e] @ slerp_rel
+        d = np.einsum('kji,kjl->kil', wanted, mat)
+        cosine = 0.5 * (d[:, 0, 0] + d[:, 1, 1] + d[:, 2, 2] - 1.0)
+        sine = 0.5 * np.sqrt((d[:, 2, 1] - d[:, 1, 2]) ** 2 + (d[:, 0, 2] - d[:, 2, 0]) ** 2
+                             + (d[:, 1, 0] - d[:, 0, 1]) ** 2)
+        return deviation, np.arctan2(sine, cosine), position
 
     def deviation(self, tolerances=(0.0, 0.0), grid=GRID, steps=GOLDEN_STEPS):
         """
