@@ -158,3 +158,27 @@ def test_a_vendor_urdf_alone_settles_at_the_goal_with_its_tool_frame():
         angle = (Rotation.from_quat([o.x, o.y, o.z, o.w]).inv()
                  * Rotation.from_matrix(mat[0])).magnitude()
         assert angle < 1e-6
+
+
+def test_the_shipped_ur5_config_is_valid():
+    """config/ur5.yaml builds both nodes' configs (model_file given as on the command line)."""
+    import os
+    import yaml
+    from splines445_ros.nodes.arm_sim_config import ArmSimConfig
+    from splines445_ros.nodes.model_planning import build_robot_setup
+    from splines445_ros.nodes.planner_config import PlannerConfig
+    path = os.path.join(os.path.dirname(__file__), '..', 'config', 'ur5.yaml')
+    with open(path, encoding='utf-8') as stream:
+        data = yaml.safe_load(stream)
+    planner = {**data['planner_node']['ros__parameters'], 'model_file': vr.ur5_urdf()}
+    planner['joint_limits_file'] = os.path.join(os.path.dirname(path), 'ur5_joint_limits.yaml')
+    config = PlannerConfig.from_values(planner)
+    setup = build_robot_setup(config)
+    assert setup.config.joint_names == vr.UR5_JOINTS
+    assert setup.limits.sources['acceleration'] == ('joint_limits_file',) * 6
+    arm = {**data['arm_sim_node']['ros__parameters'], 'model_file': vr.ur5_urdf()}
+    with LocalRos() as ros:
+        node = ros.add(ArmSimNode(context=ros.context,
+                                  parameter_overrides=overrides(arm)))
+        assert node.effective.joint_names == vr.UR5_JOINTS
+        assert ArmSimConfig.from_values(arm).all_model_joints
