@@ -126,7 +126,24 @@ class ModelKinematics:
         self._jacp = self._jac[:3]  # contiguous row blocks, filled by mj_jac
         self._jacr = self._jac[3:]
         self._cache = {}
+        self._reached = {}  # pose -> (the pose it was walked from, its joints)
+        self._seed = None
         self.seed = robot.default_seed(self.joints) if seed is None else self.check_seed(seed)
+
+    @property
+    def seed(self):
+        """Return the joints (n,) the first pose is reached from (its branch is kept)."""
+        return self._seed
+
+    @seed.setter
+    def seed(self, value):
+        """Set the seed; a different one forgets every remembered walk (another branch)."""
+        value = np.array(value, dtype=float)
+        if self._seed is None or value.shape != self._seed.shape or \
+                np.any(value != self._seed):
+            self._cache.clear()
+            self._reached.clear()
+        self._seed = value
 
     @property
     def n_joints(self):
@@ -243,14 +260,23 @@ class ModelKinematics:
             key = (None if previous is None else previous.tobytes(), row.tobytes())
             cached = self._cache.get(key)
             if cached is None or np.max(np.abs(cached[0] - q)) > CACHE_MATCH:
-                if k == 0:
+                reached = self._reached.get(row.tobytes()) if k > 0 else None
+                if reached is not None and _between(reached[0], previous, row):
+                    # The previous pose was inserted on the line this pose was walked
+                    # along before (a refinement's midpoint): that walk's end is this
+                    # walk's end.
+                    solution = reached[1]
+                elif k == 0:
                     solution = self._first(row, target, q, (pos, quat))
                 else:
                     solution = self._follow(k, row, (pos, quat), target, q)
                 if len(self._cache) >= _CACHE_SIZE:
                     self._cache.clear()
+                    self._reached.clear()
                 cached = (q.copy(), solution)
                 self._cache[key] = cached
+                if previous is not None and reached is None:
+                    self._reached[row.tobytes()] = (previous, solution)
             q = cached[1].copy()
             out[k] = q
             pos, quat = target
@@ -322,3 +348,13 @@ class ModelKinematics:
                 f'is out of reach within the joint ranges (closest: {best_error[0]:.3g} m, '
                 f'{best_error[1]:.3g} rad away, from {len(starts)} starts)'))
         return best
+
+
+def _between(start, middle, end, tolerance=1e-9):
+    """Return True when pose ``middle`` lies on the line and slerp from ``start`` to ``end``."""
+    a, m, b = start[:3], middle[:3], end[:3]
+    if (np.linalg.norm(m - a) + np.linalg.norm(b - m) - np.linalg.norm(b - a)) > tolerance:
+        return False
+    angles = rot.angle_between(np.array([start[3:], middle[3:], start[3:]]),
+                               np.array([middle[3:], end[3:], end[3:]]))
+    return bool(angles[0] + angles[1] - angles[2] <= tolerance)
