@@ -52,20 +52,26 @@ def pose_array(points, quaternion=DOWN, frame_id='base_link'):
 
 
 class Planner(LocalRos):
-    """A planner node and a client that sends requests and robot descriptions."""
+    """
+    A planner node and a client that sends requests and robot descriptions.
 
-    def __init__(self, parameters):
+    Each in its own namespace: two planners alive at once (a module fixture's
+    and a test's) must not answer each other's requests.
+    """
+
+    def __init__(self, parameters, namespace):
         super().__init__()
         try:
-            self.node = self.add(PlannerNode(context=self.context,
+            self.node = self.add(PlannerNode(context=self.context, namespace=namespace,
                                              parameter_overrides=overrides(parameters)))
-            self.client = self.add(Node('model_client', context=self.context))
+            self.client = self.add(Node('model_client', namespace=namespace,
+                                        context=self.context))
             self.tools = self.client.create_publisher(PoseArray, topics.TOOL_WAYPOINTS,
                                                       topics.REQUEST_QOS)
             self.description = self.client.create_publisher(String, 'robot_description',
                                                             topics.LATCHED)
             self.status, self.trajectories = [], []
-            self.client.create_subscription(DiagnosticStatus, '/planner_node/status',
+            self.client.create_subscription(DiagnosticStatus, 'planner_node/status',
                                             self.status.append, topics.STATUS_QOS)
             self.client.create_subscription(JointTrajectory, topics.JOINT_TRAJECTORY,
                                             self.trajectories.append, topics.LATCHED)
@@ -95,7 +101,8 @@ class Planner(LocalRos):
     def publish_description(self, text):
         first = len(self.status)
         self.description.publish(String(data=text))
-        return self.next_status(first, lambda values: 'request' not in values)
+        return self.next_status(first, lambda values: 'robot' in values
+                                or 'robot_description_characters' in values)
 
 
 def check_seam(msg, tolerance=1e-3, angle=math.radians(1.0)):
@@ -134,7 +141,7 @@ def base_parameters(limits_file, **more):
 
 @pytest.fixture(scope='module')
 def by_file(limits_file):
-    with Planner(base_parameters(limits_file, model_file=vr.ur5_urdf())) as planner:
+    with Planner(base_parameters(limits_file, model_file=vr.ur5_urdf()), 'by_file') as planner:
         yield planner
 
 
@@ -214,7 +221,7 @@ def test_unreachable_and_misframed_requests_are_named(by_file):
 def test_the_robot_description_topic(limits_file):
     with open(vr.ur5_urdf(), encoding='utf-8') as stream:
         urdf = stream.read()
-    with Planner(base_parameters(limits_file)) as planner:
+    with Planner(base_parameters(limits_file), 'by_topic') as planner:
         status, _ = planner.request(pose_array(CORNERS[:2]))
         assert status.level == DiagnosticStatus.ERROR
         assert 'no robot yet' in status.message
