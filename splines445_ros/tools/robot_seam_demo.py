@@ -115,7 +115,10 @@ def seam_table(robot='ur5', runs=RUNS):
         repeats = UNIFORM_REPEATS if timing == 'uniform' else 1
         times, result, error = [], None, None
         for _ in range(repeats):
-            kin.seed = np.array(ROBOTS[robot]['ready'])
+            # Fresh kinematics every run: no IK walk remembered from the previous one.
+            spec = ROBOTS[robot]
+            kin = ModelKinematics(kin.robot, spec['tool'], spec['base'], spec['joints'],
+                                  seed=spec['ready'])
             started = time.perf_counter()
             try:
                 result = plan_tool_path(poses, kin, TOLERANCE, ANGLE_TOLERANCE,
