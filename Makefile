@@ -37,9 +37,9 @@ help:
 	@echo "make test   set up, build, colcon test, colcon test-result --verbose"
 	@echo "make bench  planning time and optimal durations against scipy and TOPP-RA,"
 	@echo "            tracking and torque of every method on the dynamic arm,"
-	@echo "            replanning from moving states, near-duplicate waypoints"
-	@echo "            replanning from moving states, message size and publishing"
-	@echo "            time of output: sampled against output: knots"
+	@echo "            replanning from moving states, near-duplicate waypoints,"
+	@echo "            message size and publishing time of output: sampled against"
+	@echo "            output: knots, UR5 and Panda seams at 1 mm / 1 deg"
 	@echo "make lint   ament_flake8 and ament_pep257 on the sources"
 	@echo "make clean  remove build products (keeps .venv)"
 
@@ -75,6 +75,7 @@ bench: build
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_replanning.py
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_near_duplicates.py
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_output.py
+	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_robot_seam.py
 
 lint: env
 	$(BIN)ament_flake8 $(LINTED)

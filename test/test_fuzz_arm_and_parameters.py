@@ -12,7 +12,7 @@ from rclpy.exceptions import ParameterNotDeclaredException
 from rclpy.parameter import Parameter
 from splines445_ros.nodes.arm_sim_config import ArmSimConfig
 from splines445_ros.nodes.planner_config import PlannerConfig
-from splines445_ros.tools.in_process import InProcessSystem, waypoint_message
+from splines445_ros.tools.in_process import InProcessSystem, overrides, waypoint_message
 
 N_MESSAGES = int(os.environ.get('SPLINES445_FUZZ_EXAMPLES', '2000')) // 2
 ARM = {'sent': 0, 'good': 0, 'bad': 0}
@@ -87,9 +87,12 @@ def test_parameter_updates_never_break_a_node(system, which, data):
 
 
 def test_planner_still_plans_after_parameter_fuzz(system):
-    system.set_planner_parameters({
-        'joint_names': list(JOINTS), 'max_velocity': [2.0] * 3, 'max_acceleration': [10.0] * 3,
-        'max_jerk': [0.0] * 3, 'method': '445', 'timing': 'uniform', 'sample_period': 0.01,
-        'start_from_current_state': False, 'max_trajectory_points': 200000})
+    # Back to the defaults, every parameter at once (the fuzz may have left, say,
+    # position limits that no plan meets).
+    defaults = PlannerConfig()
+    result = system.planner.set_parameters_atomically(overrides(
+        {name: getattr(defaults, name) for name in PlannerConfig.__dataclass_fields__}))
+    assert result.successful, result.reason
+    assert list(JOINTS) == list(defaults.joint_names)
     status, trajectory = system.request(waypoint_message(JOINTS, [[0, 0, 0], [0.5, 0.2, 0.1]]))
     assert status.level == DiagnosticStatus.OK, status.message

@@ -162,6 +162,11 @@ class ArmModel:
 
 
 def _load_spec(mujoco, xml=None, path=None):
+    if path is not None:
+        from .robot_model import urdf_spec  # lazy: robot_model imports this module
+        spec = urdf_spec(mujoco, path)
+        if spec is not None:
+            return spec
     try:
         if path is not None:
             return mujoco.MjSpec.from_file(path)
@@ -217,8 +222,21 @@ def _joint_addresses(mujoco, model, names, where):
     return np.array(qpos, dtype=int), np.array(dof, dtype=int)
 
 
+def _add_tool_frame_site(mujoco, spec, tool_frame, where):
+    """Put a site on the body (URDF link) ``tool_frame``; return the site's name."""
+    for site in spec.sites:
+        if site.name == tool_frame:
+            return tool_frame
+    body = spec.body(tool_frame)
+    if body is None:
+        raise ValueError(f'{where} has no link, body or site {tool_frame!r} (tool_frame)')
+    name = f'splines445_tool_frame_{tool_frame}'
+    body.add_site(name=name)
+    return name
+
+
 def load_arm_model(joint_names, torque_limits, actuator_time_constant, timestep=0.001,
-                   planar=None, model_file='', tool_site=''):
+                   planar=None, model_file='', tool_site='', tool_frame=''):
     """
     Compile the simulated arm and the controller's rigid model (ValueError with the reason).
 
@@ -226,7 +244,10 @@ def load_arm_model(joint_names, torque_limits, actuator_time_constant, timestep=
     empty; otherwise the file's own bodies, masses, joint properties and
     options are used, with its time step replaced by ``timestep``.
     ``tool_site`` names the site of ``tool_pose`` (built-in arm: ``tool``
-    when empty; a file: none when empty).
+    when empty; a file: none when empty); ``tool_frame`` (a file: a URDF
+    link, MJCF body or site) overrides it.  A URDF ``model_file`` is read as
+    by :func:`splines445_ros.arm.robot_model.load_robot_model` (fixed-joint
+    links kept, unreadable meshes dropped) and simulated without contacts.
     """
     mujoco = _import_mujoco()
     names = tuple(joint_names)
@@ -251,6 +272,9 @@ def load_arm_model(joint_names, torque_limits, actuator_time_constant, timestep=
         tool_site = tool_site or TOOL_SITE
     for s in (spec, rigid_spec):
         s.option.timestep = timestep
+    if model_file and tool_frame:
+        tool_site = _add_tool_frame_site(mujoco, spec, tool_frame, where)
+        _add_tool_frame_site(mujoco, rigid_spec, tool_frame, where)
     # Joints first, so a missing joint is reported as such (not as a bad actuator target).
     _joint_addresses(mujoco, _compile(rigid_spec, where), names, where)
     _add_actuators(mujoco, spec, targets, torque_limits, actuator_time_constant)

@@ -11,14 +11,20 @@ Kinematics protocol
 -------------------
 Any object with
 
-* ``forward(joints)``: tool poses (..., 3) = (x, y, yaw) of joint positions
-  (..., n), vectorised over the leading axes;
-* ``inverse(poses)``: joint positions (K, n) of tool poses (K, 3), continuous
+* ``forward(joints)``: tool poses (..., P) of joint positions (..., n),
+  vectorised over the leading axes;
+* ``inverse(poses)``: joint positions (K, n) of tool poses (K, P), continuous
   along K (no 2*pi jumps between consecutive rows), raising ValueError for an
-  unreachable pose.
+  unreachable pose (with a ``pose_index`` attribute when it knows which).
 
-:class:`splines445_ros.arm.kinematics.PlanarArm` implements it; its
-``inverse`` takes the paper's elbow branch (``elbow=1``) by default.
+Poses are planar, P = 3: (x, y, yaw), or spatial, P = 7: (x, y, z, qw, qx,
+qy, qz), a position and a unit quaternion (scalar first).
+:class:`splines445_ros.arm.kinematics.PlanarArm` implements the planar
+protocol (its ``inverse`` takes the paper's elbow branch, ``elbow=1``, by
+default); :class:`splines445_ros.arm.inverse_kinematics.ModelKinematics` the
+spatial one for any robot model.  The planar case is the special case of the
+spatial one with z = 0 and rotations about z; it keeps its own arithmetic,
+so its results are exactly those of the planar-only code.
 
 Algorithm
 ---------
@@ -32,9 +38,14 @@ Algorithm
    segment (for a pure rotation, the fraction of the segment's time), so
    position and orientation are interpolated together, as in Taylor's method.
    Requested yaws are unwrapped, so the interpolation takes the short way.
+   Spatial poses: the orientation deviation is the rotation angle between
+   the tool's orientation and the slerp of the two requested orientations
+   at the same ``s`` (requested quaternions are made sign-continuous, so the
+   slerp takes the short way).
 3. On every segment that exceeds a tolerance, insert the inverse kinematics of
-   the Cartesian midpoint of its two knots (position and yaw; on the straight
-   line, since both knots are) as a new knot, re-plan the whole trajectory
+   the Cartesian midpoint of its two knots (position and yaw, or position and
+   the slerp midpoint of the two quaternions; on the straight line, since
+   both knots are) as a new knot, re-plan the whole trajectory
    (every knot moves the whole spline, so nothing checked before is kept)
    and repeat from 2 until every segment is within the tolerances.
 4. Stop with a ValueError naming the segment, the tool waypoints it lies
@@ -78,6 +89,7 @@ import numbers
 
 import numpy as np
 
+from . import rotations as rot
 from ..planning import merge_duplicates, plan
 
 GRID = 24
@@ -131,7 +143,8 @@ class ToolPath:
     Attributes
     ----------
     trajectory : the planned :class:`~splines445_ros.planning.Trajectory`.
-    poses : (M, 3) tool poses (x, y, yaw) of its knots, yaw unwrapped.
+    poses : (M, P) tool poses of its knots: (x, y, yaw), yaw unwrapped, or
+        (x, y, z, qw, qx, qy, qz), quaternions sign-continuous.
     joints : (M, n) joint positions of its knots (the waypoints planned).
     waypoint_knots : (N,) the knot of every requested tool waypoint (a merged
         duplicate maps to the knot it equals).
@@ -182,23 +195,58 @@ def _tolerance(name, value):
     return value if value > 0.0 else math.inf
 
 
+PLANAR_COMPONENTS = ('x', 'y', 'yaw')
+SPATIAL_COMPONENTS = ('x', 'y', 'z', 'qw', 'qx', 'qy', 'qz')
+
+
 def tool_pose_array(poses):
-    """Return tool poses as a finite (N, 3) array (x, y, yaw), N >= 2, yaw unwrapped."""
+    """
+    Return tool poses as a finite (N, 3) or (N, 7) array, N >= 2.
+
+    Planar (x, y, yaw): yaw unwrapped.  Spatial (x, y, z, qw, qx, qy, qz):
+    quaternions normalised and sign-continuous (neighbours' dot products >= 0).
+    """
     try:
         arr = np.array(poses, dtype=float)
     except (TypeError, ValueError) as exc:
         raise ValueError(f'tool poses must be numeric: {exc}') from None
-    if arr.ndim != 2 or arr.shape[1] != 3:
-        raise ValueError(f'tool poses must have shape (N, 3) = (x, y, yaw), got {arr.shape}')
+    if arr.ndim != 2 or arr.shape[1] not in (3, 7):
+        raise ValueError(f'tool poses must have shape (N, 3) = (x, y, yaw) or (N, 7) = '
+                         f'(x, y, z, qw, qx, qy, qz), got {arr.shape}')
     if arr.shape[0] < 2:
         raise ValueError(f'need at least 2 tool waypoints, got {arr.shape[0]}')
+    components = PLANAR_COMPONENTS if arr.shape[1] == 3 else SPATIAL_COMPONENTS
     bad = np.argwhere(~np.isfinite(arr))
     if bad.size:
         k, c = bad[0]
-        raise ValueError(f'tool waypoint {k} has {("x", "y", "yaw")[c]} = {arr[k, c]}: '
+        raise ValueError(f'tool waypoint {k} has {components[c]} = {arr[k, c]}: '
                          'values must be finite')
-    arr[:, 2] = np.unwrap(arr[:, 2])
+    if arr.shape[1] == 3:
+        arr[:, 2] = np.unwrap(arr[:, 2])
+        return arr
+    quat = arr[:, 3:]
+    scale = np.max(np.abs(quat), axis=1)
+    if np.any(scale < 1e-9):
+        raise ValueError(f'tool waypoint {int(np.argmin(scale))} has a zero quaternion')
+    quat = quat / scale[:, None]  # no overflow for huge components
+    arr[:, 3:] = rot.continuous(quat / np.linalg.norm(quat, axis=1, keepdims=True))
     return arr
+
+
+def _format_pose(pose):
+    if len(pose) == 3:
+        return f'(x, y, yaw) = ({pose[0]:.6g}, {pose[1]:.6g}, {pose[2]:.6g})'
+    return ('(x, y, z) = (' + ', '.join(f'{v:.6g}' for v in pose[:3]) + '), (qw, qx, qy, qz) = ('
+            + ', '.join(f'{v:.6g}' for v in pose[3:]) + ')')
+
+
+def _midpoints(a, b):
+    """Return the Cartesian midpoints of knot poses a and b (K, P): on their straight line."""
+    mid = 0.5 * (a + b)
+    if a.shape[1] == 7:
+        # The normalised sum of two quaternions in one hemisphere is their slerp midpoint.
+        mid[:, 3:] /= np.linalg.norm(mid[:, 3:], axis=1, keepdims=True)
+    return mid
 
 
 def _inverse(kinematics, poses, describe):
@@ -206,14 +254,18 @@ def _inverse(kinematics, poses, describe):
     try:
         with np.errstate(over='ignore', invalid='ignore'):  # huge poses are unreachable
             joints = np.asarray(kinematics.inverse(poses), dtype=float)
-    except ValueError:
+    except ValueError as first:
+        k = getattr(first, 'pose_index', None)
+        if k is not None:
+            # The kinematics knows which pose (and why: it walks from pose to pose).
+            reason = getattr(first, 'reason', str(first))
+            raise ValueError(f'{describe(k)} at {_format_pose(poses[k])} {reason}') from None
         for k, pose in enumerate(poses):
             try:
                 with np.errstate(over='ignore', invalid='ignore'):
                     kinematics.inverse(pose[None, :])
             except ValueError as exc:
-                raise ValueError(f'{describe(k)} at (x, y, yaw) = '
-                                 f'({pose[0]:.6g}, {pose[1]:.6g}, {pose[2]:.6g}) is '
+                raise ValueError(f'{describe(k)} at {_format_pose(pose)} is '
                                  f'unreachable ({exc})') from None
         raise
     if joints.ndim != 2 or joints.shape[0] != len(poses) or not np.all(np.isfinite(joints)):
@@ -230,11 +282,31 @@ class _PathMeasure:
         self.kinematics = kinematics
         self.segment_edges = segment_edges
         a, b = edge_poses[:-1], edge_poses[1:]
-        self.start = a[:, :2]
-        self.direction = b[:, :2] - a[:, :2]
+        self.spatial = edge_poses.shape[1] == 7
+        dims = 3 if self.spatial else 2
+        self.start = a[:, :dims]
+        self.direction = b[:, :dims] - a[:, :dims]
         self.length2 = np.sum(self.direction**2, axis=1)
-        self.yaw0 = a[:, 2]
-        self.dyaw = b[:, 2] - a[:, 2]
+        if self.spatial:
+            self.quat0 = a[:, 3:]
+            self.quat1 = b[:, 3:]
+            self._matrices = hasattr(kinematics, 'forward_transform')
+            if self._matrices:
+                # The slerp of edge e at s is R0 Rot(axis, s angle): Rodrigues' terms.
+                turn = rot.multiply(rot.conjugate(self.quat0), self.quat1)
+                turn = np.where(turn[:, :1] < 0.0, -turn, turn)
+                sine = np.linalg.norm(turn[:, 1:], axis=1)
+                self.angle = 2.0 * np.arctan2(sine, turn[:, 0])
+                axis = turn[:, 1:] / np.where(sine > 1e-15, sine, 1.0)[:, None]
+                x, y, z = axis[:, 0], axis[:, 1], axis[:, 2]
+                zero = np.zeros_like(x)
+                self.skew = np.stack([np.stack([zero, -z, y], -1), np.stack([z, zero, -x], -1),
+                                      np.stack([-y, x, zero], -1)], -2)
+                self.skew2 = self.skew @ self.skew
+                self.rot0 = rot.to_matrix(self.quat0)
+        else:
+            self.yaw0 = a[:, 2]
+            self.dyaw = b[:, 2] - a[:, 2]
         n_edges = len(a)
         first = np.searchsorted(segment_edges, np.arange(n_edges), side='left')
         last = np.searchsorted(segment_edges, np.arange(n_edges), side='right')
@@ -243,8 +315,10 @@ class _PathMeasure:
 
     def __call__(self, t, seg):
         """Position and orientation deviation (K,) at times ``t`` on segments ``seg``."""
-        pose = np.asarray(self.kinematics.forward(self.traj.evaluate(t)), dtype=float)
         e = self.segment_edges[seg]
+        if self.spatial:
+            return self._spatial(t, e)
+        pose = np.asarray(self.kinematics.forward(self.traj.evaluate(t)), dtype=float)
         p = pose[:, :2] - self.start[e]
         ab = self.direction[e]
         long_edge = self.length2[e] > MIN_EDGE_LENGTH**2
@@ -255,6 +329,36 @@ class _PathMeasure:
         position = np.hypot(*(p - s[:, None] * ab).T)
         orientation = np.abs(_wrap(pose[:, 2] - self.yaw0[e] - s * self.dyaw[e]))
         return position, orientation, pose[:, :2]
+
+    def _spatial(self, t, e):
+        joints = self.traj.evaluate(t)
+        if self._matrices:
+            position, mat = self.kinematics.forward_transform(joints)
+        else:
+            pose = np.asarray(self.kinematics.forward(joints), dtype=float)
+            position = pose[:, :3]
+        p = position - self.start[e]
+        ab = self.direction[e]
+        long_edge = self.length2[e] > MIN_EDGE_LENGTH**2
+        s_line = np.sum(p * ab, axis=1) / np.where(long_edge, self.length2[e], 1.0)
+        span = self.edge_t1[e] - self.edge_t0[e]
+        s_time = (t - self.edge_t0[e]) / np.where(span > 0.0, span, 1.0)
+        s = np.clip(np.where(long_edge, s_line, s_time), 0.0, 1.0)
+        deviation = np.linalg.norm(p - s[:, None] * ab, axis=1)
+        if not self._matrices:
+            orientation = rot.angle_between(rot.slerp(self.quat0[e], self.quat1[e], s),
+                                            pose[:, 3:])
+            return deviation, orientation, position
+        # D = (R0 Rot(s angle))^T R: its angle atan2(|vee(D - D^T)| / 2, (tr D - 1) / 2).
+        a = s * self.angle[e]
+        slerp_rel = (np.eye(3) + np.sin(a)[:, None, None] * self.skew[e]
+                     + (1.0 - np.cos(a))[:, None, None] * self.skew2[e])
+        wanted = self.rot0[e] @ slerp_rel
+        d = np.einsum('kji,kjl->kil', wanted, mat)
+        cosine = 0.5 * (d[:, 0, 0] + d[:, 1, 1] + d[:, 2, 2] - 1.0)
+        sine = 0.5 * np.sqrt((d[:, 2, 1] - d[:, 1, 2]) ** 2 + (d[:, 0, 2] - d[:, 2, 0]) ** 2
+                             + (d[:, 1, 0] - d[:, 0, 1]) ** 2)
+        return deviation, np.arctan2(sine, cosine), position
 
     def deviation(self, tolerances=(0.0, 0.0), grid=GRID, steps=GOLDEN_STEPS):
         """
@@ -271,8 +375,12 @@ class _PathMeasure:
         times = traj.breakpoints[:-1, None] + traj.durations[:, None] * u[None, :]
         seg = np.repeat(np.arange(n_seg), grid)
         pos, ori, xy = self(times.ravel(), seg)
-        xy = xy.reshape(n_seg, grid, 2)
-        slack = 0.5 * float(np.max(np.hypot(*np.diff(xy, axis=1).transpose(2, 0, 1))))
+        if self.spatial:
+            xyz = xy.reshape(n_seg, grid, 3)
+            slack = 0.5 * float(np.max(np.linalg.norm(np.diff(xyz, axis=1), axis=2)))
+        else:
+            xy = xy.reshape(n_seg, grid, 2)
+            slack = 0.5 * float(np.max(np.hypot(*np.diff(xy, axis=1).transpose(2, 0, 1))))
         best = []
         for values in (pos.reshape(n_seg, grid), ori.reshape(n_seg, grid)):
             j = np.argmax(values, axis=1)
@@ -338,8 +446,10 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
 
     Parameters
     ----------
-    poses : array_like (N, 3)
-        Tool waypoints (x, y, yaw), in order; yaw in radians (unwrapped here).
+    poses : array_like (N, 3) or (N, 7)
+        Tool waypoints (x, y, yaw), in order, yaw in radians (unwrapped here);
+        or (x, y, z, qw, qx, qy, qz) (quaternions normalised and made
+        sign-continuous here).
     kinematics : object
         With ``forward`` and ``inverse`` (see the module docstring).
     max_deviation : float
@@ -347,7 +457,8 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
         between consecutive tool waypoints; None or 0: not checked.
     max_orientation_deviation : float
         Largest deviation [rad] of the tool yaw from the linear interpolation
-        between consecutive tool waypoints; None or 0: not checked.
+        (spatial: of the tool orientation from the slerp) between consecutive
+        tool waypoints; None or 0: not checked.
     max_inserted : int
         Most knots that may be inserted; reaching it is a ValueError.
     method, timing, durations : as for :func:`~splines445_ros.planning.plan`;
@@ -422,7 +533,7 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
                                          tol_position, tol_orientation, max_inserted, method))
         if bad.size > budget:
             bad = np.sort(bad[np.argsort(excess[bad])[::-1][:budget]])
-        midpoints = 0.5 * (knots[bad] + knots[bad + 1])
+        midpoints = _midpoints(knots[bad], knots[bad + 1])
         new_knots = np.insert(knots, bad + 1, midpoints, axis=0)
         new_joints = _inverse(kinematics, new_knots, _describe_inserted(
             bad, segment_edges, kept_index, new_knots))

@@ -6,6 +6,7 @@ from typing import Tuple
 
 from .planner_config import DEFAULT_JOINTS
 from .validated_config import ValidatedConfig
+from ..arm.model_drives import DEFAULT_BANDWIDTH, DEFAULT_DAMPING_RATIO
 from ..arm.mujoco_model import PlanarArmModel
 
 MIN_PUBLISH_RATE = 0.001
@@ -54,6 +55,27 @@ class ArmSimConfig(ValidatedConfig):
     actuator_time_constant: float = 0.002
     kp: Tuple[float, ...] = (90000.0, 16000.0, 1000.0)
     kd: Tuple[float, ...] = (4000.0, 700.0, 20.0)
+    # model_file: the drives from the model (see nodes/arm_sim_model.py).
+    tool_frame: str = ''
+    control_bandwidth: float = DEFAULT_BANDWIDTH
+    control_damping_ratio: float = DEFAULT_DAMPING_RATIO
+
+    def from_model(self, name):
+        """
+        Return True when the per-joint array ``name`` is to come from ``model_file``.
+
+        With a model file, the built-in arm's default values and all zeros
+        mean "not set": the model's own values are used (0 entries in an
+        explicit array likewise, joint by joint).
+        """
+        values = getattr(self, name)
+        return bool(self.model_file) and (
+            tuple(values) == tuple(getattr(_DEFAULTS, name)) or not any(values))
+
+    @property
+    def all_model_joints(self):
+        """Return True when joint_names [''] asks for all of the model's actuated joints."""
+        return bool(self.model_file) and tuple(self.joint_names) in ((), ('',))
 
     @property
     def dynamic(self):
@@ -76,6 +98,9 @@ class ArmSimConfig(ValidatedConfig):
     def validate(self):
         """Raise ValueError with the reason when any value is unusable."""
         names = self.joint_names
+        if self.all_model_joints:
+            self._validate_model_file()
+            return
         if any(not isinstance(n, str) or not n for n in names) or (
                 not self.model_file and len(names) != 3) or not names:
             raise ValueError(f'joint_names must be 3 non-empty names (the planar arm has 3 '
@@ -84,6 +109,9 @@ class ArmSimConfig(ValidatedConfig):
             raise ValueError(f'joint_names has duplicates: {list(names)}')
         n = len(names)
         self.require_positive('link_lengths', 2)
+        if self.model_file:
+            self._validate_model_file(n)
+            return
         if len(self.initial_positions) != n or not _finite(self.initial_positions):
             raise ValueError(f'initial_positions must be {n} finite angles, got '
                              f'{list(self.initial_positions)}')
@@ -110,6 +138,44 @@ class ArmSimConfig(ValidatedConfig):
         self.require_in_range('actuator_time_constant', 0.0, MAX_TIME_CONSTANT, 's')
         if not self.model_file:
             self._validate_discretisation()
+
+    def _validate_common(self):
+        self.require_positive('link_lengths', 2)
+        self.require_in_range('publish_rate', MIN_PUBLISH_RATE, MAX_PUBLISH_RATE, 'Hz')
+        if self.simulation == 'dynamic' and self.publish_rate < MIN_DYNAMIC_PUBLISH_RATE:
+            raise ValueError(f'publish_rate = {self.publish_rate}: the dynamic simulation '
+                             'steps its physics at every publication, so it needs at least '
+                             f'{MIN_DYNAMIC_PUBLISH_RATE:g} Hz')
+        if self.simulation not in SIMULATIONS:
+            raise ValueError(f'simulation must be one of {list(SIMULATIONS)}, got '
+                             f'{self.simulation!r}')
+        self.require_in_range('physics_rate', MIN_PHYSICS_RATE, MAX_PHYSICS_RATE, 'Hz')
+        if not isinstance(self.gravity, bool):
+            raise ValueError(f'gravity must be true or false, got {self.gravity!r}')
+        self.require_in_range('actuator_time_constant', 0.0, MAX_TIME_CONSTANT, 's')
+        self.require_in_range('control_bandwidth', 0.1, 200.0, 'Hz')
+        self.require_in_range('control_damping_ratio', 0.05, 5.0)
+
+    def _validate_model_file(self, n=None):
+        """With model_file: per-joint arrays one per joint, or unset (from the model)."""
+        if len(set(self.joint_names)) != len(self.joint_names):
+            raise ValueError(f'joint_names has duplicates: {list(self.joint_names)}')
+        self._validate_common()
+        if not self.from_model('initial_positions'):
+            if not _finite(self.initial_positions) or (
+                    n is not None and len(self.initial_positions) != n):
+                raise ValueError(f'initial_positions must be {n or "one per joint"} finite '
+                                 f'angles, got {list(self.initial_positions)}')
+        per_joint = (('torque_limits', MAX_KP * MAX_KD, 'in [0, inf) (0 = from the model)'),
+                     ('kp', MAX_KP, f'in [0, {MAX_KP:g}] (0 = from the model)'),
+                     ('kd', MAX_KD, f'in [0, {MAX_KD:g}] (0 = from the model)'))
+        for name, high, words in per_joint:
+            values = getattr(self, name)
+            if self.from_model(name):
+                continue
+            if (n is not None and len(values) != n) or not _finite(values, 0.0, high):
+                raise ValueError(f'{name} must be {n or "one per joint"} values, each {words}, '
+                                 f'got {list(values)}')
 
     def _validate_built_in(self):
         arrays = (('link_masses', 0.0, True, 'positive'),
@@ -148,3 +214,6 @@ class ArmSimConfig(ValidatedConfig):
                         f'{self.physics_rate:g} Hz (spring frequency {omega:.0f} rad/s; '
                         f'omega * dt must stay below {MAX_SPRING_STEP:g}: raise '
                         f'physics_rate, rotor_inertia, or lower the stiffness)')
+
+
+_DEFAULTS = ArmSimConfig()

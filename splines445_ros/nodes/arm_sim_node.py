@@ -34,6 +34,7 @@ from trajectory_msgs.msg import JointTrajectory
 
 from . import topics
 from .arm_sim_config import ArmSimConfig
+from .arm_sim_model import resolve_model_config
 from .diagnostics import format_vector, status_message
 from .node_main import run_node
 from .parameters import ConfigParameters
@@ -73,7 +74,23 @@ PARAMETER_DESCRIPTIONS = {
                               'command [s], in [0, 1]; 0 = none.',
     'kp': f'dynamic: position gain of the PD loop [N m/rad], {PER_JOINT}.',
     'kd': f'dynamic: velocity gain of the PD loop [N m s/rad], {PER_JOINT}.',
+    'tool_frame': 'model_file: link, body or site whose pose is published on tool_pose '
+                  '(overrides tool_site).',
+    'control_bandwidth': 'model_file, dynamic: natural frequency [Hz] of the PD loop that sets '
+                         'kp and kd from the joint inertia when they are not given.',
+    'control_damping_ratio': 'model_file, dynamic: damping ratio of that loop (1 = critical).',
 }
+PARAMETER_DESCRIPTIONS['joint_names'] += (' With model_file, [""] = all actuated joints of '
+                                          'the model, in its order.')
+_FROM_MODEL = (' With model_file, the built-in defaults or zeros = from the model (torque: '
+               'actuator forcerange, ctrlrange x gear, URDF effort; kp, kd: from the joint '
+               'inertia and control_bandwidth; initial_positions: keyframe home or the '
+               'reference pose).')
+for _name in ('initial_positions', 'torque_limits', 'kp', 'kd'):
+    PARAMETER_DESCRIPTIONS[_name] += _FROM_MODEL
+PARAMETER_DESCRIPTIONS['model_file'] = ('path of a URDF or MJCF file to simulate (dynamic) '
+                                        'or play (kinematic) instead of the built-in planar '
+                                        'arm; empty = built-in.')
 SETTLING_TIME = 0.5     # s after the end of a trajectory: settling_error
 MAX_CATCH_UP = 10.0     # s: a larger clock jump is not simulated across
 
@@ -87,7 +104,7 @@ class ArmSimNode(Node):
         self.parameters = ConfigParameters(self, ArmSimConfig, PARAMETER_DESCRIPTIONS,
                                            on_change=self._on_config,
                                            on_reject=self._on_parameters_rejected)
-        config = self.parameters.config
+        config = self.effective = self._effective(self.parameters.config)
         self.arm = PlanarArm(*config.link_lengths)
         n = len(config.joint_names)
         self.position = np.array(config.initial_positions, dtype=float)
@@ -115,13 +132,22 @@ class ArmSimNode(Node):
                                  self._on_trajectory, topics.LATCHED)
         self._timer = self.create_timer(1.0 / config.publish_rate, self._on_timer)
 
+    def _effective(self, config):
+        """Return the config with model_file's own values filled in (ValueError)."""
+        if not config.model_file:
+            return config
+        effective, sources = resolve_model_config(config)
+        for name, text in sources.items():
+            self.get_logger().info(f'{config.model_file}: {name} from {text}')
+        return effective
+
     @staticmethod
     def _build_dynamic(config, position, velocity):
         """Compile the MuJoCo arm and its controller at a state (ValueError with the reason)."""
         model = load_arm_model(config.joint_names, config.torque_limits,
                                config.actuator_time_constant, config.timestep,
                                planar=config.planar_model(), model_file=config.model_file,
-                               tool_site=config.tool_site)
+                               tool_site=config.tool_site, tool_frame=config.tool_frame)
         arm = DynamicArm(model, config.kp, config.kd, config.torque_limits)
         arm.set_state(position, velocity)
         return arm
@@ -134,7 +160,8 @@ class ArmSimNode(Node):
 
     def _on_config(self, config):
         """Apply a validated config; ValueError (model does not load) rejects it."""
-        old = self.parameters.config
+        old = self.effective
+        config = self._effective(config)
         n = len(config.joint_names)
         same_joints = tuple(config.joint_names) == tuple(old.joint_names)
         position = self.position if same_joints and len(self.position) == n else np.array(
@@ -161,6 +188,7 @@ class ArmSimNode(Node):
         if dynamic is None:
             self._settling = self._metrics = None  # kinematic playback reports no tracking
         self.dynamic = dynamic
+        self.effective = config
         self.effort = None if dynamic is None else dynamic.efforts()
         if dynamic is not None and self._active is not None and self._metrics is None:
             self._start_metrics()
@@ -169,7 +197,7 @@ class ArmSimNode(Node):
         return self.get_clock().now().nanoseconds
 
     def _on_trajectory(self, msg):
-        config = self.parameters.config
+        config = self.effective
         try:
             trajectory = sampled_trajectory_from_msg(msg, config.joint_names)
         except ValueError as exc:
@@ -330,7 +358,7 @@ class ArmSimNode(Node):
         else:
             self._advance(now)
         stamp = Time(nanoseconds=now).to_msg()
-        config = self.parameters.config
+        config = self.effective
         state = JointState()
         state.header.stamp = stamp
         state.name = list(config.joint_names)

@@ -20,7 +20,7 @@ DEFAULT_JOINTS = ('joint1', 'joint2', 'joint3')
 MIN_SAMPLE_PERIOD = 1e-4
 MAX_LEAD_TIME = 10.0
 # Values of the ``kinematics`` parameter: '' = joint space only.
-KINEMATICS = ('', 'planar_3dof')
+KINEMATICS = ('', 'planar_3dof', 'model')
 MAX_INSERTED_WAYPOINTS = 100000
 # A waypoint tolerance above this [rad or m] would merge distinct taught points.
 MAX_WAYPOINT_TOLERANCE = 0.1
@@ -52,11 +52,21 @@ class PlannerConfig(ValidatedConfig):
     max_position: Tuple[float, ...] = ()
     output: str = 'sampled'
     inner_knots: int = 0
+    # kinematics "model": a robot description (see nodes/robot_description.py).
+    model_file: str = ''
+    tool_frame: str = ''
+    base_frame: str = ''
+    joint_limits_file: str = ''
 
     def validate(self):
         """Raise ValueError with the reason when any value is unusable."""
         names = self.joint_names
-        if not names:
+        model = self.kinematics == 'model'
+        if model and names == ('',):
+            # All of the model's actuated joints; [''] since ROS parameter overrides and
+            # files cannot carry an empty array.
+            names = ()
+        if not names and not model:
             raise ValueError('joint_names must not be empty')
         if any(not isinstance(n, str) or not n for n in names):
             raise ValueError('joint_names must be non-empty strings')
@@ -64,8 +74,11 @@ class PlannerConfig(ValidatedConfig):
             raise ValueError(f'joint_names has duplicates: {list(names)}')
         n = len(names)
         for name in ('max_velocity', 'max_acceleration'):
-            self.require_positive(name, n, f'one value per joint ({n})')
-        if len(self.max_jerk) not in (0, n):
+            if model:
+                require_description_limits(name, getattr(self, name), names)
+            else:
+                self.require_positive(name, n, f'one value per joint ({n})')
+        if len(self.max_jerk) not in (0, n) and not model:
             raise ValueError(f'max_jerk needs one value per joint ({n}) or none, '
                              f'got {len(self.max_jerk)}')
         for i, v in enumerate(self.max_jerk):
@@ -80,7 +93,8 @@ class PlannerConfig(ValidatedConfig):
                              f'{MIN_SAMPLE_PERIOD} s')
         self.require_in_range('replan_lead_time', 0.0, MAX_LEAD_TIME, 's')
         self.require_in_range('waypoint_tolerance', 0.0, MAX_WAYPOINT_TOLERANCE)
-        self._validate_position_limits(n)
+        if n or not model:  # with all of a model's joints: checked once it is loaded
+            self.validate_position_limits(n)
         if self.output not in OUTPUTS:
             raise ValueError(f'output must be one of {list(OUTPUTS)}, got {self.output!r}')
 
@@ -92,7 +106,8 @@ class PlannerConfig(ValidatedConfig):
                              'at least 2')
         self._validate_tool_paths()
 
-    def _validate_position_limits(self, n):
+    def validate_position_limits(self, n):
+        """Raise ValueError unless the position limits have 0 or ``n`` values, low <= high."""
         for name in ('min_position', 'max_position'):
             values = getattr(self, name)
             if len(values) not in (0, n):
@@ -125,6 +140,9 @@ class PlannerConfig(ValidatedConfig):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0.0):
                 raise ValueError(f'{name} = {value}: must be >= 0 and finite (0 = not checked)')
+        if self.kinematics == 'model' and not self.tool_frame:
+            raise ValueError('kinematics "model" needs tool_frame (a link, body or site of '
+                             'the model)')
         if not 0 <= self.max_inserted_waypoints <= MAX_INSERTED_WAYPOINTS:
             raise ValueError(f'max_inserted_waypoints = {self.max_inserted_waypoints}: must be '
                              f'in [0, {MAX_INSERTED_WAYPOINTS}]')
@@ -141,8 +159,29 @@ class PlannerConfig(ValidatedConfig):
             return self.inner_knots
         return 0
 
+    def description_limits(self):
+        """Return explicit (max_velocity, max_acceleration, max_jerk) for resolve_limits."""
+        return tuple(() if all(v == 0.0 for v in values) else values
+                     for values in (self.max_velocity, self.max_acceleration, self.max_jerk))
+
     def jerk_limits(self):
         """Jerk limits for plan(): None when no joint has one, +inf for 0 entries."""
         if not any(v > 0.0 for v in self.max_jerk):
             return None
         return [v if v > 0.0 else math.inf for v in self.max_jerk]
+
+
+def require_description_limits(name, values, names):
+    """
+    Check a limit array of kinematics "model" (ValueError with the reason).
+
+    Either all zeros or empty (every limit from the robot's description), or
+    one value >= 0 per joint of ``joint_names`` (0 = from the description).
+    """
+    for i, v in enumerate(values):
+        if not (math.isfinite(v) and v >= 0.0):
+            raise ValueError(f'{name}[{i}] = {v}: must be >= 0 and finite (0 = from the '
+                             'robot description)')
+    if any(v > 0.0 for v in values) and names and len(values) != len(names):
+        raise ValueError(f'{name} needs one value per joint ({len(names)}) or only zeros '
+                         f'(from the robot description), got {len(values)}')

@@ -10,6 +10,13 @@ with ``output: knots`` one point per knot of the spline, which the quintic
 interpolation of joint_trajectory_controller reproduces exactly) and reports
 every request's outcome on ``~/status`` (diagnostic_msgs/DiagnosticStatus).
 
+With ``kinematics: model`` the robot comes from its description
+(``model_file``, else the ``robot_description`` topic, std_msgs/String,
+reliable and transient-local like robot_state_publisher's): tool poses are
+6-D, limits come from the description (see :mod:`.model_planning`).  A
+description or parameter that does not give a working robot is reported on
+``~/status`` (a parameter change is rejected) and the last good robot stays.
+
 Planning runs on a worker thread, so a large request never blocks the node's
 other callbacks (parameter services, state subscriptions).  A bad request is
 reported and logged; the node keeps serving.
@@ -26,10 +33,12 @@ import numpy as np
 from rclpy.node import Node
 from rclpy.time import Time
 from sensor_msgs.msg import JointState
+from std_msgs.msg import String
 from trajectory_msgs.msg import JointTrajectory
 
 from . import topics
 from .diagnostics import status_message
+from .model_planning import build_robot_setup, plan_model_tool_request, tool_poses_from_message
 from .node_main import run_node
 from .parameters import ConfigParameters
 from .planner_config import MAX_WAYPOINT_TOLERANCE, PlannerConfig
@@ -89,7 +98,22 @@ PARAMETER_DESCRIPTIONS = {
                    'shorter (rest-to-rest waypoint requests; replanning from a moving state '
                    'and tool_waypoints keep knots at the waypoints); 0 = knots at the '
                    'waypoints only.',
+    'model_file': 'kinematics "model": URDF or MJCF file of the robot; empty = the '
+                  'robot_description topic.',
+    'tool_frame': 'kinematics "model": the tool frame (URDF link, MJCF body or site).',
+    'base_frame': 'kinematics "model": frame of the tool_waypoints poses (a link or body '
+                  'fixed to the world); empty = the world (the URDF root).',
+    'joint_limits_file': 'kinematics "model": MoveIt joint_limits.yaml; its limits override '
+                         'the URDF velocity, explicit max_* values (non-zero) override both.',
 }
+PARAMETER_DESCRIPTIONS['kinematics'] = (
+    'Kinematics for tool_waypoints requests: "" (none: joint space only), "planar_3dof" (the '
+    'paper\'s arm with link_lengths, elbow branch +1) or "model" (the robot of model_file or '
+    'robot_description: 6-D poses, limits from the description; joint_names [""] = all '
+    'actuated joints, 0 in max_velocity/max_acceleration/max_jerk = from the description).')
+PARAMETER_DESCRIPTIONS['joint_names'] += (' With kinematics "model", [""] (or empty) = all of '
+                                          'the actuated joints of the model, in its order.')
+ROBOT_DESCRIPTION = 'robot_description'
 
 _STOP = object()
 
@@ -100,7 +124,10 @@ class PlannerNode(Node):
     def __init__(self, **kwargs):
         """Declare parameters, topics and the planning worker."""
         super().__init__('planner_node', **kwargs)
+        self._robot = None        # RobotSetup of kinematics "model" (the last good one)
+        self._description = None  # the latest robot_description string
         self.parameters = ConfigParameters(self, PlannerConfig, PARAMETER_DESCRIPTIONS,
+                                           on_change=self._on_config_change,
                                            on_reject=self._on_parameters_rejected)
         self._status_name = self.get_fully_qualified_name()
         self._requests = queue.Queue()
@@ -116,16 +143,59 @@ class PlannerNode(Node):
                                  topics.REQUEST_QOS)
         self.create_subscription(JointState, topics.JOINT_STATES, self._on_joint_state,
                                  topics.STATE_QOS)
+        self.create_subscription(String, ROBOT_DESCRIPTION, self._on_description,
+                                 topics.LATCHED)
         self._latest_joint_state = None
         self._active = None  # (planned Trajectory, start time [ns]) of the last publication
         self._worker = threading.Thread(target=self._work, name='planner', daemon=True)
         self._worker.start()
         config = self.parameters.config
+        if config.kinematics == 'model':
+            self._on_config_change(config)  # a bad model at start-up: invalid parameters
+            if self._robot is None:
+                self.get_logger().info('kinematics "model": waiting for robot_description')
         self.get_logger().info(
             f'planning {config.method}/{config.timing} for {list(config.joint_names)}')
 
     def _on_waypoints(self, msg):
         self._requests.put(msg)
+
+    def _on_description(self, msg):
+        # Loaded by the worker, in order with the requests.
+        self._requests.put(msg)
+
+    def _on_config_change(self, config):
+        """Build the robot of a new config with kinematics "model" (ValueError rejects it)."""
+        if config.kinematics != 'model':
+            return
+        setup = build_robot_setup(config, self._description)
+        if setup is not None:
+            self._use_robot(setup)
+
+    def _use_robot(self, setup):
+        self._robot = setup
+        for note in setup.robot.notes:
+            self.get_logger().warning(note)
+        values = {'robot': setup.source, 'joint_names': ' '.join(setup.config.joint_names)}
+        values.update(setup.limits.report())
+        self._report(True, f'robot model loaded from {setup.summary()}', values)
+
+    def _load_description(self, msg):
+        config = self.parameters.config
+        try:
+            if len(msg.data) > 20_000_000:
+                raise ValueError(f'robot_description has {len(msg.data)} characters, more '
+                                 'than the 20000000 accepted')
+            if config.kinematics == 'model' and not config.model_file:
+                setup = build_robot_setup(config, msg.data)
+                self._description = msg.data
+                self._use_robot(setup)
+            else:
+                self._description = msg.data
+        except ValueError as exc:
+            kept = ('; keeping the last good robot model' if self._robot is not None else '')
+            self._report(False, f'robot_description rejected: {exc}{kept}',
+                         {'robot_description_characters': len(msg.data)})
 
     def _on_joint_state(self, msg):
         self._latest_joint_state = msg
@@ -135,6 +205,9 @@ class PlannerNode(Node):
             msg = self._requests.get()
             if msg is _STOP:
                 return
+            if isinstance(msg, String):
+                self._load_description(msg)
+                continue
             self._request_count += 1
             try:
                 self._serve(msg, self._request_count)
@@ -149,8 +222,21 @@ class PlannerNode(Node):
         switch_ns = None
         switch_delay = 0.0
         tool_values = {}
+        robot = self._robot if config.kinematics == 'model' else None
         try:
-            if isinstance(msg, PoseArray):
+            if config.kinematics == 'model':
+                if robot is None:
+                    raise ValueError('kinematics "model" has no robot yet: set model_file or '
+                                     'publish robot_description')
+                config = robot.config  # joint names and limits from the description
+                tool_values = robot.limits.report()
+            if isinstance(msg, PoseArray) and robot is not None:
+                tool_path = plan_model_tool_request(
+                    robot, tool_poses_from_message(msg, config.base_frame),
+                    self._joint_state_seed(config))
+                traj = tool_path.trajectory
+                tool_values.update(tool_summary_values(tool_path))
+            elif isinstance(msg, PoseArray):
                 tool_path = plan_tool_request(config, parse_tool_request(msg))
                 traj = tool_path.trajectory
                 tool_values = tool_summary_values(tool_path)
@@ -190,7 +276,7 @@ class PlannerNode(Node):
         values.update(summary_values(traj, config.joint_names))
         values.update(tool_values)
         through = f'{traj.waypoints.shape[0]} waypoints'
-        if tool_values:
+        if 'tool_waypoints' in tool_values:
             through = (f"{tool_values['tool_waypoints']} tool waypoints "
                        f"({tool_values['inserted_waypoints']} inserted, deviation "
                        f"{tool_values['max_path_deviation_reached']} m)")
@@ -222,6 +308,13 @@ class PlannerNode(Node):
                 return max(switch_ns, start_ns + int(round(used * 1e9))), traj
         return switch_ns, plan_request(config, start_from_state(
             request, *self._joint_state_start(config), config.waypoint_tolerance))
+
+    def _joint_state_seed(self, config):
+        """Return the latest joint_states positions of the planned joints, or None."""
+        try:
+            return self._joint_state_start(config)[0]
+        except ValueError:
+            return None
 
     def _joint_state_start(self, config):
         """Position, velocity and zero acceleration from the latest joint_states."""

@@ -1,0 +1,96 @@
+"""
+arm_sim_node with a user's ``model_file`` (URDF or MJCF): what the model itself says (no rclpy).
+
+:func:`resolve_model_config` turns a config whose per-joint values are unset
+(see :meth:`ArmSimConfig.from_model`) into the *effective* config the node
+runs with:
+
+* ``joint_names`` ``['']``: every actuated joint of the model, in its order;
+* ``initial_positions``: the model's ``home`` keyframe, else its reference
+  pose moved into the joint ranges;
+* ``torque_limits``: the model's (MJCF actuator ``forcerange``, or
+  ``ctrlrange`` x gear; URDF ``effort``), see
+  :func:`~splines445_ros.arm.model_drives.model_torque_limits`;
+* ``kp``, ``kd``: from the joint-space inertia at the initial pose, for
+  ``control_bandwidth`` [Hz] and ``control_damping_ratio``, see
+  :func:`~splines445_ros.arm.model_drives.inertia_gains`.
+
+Explicit values (non-zero entries) override, joint by joint.
+"""
+
+from dataclasses import replace
+
+import numpy as np
+
+from ..arm.model_drives import inertia_gains, model_torque_limits
+from ..arm.mujoco_model import load_arm_model
+from ..arm.robot_model import load_robot_model
+
+
+def _merge(explicit, from_model, use_model):
+    if use_model:
+        return np.asarray(from_model, dtype=float)
+    explicit = np.asarray(explicit, dtype=float)
+    return np.where(explicit > 0.0, explicit, from_model)
+
+
+def resolve_model_config(config):
+    """
+    Return ``(effective config, sources)`` of a config with ``model_file`` (ValueError).
+
+    ``sources`` maps 'torque_limits', 'kp' and 'kd' to a short text saying
+    where the values came from, for the log.
+    """
+    robot = load_robot_model(config.model_file)
+    where = f'model_file {config.model_file!r}'
+    if config.all_model_joints:
+        joints = robot.joints
+        if not joints:
+            raise ValueError(f'{where} has no actuated (hinge or slide) joints')
+    else:
+        known = {j.name: j for j in robot.joints}
+        missing = [n for n in config.joint_names if n not in known]
+        if missing:
+            raise ValueError(f'{where} has no joint(s) {missing} (joint_names); its joints: '
+                             f'{list(known)}')
+        joints = tuple(known[n] for n in config.joint_names)
+    names = tuple(j.name for j in joints)
+    n = len(names)
+    for name in ('initial_positions', 'torque_limits', 'kp', 'kd'):
+        values = getattr(config, name)
+        if not config.from_model(name) and len(values) != n:
+            raise ValueError(f'{name} must be {n} values (one per joint of {list(names)}), '
+                             f'got {list(values)}')
+    initial = (robot.default_seed(joints) if config.from_model('initial_positions')
+               else np.asarray(config.initial_positions, dtype=float))
+    sources = {}
+    explicit_torque = np.asarray(config.torque_limits if not config.from_model('torque_limits')
+                                 else np.zeros(n), dtype=float)
+    if np.all(explicit_torque > 0.0):
+        torque = explicit_torque
+        sources['torque_limits'] = 'parameter'
+    else:
+        from_model, kinds = model_torque_limits(
+            robot.model, [j.joint_id for j in joints], names, explicit_torque <= 0.0)
+        torque = np.where(explicit_torque > 0.0, explicit_torque, from_model)
+        sources['torque_limits'] = ', '.join(
+            f'{name}: {"parameter" if e > 0.0 else kind}'
+            for name, e, kind in zip(names, explicit_torque, kinds))
+    kp = kd = None
+    if config.dynamic:
+        arm = load_arm_model(names, torque, config.actuator_time_constant, config.timestep,
+                             model_file=config.model_file)
+        gain_p, gain_d, inertia = inertia_gains(
+            arm.rigid, arm.rigid_qpos, arm.rigid_dof, initial, config.control_bandwidth,
+            config.control_damping_ratio)
+        kp = _merge(config.kp, gain_p, config.from_model('kp'))
+        kd = _merge(config.kd, gain_d, config.from_model('kd'))
+        sources['gains'] = (f'inertia {", ".join(f"{v:.4g}" for v in inertia)} kg m^2 at the '
+                            f'initial pose, {config.control_bandwidth:g} Hz, damping ratio '
+                            f'{config.control_damping_ratio:g} (explicit non-zero kp, kd kept)')
+    effective = replace(
+        config, joint_names=names, initial_positions=tuple(float(v) for v in initial),
+        torque_limits=tuple(float(v) for v in torque),
+        kp=tuple(float(v) for v in (kp if kp is not None else np.zeros(n))),
+        kd=tuple(float(v) for v in (kd if kd is not None else np.zeros(n))))
+    return effective, sources
