@@ -20,11 +20,10 @@ import math
 
 import numpy as np
 
+from .request_planning import plan_tool_poses
 from ..arm.inverse_kinematics import ModelKinematics
 from ..arm.joint_limits_file import JointLimits, read_joint_limits_file, resolve_limits
 from ..arm.robot_model import load_robot_model, RobotModel
-from ..arm.tool_paths import plan_tool_path
-from ..planning import check_position_limits
 
 
 @dataclass(frozen=True)
@@ -111,21 +110,7 @@ def plan_model_tool_request(setup, rows, seed=None):
     Rest to rest, refined to ``max_path_deviation`` and
     ``max_orientation_deviation`` (the angle from the slerp).
     """
-    config = setup.config
-    if config.timing == 'fixed':
-        raise ValueError('timing "fixed" needs times, which tool_waypoints (PoseArray) do not '
-                         'carry: use timing "uniform" or "optimal"')
-    if config.start_from_current_state:
-        raise ValueError('tool_waypoints are planned rest to rest from their first waypoint; '
-                         'set start_from_current_state to false for them')
     kinematics = setup.kinematics
     kinematics.seed = (kinematics.robot.default_seed(kinematics.joints) if seed is None
                        else kinematics.check_seed(seed))
-    tool_path = plan_tool_path(rows, kinematics, config.max_path_deviation,
-                               config.max_orientation_deviation, config.max_inserted_waypoints,
-                               method=config.method, timing=config.timing,
-                               max_velocity=config.max_velocity,
-                               max_acceleration=config.max_acceleration,
-                               max_jerk=config.jerk_limits())
-    check_position_limits(tool_path.trajectory, **config.position_limits())
-    return tool_path
+    return plan_tool_poses(setup.config, rows, kinematics)

@@ -82,6 +82,19 @@ def plan_tool_request(config, poses):
     if kinematics is None:
         raise ValueError('tool_waypoints need the kinematics parameter (e.g. "planar_3dof"); '
                          'it is "" (joint space only)')
+    return plan_tool_poses(config, poses, kinematics)
+
+
+def plan_tool_poses(config, poses, kinematics):
+    """
+    Plan tool ``poses`` with ``kinematics`` and ``config``, rest to rest; return a ToolPath.
+
+    The part every tool request shares (planar or a robot model): refined to
+    ``max_path_deviation`` and ``max_orientation_deviation``, within the
+    position limits.  Raises ValueError for "fixed" timing (a PoseArray has
+    no times), for replanning (tool requests start at rest at their first
+    waypoint), and for anything the refinement or the limits reject.
+    """
     if config.timing == 'fixed':
         raise ValueError('timing "fixed" needs times, which tool_waypoints (PoseArray) do not '
                          'carry: use timing "uniform" or "optimal"')
