@@ -277,6 +277,19 @@ def test_a_joint_range_stops_a_2pi_wrap(ur5):
     assert 'joint ranges' in info.value.reason
 
 
+def test_a_line_through_the_wrist_singularity_is_refused_naming_the_pose(ur5):
+    # Wrist 2 from +0.3 to -0.3 rad, the other joints kept: the straight line
+    # and slerp between the two tool poses pass the wrist singularity
+    # (wrist 2 = 0), where wrists 1 and 3 would have to spin round.
+    start, end = np.array(vr.UR5_READY), np.array(vr.UR5_READY)
+    start[4], end[4] = 0.3, -0.3
+    kin = ModelKinematics(ur5, 'tool0', 'base_link', seed=tuple(start))
+    with pytest.raises(KinematicsError, match=r'tool pose 1 at \(x, y, z\)') as info:
+        kin.inverse(np.array([kin.forward(start), kin.forward(end)]))
+    assert info.value.pose_index == 1
+    assert 'branch flip or passes near a singularity' in info.value.reason
+
+
 # --------------------------------------------------------------- bad input
 
 MINIMAL = """<robot name="two">
