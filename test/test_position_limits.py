@@ -52,8 +52,12 @@ def test_position_limits_reject_exactly_the_plans_that_leave_them(traj, data):
     low, high, t_low, t_high = traj.position_extrema()
     j = data.draw(st.integers(0, traj.n_joints - 1))
     margin = 1e-6
-    # Just outside the plan's range: accepted.
+    # Just outside the plan's range, and exactly at it: accepted.
     check_position_limits(traj, low - margin, high + margin)
+    check_position_limits(traj, low, high)
+    # A goal (or start) exactly on a limit is not "an ulp above" it.
+    check_position_limits(traj, np.minimum(low, traj.waypoints[0]),
+                          np.maximum(high, traj.waypoints[-1]))
     # Just inside on one side of one joint: rejected, naming joint, time and excess.
     upper = high + margin
     upper[j] = high[j] - margin
@@ -79,3 +83,14 @@ def test_plan_rejects_a_swing_beyond_the_position_limits():
     # Limits around its whole swing admit it.
     low, high = free.position_extrema()[:2]
     plan(points, '555', 'uniform', min_position=low - 1e-9, max_position=high + 1e-9, **limits)
+
+
+@pytest.mark.parametrize('vmax, amax', [(1.0, 3.0), (2.0, 10.0)])
+def test_a_goal_exactly_on_a_limit_is_not_a_violation(vmax, amax):
+    # Found in review: the polynomial evaluated at the segment's end landed
+    # 8.9e-16 above the goal, and a goal on its joint range was rejected.
+    points = np.array([[0.0, 0.0], [0.7, 1.3], [1.1, 3.1]])
+    for timing in ('uniform', 'optimal'):
+        traj = plan(points, '434', timing, max_velocity=[vmax] * 2,
+                    max_acceleration=[amax] * 2, max_position=[1.1, 3.1])
+        assert traj.position_extrema()[1][1] <= 3.1

@@ -152,7 +152,7 @@ def segment_peaks(coeffs, durations, derivative):
     return values.max(axis=1).reshape(S, m)
 
 
-def position_extrema(coeffs, durations):
+def position_extrema(coeffs, durations, end_values=None):
     """
     Smallest and largest position of every segment and joint, and where.
 
@@ -162,6 +162,9 @@ def position_extrema(coeffs, durations):
     quartic for a quintic segment, found as eigenvalues of its companion
     matrix (all segments at once; an error in a root moves the extreme
     value only to second order, since the velocity vanishes there).
+    ``end_values`` (S, m), when given, are the exact positions at every
+    segment's end (the next knot), used instead of evaluating the
+    polynomial there, which can land an ulp past a waypoint.
     """
     T = np.asarray(durations, dtype=float)
     c = np.asarray(coeffs, dtype=float)
@@ -189,6 +192,8 @@ def position_extrema(coeffs, durations):
         inside = real & (eig.real > 0.0) & (eig.real < 1.0)
         candidates[rows, 2:2 + d] = np.where(inside, eig.real, 0.0)
     values = _horner(flat_p, candidates)
+    if end_values is not None:
+        values[:, 1] = np.asarray(end_values, dtype=float).reshape(S * m)
     rows = np.arange(S * m)
     low, high = np.argmin(values, axis=1), np.argmax(values, axis=1)
     return (values[rows, low].reshape(S, m), values[rows, high].reshape(S, m),

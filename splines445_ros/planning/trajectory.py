@@ -251,7 +251,9 @@ class Trajectory:
         the peaks; the times are in seconds from the start.
         """
         if self._position_extrema is None:
-            low, high, t_low, t_high = position_extrema(self.coefficients, self.durations)
+            # Each segment ends exactly at the next knot (its constant term).
+            ends = np.concatenate([self.coefficients[1:, 0, :], self.waypoints[-1:]])
+            low, high, t_low, t_high = position_extrema(self.coefficients, self.durations, ends)
             i_low, i_high = np.argmin(low, axis=0), np.argmax(high, axis=0)
             joints = np.arange(self.n_joints)
             self._position_extrema = (
