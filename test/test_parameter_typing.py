@@ -10,6 +10,7 @@ import os
 
 from diagnostic_msgs.msg import DiagnosticStatus
 import pytest
+from rcl_interfaces.msg import Parameter as ParameterMsg, ParameterType, ParameterValue
 from rclpy.parameter import Parameter
 from splines445_ros.arm import paper_example as pe
 from splines445_ros.nodes.arm_sim_node import ArmSimNode
@@ -100,3 +101,28 @@ def test_rejected_parameter_updates_are_reported_on_status():
         status, trajectory = system.request(waypoint_message(
             pe.JOINT_NAMES, [[0.0, 0.0, 0.0], [0.3, 0.2, 0.1]]))
         assert status.level == DiagnosticStatus.OK and trajectory is not None
+
+
+def test_numbers_as_users_type_them_for_doubles_and_double_arrays():
+    # Issue 18 review: -p waypoint_tolerance:=0 (an INTEGER for a double) killed
+    # the node, and -p max_velocity:=[2,2,2] arrives as an INTEGER_ARRAY.
+    with LocalRos() as ros:
+        node = _planner(ros, ['-p', 'waypoint_tolerance:=0', '-p', 'max_velocity:=[2,2,3]',
+                              '-p', 'min_position:=[-3,-3,-3]'])
+        config = node.parameters.config
+        assert config.waypoint_tolerance == 0.0 and config.max_velocity == (2.0, 2.0, 3.0)
+        assert config.min_position == (-3.0, -3.0, -3.0)
+        assert isinstance(node.get_parameter('waypoint_tolerance').value, float)
+        assert node.get_parameter('max_velocity').type_ == Parameter.Type.DOUBLE_ARRAY
+        # ros2 param set sends arrays as array.array (through the parameter service).
+        message = ParameterMsg(name='max_position', value=ParameterValue(
+            type=ParameterType.PARAMETER_INTEGER_ARRAY, integer_array_value=[3, 3, 3]))
+        result = node.set_parameters([Parameter.from_parameter_msg(message)])[0]
+        assert result.successful, result.reason
+        assert node.parameters.config.max_position == (3.0, 3.0, 3.0)
+        # Anything else is rejected with the reason; the node keeps its config.
+        for name, value in (('waypoint_tolerance', 'a'), ('max_velocity', ['a', 'b', 'c']),
+                            ('sample_period', True)):
+            result = node.set_parameters([Parameter(name, value=value)])[0]
+            assert not result.successful and name in result.reason, (name, result.reason)
+        assert node.parameters.config.max_position == (3.0, 3.0, 3.0)

@@ -8,14 +8,16 @@ raises ValueError, the request is rejected with that reason and nothing changes.
 The node's ``on_change(new_config)`` runs before the new config is in force
 and may reject it the same way (raise ValueError, leaving its state as it was).
 
-String parameters accept numbers as users type them: ``-p method:=434``
-arrives as an INTEGER, so string fields are declared with dynamic typing and
-a number given for one is stored as its string (``'434'``), at start-up and
-on every ``set_parameters``; any other type is rejected by validation with
-the reason.  Array fields whose default is empty (``min_position``) are
-dynamically typed as well, so ``[-1, 1]`` typed as integers is accepted.
+Parameters accept values as users type them: ``-p method:=434`` arrives as
+an INTEGER, ``-p waypoint_tolerance:=0`` too, ``-p max_velocity:=[2,2,2]``
+as an INTEGER_ARRAY and ``ros2 param set`` sends arrays as ``array.array``.
+So string, double and double-array fields are declared with dynamic typing,
+and a number given for one is stored in the field's type (``'434'``,
+``0.0``, ``[2.0, 2.0, 2.0]``), at start-up and on every ``set_parameters``;
+any other type is rejected by validation with the reason.
 """
 
+import array
 from dataclasses import fields
 
 from rcl_interfaces.msg import ParameterDescriptor, ParameterType, SetParametersResult
@@ -38,11 +40,41 @@ def _parameter_type(default):
     raise TypeError(f'no parameter type for default {default!r}')
 
 
-def _numeric_string(parameter):
-    """Return ``parameter`` as a string parameter if a number was given, else None."""
+def _kind(default):
+    """Return how values for a field with this default are normalised, or None (typed)."""
+    if isinstance(default, bool) or isinstance(default, int):
+        return None
+    if isinstance(default, str):
+        return 'string'
+    if isinstance(default, float):
+        return 'double'
+    if isinstance(default, tuple) and not (default and isinstance(default[0], str)):
+        return 'double_array'
+    return None
+
+
+def _is_number(value):
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _normalised(parameter, kind):
+    """
+    Return ``parameter`` in its field's canonical type, or None when it is not a number.
+
+    A number for a string field becomes its string (``-p method:=434``), an
+    integer for a double field a double (``-p waypoint_tolerance:=0``), and
+    integers (or an ``array.array`` from the parameter service) for a double
+    array field doubles (``-p max_velocity:=[2,2,2]``).
+    """
     value = parameter.value
-    if isinstance(value, (int, float)) and not isinstance(value, bool):
+    if kind == 'string' and _is_number(value):
         return Parameter(parameter.name, Parameter.Type.STRING, str(value))
+    if kind == 'double' and _is_number(value) and not isinstance(value, float):
+        return Parameter(parameter.name, Parameter.Type.DOUBLE, float(value))
+    if (kind == 'double_array' and isinstance(value, (list, tuple, array.array))
+            and all(_is_number(v) for v in value)
+            and parameter.type_ != Parameter.Type.DOUBLE_ARRAY):
+        return Parameter(parameter.name, Parameter.Type.DOUBLE_ARRAY, [float(v) for v in value])
     return None
 
 
@@ -63,13 +95,16 @@ class ConfigParameters:
         self._on_reject = on_reject
         defaults = config_cls()
         self.names = [f.name for f in fields(config_cls)]
-        self._string_names = {n for n in self.names if isinstance(getattr(defaults, n), str)}
-        # rclpy types an empty array default as a byte array: such arrays are
-        # declared with dynamic typing and checked by the config instead.
-        dynamic = self._string_names | {n for n in self.names if getattr(defaults, n) == ()}
+        # Strings, doubles and double arrays are declared with dynamic typing,
+        # so that values as users type them arrive at all (rclpy would refuse
+        # an INTEGER for a DOUBLE, and types an empty array default as a byte
+        # array); they are normalised to their field's type, and the config
+        # rejects anything else with the reason.
+        self._kinds = {n: _kind(getattr(defaults, n)) for n in self.names
+                       if _kind(getattr(defaults, n)) is not None}
         for name in self.names:
             default = getattr(defaults, name)
-            if name in dynamic:
+            if name in self._kinds:
                 descriptor = ParameterDescriptor(
                     name=name, dynamic_typing=True, description=descriptions[name])
             else:
@@ -77,17 +112,16 @@ class ConfigParameters:
                     name=name, type=_parameter_type(default), description=descriptions[name])
             node.declare_parameter(
                 name, list(default) if isinstance(default, tuple) else default, descriptor)
-        typed = [p for p in (node.get_parameter(n) for n in self._string_names)
-                 if _numeric_string(p) is not None]
-        if typed:
-            node.set_parameters([_numeric_string(p) for p in typed])
+        typed = [_normalised(node.get_parameter(n), kind) for n, kind in self._kinds.items()]
+        if any(p is not None for p in typed):
+            node.set_parameters([p for p in typed if p is not None])
         self.config = config_cls.from_values(
             {name: node.get_parameter(name).value for name in self.names})
-        node.add_pre_set_parameters_callback(self._numbers_as_strings)
+        node.add_pre_set_parameters_callback(self._as_field_types)
         node.add_on_set_parameters_callback(self._on_set_parameters)
 
-    def _numbers_as_strings(self, parameters):
-        return [(_numeric_string(p) if p.name in self._string_names else None) or p
+    def _as_field_types(self, parameters):
+        return [(_normalised(p, self._kinds[p.name]) if p.name in self._kinds else None) or p
                 for p in parameters]
 
     def _on_set_parameters(self, parameters):

@@ -1,7 +1,12 @@
 """Base of the nodes' frozen config dataclasses (pure Python, no rclpy)."""
 
+import array
 from dataclasses import fields, replace
 import math
+
+
+def _is_number(value):
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
 class ValidatedConfig:
@@ -10,27 +15,25 @@ class ValidatedConfig:
     @classmethod
     def from_values(cls, values):
         """Build and validate a config from a dict of parameter values (ValueError)."""
-        config = cls(**{k: (tuple(v) if isinstance(v, (list, tuple)) else v)
+        config = cls(**{k: (tuple(v) if isinstance(v, (list, tuple, array.array)) else v)
                         for k, v in values.items()})
-        # String parameters are declared with dynamic typing (so that a number
-        # typed on the command line arrives at all): check the type here.
-        for field in fields(cls):
-            value = getattr(config, field.name)
-            if isinstance(field.default, str) and not isinstance(value, str):
-                raise ValueError(f'{field.name} must be a string, got {value!r}')
-        # Arrays that default to empty are declared with dynamic typing too
-        # (rclpy types an empty default as a byte array): numbers only, as floats.
+        # Strings, doubles and double arrays are declared with dynamic typing
+        # (so that values as users type them arrive at all): check the type
+        # here; numbers become floats.
         changes = {}
         for field in fields(cls):
-            if field.default == ():
-                value = getattr(config, field.name)
-                if not isinstance(value, tuple) or any(
-                        isinstance(v, (bool, str, bytes)) or not isinstance(v, (int, float))
-                        for v in value):
+            value, default = getattr(config, field.name), field.default
+            if isinstance(default, str) and not isinstance(value, str):
+                raise ValueError(f'{field.name} must be a string, got {value!r}')
+            if isinstance(default, float):
+                if not _is_number(value):
+                    raise ValueError(f'{field.name} must be a number, got {value!r}')
+                changes[field.name] = float(value)
+            if isinstance(default, tuple) and not (default and isinstance(default[0], str)):
+                if not isinstance(value, tuple) or not all(_is_number(v) for v in value):
                     raise ValueError(f'{field.name} must be an array of numbers, got {value!r}')
                 changes[field.name] = tuple(float(v) for v in value)
-        if changes:
-            config = replace(config, **changes)
+        config = replace(config, **changes)
         config.validate()
         return config
 
