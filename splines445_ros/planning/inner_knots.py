@@ -92,8 +92,10 @@ ROUND_GAIN = 1e-4
 # Scale iterations per joint when a redistribution step is evaluated.
 TRIAL_ITERATIONS = 1
 # Threads that solve the joints' LPs at once (HiGHS releases the GIL while it
-# solves; each joint's LPs are independent, so the result does not depend on it).
-JOINT_THREADS = os.cpu_count() or 1
+# solves; each joint's LPs are independent, so the result does not depend on it):
+# one per core this process may run on.
+JOINT_THREADS = (len(os.sched_getaffinity(0)) if hasattr(os, 'sched_getaffinity')
+                 else os.cpu_count() or 1)
 # Safety factor on exact restoring factors against round-off.
 _ROUNDOFF = 1.0 + 1e-12
 
