@@ -204,3 +204,18 @@ def test_boundary_values_fall_back_to_knots_only():
 def test_bad_inner_knots_are_rejected(kwargs, message):
     with pytest.raises(ValueError, match=message):
         plan([[0.0], [1.0], [0.5]], max_velocity=[1.0], max_acceleration=[1.0], **kwargs)
+
+
+def test_joint_threads_do_not_change_the_result(monkeypatch):
+    """The joints' LPs solved in threads give the same spline, bit for bit, as one by one."""
+    from splines445_ros.planning import inner_knots
+    rng = np.random.default_rng(12)
+    points = np.cumsum(rng.uniform(-1.0, 1.0, (9, 4)), axis=0)
+    kwargs = limits(np.full(4, 2.0), np.full(4, 10.0), np.full(4, 200.0))
+    monkeypatch.setattr(inner_knots, 'JOINT_THREADS', 4)
+    threaded = plan(points, '555', 'optimal', inner_knots=2, **kwargs)
+    monkeypatch.setattr(inner_knots, 'JOINT_THREADS', 1)
+    serial = plan(points, '555', 'optimal', inner_knots=2, **kwargs)
+    assert threaded.optimizer['inner_knots'] == 2
+    assert np.array_equal(threaded.breakpoints, serial.breakpoints)
+    assert np.array_equal(threaded.ppoly.c, serial.ppoly.c)

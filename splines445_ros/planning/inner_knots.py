@@ -58,6 +58,9 @@ refinement is not used for them (the knots-only optimum is returned, see
 :func:`with_inner_knots`).
 """
 
+from concurrent.futures import ThreadPoolExecutor
+import os
+
 import numpy as np
 from scipy.optimize import Bounds, LinearConstraint, linprog, milp
 from scipy.sparse import csc_array, csr_array
@@ -88,6 +91,11 @@ MIN_RADIUS = 0.01
 ROUND_GAIN = 1e-4
 # Scale iterations per joint when a redistribution step is evaluated.
 TRIAL_ITERATIONS = 1
+# Threads that solve the joints' LPs at once (HiGHS releases the GIL while it
+# solves; each joint's LPs are independent, so the result does not depend on it):
+# one per core this process may run on.
+JOINT_THREADS = (len(os.sched_getaffinity(0)) if hasattr(os, 'sched_getaffinity')
+                 else os.cpu_count() or 1)
 # Safety factor on exact restoring factors against round-off.
 _ROUNDOFF = 1.0 + 1e-12
 
@@ -330,16 +338,18 @@ def _best_scale(points, waypoint_knots, pieces, limits, joint, iterations):
     return best
 
 
-def _common_scale(points, waypoint_knots, pieces, limits, iterations=SCALE_ITERATIONS):
+def _common_scale(points, waypoint_knots, pieces, limits, iterations=SCALE_ITERATIONS,
+                  joint_map=map):
     """
     Step 1 of the module docstring for the relative piece durations ``pieces``.
 
     Returns (piece durations, states (3, K, n)) exactly within the limits,
-    or None when an LP fails.
+    or None when an LP fails.  ``joint_map`` maps a function over the joints
+    (``map``, or a thread pool's, see :data:`JOINT_THREADS`).
     """
     n = points.shape[1]
-    found = [_best_scale(points, waypoint_knots, pieces, limits, j, iterations)
-             for j in range(n)]
+    found = list(joint_map(
+        lambda j: _best_scale(points, waypoint_knots, pieces, limits, j, iterations), range(n)))
     if any(f is None for f in found):
         return None
     c = max(f[0] for f in found)
@@ -368,8 +378,29 @@ def refine_rest_to_rest(points, durations, limits, n_inner):
     optimum's).  Returns ``(pieces, states (3, K, n), waypoint_knots)`` of
     the shortest spline found, exactly within the limits, or None.
     """
+    n = points.shape[1]
+    workers = min(n, JOINT_THREADS)
+    if workers <= 1:
+        return _refine(points, durations, limits, n_inner, map)
+    with ThreadPoolExecutor(workers) as pool:
+        return _refine(points, durations, limits, n_inner, pool.map)
+
+
+def _redistributed_factors(rows, points, waypoint_knots, pieces, limits, joint, radius):
+    """Exact factor per piece (P,) of ``joint``'s redistribution LP solution, or None."""
+    solved = _solve(rows, points, waypoint_knots, limits, joint, np.arange(pieces.size),
+                    pieces, (-radius, radius))
+    if solved is None:
+        return None
+    states = c4_states(pieces, solved[0][0][:, None])
+    coeffs = quintic_coefficients(pieces, *states)
+    return exact_factors(coeffs, pieces, _joint_limits(limits, joint))[:, 0]
+
+
+def _refine(points, durations, limits, n_inner, joint_map):
+    """:func:`refine_rest_to_rest` with the joints' LPs mapped by ``joint_map``."""
     pieces, waypoint_knots = split_durations(durations, n_inner)
-    best = _common_scale(points, waypoint_knots, pieces, limits)
+    best = _common_scale(points, waypoint_knots, pieces, limits, joint_map=joint_map)
     if best is None:
         return None
     radius = INITIAL_RADIUS
@@ -377,25 +408,22 @@ def refine_rest_to_rest(points, durations, limits, n_inner):
     for _ in range(ROUNDS):
         pieces = best[0]
         rows = _Rows(pieces)
-        factors = np.zeros((pieces.size, n))
-        for j in range(n):
-            solved = _solve(rows, points, waypoint_knots, limits, j, np.arange(pieces.size),
-                            pieces, (-radius, radius))
-            if solved is None:
-                return best[0], best[1], waypoint_knots
-            states = c4_states(pieces, solved[0][0][:, None])
-            coeffs = quintic_coefficients(pieces, *states)
-            factors[:, j] = exact_factors(coeffs, pieces, _joint_limits(limits, j))[:, 0]
+        found = list(joint_map(
+            lambda j, pieces=pieces, rows=rows, radius=radius: _redistributed_factors(
+                rows, points, waypoint_knots, pieces, limits, j, radius), range(n)))
+        if any(f is None for f in found):
+            return best[0], best[1], waypoint_knots
+        factors = np.stack(found, axis=1)
         per_piece = np.clip(np.max(factors, axis=1), 1.0 - radius, 1.0 + radius)
         trial = _common_scale(points, waypoint_knots, pieces * per_piece, limits,
-                              TRIAL_ITERATIONS)
+                              TRIAL_ITERATIONS, joint_map)
         if trial is not None and trial[0].sum() < best[0].sum() * (1.0 - ROUND_GAIN):
             best = trial
         else:
             radius *= 0.5
             if radius < MIN_RADIUS:
                 break
-    final = _common_scale(points, waypoint_knots, best[0], limits)
+    final = _common_scale(points, waypoint_knots, best[0], limits, joint_map=joint_map)
     if final is not None and final[0].sum() < best[0].sum():
         best = final
     return best[0], best[1], waypoint_knots
