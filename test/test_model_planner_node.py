@@ -241,3 +241,22 @@ def test_the_robot_description_topic(limits_file):
             assert reason in rejected.message and 'keeping the last good' in rejected.message
         status, msg = planner.request(pose_array(CORNERS[:2]))
         assert status.level == DiagnosticStatus.OK, status.message
+
+
+def test_switching_to_the_topic_drops_the_old_files_robot(limits_file):
+    # Found in review: model_file -> '' with no robot_description yet kept
+    # planning with the old file's robot and its frozen configuration.
+    with Planner(base_parameters(limits_file, model_file=vr.ur5_urdf()), 'switch') as planner:
+        status, _ = planner.request(pose_array(CORNERS[:2]))
+        assert status.level == DiagnosticStatus.OK, status.message
+        result = planner.node.set_parameters(overrides({'model_file': ''}))[0]
+        assert result.successful, result.reason
+        status, _ = planner.request(pose_array(CORNERS[:2]))
+        assert status.level == DiagnosticStatus.ERROR
+        assert 'no robot yet' in status.message
+        # The description then brings a robot again.
+        with open(vr.ur5_urdf(), encoding='utf-8') as handle:
+            loaded = planner.publish_description(handle.read())
+        assert loaded.level == DiagnosticStatus.OK, loaded.message
+        status, _ = planner.request(pose_array(CORNERS[:2]))
+        assert status.level == DiagnosticStatus.OK, status.message

@@ -126,9 +126,11 @@ class PlannerNode(Node):
         super().__init__('planner_node', **kwargs)
         self._robot = None        # RobotSetup of kinematics "model" (the last good one)
         self._description = None  # the latest robot_description string
+        self._robot_lock = threading.Lock()
         self.parameters = ConfigParameters(self, PlannerConfig, PARAMETER_DESCRIPTIONS,
                                            on_change=self._on_config_change,
                                            on_reject=self._on_parameters_rejected)
+        self._robot_config = self.parameters.config  # the config the robot was built for
         self._status_name = self.get_fully_qualified_name()
         self._requests = queue.Queue()
         self._request_count = 0
@@ -165,12 +167,22 @@ class PlannerNode(Node):
         self._requests.put(msg)
 
     def _on_config_change(self, config):
-        """Build the robot of a new config with kinematics "model" (ValueError rejects it)."""
-        if config.kinematics != 'model':
-            return
-        setup = build_robot_setup(config, self._description)
-        if setup is not None:
-            self._use_robot(setup)
+        """
+        Build the robot of a new config with kinematics "model" (ValueError rejects it).
+
+        Runs on the executor, while the worker may load a robot_description:
+        both build under one lock, from the config last accepted here, so a
+        description never brings back an older config.  A config that waits
+        for robot_description (model_file empty, none received) drops the
+        robot of the previous one.
+        """
+        with self._robot_lock:
+            setup = (build_robot_setup(config, self._description)
+                     if config.kinematics == 'model' else None)
+            self._robot_config = config
+            self._robot = None
+            if setup is not None:
+                self._use_robot(setup)
 
     def _use_robot(self, setup):
         self._robot = setup
@@ -181,7 +193,10 @@ class PlannerNode(Node):
         self._report(True, f'robot model loaded from {setup.summary()}', values)
 
     def _load_description(self, msg):
-        config = self.parameters.config
+        with self._robot_lock:
+            self._load_description_locked(msg, self._robot_config)
+
+    def _load_description_locked(self, msg, config):
         try:
             if len(msg.data) > 20_000_000:
                 raise ValueError(f'robot_description has {len(msg.data)} characters, more '
@@ -206,7 +221,12 @@ class PlannerNode(Node):
             if msg is _STOP:
                 return
             if isinstance(msg, String):
-                self._load_description(msg)
+                try:
+                    self._load_description(msg)
+                except Exception as exc:  # noqa: B902 - a description must never kill the node
+                    self._report(False, f'robot_description: internal error: '
+                                        f'{type(exc).__name__}: {exc}', {})
+                    self.get_logger().error(traceback.format_exc())
                 continue
             self._request_count += 1
             try:
