@@ -277,6 +277,15 @@ def test_a_joint_range_stops_a_2pi_wrap(ur5):
     assert 'joint ranges' in info.value.reason
 
 
+def test_a_pose_at_1e300_m_is_a_value_error(ur5_kinematics):
+    # Review: it overflowed the walk's step count (OverflowError).
+    start = ur5_kinematics.forward(np.array(vr.UR5_READY))
+    far = start.copy()
+    far[0] += 1e300
+    with pytest.raises(ValueError, match='tool pose 1 is 1e[+]300 m from the base frame'):
+        ur5_kinematics.inverse(np.array([start, far]))
+
+
 def test_a_line_through_the_wrist_singularity_is_refused_naming_the_pose(ur5):
     # Wrist 2 from +0.3 to -0.3 rad, the other joints kept: the straight line
     # and slerp between the two tool poses pass the wrist singularity

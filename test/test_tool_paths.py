@@ -214,6 +214,9 @@ def test_orientation_alone_can_drive_the_refinement():
     ([[1, 0, 0], [1, 1, 0]], {'max_inserted': float('inf')}, 'max_inserted = inf'),
     ([[1, 0, 0], [1, 1, 0]], {'max_inserted': None}, 'max_inserted = None'),
     ([[1, 0, 0], [1, 1, 0]], {'max_deviation': [1e-3]}, r'max_deviation must be a number'),
+    # Review: inner knots broke the refinement's waypoint indexing (IndexError).
+    ([[1, 0, 0], [1, 1, 0]], {'method': '555', 'timing': 'optimal', 'inner_knots': 1},
+     'inner_knots must be 0'),
 ])
 def test_bad_input_is_a_clear_error(poses, kwargs, message):
     with pytest.raises(ValueError, match=message):

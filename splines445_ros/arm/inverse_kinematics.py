@@ -38,6 +38,8 @@ POSITION_TOLERANCE = 1e-10   # m and rad, a solved pose
 STEP_TOLERANCE = 1e-4        # m and rad, intermediate continuation sub-steps
 CONTINUATION_STEP = 0.04     # m of tool travel per sub-step
 CONTINUATION_ANGLE = 0.1     # rad of tool rotation per sub-step
+# Tool coordinates beyond this [m] are refused outright (they overflow the walk's step count).
+MAX_COORDINATE = 1e6
 MAX_JOINT_STEP = 0.5         # rad (or m) one joint may move in one sub-step
 DAMPING = 1e-4               # lambda of damped least squares [m]
 MAX_ITERATIONS = 200
@@ -79,6 +81,11 @@ def pose_rows(poses):
     if not np.all(np.isfinite(arr)):
         k = int(np.argwhere(~np.isfinite(arr))[0][0])
         raise ValueError(f'tool pose {k} is not finite: {arr[k].tolist()}')
+    far = np.max(np.abs(arr[:, :3]), axis=1) > MAX_COORDINATE
+    if np.any(far):
+        k = int(np.argmax(far))
+        raise ValueError(f'tool pose {k} is {np.max(np.abs(arr[k, :3])):.3g} m from the base '
+                         f'frame, beyond {MAX_COORDINATE:g} m: no arm reaches it')
     norm = np.linalg.norm(arr[:, 3:], axis=1)
     if np.any(norm < 1e-9):
         raise ValueError(f'tool pose {int(np.argmin(norm))} has a zero quaternion')

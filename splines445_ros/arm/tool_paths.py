@@ -473,6 +473,9 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
     the tolerances (naming the segment and the deviation reached).
 
     """
+    if plan_kwargs.get('inner_knots'):
+        raise ValueError('tool paths keep their knots at the (inserted) waypoints: '
+                         'inner_knots must be 0 for them')
     request = tool_pose_array(poses)
     tol_position = _tolerance('max_deviation', max_deviation)
     tol_orientation = _tolerance('max_orientation_deviation', max_orientation_deviation)
