@@ -43,7 +43,8 @@ def merge_duplicates(waypoints, tolerance=0.0):
     A tiny chord next to a rest end would get a tiny duration (eq. 11) and
     make the spline swing far out, so chord-based timing plans through the
     kept waypoints only; the trajectory passes within ``tolerance`` of every
-    dropped one.
+    dropped one (within twice it when the goal replaced the kept waypoint a
+    dropped one was compared with).
     """
     exact = DUPLICATE_RTOL * max(1.0, float(np.max(np.abs(waypoints))))
     tol = max(float(tolerance), exact)

@@ -129,7 +129,9 @@ class Trajectory:
                 return traj
             durations = widths * float(np.max(traj.limit_ratios()))
             coefficients = None
-        return traj
+        raise ValueError(f'the {timing} plan exceeds a limit by a factor '
+                         f'{traj.binding.ratio:.6g} after solving it on the widths of the '
+                         'time axis, and stretching did not restore the limits')
 
     @property
     def n_joints(self):
