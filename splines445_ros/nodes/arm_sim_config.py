@@ -115,17 +115,7 @@ class ArmSimConfig(ValidatedConfig):
         if len(self.initial_positions) != n or not _finite(self.initial_positions):
             raise ValueError(f'initial_positions must be {n} finite angles, got '
                              f'{list(self.initial_positions)}')
-        self.require_in_range('publish_rate', MIN_PUBLISH_RATE, MAX_PUBLISH_RATE, 'Hz')
-        if self.simulation == 'dynamic' and self.publish_rate < MIN_DYNAMIC_PUBLISH_RATE:
-            raise ValueError(f'publish_rate = {self.publish_rate}: the dynamic simulation '
-                             'steps its physics at every publication, so it needs at least '
-                             f'{MIN_DYNAMIC_PUBLISH_RATE:g} Hz')
-        if self.simulation not in SIMULATIONS:
-            raise ValueError(f'simulation must be one of {list(SIMULATIONS)}, got '
-                             f'{self.simulation!r}')
-        self.require_in_range('physics_rate', MIN_PHYSICS_RATE, MAX_PHYSICS_RATE, 'Hz')
-        if not isinstance(self.gravity, bool):
-            raise ValueError(f'gravity must be true or false, got {self.gravity!r}')
+        self._validate_common()
         self._validate_built_in()
         per_joint = (('torque_limits', 0.0, math.inf, True, 'positive'),
                      ('kp', 0.0, MAX_KP, False, f'in [0, {MAX_KP:g}]'),
@@ -135,7 +125,6 @@ class ArmSimConfig(ValidatedConfig):
             if len(values) != n or not _finite(values, low, high, low_open):
                 raise ValueError(f'{name} must be {n} values (one per joint), each {words}, '
                                  f'got {list(values)}')
-        self.require_in_range('actuator_time_constant', 0.0, MAX_TIME_CONSTANT, 's')
         if not self.model_file:
             self._validate_discretisation()
 
