@@ -125,8 +125,7 @@ class ArmSimConfig(ValidatedConfig):
             if len(values) != n or not _finite(values, low, high, low_open):
                 raise ValueError(f'{name} must be {n} values (one per joint), each {words}, '
                                  f'got {list(values)}')
-        if not self.model_file:
-            self._validate_discretisation()
+        self._validate_discretisation()
 
     def _validate_common(self):
         self.require_positive('link_lengths', 2)
