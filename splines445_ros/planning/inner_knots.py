@@ -315,6 +315,12 @@ def _best_scale(points, waypoint_knots, pieces, limits, joint, iterations):
     pieces``, exactly within the joint's limits), or None.
     """
     one = _joint_limits(limits, joint)
+    if np.all(points[:, joint] == points[0, joint]):
+        # The joint does not move: it stays exactly at its position (an LP
+        # would place its inner knots only within its tolerance) and meets
+        # its limits at any scale.
+        K = pieces.size + 1
+        return 0.0, np.stack([np.full(K, points[0, joint]), np.zeros(K), np.zeros(K)])
     group = np.zeros(pieces.size, dtype=int)
     c, best = 1.0, None
     for _ in range(iterations):
