@@ -321,14 +321,23 @@ class _PathMeasure:
         pose = np.asarray(self.kinematics.forward(self.traj.evaluate(t)), dtype=float)
         p = pose[:, :2] - self.start[e]
         ab = self.direction[e]
-        long_edge = self.length2[e] > MIN_EDGE_LENGTH**2
-        s_line = np.sum(p * ab, axis=1) / np.where(long_edge, self.length2[e], 1.0)
-        span = self.edge_t1[e] - self.edge_t0[e]
-        s_time = (t - self.edge_t0[e]) / np.where(span > 0.0, span, 1.0)
-        s = np.clip(np.where(long_edge, s_line, s_time), 0.0, 1.0)
+        s = self._edge_parameter(p, t, e)
         position = np.hypot(*(p - s[:, None] * ab).T)
         orientation = np.abs(_wrap(pose[:, 2] - self.yaw0[e] - s * self.dyaw[e]))
         return position, orientation, pose[:, :2]
+
+    def _edge_parameter(self, p, t, e):
+        """
+        Where on its edge each tool point is, in [0, 1]: ``p`` (K, d) from the edge start.
+
+        The projection on the edge; the fraction of the edge's time on an
+        edge too short to project on.
+        """
+        long_edge = self.length2[e] > MIN_EDGE_LENGTH**2
+        s_line = np.sum(p * self.direction[e], axis=1) / np.where(long_edge, self.length2[e], 1.0)
+        span = self.edge_t1[e] - self.edge_t0[e]
+        s_time = (t - self.edge_t0[e]) / np.where(span > 0.0, span, 1.0)
+        return np.clip(np.where(long_edge, s_line, s_time), 0.0, 1.0)
 
     def _spatial(self, t, e):
         joints = self.traj.evaluate(t)
@@ -339,11 +348,7 @@ class _PathMeasure:
             position = pose[:, :3]
         p = position - self.start[e]
         ab = self.direction[e]
-        long_edge = self.length2[e] > MIN_EDGE_LENGTH**2
-        s_line = np.sum(p * ab, axis=1) / np.where(long_edge, self.length2[e], 1.0)
-        span = self.edge_t1[e] - self.edge_t0[e]
-        s_time = (t - self.edge_t0[e]) / np.where(span > 0.0, span, 1.0)
-        s = np.clip(np.where(long_edge, s_line, s_time), 0.0, 1.0)
+        s = self._edge_parameter(p, t, e)
         deviation = np.linalg.norm(p - s[:, None] * ab, axis=1)
         if not self._matrices:
             orientation = rot.angle_between(rot.slerp(self.quat0[e], self.quat1[e], s),
