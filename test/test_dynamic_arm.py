@@ -7,23 +7,20 @@ simulations are short (about a second of motion each).
 
 import math
 
+from arm_client import ArmClient
 from diagnostic_msgs.msg import DiagnosticStatus
 from fuzz_messages import arm_trajectories
-from geometry_msgs.msg import PoseStamped
 from hypothesis import given, HealthCheck, settings, strategies as st
 import numpy as np
 import pytest
-from rclpy.node import Node
-from sensor_msgs.msg import JointState
 from sim_clock import ClockDriver
-from splines445_ros.nodes import topics
 from splines445_ros.nodes.arm_sim_config import ArmSimConfig
 from splines445_ros.nodes.arm_sim_node import ArmSimNode
 from splines445_ros.nodes.diagnostics import status_values
 from splines445_ros.nodes.ros_conversions import trajectory_to_msg
 from splines445_ros.planning import plan
 from splines445_ros.tools.in_process import LocalRos, overrides, stamp_ns
-from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+from trajectory_msgs.msg import JointTrajectoryPoint
 
 pytest.importorskip('mujoco')
 JOINTS = ('joint1', 'joint2', 'joint3')
@@ -51,33 +48,11 @@ TWO_LINK = """<mujoco model="two_link">
 """
 
 
-class Harness:
-    """One arm node and a client recording its outputs."""
+class Harness(ArmClient):
+    """The built-in (or a user's) dynamic arm and a client."""
 
     def __init__(self, ros, parameters):
-        self.ros = ros
-        self.node = ros.add(ArmSimNode(context=ros.context,
-                                       parameter_overrides=overrides(parameters)))
-        self.client = ros.add(Node('dynamic_client', context=ros.context))
-        self.publisher = self.client.create_publisher(JointTrajectory, topics.JOINT_TRAJECTORY,
-                                                      topics.LATCHED)
-        self.states, self.status, self.poses = [], [], []
-        self.client.create_subscription(JointState, topics.JOINT_STATES, self.states.append,
-                                        topics.STATE_QOS)
-        self.client.create_subscription(DiagnosticStatus, '/arm_sim_node/status',
-                                        self.status.append, topics.STATUS_QOS)
-        self.client.create_subscription(PoseStamped, topics.TOOL_POSE, self.poses.append,
-                                        topics.STATE_QOS)
-        assert ros.spin_until(lambda: self.publisher.get_subscription_count() >= 1
-                              and len(self.states) >= 2, 5.0)
-
-    def trajectory_status(self, first, count, timeout):
-        """Wait for ``count`` statuses after index ``first`` about trajectories; return them."""
-        def about_trajectories():
-            # Rejected parameter updates are on ~/status too: skip those.
-            return [s for s in self.status[first:] if 'parameters' not in status_values(s)]
-        assert self.ros.spin_until(lambda: len(about_trajectories()) >= count, timeout)
-        return about_trajectories()[:count]
+        super().__init__(ros, parameters, 'dynamic_client', discovery_timeout=5.0)
 
     def finished(self, n):
         """Wait for the status that ends the trajectory accepted after status n."""

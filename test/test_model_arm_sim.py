@@ -10,22 +10,17 @@ the URDF.
 
 import math
 
+from arm_client import ArmClient
 from diagnostic_msgs.msg import DiagnosticStatus
-from geometry_msgs.msg import PoseStamped
 import numpy as np
 import pytest
-from rclpy.node import Node
 from scipy.spatial.transform import Rotation
-from sensor_msgs.msg import JointState
 from splines445_ros.arm.model_drives import DEFAULT_BANDWIDTH
-from splines445_ros.nodes import topics
 from splines445_ros.nodes.arm_sim_node import ArmSimNode
-from splines445_ros.nodes.diagnostics import status_values
 from splines445_ros.nodes.ros_conversions import trajectory_to_msg
 from splines445_ros.planning import plan
 from splines445_ros.tools import vendor_robots as vr
 from splines445_ros.tools.in_process import LocalRos, overrides
-from trajectory_msgs.msg import JointTrajectory
 from urdf_reference import BatchedUrdfChain
 
 # Point masses (tiny own inertia) so that the test can compute the inertia itself.
@@ -51,37 +46,18 @@ TWO_MOTORS = f"""<mujoco model="two_motors">
 """
 
 
-class Arm:
-    """One arm node and a client recording its outputs."""
+class Arm(ArmClient):
+    """One arm node with a user's model and a client recording its outputs."""
 
     def __init__(self, ros, parameters):
-        self.ros = ros
-        self.node = ros.add(ArmSimNode(context=ros.context,
-                                       parameter_overrides=overrides(parameters)))
-        self.client = ros.add(Node('model_arm_client', context=ros.context))
-        self.publisher = self.client.create_publisher(JointTrajectory, topics.JOINT_TRAJECTORY,
-                                                      topics.LATCHED)
-        self.states, self.status, self.poses = [], [], []
-        self.client.create_subscription(JointState, topics.JOINT_STATES, self.states.append,
-                                        topics.STATE_QOS)
-        self.client.create_subscription(DiagnosticStatus, '/arm_sim_node/status',
-                                        self.status.append, topics.STATUS_QOS)
-        self.client.create_subscription(PoseStamped, topics.TOOL_POSE, self.poses.append,
-                                        topics.STATE_QOS)
-        assert ros.spin_until(lambda: self.publisher.get_subscription_count() >= 1
-                              and len(self.states) >= 2, 10.0)
+        super().__init__(ros, parameters, 'model_arm_client', discovery_timeout=10.0)
 
     def play(self, trajectory, names):
         first = len(self.status)
         self.publisher.publish(trajectory_to_msg(trajectory.sample(0.01), names))
-
-        def reports():
-            return [s for s in self.status[first:] if 'parameters' not in status_values(s)]
-        assert self.ros.spin_until(lambda: len(reports()) >= 1, 10.0)
-        accepted = reports()[0]
+        accepted, = self.trajectory_status(first, 1, 10.0)
         assert accepted.level == DiagnosticStatus.OK, accepted.message
-        assert self.ros.spin_until(lambda: len(reports()) >= 2, trajectory.duration + 10.0)
-        return reports()[1]
+        return self.trajectory_status(first, 2, trajectory.duration + 10.0)[1]
 
 
 def test_the_issue_example_a_2_joint_mjcf_alone(tmp_path):

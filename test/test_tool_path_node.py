@@ -11,6 +11,7 @@ from splines445_ros.arm import paper_example as pe
 from splines445_ros.nodes.diagnostics import status_values
 from splines445_ros.nodes.ros_conversions import parse_tool_request, sampled_trajectory_from_msg
 from splines445_ros.tools.in_process import InProcessSystem, overrides, tool_waypoint_message
+from urdf_reference import distance_to_polyline
 
 D1, D2 = 1.1, 0.9
 XY = pe.triangle_points()
@@ -32,15 +33,6 @@ def tool_of(q):
     q1, q2, q3 = q[:, 0], q[:, 1], q[:, 2]
     return np.column_stack([D1 * np.cos(q1) + D2 * np.cos(q1 + q2),
                             D1 * np.sin(q1) + D2 * np.sin(q1 + q2), q1 + q2 + q3])
-
-
-def distance_to_polyline(points, corners):
-    best = np.full(len(points), np.inf)
-    for a, b in zip(corners[:-1], corners[1:]):
-        ab = b - a
-        s = np.clip((points - a) @ ab / (ab @ ab), 0.0, 1.0)
-        best = np.minimum(best, np.linalg.norm(points - a - s[:, None] * ab, axis=1))
-    return best
 
 
 def test_a_tool_request_is_refined_end_to_end(system):
