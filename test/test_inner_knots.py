@@ -4,9 +4,9 @@ Free inner knots for 555 optimal timing (issue 17): properties on random request
 Every property is checked against something the implementation does not
 compute itself: dense samples of the PPoly, peaks from ``numpy.roots``
 (``reference_spline.exact_peaks``), derivatives of the pieces taken by
-``numpy.polynomial``, and ``scipy.interpolate.make_interp_spline(k=5)``
-through all knots (the unique C4 quintic spline with those knot values and
-boundary derivatives).
+``numpy.polynomial``, ``scipy.interpolate.make_interp_spline(k=5)`` through
+all knots (the unique C4 quintic spline with those knot values and boundary
+derivatives), and closed-form time-optimal moves for the speed profile.
 """
 
 from hypothesis import assume, given, settings, strategies as st
@@ -17,28 +17,32 @@ from reference_spline import exact_peaks
 from scipy.interpolate import make_interp_spline
 from splines445_ros.planning import plan
 from splines445_ros.planning.inner_knots import (
-    insert_knots, quintic_coefficients, split_durations,
+    c4_states, DEFAULT_INNER_KNOTS, plan_with_inner_knots, quintic_coefficients,
 )
+from splines445_ros.planning.limits import JointLimits
+from splines445_ros.planning.path_velocity import traversal_times, velocity_profile
+from splines445_ros.planning.planner import SMALL_REQUEST
 
 
 @st.composite
-def rest_to_rest_requests(draw):
-    """2 to 7 waypoints, 1 to 3 joints, random v/a, jerk limit none, 20 a or 5 a."""
+def requests(draw, boundary=False, max_points=12):
+    """2 to 12 waypoints, 1 to 4 joints, random v/a, jerk none, 20 a or 5 a; boundary values."""
     rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
-    n_points = draw(st.integers(2, 7))
-    n_joints = draw(st.integers(1, 3))
+    n_points = draw(st.integers(2, max_points))
+    n_joints = draw(st.integers(1, 4))
     points = np.cumsum(rng.uniform(-1.0, 1.0, (n_points, n_joints)), axis=0)
     assume(np.all(np.linalg.norm(np.diff(points, axis=0), axis=1) > 0.05))
     vmax = rng.uniform(0.5, 3.0, n_joints)
     amax = rng.uniform(2.0, 20.0, n_joints)
     jerk_ratio = draw(st.sampled_from([None, 20.0, 5.0]))
     jmax = None if jerk_ratio is None else jerk_ratio * amax
-    n_inner = draw(st.integers(1, 3))
-    return points, vmax, amax, jmax, n_inner
-
-
-def limits(vmax, amax, jmax):
-    return {'max_velocity': vmax, 'max_acceleration': amax, 'max_jerk': jmax}
+    kwargs = {'max_velocity': vmax, 'max_acceleration': amax, 'max_jerk': jmax}
+    if boundary:
+        fraction = draw(st.sampled_from([0.1, 0.5]))
+        for name, bound in (('start_velocity', vmax), ('start_acceleration', amax),
+                            ('end_velocity', vmax), ('end_acceleration', amax)):
+            kwargs[name] = fraction * bound * rng.uniform(-1.0, 1.0, n_joints)
+    return points, kwargs
 
 
 def dense_times(traj, per_piece=40):
@@ -47,10 +51,11 @@ def dense_times(traj, per_piece=40):
     return np.append((x[:-1, None] + np.diff(x)[:, None] * u[None, :]).ravel(), x[-1])
 
 
-def check_limits(traj, vmax, amax, jmax):
+def check_limits(traj, kwargs):
     """Dense samples and numpy.roots peaks, jerk included, within 1e-9 of the limits."""
     t = dense_times(traj)
-    for q, bound in enumerate((vmax, amax, jmax)):
+    for q, name in enumerate(('max_velocity', 'max_acceleration', 'max_jerk')):
+        bound = kwargs[name]
         if bound is None:
             continue
         sampled = np.max(np.abs(traj.ppoly(t, nu=q + 1)), axis=0)
@@ -85,19 +90,25 @@ def check_c4(traj):
                 assert abs(end - start) <= 1e-7 * size, (i, j, d, end, start)
 
 
-def check_rest_to_rest(traj):
-    ends = np.array([0.0, traj.duration])
-    for d in (1, 2):
-        assert np.max(np.abs(traj.ppoly(ends, nu=d))) <= 1e-9
+def boundary_of(kwargs, n):
+    return [np.asarray(kwargs.get(name, np.zeros(n)), dtype=float) for name in (
+        'start_velocity', 'start_acceleration', 'end_velocity', 'end_acceleration')]
 
 
-def check_against_make_interp_spline(traj):
-    """Our PPoly is the unique C4 quintic through its knot values with zero end v and a."""
+def check_boundary(traj, kwargs):
+    v0, a0, v1, a1 = boundary_of(kwargs, traj.n_joints)
+    for t, v, a in ((0.0, v0, a0), (traj.duration, v1, a1)):
+        assert np.allclose(traj.ppoly(t, nu=1), v, atol=1e-9)
+        assert np.allclose(traj.ppoly(t, nu=2), a, atol=1e-9)
+
+
+def check_against_make_interp_spline(traj, kwargs):
+    """Our PPoly is the unique C4 quintic through its knot values with the boundary v and a."""
     x = traj.breakpoints
     values = traj.ppoly(x)
-    zeros = np.zeros(values.shape[1])
-    reference = make_interp_spline(x, values, k=5,
-                                   bc_type=([(1, zeros), (2, zeros)], [(1, zeros), (2, zeros)]))
+    v0, a0, v1, a1 = boundary_of(kwargs, values.shape[1])
+    reference = make_interp_spline(x, values, k=5, bc_type=([(1, v0), (2, a0)],
+                                                            [(1, v1), (2, a1)]))
     t = dense_times(traj, 7)
     scale = max(1.0, float(np.max(np.abs(values))))
     for d in range(4):
@@ -106,50 +117,109 @@ def check_against_make_interp_spline(traj):
             1.0, float(np.max(np.abs(theirs)))), d
 
 
-@settings(max_examples=20)
-@given(req=rest_to_rest_requests())
-def test_inner_knots_hold_limits_hit_waypoints_are_c4_and_not_longer(req):
-    points, vmax, amax, jmax, n_inner = req
-    knots_only = plan(points, '555', 'optimal', **limits(vmax, amax, jmax))
-    traj = plan(points, '555', 'optimal', inner_knots=n_inner, **limits(vmax, amax, jmax))
-    assert traj.duration <= knots_only.duration
-    check_limits(traj, vmax, amax, jmax)
+def check_inner_knot_plan(traj, points, kwargs):
+    check_limits(traj, kwargs)
     check_waypoints(traj, points)
-    check_rest_to_rest(traj)
+    check_boundary(traj, kwargs)
     check_c4(traj)
-    check_against_make_interp_spline(traj)
-    assert traj.optimizer['inner_knots'] in (0, n_inner)
+    check_against_make_interp_spline(traj, kwargs)
+
+
+@settings(max_examples=25)
+@given(req=requests(max_points=SMALL_REQUEST))
+def test_small_plans_are_never_longer_than_the_knots_only_optimum(req):
+    """Up to SMALL_REQUEST waypoints plan() compares with the knots-only optimum itself."""
+    points, kwargs = req
+    knots_only = plan(points, '555', 'optimal', inner_knots=0, **kwargs)
+    traj = plan(points, '555', 'optimal', **kwargs)
+    assert traj.duration <= knots_only.duration
+    check_inner_knot_plan(traj, points, kwargs)
+
+
+@settings(max_examples=25)
+@given(req=requests())
+def test_rest_to_rest_plans_hold_limits_hit_waypoints_and_are_c4(req):
+    points, kwargs = req
+    uniform = plan(points, '555', 'uniform', **kwargs)
+    traj = plan(points, '555', 'optimal', **kwargs)
+    assert traj.duration <= uniform.duration
+    check_inner_knot_plan(traj, points, kwargs)
     if traj.optimizer['inner_knots']:
-        assert traj.breakpoints.size == (len(points) - 1) * (n_inner + 1) + 1
-        # Inner knots are free: the refinement changed the shape, not just the timing.
-        assert traj.duration < knots_only.duration
+        # A rest-to-rest plan is scaled until one limit binds.
+        assert np.max(traj.limit_ratios()) == pytest.approx(1.0, abs=1e-9)
+        counts = np.asarray(traj.optimizer['inner_knots_per_segment'])
+        assert traj.breakpoints.size == np.sum(counts + 1) + 1
+        assert np.all(counts <= DEFAULT_INNER_KNOTS)
 
 
-def test_inner_knots_shorten_a_typical_request_a_lot():
-    """20 waypoints, 3 joints: inner knots gain more than 10 % over knots only."""
-    rng = np.random.default_rng(7)
-    points = np.cumsum(rng.uniform(-1.0, 1.0, (20, 3)), axis=0)
-    kwargs = limits(np.full(3, 2.0), np.full(3, 10.0), np.full(3, 200.0))
-    knots_only = plan(points, '555', 'optimal', **kwargs)
-    traj = plan(points, '555', 'optimal', inner_knots=2, **kwargs)
-    assert traj.duration < 0.9 * knots_only.duration
-    check_limits(traj, *kwargs.values())
-    check_waypoints(traj, points)
-    # One limit binds (the exact restoration stops at the limits).
-    assert np.max(traj.limit_ratios()) == pytest.approx(1.0, abs=1e-9)
+@settings(max_examples=15)
+@given(req=requests(boundary=True))
+def test_boundary_values_are_kept_exactly_with_inner_knots(req):
+    points, kwargs = req
+    try:
+        traj = plan(points, '555', 'optimal', **kwargs)
+    except ValueError as exc:
+        assert 'infeasible' in str(exc)
+        return
+    check_inner_knot_plan(traj, points, kwargs)
+
+
+def typical_request(seed):
+    """A robot-like request: 10-30 waypoints, 3-6 joints, j = 20 a or no jerk limit."""
+    rng = np.random.default_rng(seed)
+    n_joints = int(rng.integers(3, 7))
+    points = np.cumsum(rng.uniform(-1.0, 1.0, (int(rng.integers(10, 31)), n_joints)), axis=0)
+    amax = rng.uniform(5.0, 15.0, n_joints)
+    return points, {'max_velocity': rng.uniform(1.0, 3.0, n_joints), 'max_acceleration': amax,
+                    'max_jerk': None if seed % 2 else 20.0 * amax}
+
+
+@pytest.mark.parametrize('seed', range(6))
+def test_inner_knots_are_much_shorter_than_knots_only_on_typical_requests(seed):
+    """The construction alone (no knots-only rival) beats the knots-only optimum by 5 %."""
+    points, kwargs = typical_request(seed)
+    knots_only = plan(points, '555', 'optimal', inner_knots=0, **kwargs)
+    limits = JointLimits.from_user(points.shape[1], kwargs['max_velocity'],
+                                   kwargs['max_acceleration'], kwargs['max_jerk'])
+    zero = np.zeros(points.shape[1])
+    traj = plan_with_inner_knots(points, (zero,) * 4, limits, DEFAULT_INNER_KNOTS)
+    assert traj.duration < 0.95 * knots_only.duration
+    check_inner_knot_plan(traj, points, kwargs)
+
+
+def test_paper_example_with_its_boundary_values_gets_inner_knots():
+    from splines445_ros.arm import paper_example as pe
+    kwargs = pe.plan_kwargs()
+    kwargs['max_jerk'] = None
+    points = pe.joint_waypoints()
+    knots_only = plan(points, '555', 'optimal', inner_knots=0, **kwargs)
+    traj = plan(points, '555', 'optimal', **kwargs)
+    assert traj.optimizer['inner_knots'] == DEFAULT_INNER_KNOTS
+    assert traj.duration < knots_only.duration
+    check_inner_knot_plan(traj, points, kwargs)
 
 
 @pytest.mark.parametrize('n_inner', [1, 2, 4])
-def test_warm_start_with_inserted_knots_is_the_same_spline(n_inner):
+def test_knots_placed_on_a_c4_spline_give_back_the_same_spline(n_inner):
+    """
+    Warm-start exactness of step 4: a C4 quintic spline is the C4 spline through its own values.
+
+    Knots inserted at the spline's own positions (between its breakpoints)
+    and the continuity system over all knots give back the same spline,
+    derivatives 0-3, with the boundary values.
+    """
     rng = np.random.default_rng(n_inner)
     points = np.cumsum(rng.uniform(-1.0, 1.0, (9, 3)), axis=0)
-    traj = plan(points, '555', 'optimal', max_velocity=[1.0, 2.0, 3.0],
-                max_acceleration=[5.0, 10.0, 8.0], max_jerk=[100.0, 200.0, 80.0])
-    pieces, waypoint_knots = split_durations(traj.durations, n_inner)
-    assert np.allclose(np.cumsum(pieces)[waypoint_knots[1:] - 1], traj.breakpoints[1:])
-    states = insert_knots(traj, pieces)
+    boundary = [rng.uniform(-0.5, 0.5, 3) for _ in range(4)]
+    traj = plan(points, '555', 'fixed', durations=rng.uniform(0.5, 2.0, 8),
+                start_velocity=boundary[0], start_acceleration=boundary[1],
+                end_velocity=boundary[2], end_acceleration=boundary[3])
+    fractions = np.arange(n_inner + 1) / (n_inner + 1)
+    knots = np.append((traj.breakpoints[:-1, None]
+                       + fractions * traj.durations[:, None]).ravel(), traj.duration)
+    pieces = np.diff(knots)
+    states = c4_states(pieces, traj.ppoly(knots), boundary)
     coeffs = quintic_coefficients(pieces, *states)
-    knots = np.concatenate([[0.0], np.cumsum(pieces)])
     t = np.linspace(0.0, traj.duration, 1001)
     piece = np.clip(np.searchsorted(knots, t, side='right') - 1, 0, pieces.size - 1)
     tau = t - knots[piece]
@@ -161,36 +231,75 @@ def test_warm_start_with_inserted_knots_is_the_same_spline(n_inner):
         assert np.max(np.abs(ours - expected)) <= 1e-9 * scale, d
 
 
-def test_a_joint_that_does_not_move_does_not_stop_the_refinement():
+@pytest.mark.parametrize('distance, vmax, amax', [(1.0, 10.0, 1.0), (5.0, 1.0, 2.0),
+                                                  (0.3, 0.5, 4.0)])
+def test_speed_profile_of_a_straight_path_is_the_closed_form_optimum(distance, vmax, amax):
+    """Along q(s) = d s / S the fastest rest-to-rest time is the trapezoid's (or triangle's)."""
+    steps = np.full(400, 2.0 / 400)                       # s from 0 to S = 2
+    first = np.full((401, 1), distance / 2.0)
+    x = velocity_profile(first, np.zeros((401, 1)), steps, np.array([vmax]),
+                         np.array([amax]), np.ones(401))
+    if distance >= vmax * vmax / amax:
+        expected = distance / vmax + vmax / amax
+    else:
+        expected = 2.0 * np.sqrt(distance / amax)
+    # No profile is faster than the closed form; the grid's one partial
+    # step where the speed reaches its limit costs a little.
+    total = traversal_times(x, steps)[-1]
+    assert expected * (1 - 1e-12) <= total <= expected * (1 + 1e-3)
+
+
+@settings(max_examples=20)
+@given(seed=st.integers(0, 2**32 - 1))
+def test_speed_profile_meets_the_limits_on_curved_paths(seed):
+    """Joint velocity q' sdot and acceleration q' u + q'' x at every grid point, within limits."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(1, 4))
+    points = np.cumsum(rng.uniform(-1.0, 1.0, (5, n)), axis=0)
+    assume(np.all(np.linalg.norm(np.diff(points, axis=0), axis=1) > 0.05))
+    path = plan(points, '555', 'fixed', durations=np.ones(4))
+    s = np.linspace(0.0, 4.0, 481)
+    steps = np.diff(s)
+    vmax, amax = rng.uniform(0.5, 3.0, n), rng.uniform(2.0, 20.0, n)
+    scale = rng.uniform(0.5, 1.0, s.size)
+    x = velocity_profile(path.ppoly(s, 1), path.ppoly(s, 2), steps, vmax, amax, scale)
+    assert x[0] == 0.0 and x[-1] == 0.0 and np.all(x >= 0.0)
+    assert np.isfinite(traversal_times(x, steps)[-1])
+    u = np.diff(x) / (2.0 * steps)                        # constant over each step
+    speed = np.abs(path.ppoly(s, 1)) * np.sqrt(x)[:, None]
+    assert np.all(speed <= scale[:, None] * vmax * (1 + 1e-9))
+    accel = np.abs(path.ppoly(s[:-1], 1) * u[:, None] + path.ppoly(s[:-1], 2) * x[:-1, None])
+    assert np.all(accel <= scale[:-1, None] ** 2 * amax * (1 + 1e-9) + 1e-12)
+
+
+def test_a_joint_that_does_not_move_stays_exactly_where_it_is():
     rng = np.random.default_rng(5)
-    points = np.cumsum(rng.uniform(-1.0, 1.0, (6, 3)), axis=0)
+    points = np.cumsum(rng.uniform(-1.0, 1.0, (10, 3)), axis=0)
     points[:, 1] = 0.7
-    kwargs = limits(np.full(3, 2.0), np.full(3, 10.0), np.full(3, 100.0))
-    traj = plan(points, '555', 'optimal', inner_knots=2, **kwargs)
-    assert traj.optimizer['inner_knots'] == 2
-    assert np.max(np.abs(traj.ppoly(dense_times(traj))[:, 1] - 0.7)) <= 1e-9
-    check_limits(traj, *kwargs.values())
-    check_waypoints(traj, points)
+    kwargs = {'max_velocity': np.full(3, 2.0), 'max_acceleration': np.full(3, 10.0),
+              'max_jerk': np.full(3, 100.0)}
+    traj = plan(points, '555', 'optimal', **kwargs)
+    assert traj.optimizer['inner_knots'] == DEFAULT_INNER_KNOTS
+    assert np.all(traj.ppoly(dense_times(traj))[:, 1] == 0.7)
+    check_inner_knot_plan(traj, points, kwargs)
 
 
-def test_zero_inner_knots_is_todays_plan():
+def test_zero_inner_knots_keeps_knots_at_the_waypoints():
     rng = np.random.default_rng(3)
     points = np.cumsum(rng.uniform(-1.0, 1.0, (8, 2)), axis=0)
-    kwargs = limits(np.full(2, 2.0), np.full(2, 10.0), None)
-    today = plan(points, '555', 'optimal', **kwargs)
+    kwargs = {'max_velocity': np.full(2, 2.0), 'max_acceleration': np.full(2, 10.0)}
     zero = plan(points, '555', 'optimal', inner_knots=0, **kwargs)
-    assert np.array_equal(today.breakpoints, zero.breakpoints)
+    assert zero.optimizer['inner_knots'] == 0
+    assert zero.breakpoints.size == len(points)
     assert np.array_equal(zero.waypoint_times, zero.breakpoints)
 
 
-def test_boundary_values_fall_back_to_knots_only():
-    rng = np.random.default_rng(4)
-    points = np.cumsum(rng.uniform(-1.0, 1.0, (6, 2)), axis=0)
-    kwargs = limits(np.full(2, 2.0), np.full(2, 10.0), None)
-    traj = plan(points, '555', 'optimal', inner_knots=2, start_velocity=[0.5, -0.5], **kwargs)
-    assert traj.optimizer['inner_knots'] == 0
+@pytest.mark.parametrize('method, timing', [('445', 'optimal'), ('434', 'optimal'),
+                                            ('555', 'uniform')])
+def test_the_default_uses_inner_knots_for_555_optimal_only(method, timing):
+    points = [[0.0, 0.0], [1.0, 0.5], [0.2, 1.0], [1.5, 1.5]]
+    traj = plan(points, method, timing, max_velocity=[1.0, 1.0], max_acceleration=[5.0, 5.0])
     assert traj.breakpoints.size == len(points)
-    check_waypoints(traj, points)
 
 
 @pytest.mark.parametrize('kwargs, message', [
@@ -204,18 +313,3 @@ def test_boundary_values_fall_back_to_knots_only():
 def test_bad_inner_knots_are_rejected(kwargs, message):
     with pytest.raises(ValueError, match=message):
         plan([[0.0], [1.0], [0.5]], max_velocity=[1.0], max_acceleration=[1.0], **kwargs)
-
-
-def test_joint_threads_do_not_change_the_result(monkeypatch):
-    """The joints' LPs solved in threads give the same spline, bit for bit, as one by one."""
-    from splines445_ros.planning import inner_knots
-    rng = np.random.default_rng(12)
-    points = np.cumsum(rng.uniform(-1.0, 1.0, (9, 4)), axis=0)
-    kwargs = limits(np.full(4, 2.0), np.full(4, 10.0), np.full(4, 200.0))
-    monkeypatch.setattr(inner_knots, 'JOINT_THREADS', 4)
-    threaded = plan(points, '555', 'optimal', inner_knots=2, **kwargs)
-    monkeypatch.setattr(inner_knots, 'JOINT_THREADS', 1)
-    serial = plan(points, '555', 'optimal', inner_knots=2, **kwargs)
-    assert threaded.optimizer['inner_knots'] == 2
-    assert np.array_equal(threaded.breakpoints, serial.breakpoints)
-    assert np.array_equal(threaded.ppoly.c, serial.ppoly.c)

@@ -1,4 +1,9 @@
-"""Optimal timing: feasible, never longer than uniform, every segment limited."""
+"""
+Optimal timing with knots at the waypoints: feasible, never longer than uniform, segments limited.
+
+These test the durations optimiser (:mod:`optimal`), so 555 is planned with
+``inner_knots=0``; its default, free inner knots, is tested in test_inner_knots.py.
+"""
 
 from hypothesis import assume, given, settings, strategies as st
 import numpy as np
@@ -97,11 +102,12 @@ def test_a_warm_start_joins_the_durations_of_a_dropped_duplicate(monkeypatch):
     monkeypatch.setattr(planner, 'optimal_durations', recording)
     points = np.array([[0.0, 0.0], [1.0, 0.5], [1.0, 0.5], [1.5, -0.5], [2.5, 0.0]])
     kwargs = {'max_velocity': [1.0, 2.0], 'max_acceleration': [5.0, 8.0]}
-    traj = plan(points, '555', 'optimal', durations=[1.0, 0.3, 0.7, 1.2], **kwargs)
+    traj = plan(points, '555', 'optimal', durations=[1.0, 0.3, 0.7, 1.2], inner_knots=0,
+                **kwargs)
     assert traj.dropped_waypoints == (2,)
     # Waypoint 2 repeats waypoint 1: segments 1 (zero length) and 2 become one.
     np.testing.assert_allclose(starts[-1], [1.0, 1.0, 1.2], rtol=1e-15)
-    plan(points, '555', 'optimal', **kwargs)
+    plan(points, '555', 'optimal', inner_knots=0, **kwargs)
     # Without: a feasible start, no longer than the uniform solution.
     uniform = plan(points, '555', 'uniform', **kwargs)
     assert starts[-1].shape == uniform.durations.shape
@@ -120,7 +126,7 @@ def check_optimal(method, req, start=None):
         assert 'infeasible' in str(exc)
         uniform = None
     try:
-        optimal = plan(points, method, 'optimal', durations=start, **kwargs)
+        optimal = plan(points, method, 'optimal', durations=start, inner_knots=0, **kwargs)
     except ValueError as exc:
         assert uniform is None and 'infeasible' in str(exc)
         return
@@ -159,7 +165,7 @@ def test_optimal_beats_uniform_on_the_paper_example():
     points = pe.joint_waypoints()
     for method in ('445', '434', '555'):
         uniform = plan(points, method, 'uniform', **kwargs)
-        optimal = plan(points, method, 'optimal', **kwargs)
+        optimal = plan(points, method, 'optimal', inner_knots=0, **kwargs)
         assert feasible(optimal, pe.MAX_VELOCITY, pe.MAX_ACCELERATION, None)
         # The paper's uniform scaling binds one segment only; optimal timing
         # makes most segments bind, so it must be clearly shorter.
@@ -202,7 +208,7 @@ def test_optimal_timing_has_no_segment_cap(method):
     points = np.cumsum(rng.uniform(-0.5, 0.5, (400, 2)), axis=0)
     kwargs = request_kwargs(np.full(2, 2.0), np.full(2, 10.0), None, [np.zeros(2)] * 4)
     uniform = plan(points, method, 'uniform', **kwargs)
-    optimal = plan(points, method, 'optimal', **kwargs)
+    optimal = plan(points, method, 'optimal', inner_knots=0, **kwargs)
     assert feasible(optimal, kwargs['max_velocity'], kwargs['max_acceleration'], None)
     assert optimal.duration < 0.9 * uniform.duration
     np.testing.assert_allclose(optimal.evaluate(optimal.breakpoints), points, atol=1e-9)

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from .inner_knots import inner_knot_count, with_inner_knots
+from .inner_knots import inner_knot_count, plan_with_inner_knots
 from .limits import check_boundary_feasible, JointLimits
 from .methods import get_method
 from .optimal import optimal_durations
@@ -28,6 +28,9 @@ POSITION_LIMIT_RTOL = 1e-12
 # Optimal timing starts from the rest-to-rest durations instead of the uniform
 # solution when that is this many times longer (see optimal_start).
 ABSURD_UNIFORM = 2.0
+# Requests of at most this many waypoints also get the knots-only optimum,
+# and the shorter plan is returned (see _with_knots_only_rival).
+SMALL_REQUEST = 8
 
 
 def merge_duplicates(waypoints, tolerance=0.0):
@@ -72,7 +75,7 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
          start_velocity=None, start_acceleration=None,
          end_velocity=None, end_acceleration=None,
          waypoint_tolerance=DEFAULT_WAYPOINT_TOLERANCE, min_position=None, max_position=None,
-         inner_knots=0):
+         inner_knots=None):
     """
     Plan a trajectory through ``waypoints`` (N, n_joints).
 
@@ -116,13 +119,18 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         Joint position limits (-inf / +inf entries: none), checked exactly
         on the polynomials; a plan that leaves them is rejected with the
         joint, the time and the excess.
-    inner_knots : int, 0 to 8
-        Free inner knots per segment for method "555" with timing
-        "optimal" (:mod:`inner_knots`): the result is still a C4 quintic
-        spline through every waypoint, passed at ``waypoint_times``; its
-        ``breakpoints`` include the inner knots.  0 (the default) keeps knots
-        at the waypoints only.  Used for rest-to-rest requests; with
-        non-zero boundary values the knots-only optimum is returned.
+    inner_knots : int, 0 to 8, or None
+        Most free inner knots per segment for method "555" with timing
+        "optimal" (:mod:`inner_knots`; fewer on segments shorter than a few
+        jerk ramp times): the result is still a C4 quintic spline through
+        every waypoint, passed at ``waypoint_times``; its ``breakpoints``
+        include the inner knots.  None (the default) is
+        :data:`inner_knots.DEFAULT_INNER_KNOTS` for 555 optimal and 0
+        otherwise; 0 keeps knots at the waypoints only (the optimisation of
+        :mod:`optimal`, which also takes the ``durations`` warm start).  When
+        no spline with inner knots is found (non-zero boundary values it
+        cannot keep within the limits), the knots-only optimum is returned
+        and ``optimizer['inner_knots']`` is 0.
 
     """
     if not isinstance(timing, str) or timing not in TIMINGS:
@@ -131,9 +139,7 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
     with np.errstate(over='ignore', invalid='ignore', divide='ignore', under='ignore'):
         traj = _plan(waypoints, method, timing, durations, max_velocity, max_acceleration,
                      max_jerk, (start_velocity, start_acceleration, end_velocity,
-                                end_acceleration), waypoint_tolerance)
-        if inner_knots:
-            traj = with_inner_knots(traj, inner_knots)
+                                end_acceleration), waypoint_tolerance, inner_knots)
         check_position_limits(traj, min_position, max_position)
     return traj
 
@@ -173,7 +179,7 @@ def check_position_limits(traj, min_position=None, max_position=None, joint_name
 
 
 def _plan(waypoints, method, timing, durations, max_velocity, max_acceleration, max_jerk,
-          boundary, waypoint_tolerance):
+          boundary, waypoint_tolerance, inner_knots):
     method = get_method(method).name
     points = waypoint_array(waypoints)
     n = points.shape[1]
@@ -202,6 +208,47 @@ def _plan(waypoints, method, timing, durations, max_velocity, max_acceleration, 
     if start is not None and dropped:
         # A dropped waypoint's segment joins the one before it.
         start = np.diff(np.delete(np.concatenate([[0.0], np.cumsum(start)]), dropped))
+    if inner_knots:
+        refined = plan_with_inner_knots(points, boundary, limits, inner_knots, dropped)
+        if refined is not None:
+            return _with_knots_only_rival(refined, method, points, start, boundary, limits,
+                                          dropped)
+    knots_only = _plan_knots_only(method, timing, points, start, boundary, limits, dropped)
+    if timing == 'optimal':
+        knots_only.optimizer['inner_knots'] = 0
+        if inner_knots:
+            knots_only.optimizer['inner_knots_skipped'] = 'no spline with inner knots found'
+    return knots_only
+
+
+def _with_knots_only_rival(refined, method, points, start, boundary, limits, dropped):
+    """
+    Return ``refined`` (inner knots), or a knots-only plan of the request when it is shorter.
+
+    The rival is the knots-only optimum for requests of at most
+    :data:`SMALL_REQUEST` waypoints, where it costs tens of milliseconds
+    and wins now and then (one segment, a joint reversing at every
+    waypoint); uniform timing otherwise, which costs a banded solve.  So
+    the result is never longer than either.
+    """
+    timing = 'optimal' if len(points) <= SMALL_REQUEST else 'uniform'
+    try:
+        rival = _plan_knots_only(method, timing, points, start, boundary, limits, dropped)
+    except ValueError:
+        return refined
+    if refined.duration <= rival.duration:
+        return refined
+    if timing == 'uniform':
+        rival = Trajectory.build(rival.method, 'optimal', points, rival.durations, boundary,
+                                 limits, rival.coefficients, rival.limit_ratios(),
+                                 dropped_waypoints=dropped)
+        rival.optimizer = {}
+    rival.optimizer.update(inner_knots=0, inner_knots_duration=refined.duration)
+    return rival
+
+
+def _plan_knots_only(method, timing, points, start, boundary, limits, dropped):
+    """Uniform or optimal timing with knots at the waypoints only."""
     chords = chord_durations(points)
     if not np.all(np.isfinite(chords)):
         raise ValueError('waypoints too large: chord lengths overflow')

@@ -1,0 +1,183 @@
+"""
+Time-optimal speed along a fixed joint path under velocity and acceleration limits.
+
+A path ``q(s)`` (here the 555 spline through the waypoints, in its own
+time ``s``) is traversed at path speed ``sdot(t)``; with ``x = sdot**2`` and
+``u = sddot`` the joint velocity and acceleration are::
+
+    qdot = q'(s) sdot,        qddot = q'(s) u + q''(s) x
+
+so the limits ``|qdot_j| <= v_j`` and ``|qddot_j| <= a_j`` are linear in
+``(x, u)`` at every point of the path.  On a grid ``s_0 < ... < s_M`` with
+``u`` constant between grid points, ``x_{i+1} = x_i + 2 u_i (s_{i+1} - s_i)``:
+the classic reachability analysis (Pham & Pham's TOPP-RA, with one
+constraint per joint the per-step problem is an interval, no LP) gives the
+largest ``x`` from which the end is still reachable (backward pass) and the
+fastest profile that stays within it (forward pass).
+
+Only the ideas are used here: the spline later built from this profile
+(:mod:`inner_knots`) is what is checked exactly against the limits, jerk
+included, so this profile only needs to be a good reference.
+
+Limits may be multiplied along the path by a local factor ``scale`` (a time
+scaling: velocity limit times ``scale``, acceleration times ``scale**2``).
+"""
+
+import numpy as np
+
+# |q'_j| below this (relative to the largest |q'|) counts as a joint at rest
+# on the path: only its q'' x term is limited.
+_AT_REST = 1e-12
+
+
+class PathLimits:
+    """
+    The velocity and acceleration limits along one gridded path, ready for many profiles.
+
+    ``first``, ``second`` (M + 1, n) are ``q'`` and ``q''`` at the grid points
+    and ``steps`` (M,) the grid spacing in ``s``.  Every bound on ``x`` and
+    ``u`` is proportional to the square of the local factor (see the module
+    docstring), so they are prepared once for factor 1 and
+    :meth:`profile` only multiplies them.  Per step only the joints that can
+    bind are kept: a joint whose braking (or acceleration) line lies above
+    another joint's for every ``x >= 0`` never decides the step.
+    """
+
+    def __init__(self, first, second, steps, max_velocity, max_acceleration):
+        """Prepare the bounds for factor 1."""
+        speed = np.abs(first)
+        moving = speed > _AT_REST * max(float(np.max(speed)), 1.0)
+        v, a = max_velocity[None, :], max_acceleration[None, :]
+        with np.errstate(divide='ignore', invalid='ignore', over='ignore'):
+            safe = np.where(moving, speed, 1.0)
+            # Velocity limit: x <= (v / |q'|)^2.
+            x_max = np.min(np.where(moving, (v / safe) ** 2, np.inf), axis=1)
+            # Acceleration: u in [-c_j + g_j x, c_j + g_j x] for a moving joint.
+            c = np.where(moving, a / safe, np.inf)
+            g = np.where(moving, -second / np.where(moving, first, 1.0), 0.0)
+            # A joint at rest on the path: |q''| x <= a.
+            curvature = np.abs(second)
+            x_max = np.minimum(x_max, np.min(np.where(~moving & (curvature > 0.0),
+                                                      a / curvature, np.inf), axis=1))
+            # Those intervals intersect while (g_j - g_k) x <= c_j + c_k for all j, k.
+            dg = g[:, :, None] - g[:, None, :]
+            both = moving[:, :, None] & moving[:, None, :] & (dg > 0.0)
+            cc = np.where(moving, c, 0.0)
+            pair = np.where(both, (cc[:, :, None] + cc[:, None, :])
+                            / np.where(both, dg, 1.0), np.inf)
+            self.x_max = np.minimum(x_max, np.min(pair, axis=(1, 2)))
+            # Backward pass: x_i is kept when its slowest braking reaches
+            # beta_{i+1}: x + 2 ds (-c_j + g_j x) <= beta_{i+1} for every joint j,
+            # i.e. x <= slope_j beta_{i+1} + offset_j.
+            two_ds = 2.0 * steps[:, None]
+            denominator = 1.0 + two_ds * g[:-1]
+            binds = moving[:-1] & (denominator > 0.0)
+            slope = np.where(binds, 1.0 / np.where(binds, denominator, 1.0), np.inf)
+            offset = np.where(binds, two_ds * c[:-1] * slope, np.inf)
+            # And the largest acceleration must not take x below 0:
+            # x + 2 ds (c_j + g_j x) >= 0, a bound on x where 1 + 2 ds g_j < 0.
+            falls = moving[:-1] & (denominator < 0.0)
+            self.x_max[:-1] = np.minimum(self.x_max[:-1], np.min(
+                np.where(falls, two_ds * c[:-1] / np.where(falls, -denominator, 1.0), np.inf),
+                axis=1))
+        self._braking = _lower_envelopes(slope, offset)
+        self._accelerating = _lower_envelopes(np.where(moving, g, np.inf)[:-1], c[:-1])
+        self._two_ds = (2.0 * steps).tolist()
+
+    def profile(self, scale, start=0.0, end=0.0):
+        """
+        Squared path speed ``x`` (M + 1,) of the fastest traversal of the grid.
+
+        ``scale`` (M + 1,) is the local limit factor; ``start`` and ``end`` are
+        the squared path speeds at the ends (0 at rest; the start is lowered
+        when it cannot be kept).
+        """
+        square = scale * scale
+        x_max = self.x_max * square
+        beta = _backward(self._braking, square.tolist(), x_max.tolist(), min(end, x_max[-1]))
+        return _forward(self._accelerating, square.tolist(), self._two_ds, beta, start)
+
+
+def velocity_profile(first, second, steps, max_velocity, max_acceleration, scale,
+                     start=0.0, end=0.0):
+    """Squared path speed of :meth:`PathLimits.profile` for one ``scale`` (M + 1,)."""
+    return PathLimits(first, second, steps, max_velocity, max_acceleration).profile(
+        scale, start, end)
+
+
+def _lower_envelopes(slope, offset):
+    """
+    Per step, the (slope, offset) pairs of the lines ``slope x + offset`` that can be lowest.
+
+    A line is dropped when another has a slope and an offset no larger (and
+    is not the same line), or when it is infinite.
+    """
+    finite = np.isfinite(slope) & np.isfinite(offset)
+    ds = slope[:, :, None] >= slope[:, None, :]   # [i, k, j]: line j's slope <= line k's
+    do = offset[:, :, None] >= offset[:, None, :]
+    strictly = (slope[:, :, None] > slope[:, None, :]) | (offset[:, :, None] > offset[:, None, :])
+    j_first = np.arange(slope.shape[1])[None, None, :] < np.arange(slope.shape[1])[None, :, None]
+    beaten = ds & do & (strictly | j_first) & finite[:, None, :]
+    keep = finite & ~np.any(beaten, axis=2)
+    pairs = np.stack([slope, offset], axis=2).tolist()
+    return [tuple(tuple(p) for p, k in zip(row, kept) if k)
+            for row, kept in zip(pairs, keep.tolist())]
+
+
+def _backward(braking, square, x_max, last):
+    """beta_i = min(x_max_i, min_j slope_ij beta_{i+1} + offset_ij square_i), from the end."""
+    # Plain floats: the recursion is sequential, and per step it is a
+    # handful of joints, where numpy's per-call cost would dominate.
+    beta = [0.0] * len(x_max)
+    b = beta[-1] = last
+    for i in range(len(x_max) - 2, -1, -1):
+        best = x_max[i]
+        scale = square[i]
+        for s, o in braking[i]:
+            value = s * b + o * scale
+            if value < best:
+                best = value
+        beta[i] = b = best
+    return beta
+
+
+def _forward(accelerating, square, two_ds, beta, start):
+    """Largest acceleration at every step that stays below ``beta``; returns x (M + 1,)."""
+    x = [0.0] * len(beta)
+    xi = x[0] = min(start, beta[0])
+    infinity = float('inf')
+    for i in range(len(two_ds)):
+        most = infinity
+        scale = square[i]
+        for g, c in accelerating[i]:
+            value = c * scale + g * xi
+            if value < most:
+                most = value
+        following = xi + two_ds[i] * most
+        if following > beta[i + 1]:
+            following = beta[i + 1]
+        if following < 0.0:
+            following = 0.0
+        x[i + 1] = xi = following
+    return np.array(x)
+
+
+def traversal_times(x, steps):
+    """Time at every grid point (M + 1,) of the profile ``x`` (``u`` constant per step)."""
+    root = np.sqrt(np.maximum(x, 0.0))
+    with np.errstate(divide='ignore'):
+        return np.concatenate([[0.0], np.cumsum(2.0 * steps / (root[:-1] + root[1:]))])
+
+
+def path_position(times, x, s, t):
+    """
+    Return the path coordinate at the times ``t`` of the profile ``x``.
+
+    Within a step ``u`` is constant, so ``s = s_i + sqrt(x_i) tau + u_i tau**2 / 2``
+    with ``tau = t - t_i``.
+    """
+    i = np.clip(np.searchsorted(times, t, side='right') - 1, 0, s.size - 2)
+    tau = t - times[i]
+    u = (x[i + 1] - x[i]) / (2.0 * (s[i + 1] - s[i]))
+    return np.minimum(s[i] + np.sqrt(np.maximum(x[i], 0.0)) * tau + 0.5 * u * tau * tau,
+                      s[i + 1])
