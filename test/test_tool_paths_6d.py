@@ -32,7 +32,7 @@ def check_1khz(tool_path, poses, fk, tol_position, tol_orientation):
     traj = tool_path.trajectory
     t = np.arange(0.0, traj.duration, 1e-3)
     pos, mat = fk(traj.evaluate(t))
-    passed = traj.breakpoints[tool_path.waypoint_knots]
+    passed = traj.waypoint_times[tool_path.waypoint_knots]
     edge = np.clip(np.searchsorted(passed, t, side='right') - 1, 0, len(poses) - 2)
     a, b = poses[edge, :3], poses[edge + 1, :3]
     ab = b - a

@@ -310,8 +310,10 @@ class _PathMeasure:
         n_edges = len(a)
         first = np.searchsorted(segment_edges, np.arange(n_edges), side='left')
         last = np.searchsorted(segment_edges, np.arange(n_edges), side='right')
-        self.edge_t0 = traj.breakpoints[first]
-        self.edge_t1 = traj.breakpoints[last]
+        # Segments run between the waypoints (knots of the tool path); a 555
+        # optimal plan has inner knots between them too.
+        self.edge_t0 = traj.waypoint_times[first]
+        self.edge_t1 = traj.waypoint_times[last]
 
     def __call__(self, t, seg):
         """Position and orientation deviation (K,) at times ``t`` on segments ``seg``."""
@@ -375,9 +377,13 @@ class _PathMeasure:
         grid value (a lower bound, far below the tolerance).
         """
         traj = self.traj
-        n_seg = traj.durations.size
+        starts = traj.waypoint_times[:-1]
+        spans = np.diff(traj.waypoint_times)
+        n_seg = spans.size
+        # As many grid points per piece as a knots-only plan has per segment.
+        grid *= -(-(traj.breakpoints.size - 1) // n_seg)
         u = np.linspace(0.0, 1.0, grid)
-        times = traj.breakpoints[:-1, None] + traj.durations[:, None] * u[None, :]
+        times = starts[:, None] + spans[:, None] * u[None, :]
         seg = np.repeat(np.arange(n_seg), grid)
         pos, ori, xy = self(times.ravel(), seg)
         if self.spatial:
@@ -478,9 +484,6 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
     the tolerances (naming the segment and the deviation reached).
 
     """
-    if plan_kwargs.get('inner_knots'):
-        raise ValueError('tool paths keep their knots at the (inserted) waypoints: '
-                         'inner_knots must be 0 for them')
     request = tool_pose_array(poses)
     tol_position = _tolerance('max_deviation', max_deviation)
     tol_orientation = _tolerance('max_orientation_deviation', max_orientation_deviation)
@@ -548,7 +551,8 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
         if timing == 'optimal':
             # Warm start: the optimum before the insertion, its split segments
             # shared by their chords (3x faster on the triangle, and shorter).
-            seg_durations = traj.durations
+            # (Per segment: a 555 optimal plan's pieces are finer.)
+            seg_durations = np.diff(traj.waypoint_times)
         if seg_durations is not None:
             seg_durations = _split_durations(seg_durations, bad, new_joints)
         segment_edges = np.insert(segment_edges, bad + 1, segment_edges[bad])

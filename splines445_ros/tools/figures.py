@@ -53,7 +53,7 @@ def plot_joint_curves(trajectories, path, joint_names):
                 ax = axes[row, j]
                 ax.plot(t, values[:, j], color=color, lw=1.2, label=_label(traj))
                 if row == 0:
-                    ax.plot(traj.breakpoints, traj.waypoints[:, j], 'o', color=color, ms=3)
+                    ax.plot(traj.waypoint_times, traj.waypoints[:, j], 'o', color=color, ms=3)
                 else:
                     for x in traj.breakpoints[1:-1]:
                         ax.axvline(x, color=color, lw=0.4, alpha=0.35)

@@ -98,7 +98,7 @@ def sampled_deviation(result, poses, kinematics, period=CHECK_PERIOD):
     traj = result.trajectory
     samples = traj.sample(period)
     tool = kinematics.forward(samples.positions)
-    passed = traj.breakpoints[result.waypoint_knots]
+    passed = traj.waypoint_times[result.waypoint_knots]
     edge = np.clip(np.searchsorted(passed, samples.times, side='right') - 1, 0, len(poses) - 2)
     a, ab = poses[edge, :3], poses[edge + 1, :3] - poses[edge, :3]
     s = np.clip(np.sum((tool[:, :3] - a) * ab, axis=1) / np.sum(ab * ab, axis=1), 0.0, 1.0)

@@ -47,7 +47,7 @@ def sampled_deviation(result, poses, kinematics, period=CHECK_PERIOD):
     traj = result.trajectory
     samples = traj.sample(period)
     xy = kinematics.forward(samples.positions)[:, :2]
-    passed = traj.breakpoints[result.waypoint_knots]
+    passed = traj.waypoint_times[result.waypoint_knots]
     edge = np.clip(np.searchsorted(passed, samples.times, side='right') - 1, 0, len(poses) - 2)
     a, ab = poses[edge, :2], poses[edge + 1, :2] - poses[edge, :2]
     s = np.clip(np.sum((xy - a) * ab, axis=1) / np.sum(ab * ab, axis=1), 0.0, 1.0)
