@@ -16,7 +16,8 @@ from splines445_ros.nodes.ros_conversions import WaypointRequest
 from splines445_ros.tools.in_process import LocalRos
 
 WAYPOINTS = np.array([[0.0, 0.0, 0.0], [1.0, -0.5, 0.3], [1.5, 0.5, -0.2], [0.5, 1.0, 0.4],
-                      [-0.5, 0.2, 0.0]])
+                      [-0.5, 0.2, 0.0], [-1.0, -0.6, 0.5], [-0.2, -1.2, 1.0],
+                      [0.8, -0.4, 0.6], [1.4, 0.3, -0.3], [0.6, 0.9, -0.8]])
 
 
 def request(waypoints=WAYPOINTS):
@@ -34,11 +35,21 @@ def config(**overrides):
 def test_555_optimal_request_uses_inner_knots_and_reports_knots():
     traj = plan_request(config(), request())
     values = summary_values(traj, config().joint_names)
-    assert values['waypoints'] == 5
-    assert values['knots'] == 4 * 3 + 1
-    shorter = plan_request(config(inner_knots=0), request())
-    assert traj.duration < shorter.duration
-    assert summary_values(shorter, config().joint_names)['knots'] == 5
+    assert values['waypoints'] == len(WAYPOINTS)
+    assert values['knots'] == traj.breakpoints.size
+    assert traj.optimizer['inner_knots'] == 2
+    assert values['knots'] == np.sum(np.asarray(traj.optimizer['inner_knots_per_segment']) + 1) + 1
+    assert values['knots'] > len(WAYPOINTS)
+    # The binding limit is named by its waypoint segment, not by its piece.
+    segment = int(values['binding'].split(' segment ')[1].split()[0])
+    assert 0 <= segment < len(WAYPOINTS) - 1
+    knots_only = plan_request(config(inner_knots=0), request())
+    assert traj.duration < knots_only.duration
+    assert summary_values(knots_only, config().joint_names)['knots'] == len(WAYPOINTS)
+
+
+def test_the_default_is_six_inner_knots_at_most():
+    assert PlannerConfig().inner_knots == 6
 
 
 @pytest.mark.parametrize('overrides', [{'method': '445'}, {'timing': 'uniform'}])
@@ -47,12 +58,14 @@ def test_other_methods_and_timings_ignore_inner_knots(overrides):
     assert traj.breakpoints.size == len(WAYPOINTS)
 
 
-def test_replanning_from_a_moving_state_keeps_knots_at_waypoints():
-    moving = start_from_state(request(), WAYPOINTS[0], np.array([0.3, -0.2, 0.1]),
-                              np.zeros(3))
+def test_replanning_from_a_moving_state_gets_inner_knots_and_keeps_the_state():
+    velocity = np.array([0.3, -0.2, 0.1])
+    moving = start_from_state(request(), WAYPOINTS[0], velocity, np.zeros(3))
     traj = plan_request(config(), moving)
-    assert traj.breakpoints.size == len(WAYPOINTS)
-    assert traj.optimizer['inner_knots'] == 0
+    assert traj.optimizer['inner_knots'] == 2
+    assert np.allclose(traj.evaluate([0.0], 1)[0], velocity, atol=1e-9)
+    assert np.allclose(traj.evaluate(traj.waypoint_times), traj.waypoints, atol=1e-9)
+    assert traj.within_limits()
 
 
 @pytest.mark.parametrize('bad', [-1, 9])

@@ -14,7 +14,7 @@ from typing import Tuple
 from .validated_config import ValidatedConfig
 from ..arm.kinematics import PlanarArm
 from ..planning import DEFAULT_WAYPOINT_TOLERANCE, METHODS, TIMINGS
-from ..planning.inner_knots import MAX_INNER_KNOTS
+from ..planning.inner_knots import DEFAULT_INNER_KNOTS, MAX_INNER_KNOTS
 
 DEFAULT_JOINTS = ('joint1', 'joint2', 'joint3')
 MIN_SAMPLE_PERIOD = 1e-4
@@ -51,7 +51,7 @@ class PlannerConfig(ValidatedConfig):
     min_position: Tuple[float, ...] = ()
     max_position: Tuple[float, ...] = ()
     output: str = 'sampled'
-    inner_knots: int = 0
+    inner_knots: int = DEFAULT_INNER_KNOTS
     # kinematics "model": a robot description (see nodes/robot_description.py).
     model_file: str = ''
     tool_frame: str = ''

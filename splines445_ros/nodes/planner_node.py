@@ -93,11 +93,11 @@ PARAMETER_DESCRIPTIONS = {
               'knot of the spline, with its exact position, velocity and acceleration: the '
               'quintic interpolation of joint_trajectory_controller between them reproduces '
               'the planned trajectory).',
-    'inner_knots': 'Free inner knots per segment for method "555" with timing "optimal", '
-                   'in [0, 8]: a C4 spline with free knots between the waypoints, much '
-                   'shorter (rest-to-rest waypoint requests; replanning from a moving state '
-                   'and tool_waypoints keep knots at the waypoints); 0 = knots at the '
-                   'waypoints only.',
+    'inner_knots': 'Most inner knots per segment for method "555" with timing "optimal", '
+                   'in [0, 8] (default 6; fewer on segments shorter than a few jerk ramp '
+                   'times a/j): a C4 spline with knots between the waypoints too, about '
+                   'TOPP-RA\'s duration with the jerk limits held; 0 = knots at the '
+                   'waypoints only (longer). Ignored by other methods and timings.',
     'model_file': 'kinematics "model": URDF or MJCF file of the robot; empty = the '
                   'robot_description topic.',
     'tool_frame': 'kinematics "model": the tool frame (URDF link, MJCF body or site).',

@@ -264,7 +264,10 @@ def summary_values(traj, joint_names):
         values['limit_acceleration'] = format_vector(traj.limits.acceleration)
         values['limit_jerk'] = format_vector(traj.limits.jerk)
         b = traj.binding
-        values['binding'] = (f'{joint_names[b.joint]} {b.quantity} segment {b.segment} '
+        # A segment runs between waypoints; with inner knots it holds several pieces.
+        segment = int(np.searchsorted(traj.waypoint_times, traj.breakpoints[b.segment],
+                                      side='right')) - 1
+        values['binding'] = (f'{joint_names[b.joint]} {b.quantity} segment {segment} '
                              f'ratio {b.ratio:.6g}')
         values['duration_lower_bound'] = f'{traj.duration_lower_bound():.9g}'
     return values
