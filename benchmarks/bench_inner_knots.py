@@ -3,16 +3,17 @@ Free inner knots (issue 17): 555 optimal timing against TOPP-RA, one run.
 
 20 random rest-to-rest requests (fixed seed; 5 to 50 waypoints, 3 to 7
 joints, v in [1, 3] rad/s and a in [5, 15] rad/s^2 per joint).  For each:
-TOPP-RA's duration (toppra, v/a limits only, its own spline path through
-the waypoints, default grid), the lower bound LB of the issue, and the 555
-optimal duration with knots at the waypoints only (before the issue) and
-with ``inner_knots`` free knots per segment, for no jerk limit, j = 20 a
-and j = 5 a, as ratios to TOPP-RA with planning times; then the median and
-worst ratios and whether every limit held (exact peaks).  Then the paper's
-example and the planning time at 100 x 7 (and 1000 x 7 with
-SPLINES445_BENCH_FULL=1) against TOPP-RA's on the same request.
+TOPP-RA's duration and planning time (toppra, v/a limits only, its own
+spline path through the waypoints, default grid), the lower bound LB of the
+issue, and 555 optimal with knots at the waypoints only (``inner_knots=0``,
+before the issue) and with inner knots (the default), for no jerk limit,
+j = 20 a and j = 5 a, as ratios to TOPP-RA with planning times; then the
+median and worst ratios, planning time against TOPP-RA's, and whether every
+limit held (exact peaks).  Then the paper's example (its boundary values)
+and the planning time at 100 x 7 and 1000 x 7 against TOPP-RA's on the same
+request, each timed in turn in this run.
 
-Usage: ``python benchmarks/bench_inner_knots.py [inner_knots]`` (default 2).
+Usage: ``python benchmarks/bench_inner_knots.py [inner_knots]`` (default: plan()'s).
 """
 
 import logging
@@ -84,16 +85,17 @@ def label(ratio):
 def main():
     """Run the comparison and print the tables."""
     logging.getLogger('toppra').setLevel(logging.ERROR)
-    inner = int(sys.argv[1]) if len(sys.argv) > 1 else 2
-    full = os.environ.get('SPLINES445_BENCH_FULL') == '1'
+    inner = int(sys.argv[1]) if len(sys.argv) > 1 else None
+    name = 'default' if inner is None else str(inner)
     rng = np.random.default_rng(SEED)
-    print(f'555 optimal / TOPP-RA, knots at waypoints only -> inner_knots={inner} '
-          '(planning time [s])')
-    print('| case | N x n | TOPP-RA [s] (s) | LB / TOPP-RA | '
+    print(f'555 optimal / TOPP-RA, inner_knots=0 -> inner_knots={name} '
+          '(planning time / TOPP-RA planning time)')
+    print('| case | N x n | TOPP-RA [s] (planning [s]) | LB / TOPP-RA | '
           + ' | '.join(label(r) for r in JERK_RATIOS) + ' |')
     print('|' + '---|' * (4 + len(JERK_RATIOS)))
     before = {r: [] for r in JERK_RATIOS}
     after = {r: [] for r in JERK_RATIOS}
+    speed = {r: [] for r in JERK_RATIOS}
     held = dict.fromkeys(JERK_RATIOS, True)
     bounds = []
     for case in range(N_CASES):
@@ -104,46 +106,56 @@ def main():
         for ratio in JERK_RATIOS:
             kwargs = {'max_velocity': vmax, 'max_acceleration': amax,
                       'max_jerk': None if ratio is None else ratio * amax}
-            t0, knots_only = timed(lambda: plan(waypoints, '555', 'optimal', **kwargs))
+            t0, knots_only = timed(lambda: plan(waypoints, '555', 'optimal', inner_knots=0,
+                                                **kwargs))
             t1, traj = timed(lambda: plan(waypoints, '555', 'optimal', inner_knots=inner,
                                           **kwargs))
             before[ratio].append(knots_only.duration / d_top)
             after[ratio].append(traj.duration / d_top)
+            speed[ratio].append(t1 / t_top)
             held[ratio] &= traj.within_limits(rtol=1e-9)
-            cells.append(f'{before[ratio][-1]:.3f} ({t0:.2f}) -> '
-                         f'{after[ratio][-1]:.3f} ({t1:.2f})')
-        print(f'| {case} | {len(waypoints)} x {waypoints.shape[1]} | {d_top:.2f} ({t_top:.2f}) '
+            cells.append(f'{before[ratio][-1]:.3f} ({t0 / t_top:.2f}) -> '
+                         f'{after[ratio][-1]:.3f} ({t1 / t_top:.2f})')
+        print(f'| {case} | {len(waypoints)} x {waypoints.shape[1]} | {d_top:.2f} ({t_top:.3f}) '
               f'| {bounds[-1]:.3f} | ' + ' | '.join(cells) + ' |')
         sys.stdout.flush()
     print()
-    print('| jerk limit | knots only: median / worst | '
-          f'inner_knots={inner}: median / worst | all limits held | LB / TOPP-RA median |')
-    print('|---|---|---|---|---|')
+    print(f'| jerk limit | inner_knots=0: median / worst | inner_knots={name}: median / worst '
+          '| planning time / TOPP-RA planning time: median / worst | all limits held '
+          '| LB / TOPP-RA median |')
+    print('|---|---|---|---|---|---|')
     for ratio in JERK_RATIOS:
         print(f'| {label(ratio)} | {np.median(before[ratio]):.3f} / {np.max(before[ratio]):.3f} '
               f'| {np.median(after[ratio]):.3f} / {np.max(after[ratio]):.3f} '
+              f'| {np.median(speed[ratio]):.2f} / {np.max(speed[ratio]):.2f} '
               f'| {held[ratio]} | {np.median(bounds):.3f} |')
     print()
     kwargs = pe.plan_kwargs()
-    elapsed, traj = timed(lambda: plan(pe.joint_waypoints(), '555', 'optimal',
-                                       inner_knots=inner, **kwargs))
-    print(f"Paper's example (its boundary values): 555 optimal, inner_knots={inner}: "
-          f'{traj.duration:.4f} s in {1e3 * elapsed:.0f} ms, inner knots used: '
-          f"{traj.optimizer['inner_knots']} (non-zero boundary values keep knots at the "
-          'waypoints)')
+    for knots in (0, inner):
+        times = []
+        for _ in range(5):
+            elapsed, traj = timed(lambda: plan(pe.joint_waypoints(), '555', 'optimal',
+                                               inner_knots=knots, **kwargs))
+            times.append(elapsed)
+        print(f"Paper's example (its boundary values), 555 optimal, inner_knots="
+              f"{'default' if knots is None else knots}: {traj.duration:.4f} s, planned in "
+              f'{1e3 * np.median(times):.0f} ms (median of 5), inner knots per segment at '
+              f"most: {traj.optimizer['inner_knots']}")
     print()
-    print('| N x n | TOPP-RA [s] | knots only [s] | inner knots [s] | TOPP-RA time [s] '
-          '| planning time [s] | time / TOPP-RA time |')
+    print('Random walks x 7 joints, v = 2, a = 10, j = 200 (TOPP-RA: v/a), one run each in turn:')
+    print('| N x n | TOPP-RA [s] | inner_knots=0 [s] | inner knots [s] | TOPP-RA planning [s] '
+          '| inner knots planning [s] | planning / TOPP-RA planning |')
     print('|---|---|---|---|---|---|---|')
-    for n_points in ((100, 1000) if full else (100,)):
+    for n_points in (100, 1000):
         waypoints = np.cumsum(rng.uniform(-1.0, 1.0, (n_points, 7)), axis=0)
         vmax, amax = np.full(7, 2.0), np.full(7, 10.0)
+        kwargs = {'max_velocity': vmax, 'max_acceleration': amax, 'max_jerk': 20.0 * amax}
         t_top, d_top = timed(lambda: toppra_plan(waypoints, vmax, amax))
         elapsed, traj = timed(lambda: plan(waypoints, '555', 'optimal', inner_knots=inner,
-                                           max_velocity=vmax, max_acceleration=amax))
-        knots_only = traj.optimizer.get('knots_only_duration', traj.duration)
-        print(f'| {n_points} x 7 | {d_top:.2f} | {knots_only:.2f} '
-              f'| {traj.duration:.2f} | {t_top:.2f} | {elapsed:.2f} | {elapsed / t_top:.1f} |')
+                                           **kwargs))
+        knots_only = plan(waypoints, '555', 'optimal', inner_knots=0, **kwargs)
+        print(f'| {n_points} x 7 | {d_top:.2f} | {knots_only.duration:.2f} '
+              f'| {traj.duration:.2f} | {t_top:.2f} | {elapsed:.2f} | {elapsed / t_top:.2f} |')
         sys.stdout.flush()
     return 0
 
