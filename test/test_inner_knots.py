@@ -165,7 +165,7 @@ def test_boundary_values_are_kept_exactly_with_inner_knots(req):
 
 
 def typical_request(seed):
-    """A robot-like request: 10-30 waypoints, 3-6 joints, j = 20 a or no jerk limit."""
+    """Return a robot-like request: 10-30 waypoints, 3-6 joints, j = 20 a or no jerk limit."""
     rng = np.random.default_rng(seed)
     n_joints = int(rng.integers(3, 7))
     points = np.cumsum(rng.uniform(-1.0, 1.0, (int(rng.integers(10, 31)), n_joints)), axis=0)

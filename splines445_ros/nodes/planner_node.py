@@ -96,7 +96,7 @@ PARAMETER_DESCRIPTIONS = {
     'inner_knots': 'Most inner knots per segment for method "555" with timing "optimal", '
                    'in [0, 8] (default 6; fewer on segments shorter than a few jerk ramp '
                    'times a/j): a C4 spline with knots between the waypoints too, about '
-                   'TOPP-RA\'s duration with the jerk limits held; 0 = knots at the '
+                   'the duration of TOPP-RA with the jerk limits held; 0 = knots at the '
                    'waypoints only (longer). Ignored by other methods and timings.',
     'model_file': 'kinematics "model": URDF or MJCF file of the robot; empty = the '
                   'robot_description topic.',

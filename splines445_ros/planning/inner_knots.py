@@ -82,7 +82,7 @@ RAMP_PIECES = 1.5
 # Most iterations of steps 2-5, and the stop after STALL of them without a
 # relative gain of MIN_GAIN.
 ITERATIONS = 15
-STALL = 3
+STALL = 2
 MIN_GAIN = 1e-3
 # Exponent of the local factor's update and its range (step 6).
 RELAX = 0.8

@@ -107,10 +107,11 @@ def velocity_profile(first, second, steps, max_velocity, max_acceleration, scale
 
 def _lower_envelopes(slope, offset):
     """
-    Per step, the (slope, offset) pairs of the lines ``slope x + offset`` that can be lowest.
+    Per step, the lines ``slope x + offset`` that can be lowest, as flat lists.
 
     A line is dropped when another has a slope and an offset no larger (and
-    is not the same line), or when it is infinite.
+    is not the same line), or when it is infinite.  Returns (slopes, offsets,
+    bounds): the lines of step ``i`` are ``bounds[i]`` to ``bounds[i + 1]``.
     """
     finite = np.isfinite(slope) & np.isfinite(offset)
     ds = slope[:, :, None] >= slope[:, None, :]   # [i, k, j]: line j's slope <= line k's
@@ -119,22 +120,22 @@ def _lower_envelopes(slope, offset):
     j_first = np.arange(slope.shape[1])[None, None, :] < np.arange(slope.shape[1])[None, :, None]
     beaten = ds & do & (strictly | j_first) & finite[:, None, :]
     keep = finite & ~np.any(beaten, axis=2)
-    pairs = np.stack([slope, offset], axis=2).tolist()
-    return [tuple(tuple(p) for p, k in zip(row, kept) if k)
-            for row, kept in zip(pairs, keep.tolist())]
+    bounds = np.concatenate([[0], np.cumsum(np.sum(keep, axis=1))])
+    return slope[keep].tolist(), offset[keep].tolist(), bounds.tolist()
 
 
 def _backward(braking, square, x_max, last):
     """beta_i = min(x_max_i, min_j slope_ij beta_{i+1} + offset_ij square_i), from the end."""
     # Plain floats: the recursion is sequential, and per step it is a
     # handful of joints, where numpy's per-call cost would dominate.
+    slopes, offsets, bounds = braking
     beta = [0.0] * len(x_max)
     b = beta[-1] = last
     for i in range(len(x_max) - 2, -1, -1):
         best = x_max[i]
         scale = square[i]
-        for s, o in braking[i]:
-            value = s * b + o * scale
+        for k in range(bounds[i], bounds[i + 1]):
+            value = slopes[k] * b + offsets[k] * scale
             if value < best:
                 best = value
         beta[i] = b = best
@@ -143,14 +144,15 @@ def _backward(braking, square, x_max, last):
 
 def _forward(accelerating, square, two_ds, beta, start):
     """Largest acceleration at every step that stays below ``beta``; returns x (M + 1,)."""
+    slopes, offsets, bounds = accelerating
     x = [0.0] * len(beta)
     xi = x[0] = min(start, beta[0])
     infinity = float('inf')
     for i in range(len(two_ds)):
         most = infinity
         scale = square[i]
-        for g, c in accelerating[i]:
-            value = c * scale + g * xi
+        for k in range(bounds[i], bounds[i + 1]):
+            value = offsets[k] * scale + slopes[k] * xi
             if value < most:
                 most = value
         following = xi + two_ds[i] * most
