@@ -90,6 +90,11 @@ MIN_LOCAL_FACTOR = 0.2
 # With non-zero boundary values: the smallest common margin on the local
 # factors tried, and the bisection steps towards the largest feasible one.
 MIN_MARGIN = 0.5
+# With non-zero boundary values: the shares of their rest-to-rest time the
+# path's end segments get when their own time gives no spline (the path
+# leaves a moving end at the end's velocity, so its time sets the path's
+# shape there).
+END_SEGMENT_SHARES = (0.5, 2.0, 0.25)
 # Step 7: rounds of halving the inner knots of segments whose worst piece
 # still needs a factor above OUTLIER, each followed by up to ITERATIONS more.
 RECOUNTS = 2
@@ -181,13 +186,18 @@ class _Path:
     own time) and the ``most`` inner knots per segment.
     """
 
-    def __init__(self, points, boundary, limits, most):
+    def __init__(self, points, boundary, limits, most, end_share=1.0):
         """Build the path through ``points`` with ``boundary`` values."""
         self.points = points
         self.most = most
         self.start = 1.0 if np.any(boundary[0]) or np.any(boundary[1]) else 0.0
         self.end = 1.0 if np.any(boundary[2]) or np.any(boundary[3]) else 0.0
         durations = rest_to_rest_durations(points, limits)
+        # A segment next to a moving end at end_share of its time.
+        if self.start:
+            durations[0] *= end_share
+        if self.end:
+            durations[-1] *= end_share
         traj = Trajectory.build('555', 'fixed', points, durations, boundary)
         self.ppoly = traj.ppoly
         knots = traj.breakpoints
@@ -272,18 +282,35 @@ def plan_with_inner_knots(points, boundary, limits, most, dropped_waypoints=()):
     ``points`` (N, n) are the merged waypoints, ``boundary`` the four
     boundary vectors, ``limits`` the :class:`JointLimits`.  The trajectory
     passes through every waypoint at ``waypoint_times``, is C4 at every knot
-    and meets every limit exactly (steps 1-7 of the module docstring).  None
-    when no spline within the limits is found (non-zero boundary values the
+    and meets every limit exactly (steps 1-7 of the module docstring).  With
+    non-zero boundary values the path's end segments are also tried at
+    :data:`END_SEGMENT_SHARES` of their time when its own is not kept.  None
+    when no spline within the limits is found (boundary values the
     construction cannot keep, or a request without motion): plan() then
     keeps knots at the waypoints.
     """
     if np.all(points == points[0]):
         return None
     rest = not any(np.any(b) for b in boundary)
-    try:
-        path = _Path(points, boundary, limits, most)
-    except ValueError:
-        return None
+    for share in (1.0,) if rest else (1.0,) + END_SEGMENT_SHARES:
+        try:
+            path = _Path(points, boundary, limits, most, share)
+        except ValueError:
+            continue
+        best, iterations = _construct(path, boundary, limits, rest)
+        if best is None:
+            continue
+        traj = _trajectory(points, boundary, limits, best, dropped_waypoints,
+                           {'inner_knots': most, 'knots': int(best.pieces.size + 1),
+                            'inner_knots_per_segment': best.counts.tolist(),
+                            'iterations': iterations, 'end_segment_share': share})
+        if traj is not None:
+            return traj
+    return None
+
+
+def _construct(path, boundary, limits, rest):
+    """Run steps 2-7 on ``path``; return (a candidate within the limits or None, iterations)."""
     best, iterations = _iterate(path, np.ones(path.s.size), None, boundary, limits, rest, None)
     for _ in range(RECOUNTS):
         if best is None:
@@ -298,7 +325,7 @@ def plan_with_inner_knots(points, boundary, limits, most, dropped_waypoints=()):
         best, more = _iterate(path, best.local, counts, boundary, limits, rest, best)
         iterations += more
     if best is None:
-        return None
+        return None, iterations
     # The same timing with knots at the waypoints only, for the requests
     # (few segments, one joint reversing) where that is shorter.
     for local in (best.local, np.ones(path.s.size)):
@@ -307,12 +334,7 @@ def plan_with_inner_knots(points, boundary, limits, most, dropped_waypoints=()):
             best = knots_only
     if not best.feasible:
         best = _with_margin(path, best, boundary, limits)
-    if best is None:
-        return None
-    return _trajectory(points, boundary, limits, best, dropped_waypoints,
-                       {'inner_knots': most, 'knots': int(best.pieces.size + 1),
-                        'inner_knots_per_segment': best.counts.tolist(),
-                        'iterations': iterations})
+    return best, iterations
 
 
 def _iterate(path, local, counts, boundary, limits, rest, best):
