@@ -142,6 +142,23 @@ def test_optimal_refinement_restarts_from_the_split_optimum(monkeypatch):
         assert start.sum() == pytest.approx(before.sum(), rel=1e-12)
 
 
+@pytest.mark.parametrize('tolerance', [5e-3, None])
+def test_555_optimal_tool_paths_are_never_longer_than_with_knots_only(tolerance):
+    """Inner knots are tried on the refined path and kept only when shorter and within tolerance."""
+    poses = np.column_stack([pe.triangle_points()[:4], np.zeros(4)])
+    kwargs = dict(method='555', timing='optimal', max_inserted=200, **LIMITS)
+    default = plan_tool_path(poses, ARM, tolerance, **kwargs)
+    knots_only = plan_tool_path(poses, ARM, tolerance, inner_knots=0, **kwargs)
+    assert default.trajectory.duration <= knots_only.trajectory.duration
+    assert knots_only.trajectory.breakpoints.size == len(knots_only.joints)
+    if tolerance is None:
+        # Nothing to refine: the unrefined request gets its inner knots.
+        assert default.trajectory.breakpoints.size > len(default.joints)
+        assert default.trajectory.duration < knots_only.trajectory.duration
+    else:
+        check_result(default, poses, tolerance, np.inf)
+
+
 @pytest.mark.parametrize('method', ['434', '555'])
 def test_paper_triangle_within_one_millimetre(method):
     xy = pe.triangle_points()

@@ -91,6 +91,8 @@ import numpy as np
 
 from . import rotations as rot
 from ..planning import merge_duplicates, plan
+from ..planning.inner_knots import inner_knot_count
+from ..planning.methods import get_method
 
 GRID = 24
 # Golden-section steps on each bracket of two grid cells: 16 shrink it to
@@ -484,6 +486,11 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
     the tolerances (naming the segment and the deviation reached).
 
     """
+    # 555 optimal's inner knots are tried on the refined path at the end (see
+    # _with_inner_knots); the refinement itself keeps knots at the waypoints.
+    inner_knots = inner_knot_count(plan_kwargs.pop('inner_knots', None),
+                                   get_method(method).name, timing)
+    plan_kwargs['inner_knots'] = 0
     request = tool_pose_array(poses)
     tol_position = _tolerance('max_deviation', max_deviation)
     tol_orientation = _tolerance('max_orientation_deviation', max_orientation_deviation)
@@ -535,6 +542,10 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
                             deviation.orientation / tol_orientation)
         bad = np.flatnonzero(excess > 1.0)
         if bad.size == 0:
+            if inner_knots:
+                traj, deviation = _with_inner_knots(
+                    traj, deviation, knot_joints, kinematics, edge_poses, segment_edges,
+                    (tol_position, tol_orientation), method, timing, inner_knots, plan_kwargs)
             return ToolPath(traj, knots, knot_joints, _knot_of_waypoint(
                 waypoint_knots, segment_edges, len(knots)), segment_edges, inserted,
                 deviation, initial[0], initial[1], iteration)
@@ -559,6 +570,31 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
         knots, knot_joints = new_knots, new_joints
         inserted += bad.size
     raise AssertionError('unreachable: every iteration inserts at least one knot')
+
+
+def _with_inner_knots(traj, deviation, joints, kinematics, edge_poses, segment_edges,
+                      tolerances, method, timing, inner_knots, plan_kwargs):
+    """
+    Return (trajectory, deviation): the refined path planned with inner knots when better.
+
+    The refinement inserts waypoints with knots at the waypoints only: its
+    optimum shapes each segment through its durations, which the deviation
+    test sees.  With inner knots (555 optimal, :mod:`planning.inner_knots`)
+    the segments follow another path between the same waypoints, usually
+    faster; it is kept when it is shorter and still within the tolerances.
+    """
+    try:
+        refined = plan(joints, method=method, timing=timing, waypoint_tolerance=0.0,
+                       **dict(plan_kwargs, inner_knots=inner_knots))
+    except ValueError:
+        return traj, deviation
+    if not refined.duration < traj.duration:
+        return traj, deviation
+    measured = _PathMeasure(refined, kinematics, edge_poses, segment_edges).deviation(tolerances)
+    excess = np.maximum(measured.position / tolerances[0], measured.orientation / tolerances[1])
+    if np.any(excess > 1.0):
+        return traj, deviation
+    return refined, measured
 
 
 def _knot_of_waypoint(waypoint_knots, segment_edges, n_knots):
