@@ -144,7 +144,7 @@ def test_optimal_refinement_restarts_from_the_split_optimum(monkeypatch):
 
 @pytest.mark.parametrize('tolerance', [5e-3, None])
 def test_555_optimal_tool_paths_are_never_longer_than_with_knots_only(tolerance):
-    """Inner knots are tried on the refined path and kept only when shorter and within tolerance."""
+    """Inner knots are tried on the refined path, kept only when shorter and within tolerance."""
     poses = np.column_stack([pe.triangle_points()[:4], np.zeros(4)])
     kwargs = dict(method='555', timing='optimal', max_inserted=200, **LIMITS)
     default = plan_tool_path(poses, ARM, tolerance, **kwargs)
