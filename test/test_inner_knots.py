@@ -16,11 +16,10 @@ import pytest
 from reference_spline import exact_peaks
 from scipy.interpolate import make_interp_spline
 from splines445_ros.planning import plan
-from splines445_ros.planning.inner_knots import (
-    c4_states, DEFAULT_INNER_KNOTS, plan_with_inner_knots, quintic_coefficients,
-)
+from splines445_ros.planning.continuity_system import spline_coefficients
+from splines445_ros.planning.inner_knots import DEFAULT_INNER_KNOTS, plan_with_inner_knots
 from splines445_ros.planning.limits import JointLimits
-from splines445_ros.planning.path_velocity import traversal_times, velocity_profile
+from splines445_ros.planning.path_velocity import PathLimits, traversal_times
 from splines445_ros.planning.planner import SMALL_REQUEST
 
 
@@ -218,8 +217,7 @@ def test_knots_placed_on_a_c4_spline_give_back_the_same_spline(n_inner):
     knots = np.append((traj.breakpoints[:-1, None]
                        + fractions * traj.durations[:, None]).ravel(), traj.duration)
     pieces = np.diff(knots)
-    states = c4_states(pieces, traj.ppoly(knots), boundary)
-    coeffs = quintic_coefficients(pieces, *states)
+    coeffs = spline_coefficients('555', traj.ppoly(knots), pieces, boundary)
     t = np.linspace(0.0, traj.duration, 1001)
     piece = np.clip(np.searchsorted(knots, t, side='right') - 1, 0, pieces.size - 1)
     tau = t - knots[piece]
@@ -237,8 +235,8 @@ def test_speed_profile_of_a_straight_path_is_the_closed_form_optimum(distance, v
     """Along q(s) = d s / S the fastest rest-to-rest time is the trapezoid's (or triangle's)."""
     steps = np.full(400, 2.0 / 400)                       # s from 0 to S = 2
     first = np.full((401, 1), distance / 2.0)
-    x = velocity_profile(first, np.zeros((401, 1)), steps, np.array([vmax]),
-                         np.array([amax]), np.ones(401))
+    x = PathLimits(first, np.zeros((401, 1)), steps, np.array([vmax]),
+                   np.array([amax])).profile(np.ones(401))
     if distance >= vmax * vmax / amax:
         expected = distance / vmax + vmax / amax
     else:
@@ -262,7 +260,7 @@ def test_speed_profile_meets_the_limits_on_curved_paths(seed):
     steps = np.diff(s)
     vmax, amax = rng.uniform(0.5, 3.0, n), rng.uniform(2.0, 20.0, n)
     scale = rng.uniform(0.5, 1.0, s.size)
-    x = velocity_profile(path.ppoly(s, 1), path.ppoly(s, 2), steps, vmax, amax, scale)
+    x = PathLimits(path.ppoly(s, 1), path.ppoly(s, 2), steps, vmax, amax).profile(scale)
     assert x[0] == 0.0 and x[-1] == 0.0 and np.all(x >= 0.0)
     assert np.isfinite(traversal_times(x, steps)[-1])
     u = np.diff(x) / (2.0 * steps)                        # constant over each step

@@ -63,11 +63,10 @@ spline is found.
 
 import numpy as np
 
-from .continuity_system import ContinuitySystem
+from .continuity_system import spline_coefficients
 from .limits import limit_ratios
 from .path_velocity import path_position, PathLimits, traversal_times
-from .segments import input_maps, QUINTIC
-from .timing import rest_to_rest_durations
+from .timing import closed_form_scale, rest_to_rest_durations
 from .trajectory import _check_finite, representable_durations, Trajectory
 
 # Largest number of inner knots per segment accepted by plan().
@@ -90,6 +89,7 @@ MIN_LOCAL_FACTOR = 0.2
 # With non-zero boundary values: the smallest common margin on the local
 # factors tried, and the bisection steps towards the largest feasible one.
 MIN_MARGIN = 0.5
+MARGIN_STEPS = 6
 # With non-zero boundary values: the shares of their rest-to-rest time the
 # path's end segments get when their own time gives no spline (the path
 # leaves a moving end at the end's velocity, so its time sets the path's
@@ -99,7 +99,6 @@ END_SEGMENT_SHARES = (0.5, 2.0, 0.25)
 # still needs a factor above OUTLIER, each followed by up to ITERATIONS more.
 RECOUNTS = 2
 OUTLIER = 1.01
-MARGIN_STEPS = 6
 # Safety factor on exact restoring factors against round-off.
 _ROUNDOFF = 1.0 + 1e-12
 
@@ -142,28 +141,6 @@ def knots_per_segment(segment_times, limits, most):
     return counts
 
 
-def quintic_coefficients(pieces, positions, velocities, accelerations):
-    """Ascending coefficients (P, 6, n) of the quintics (eqs. 13-23) between knot states (K, n)."""
-    maps = input_maps(np.full(pieces.size, QUINTIC), pieces)
-    inputs = np.stack([np.diff(positions, axis=0), velocities[:-1], accelerations[:-1],
-                       velocities[1:], accelerations[1:]], axis=1)
-    coeffs = maps @ inputs
-    coeffs[:, 0] = positions[:-1]
-    return coeffs
-
-
-def c4_states(pieces, positions, boundary):
-    """
-    Knot states (3, K, n) of the C4 quintic spline through ``positions`` (K, n).
-
-    Velocities and accelerations come from the banded continuity system of
-    555 (:mod:`continuity_system`, jerk and snap continuity) over all knots,
-    with ``boundary`` = (v_start, a_start, v_end, a_end).
-    """
-    vel, acc = ContinuitySystem('555', pieces).solve(np.diff(positions, axis=0), *boundary)
-    return np.stack([positions, vel, acc])
-
-
 def exact_factors(coeffs, pieces, limits):
     """
     Exact restoring factor per piece and joint (P, n): ``max(r_v, r_a**(1/2), r_j**(1/3))``.
@@ -180,10 +157,11 @@ class _Path:
     """
     The path of step 1 on the grid of step 2.
 
-    ``s``, ``q'`` (``first``) and ``q''`` (``second``) at the grid points, the
-    ``ppoly``, the ``points``, the squared path speeds at the ends (``start``,
-    ``end``: 0 at rest, 1 with boundary values, which the path has in its
-    own time) and the ``most`` inner knots per segment.
+    The grid ``s`` and its ``steps``, the path's velocity and acceleration
+    limits along it (``limits``, a :class:`PathLimits`), the ``ppoly``, the
+    ``points``, the squared path speeds at the ends (``start``, ``end``: 0
+    at rest, 1 with boundary values, which the path has in its own time) and
+    the ``most`` inner knots per segment.
     """
 
     def __init__(self, points, boundary, limits, most, end_share=1.0):
@@ -213,10 +191,11 @@ class _Candidate:
     """
     One spline of steps 2-5 for the local limit factors ``local``.
 
-    ``pieces`` (P,), knot ``states`` (3, K, n), the exact ``factors`` (P, n)
-    before scaling, ``feasible`` and the ``total`` time (inf when not
+    ``pieces`` (P,), the knot ``positions`` (K, n), the exact ``factors``
+    (P, n) before scaling, ``feasible`` and the ``total`` time (inf when not
     feasible); ``score`` ranks candidates while none is feasible yet (the
-    total it would have if scaled as a rest-to-rest one).
+    total it would have if scaled as a rest-to-rest one).  The spline is the
+    C4 one through the positions (step 4), so they and the pieces define it.
     """
 
     def __init__(self, path, local, counts, boundary, limits, rest):
@@ -238,25 +217,22 @@ class _Candidate:
         pieces = np.diff(self.knot_times)
         if not np.all(pieces > 0.0):
             return
-        positions = path.ppoly(path_position(self.times, x, path.s, self.knot_times))
-        positions[self.waypoint_knots] = path.points
+        self.positions = path.ppoly(path_position(self.times, x, path.s, self.knot_times))
+        self.positions[self.waypoint_knots] = path.points
         try:
-            states = c4_states(pieces, positions, boundary)
+            coeffs = spline_coefficients('555', self.positions, pieces, boundary)
         except ValueError:
             return
-        self.factors = exact_factors(quintic_coefficients(pieces, *states), pieces, limits)
+        self.factors = exact_factors(coeffs, pieces, limits)
         f = float(np.max(self.factors)) * _ROUNDOFF
         if not (np.isfinite(f) and f > 0.0):
             return
         self.valid = True
         self.score = float(pieces.sum()) * f
-        if rest:
-            self.pieces = pieces * f
-            self.states = states / np.array([1.0, f, f * f])[:, None, None]
-            self.feasible = True
-        else:
-            self.pieces, self.states = pieces, states
-            self.feasible = f <= _ROUNDOFF
+        # A rest-to-rest spline through the same positions on pieces * f is
+        # this one slowed down by f: exactly at its limits.
+        self.pieces = pieces * f if rest else pieces
+        self.feasible = rest or f <= _ROUNDOFF
         self.total = float(self.pieces.sum()) if self.feasible else np.inf
 
     def better_than(self, other):
@@ -300,7 +276,7 @@ def plan_with_inner_knots(points, boundary, limits, most, dropped_waypoints=()):
         best, iterations = _construct(path, boundary, limits, rest)
         if best is None:
             continue
-        traj = _trajectory(points, boundary, limits, best, dropped_waypoints,
+        traj = _trajectory(points, boundary, limits, rest, best, dropped_waypoints,
                            {'inner_knots': most, 'knots': int(best.pieces.size + 1),
                             'inner_knots_per_segment': best.counts.tolist(),
                             'iterations': iterations, 'end_segment_share': share})
@@ -389,7 +365,7 @@ def _with_margin(path, best, boundary, limits):
     return found
 
 
-def _trajectory(points, boundary, limits, best, dropped, optimizer):
+def _trajectory(points, boundary, limits, rest, best, dropped, optimizer):
     """
     Return the Trajectory of the kept spline, solved again on the widths the PPoly really has.
 
@@ -398,20 +374,18 @@ def _trajectory(points, boundary, limits, best, dropped, optimizer):
     exceeds 1 (at most twice), any other must already be within its limits.
     """
     pieces = best.pieces
-    rest = not any(np.any(b) for b in boundary)
     for _ in range(3):
         pieces = representable_durations(pieces)
         if not np.all(pieces > 0.0):
             return None
-        states = c4_states(pieces, best.states[0], boundary)
-        coeffs = quintic_coefficients(pieces, *states)
+        coeffs = spline_coefficients('555', best.positions, pieces, boundary)
         ratios = limit_ratios(coeffs, pieces, limits)
-        f = float(np.max(ratios ** (1.0 / np.arange(1, 4))))
-        if f <= 1.0:
+        f = closed_form_scale(ratios)
+        if f <= _ROUNDOFF:
             break
         if not rest:
             return None
-        pieces = pieces * f * _ROUNDOFF
+        pieces = pieces * f
     else:
         return None
     traj = Trajectory('555', 'optimal', points, pieces, coeffs, boundary, limits, None,

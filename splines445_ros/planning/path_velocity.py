@@ -94,15 +94,9 @@ class PathLimits:
         """
         square = scale * scale
         x_max = self.x_max * square
-        beta = _backward(self._braking, square.tolist(), x_max.tolist(), min(end, x_max[-1]))
-        return _forward(self._accelerating, square.tolist(), self._two_ds, beta, start)
-
-
-def velocity_profile(first, second, steps, max_velocity, max_acceleration, scale,
-                     start=0.0, end=0.0):
-    """Squared path speed of :meth:`PathLimits.profile` for one ``scale`` (M + 1,)."""
-    return PathLimits(first, second, steps, max_velocity, max_acceleration).profile(
-        scale, start, end)
+        square = square.tolist()
+        beta = _backward(self._braking, square, x_max.tolist(), min(end, x_max[-1]))
+        return _forward(self._accelerating, square, self._two_ds, beta, start)
 
 
 def _lower_envelopes(slope, offset):
