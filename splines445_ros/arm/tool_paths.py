@@ -538,8 +538,7 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
             (tol_position, tol_orientation))
         if initial is None:
             initial = (deviation, traj.duration)
-        excess = np.maximum(deviation.position / tol_position,
-                            deviation.orientation / tol_orientation)
+        excess = _excess(deviation, (tol_position, tol_orientation))
         bad = np.flatnonzero(excess > 1.0)
         if bad.size == 0:
             if inner_knots:
@@ -591,10 +590,14 @@ def _with_inner_knots(traj, deviation, joints, kinematics, edge_poses, segment_e
     if not refined.duration < traj.duration:
         return traj, deviation
     measured = _PathMeasure(refined, kinematics, edge_poses, segment_edges).deviation(tolerances)
-    excess = np.maximum(measured.position / tolerances[0], measured.orientation / tolerances[1])
-    if np.any(excess > 1.0):
+    if np.any(_excess(measured, tolerances) > 1.0):
         return traj, deviation
     return refined, measured
+
+
+def _excess(deviation, tolerances):
+    """Per segment, the larger of position and orientation deviation over its tolerance."""
+    return np.maximum(deviation.position / tolerances[0], deviation.orientation / tolerances[1])
 
 
 def _knot_of_waypoint(waypoint_knots, segment_edges, n_knots):
