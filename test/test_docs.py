@@ -15,6 +15,7 @@ from dataclasses import fields
 import os
 import re
 
+from file_tree import write_file
 import pytest
 from splines445_ros.nodes.arm_sim_config import ArmSimConfig
 from splines445_ros.nodes.planner_config import PlannerConfig
@@ -94,25 +95,18 @@ def test_every_relative_link_and_image_of_the_docs_exists():
     assert broken_links(ROOT) == []
 
 
-def _write(root, relpath, text):
-    path = os.path.join(root, *relpath.split('/'))
-    os.makedirs(os.path.dirname(path), exist_ok=True)
-    with open(path, 'w', encoding='utf-8') as handle:
-        handle.write(text)
-
-
 def test_the_checker_finds_broken_links(tmp_path):
     root = str(tmp_path)
-    _write(root, 'doc/figure.png', '')
-    _write(root, 'doc/page.md', '# A page\n\n## Connecting to ros2_control\n\n## A page\n'
-           'Back to [the README](../README.md) and [here](#a-page-1).\n'
-           'Broken: [missing](other.md) and [bad anchor](#nowhere), [a wrapped\n'
-           'link](#wrapped).\n')
-    _write(root, 'README.md', '# Title\n\n![figure](doc/figure.png)\n'
-           '[ok](doc/page.md#connecting-to-ros2_control) [web](https://example.com/x.md)\n'
-           '![no image](doc/missing.png) <img src="doc/gone.png">\n'
-           '[no heading](doc/page.md#not-there)\n'
-           '`[in code](nothing.md)`\n```\n[in a block](nothing.md)\n```\n')
+    write_file(root, 'doc/figure.png', '')
+    write_file(root, 'doc/page.md', '# A page\n\n## Connecting to ros2_control\n\n## A page\n'
+               'Back to [the README](../README.md) and [here](#a-page-1).\n'
+               'Broken: [missing](other.md) and [bad anchor](#nowhere), [a wrapped\n'
+               'link](#wrapped).\n')
+    write_file(root, 'README.md', '# Title\n\n![figure](doc/figure.png)\n'
+               '[ok](doc/page.md#connecting-to-ros2_control) [web](https://example.com/x.md)\n'
+               '![no image](doc/missing.png) <img src="doc/gone.png">\n'
+               '[no heading](doc/page.md#not-there)\n'
+               '`[in code](nothing.md)`\n```\n[in a block](nothing.md)\n```\n')
     found = broken_links(root)
     expected = ['README.md:5: doc/missing.png (no such file)',
                 'README.md:5: doc/gone.png (no such file)',

@@ -21,6 +21,7 @@ import importlib
 import os
 import re
 
+from file_tree import write_file
 import pytest
 
 PACKAGE = 'splines445_ros'
@@ -120,26 +121,19 @@ def test_every_folder_states_its_rules():
         assert doc and 'May import' in doc, f'{layer}/__init__.py must say what it may import'
 
 
-def _write(root, relpath, text):
-    path = os.path.join(root, *relpath.split('/'))
-    os.makedirs(os.path.dirname(path), exist_ok=True)
-    with open(path, 'w', encoding='utf-8') as handle:
-        handle.write(text)
-
-
 def test_checker_flags_bad_imports(tmp_path):
     root = str(tmp_path / 'pkg')
     for layer in MAY_IMPORT:
-        _write(root, f'{layer}/__init__.py', '"""Layer."""\n')
-    _write(root, '__init__.py', '')
-    _write(root, 'planning/core.py', 'import numpy\nfrom rclpy.node import Node\n')
-    _write(root, 'planning/sneaky.py', 'def f():\n    from ..arm import kinematics\n')
-    _write(root, 'arm/sim.py', 'from .. import planning\nfrom geometry_msgs.msg import Pose\n')
-    _write(root, 'arm/up.py', 'import pkg.nodes.node\nimport tf2_ros\n')
-    _write(root, 'nodes/node.py',
-           'import rclpy\nfrom ..arm import sim\nfrom pkg.tools import demo\n')
-    _write(root, 'tools/demo.py', 'from ..nodes import node\nfrom ..planning import core\n')
-    _write(root, 'stray.py', 'import os\n')
+        write_file(root, f'{layer}/__init__.py', '"""Layer."""\n')
+    write_file(root, '__init__.py', '')
+    write_file(root, 'planning/core.py', 'import numpy\nfrom rclpy.node import Node\n')
+    write_file(root, 'planning/sneaky.py', 'def f():\n    from ..arm import kinematics\n')
+    write_file(root, 'arm/sim.py', 'from .. import planning\nfrom geometry_msgs.msg import Pose\n')
+    write_file(root, 'arm/up.py', 'import pkg.nodes.node\nimport tf2_ros\n')
+    write_file(root, 'nodes/node.py',
+               'import rclpy\nfrom ..arm import sim\nfrom pkg.tools import demo\n')
+    write_file(root, 'tools/demo.py', 'from ..nodes import node\nfrom ..planning import core\n')
+    write_file(root, 'stray.py', 'import os\n')
     found = violations(root)
     expected = [
         'pkg.stray: outside the layer folders',
