@@ -109,6 +109,53 @@ def violations(root):
     return sorted(set(found))
 
 
+def import_cycles(root):
+    """
+    Return the groups of modules below ``root`` that import each other (directly or in a ring).
+
+    Each group is a sorted list of dotted names; the groups are sorted.  An
+    import of a name inside a module (``from .a import f``) counts as an
+    import of that module.
+    """
+    paths = dict(modules(root))
+    graph = {module: {name for _, name in imported_names(module, path)
+                      if name in paths and name != module}
+             for module, path in paths.items()}
+
+    def reachable(start):
+        seen, todo = set(), [start]
+        while todo:
+            for name in graph[todo.pop()] - seen:
+                seen.add(name)
+                todo.append(name)
+        return seen
+
+    reach = {module: reachable(module) for module in graph}
+    groups = {tuple(sorted({module} | {other for other in reach[module]
+                                       if module in reach[other]}))
+              for module in graph if module in reach[module]}
+    return sorted(list(group) for group in groups)
+
+
+def test_no_modules_import_each_other():
+    # Issue 22: arm/robot_model and arm/mujoco_model imported each other (one lazily).
+    assert import_cycles(ROOT) == []
+
+
+def test_cycle_checker_flags_mutual_and_ring_imports(tmp_path):
+    root = str(tmp_path / 'pkg')
+    write_file(root, '__init__.py', '')
+    write_file(root, 'arm/__init__.py', '"""Layer."""\n')
+    write_file(root, 'arm/a.py', 'from .b import f\n')
+    write_file(root, 'arm/b.py', 'def f():\n    from . import a\n')
+    write_file(root, 'arm/c.py', 'import pkg.arm.d\n')
+    write_file(root, 'arm/d.py', 'from pkg.arm import e\n')
+    write_file(root, 'arm/e.py', 'from .c import g\nfrom . import a\n')
+    write_file(root, 'arm/leaf.py', 'from . import a\n')
+    assert import_cycles(root) == [['pkg.arm.a', 'pkg.arm.b'],
+                                   ['pkg.arm.c', 'pkg.arm.d', 'pkg.arm.e']]
+
+
 def test_layers_import_only_what_they_may():
     assert os.path.isdir(os.path.join(ROOT, 'planning'))
     assert violations(ROOT) == []

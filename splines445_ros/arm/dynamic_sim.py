@@ -21,7 +21,7 @@ tabulates.
 
 import numpy as np
 
-from .mujoco_model import _import_mujoco
+from .mujoco_import import import_mujoco as _import_mujoco
 
 
 class DynamicArm:

@@ -32,20 +32,13 @@ from typing import Optional, Tuple
 
 import numpy as np
 
+from .mujoco_import import import_mujoco
+from .robot_model import urdf_spec
+
 TOOL_SITE = 'tool'
 TOOL_OFFSET = 0.15  # m, centre of mass of the tool body beyond joint 3
 GRAVITY = 9.81
 MOTOR_SUFFIX = '_motor'
-
-
-def _import_mujoco():
-    try:
-        import mujoco
-    except ImportError as exc:  # pragma: no cover - depends on the installation
-        raise ValueError('simulation "dynamic" needs the mujoco Python package '
-                         '(pip install mujoco-core==4.0.0, or the rosdep key '
-                         'python3-mujoco-pip)') from exc
-    return mujoco
 
 
 @dataclass(frozen=True)
@@ -163,7 +156,6 @@ class ArmModel:
 
 def _load_spec(mujoco, xml=None, path=None):
     if path is not None:
-        from .robot_model import urdf_spec  # lazy: robot_model imports this module
         spec = urdf_spec(mujoco, path)
         if spec is not None:
             return spec
@@ -249,7 +241,7 @@ def load_arm_model(joint_names, torque_limits, actuator_time_constant, timestep=
     by :func:`splines445_ros.arm.robot_model.load_robot_model` (fixed-joint
     links kept, unreadable meshes dropped) and simulated without contacts.
     """
-    mujoco = _import_mujoco()
+    mujoco = import_mujoco()
     names = tuple(joint_names)
     if model_file:
         where = f'model_file {model_file!r}'

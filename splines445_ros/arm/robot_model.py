@@ -41,7 +41,7 @@ import xml.etree.ElementTree as ET
 import numpy as np
 
 from . import rotations as rot
-from .mujoco_model import _import_mujoco
+from .mujoco_import import import_mujoco
 
 MAX_DESCRIPTION_CHARS = 20_000_000
 MESH_FORMATS = ('.stl', '.obj', '.msh')
@@ -180,7 +180,7 @@ class RobotModel:
 
     def __init__(self, model, kind, source, urdf_limits=None, mimic=(), notes=()):
         """Wrap a compiled ``mujoco.MjModel``; use :func:`load_robot_model` instead."""
-        self.mujoco = _import_mujoco()
+        self.mujoco = import_mujoco()
         self.model = model
         self.kind = kind          # 'urdf' or 'mjcf'
         self.source = source      # file path, or 'robot_description'
@@ -388,7 +388,7 @@ def load_robot_model(model_file='', urdf_string=None, where=None):
     ``where`` names a string's origin in messages (default
     ``robot_description``).
     """
-    mujoco = _import_mujoco()
+    mujoco = import_mujoco()
     if urdf_string is not None:
         where = where or 'robot_description'
         if not isinstance(urdf_string, str) or not urdf_string.strip():
