@@ -185,7 +185,6 @@ def test_explicit_limits_override_the_description(by_file, limits_file):
     ({'joint_names': ['shoulder_pan_joint', 'joint7']}, "no actuated joint 'joint7'"),
     ({'joint_limits_file': ''}, "joint 'shoulder_pan_joint' has no acceleration limit"),
     ({'max_acceleration': [1.0, 2.0]}, r'max_acceleration needs one value per joint \(6\)'),
-    ({'tool_frame': ''}, 'needs tool_frame'),
 ])
 def test_bad_parameters_are_rejected_and_the_robot_stays(by_file, values, reason):
     result = by_file.node.set_parameters(overrides(values))
@@ -235,7 +234,11 @@ def test_the_robot_description_topic(limits_file):
         for text, reason in (('<robot name="ur5"><link name="a">', 'not well-formed XML'),
                              ('<robot>' + ' ' * 20_000_001 + '</robot>', 'more than'),
                              ('<robot name="x"><link name="base_link"/></robot>',
-                              "tool_frame 'tool0' is not a link")):
+                              'has no actuated (hinge or slide) joints'),
+                             ('<robot name="x"><link name="base_link"/><link name="b"/>'
+                              '<joint name="j" type="revolute"><parent link="base_link"/>'
+                              '<child link="b"/><limit lower="-1" upper="1" velocity="1"/>'
+                              '</joint></robot>', "tool_frame 'tool0' is not a link")):
             rejected = planner.publish_description(text)
             assert rejected.level == DiagnosticStatus.ERROR
             assert reason in rejected.message and 'keeping the last good' in rejected.message

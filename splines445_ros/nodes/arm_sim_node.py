@@ -46,7 +46,9 @@ from ..arm.mujoco_model import load_arm_model
 PER_JOINT = 'one value per joint, in joint_names order'
 PARAMETER_DESCRIPTIONS = {
     'joint_names': 'Names of the joints: shoulder, elbow, tool for the built-in arm; the '
-                   'joints of model_file to drive otherwise.',
+                   'joints of model_file to drive otherwise. Not set ([""], the default): '
+                   'joint1, joint2, joint3 for the built-in arm, every actuated joint of '
+                   'model_file in its order.',
     'link_lengths': 'Lengths d1, d2 of the two links [m] (paper: 1.1, 0.9).',
     'initial_positions': f'Joint angles at start-up [rad], {PER_JOINT}.',
     'publish_rate': 'Rate of joint_states and tool_pose [Hz], in [0.001, 1000]; '
@@ -80,8 +82,6 @@ PARAMETER_DESCRIPTIONS = {
                          'kp and kd from the joint inertia when they are not given.',
     'control_damping_ratio': 'model_file, dynamic: damping ratio of that loop (1 = critical).',
 }
-PARAMETER_DESCRIPTIONS['joint_names'] += (' With model_file, [""] = all actuated joints of '
-                                          'the model, in its order.')
 _FROM_MODEL = (' With model_file, the built-in defaults or zeros = from the model (torque: '
                'actuator forcerange, ctrlrange x gear, URDF effort; kp, kd: from the joint '
                'inertia and control_bandwidth; initial_positions: keyframe home or the '

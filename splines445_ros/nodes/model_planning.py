@@ -17,13 +17,27 @@ good setup.
 
 from dataclasses import dataclass, replace
 import math
+import os
+from typing import Optional
 
 import numpy as np
 
 from .request_planning import plan_tool_poses
+from ..arm.chain_tip import chain_tips
 from ..arm.inverse_kinematics import ModelKinematics
 from ..arm.joint_limits_file import JointLimits, read_joint_limits_file, resolve_limits
-from ..arm.robot_model import load_robot_model, RobotModel
+from ..arm.robot_model import load_robot_model, MAX_DESCRIPTION_CHARS, RobotModel
+
+# The parameters a RobotSetup is built from: a change to any other one (method,
+# timing, ...) never rebuilds the robot.
+ROBOT_FIELDS = ('kinematics', 'model_file', 'tool_frame', 'base_frame', 'joint_names',
+                'max_velocity', 'max_acceleration', 'max_jerk', 'joint_limits_file',
+                'min_position', 'max_position')
+
+
+def robot_fields(config):
+    """Return the values of ``config`` that its RobotSetup depends on."""
+    return tuple(getattr(config, name) for name in ROBOT_FIELDS)
 
 
 @dataclass(frozen=True)
@@ -31,53 +45,131 @@ class RobotSetup:
     """Everything ``kinematics: model`` needs, built from one config and one description."""
 
     robot: RobotModel
-    kinematics: ModelKinematics
+    kinematics: Optional[ModelKinematics]  # None when the tool frame is not known
     limits: JointLimits
-    config: object          # the effective PlannerConfig
+    config: object          # the effective PlannerConfig it was built from
     source: str             # 'model_file ...' or 'robot_description'
+    tool_frame: str         # in use: tool_frame, else the tip of the chain; '' = none
+    tool_problem: str = ''  # why tool requests cannot be planned (tool_frame == '')
 
     def summary(self):
         """Return a one-line description for the status and log."""
-        return (f'{self.source}: {len(self.config.joint_names)} joints '
-                f'{list(self.config.joint_names)}, tool_frame {self.config.tool_frame!r} in '
-                f'base_frame {self.config.base_frame or "world"!r}')
+        names = self.config.joint_names
+        if self.tool_frame and not self.config.tool_frame:
+            tool = f'tool_frame {self.tool_frame!r} (the tip of the chain)'
+        elif self.tool_frame:
+            tool = f'tool_frame {self.tool_frame!r}'
+        else:
+            tool = f'no tool frame ({self.tool_problem})'
+        return (f'{self.source}: {len(names)} joints {list(names)}, {tool} in base_frame '
+                f'{self.config.base_frame or "world"!r}')
+
+    def effective(self, config):
+        """
+        Return ``config`` with the robot's joint names and limits filled in.
+
+        ``config`` differs from the one the setup was built from in other
+        parameters only (see :data:`ROBOT_FIELDS`): the request's method,
+        timing and so on.
+        """
+        built = self.config
+        return replace(config, joint_names=built.joint_names, max_velocity=built.max_velocity,
+                       max_acceleration=built.max_acceleration, max_jerk=built.max_jerk,
+                       min_position=built.min_position, max_position=built.max_position,
+                       tool_frame=self.tool_frame)
 
 
-def build_robot_setup(config, description=None):
+def description_source(config, description=None):
     """
-    Load the robot of ``config`` (a PlannerConfig with kinematics "model").
+    Return what the robot of ``config`` is loaded from, or None while there is none.
 
-    ``description`` is the latest ``robot_description`` string, used when
-    ``model_file`` is empty.  Returns None when neither exists (waiting for
-    the topic); raises ValueError with the reason otherwise.
+    ``('model_file', path)`` or ``('robot_description', text)``: two
+    configs with the same source share one compiled model.
     """
     if config.model_file:
-        robot = load_robot_model(config.model_file)
-        source = f'model_file {config.model_file!r}'
-    elif description is not None:
-        robot = load_robot_model(urdf_string=description, where='robot_description')
-        source = 'robot_description'
-    else:
+        return ('model_file', config.model_file)
+    if description is not None:
+        return ('robot_description', description)
+    return None
+
+
+def check_model_file(path):
+    """Raise ValueError unless ``path`` is a regular file of an acceptable size (cheap)."""
+    where = f'model_file {path!r}'
+    if os.path.isdir(path):
+        raise ValueError(f'{where} is a directory, not a URDF or MJCF file')
+    if not os.path.exists(path):
+        raise ValueError(f'{where}: no such file')
+    if not os.path.isfile(path):
+        raise ValueError(f'{where} is not a regular file')
+    size = os.path.getsize(path)
+    if size > MAX_DESCRIPTION_CHARS:
+        raise ValueError(f'{where} has {size} bytes, more than the {MAX_DESCRIPTION_CHARS} '
+                         'accepted')
+
+
+def load_model(source):
+    """Compile the robot of a :func:`description_source` (ValueError): the slow step."""
+    kind, value = source
+    if kind == 'model_file':
+        return load_robot_model(value)
+    return load_robot_model(urdf_string=value, where='robot_description')
+
+
+def build_robot_setup(config, description=None, robot=None):
+    """
+    Set up the robot of ``config`` (a PlannerConfig with kinematics "model").
+
+    ``robot`` is the compiled model of ``config``'s :func:`description_source`
+    when the caller has it (then nothing is compiled: this is quick);
+    otherwise it is loaded from ``model_file``, else from ``description``, the
+    latest ``robot_description`` string.  Returns None when there is neither
+    (waiting for the topic); raises ValueError with the reason otherwise.
+    """
+    source = description_source(config, description)
+    if source is None:
         return None
+    if robot is None:
+        robot = load_model(source)
+    where = (f'model_file {config.model_file!r}' if source[0] == 'model_file'
+             else 'robot_description')
     names = tuple(n for n in config.joint_names if n)  # [''] or [] = all actuated joints
-    kinematics = ModelKinematics(robot, config.tool_frame, config.base_frame, names)
+    joints = robot.select(names)
+    if not joints:
+        raise ValueError(f'{where} has no actuated (hinge or slide) joints')
+    tool_frame, problem = config.tool_frame, ''
+    if not tool_frame:
+        tips, why = chain_tips(robot, joints)
+        if len(tips) == 1:
+            tool_frame = tips[0]
+        elif tips:
+            problem = (f'tool_frame is not set and the chain ends in {len(tips)} links: '
+                       f'{", ".join(tips[:12])}{" ..." if len(tips) > 12 else ""}; '
+                       'set -p tool_frame:=<one of them> (or any link, body or site)')
+        else:
+            problem = f'tool_frame is not set and there is no tip: {why}'
+    kinematics = None
+    if tool_frame:
+        kinematics = ModelKinematics(robot, tool_frame, config.base_frame,
+                                     tuple(j.name for j in joints))
+    joint_names = tuple(j.name for j in joints)
     file_limits = (read_joint_limits_file(config.joint_limits_file)
                    if config.joint_limits_file else None)
     velocity, acceleration, jerk = config.description_limits()
-    limits = resolve_limits(kinematics.joint_names,
-                            {j.name: j.velocity for j in kinematics.joints}, file_limits,
+    limits = resolve_limits(joint_names, {j.name: j.velocity for j in joints}, file_limits,
                             velocity, acceleration, jerk)
     # Position limits: the parameters when set, else the model's joint ranges.
-    lower = config.min_position or tuple(float(j.lower) for j in kinematics.joints)
-    upper = config.max_position or tuple(float(j.upper) for j in kinematics.joints)
+    lower = config.min_position or tuple(float(j.lower) for j in joints)
+    upper = config.max_position or tuple(float(j.upper) for j in joints)
     effective = replace(
-        config, joint_names=kinematics.joint_names,
+        config, joint_names=joint_names,
         max_velocity=tuple(float(v) for v in limits.velocity),
         max_acceleration=tuple(float(v) for v in limits.acceleration),
         max_jerk=tuple(float(v) if math.isfinite(v) else 0.0 for v in limits.jerk),
         min_position=lower, max_position=upper)
-    effective.validate_position_limits(len(kinematics.joint_names))
-    return RobotSetup(robot, kinematics, limits, effective, source)
+    effective.validate_position_limits(len(joint_names))
+    source_text = where if source[0] == 'robot_description' else f'model_file {source[1]!r}'
+    return RobotSetup(robot, kinematics, limits, effective, source_text, tool_frame, problem)
 
 
 def tool_poses_from_message(msg, base_frame):
@@ -101,16 +193,19 @@ def tool_poses_from_message(msg, base_frame):
     return rows
 
 
-def plan_model_tool_request(setup, rows, seed=None):
+def plan_model_tool_request(setup, rows, seed=None, config=None):
     """
     Plan tool poses ``rows`` (N, 7) with a RobotSetup; return a ToolPath (ValueError).
 
     ``seed`` (joint positions of ``setup.config.joint_names``, e.g. the
     latest joint_states) selects the IK branch; None = the model's default.
     Rest to rest, refined to ``max_path_deviation`` and
-    ``max_orientation_deviation`` (the angle from the slerp).
+    ``max_orientation_deviation`` (the angle from the slerp) of ``config``
+    (the node's current PlannerConfig; default: the one the setup was built from).
     """
     kinematics = setup.kinematics
+    if kinematics is None:
+        raise ValueError(f'tool requests need a tool frame: {setup.tool_problem}')
     kinematics.seed = (kinematics.robot.default_seed(kinematics.joints) if seed is None
                        else kinematics.check_seed(seed))
-    return plan_tool_poses(setup.config, rows, kinematics)
+    return plan_tool_poses(setup.effective(config or setup.config), rows, kinematics)

@@ -95,6 +95,10 @@ class ConfigParameters:
         self._on_reject = on_reject
         defaults = config_cls()
         self.names = [f.name for f in fields(config_cls)]
+        # Declared defaults: the dataclass's, or a "not set" value the config resolves
+        # (e.g. joint_names [''] = the robot model's joints, or the planar arm's).
+        declared = {n: config_cls.PARAMETER_DEFAULTS.get(n, getattr(defaults, n))
+                    for n in self.names}
         # Strings, doubles and double arrays are declared with dynamic typing,
         # so that values as users type them arrive at all (rclpy would refuse
         # an INTEGER for a DOUBLE, and types an empty array default as a byte
@@ -103,7 +107,7 @@ class ConfigParameters:
         self._kinds = {n: _kind(getattr(defaults, n)) for n in self.names
                        if _kind(getattr(defaults, n)) is not None}
         for name in self.names:
-            default = getattr(defaults, name)
+            default = declared[name]
             if name in self._kinds:
                 descriptor = ParameterDescriptor(
                     name=name, dynamic_typing=True, description=descriptions[name])
@@ -125,7 +129,8 @@ class ConfigParameters:
                 for p in parameters]
 
     def _on_set_parameters(self, parameters):
-        values = {name: getattr(self.config, name) for name in self.names}
+        # The parameters as set (not the config, whose "not set" values are resolved).
+        values = {name: self._node.get_parameter(name).value for name in self.names}
         for parameter in parameters:
             if parameter.name in values:
                 values[parameter.name] = parameter.value

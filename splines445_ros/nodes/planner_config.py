@@ -7,7 +7,7 @@ overlaid with the request, so a bad value is rejected with the reason and the
 old configuration stays.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 import math
 from typing import Tuple
 
@@ -15,8 +15,17 @@ from .validated_config import ValidatedConfig
 from ..arm.kinematics import PlanarArm
 from ..planning import DEFAULT_WAYPOINT_TOLERANCE, METHODS, TIMINGS
 from ..planning.inner_knots import DEFAULT_INNER_KNOTS, MAX_INNER_KNOTS
+from ..planning.validation import short_repr
 
 DEFAULT_JOINTS = ('joint1', 'joint2', 'joint3')
+# The planar arm's (and a joint-space planner's) limits when none are set.
+PLANAR_VELOCITY = 2.0
+PLANAR_ACCELERATION = 10.0
+# Declared parameter values meaning "not set": with kinematics "model" every one
+# comes from the robot's description; otherwise the planar arm's defaults apply.
+# ('' and 0.0 since ROS parameter overrides cannot carry an empty array.)
+NOT_SET_NAMES = ('',)
+NOT_SET_LIMITS = (0.0,)
 MIN_SAMPLE_PERIOD = 1e-4
 MAX_LEAD_TIME = 10.0
 # Values of the ``kinematics`` parameter: '' = joint space only.
@@ -58,36 +67,71 @@ class PlannerConfig(ValidatedConfig):
     base_frame: str = ''
     joint_limits_file: str = ''
 
+    PARAMETER_DEFAULTS = {'joint_names': NOT_SET_NAMES, 'max_velocity': NOT_SET_LIMITS,
+                          'max_acceleration': NOT_SET_LIMITS, 'max_jerk': NOT_SET_LIMITS}
+
+    def with_defaults(self):
+        """
+        Return the config with "not set" joint names and limits resolved.
+
+        With kinematics "model" they stay "not set" (``joint_names`` ``()``,
+        limits all zero): the robot's description gives them once it is loaded
+        (see :mod:`.model_planning`).  Otherwise joint_names not set means the
+        planar arm's ``joint1..3``, and with those joints limits not set mean
+        the paper's 2 rad/s and 10 rad/s^2 (no jerk limit); other joints need
+        their limits given (:meth:`validate` says how).
+        """
+        names = () if tuple(self.joint_names) in ((), NOT_SET_NAMES) else self.joint_names
+        jerk = () if not any(self.max_jerk) else self.max_jerk
+        if self.kinematics == 'model':
+            return replace(self, joint_names=names, max_jerk=jerk)
+        names = names or DEFAULT_JOINTS
+        changes = {'joint_names': names, 'max_jerk': jerk}
+        if names == DEFAULT_JOINTS:
+            for field, value in (('max_velocity', PLANAR_VELOCITY),
+                                 ('max_acceleration', PLANAR_ACCELERATION)):
+                if not any(getattr(self, field)):
+                    changes[field] = (value,) * len(names)
+        return replace(self, **changes)
+
     def validate(self):
         """Raise ValueError with the reason when any value is unusable."""
         names = self.joint_names
         model = self.kinematics == 'model'
-        if model and names == ('',):
-            # All of the model's actuated joints; [''] since ROS parameter overrides and
-            # files cannot carry an empty array.
-            names = ()
+        if model and names == NOT_SET_NAMES:
+            names = ()  # all of the model's actuated joints
         if not names and not model:
             raise ValueError('joint_names must not be empty')
         if any(not isinstance(n, str) or not n for n in names):
             raise ValueError('joint_names must be non-empty strings')
         if len(set(names)) != len(names):
-            raise ValueError(f'joint_names has duplicates: {list(names)}')
+            raise ValueError(f'joint_names has duplicates: {_names(names)}')
         n = len(names)
         for name in ('max_velocity', 'max_acceleration'):
             if model:
                 require_description_limits(name, getattr(self, name), names)
+            elif not any(getattr(self, name)):
+                raise ValueError(
+                    f'{name} is not set for joint_names {_names(names)}: give one value per '
+                    f'joint, e.g. -p {name}:=[{", ".join(["1.0"] * n)}] (the defaults are '
+                    "the planar arm's, for joint1..3), or kinematics:=model with a robot "
+                    'description to take them from it')
             else:
-                self.require_positive(name, n, f'one value per joint ({n})')
+                self.require_positive(name, n, f'one value per joint ({n}) of joint_names '
+                                      f'{_names(names)}')
         if len(self.max_jerk) not in (0, n) and not model:
-            raise ValueError(f'max_jerk needs one value per joint ({n}) or none, '
-                             f'got {len(self.max_jerk)}')
+            raise ValueError(f'max_jerk needs one value per joint ({n}) of joint_names '
+                             f'{_names(names)}, or [0.0] for no jerk limit; got '
+                             f'{len(self.max_jerk)}')
         for i, v in enumerate(self.max_jerk):
             if math.isnan(v) or v < 0.0:
                 raise ValueError(f'max_jerk[{i}] = {v}: must be >= 0 (0 = no jerk limit)')
         if self.method not in METHODS:
-            raise ValueError(f'method must be one of {list(METHODS)}, got {self.method!r}')
+            raise ValueError(f'method must be one of {list(METHODS)}, '
+                             f'got {short_repr(self.method)}')
         if self.timing not in TIMINGS:
-            raise ValueError(f'timing must be one of {list(TIMINGS)}, got {self.timing!r}')
+            raise ValueError(f'timing must be one of {list(TIMINGS)}, '
+                             f'got {short_repr(self.timing)}')
         if not (math.isfinite(self.sample_period) and self.sample_period >= MIN_SAMPLE_PERIOD):
             raise ValueError(f'sample_period = {self.sample_period}: must be at least '
                              f'{MIN_SAMPLE_PERIOD} s')
@@ -96,7 +140,8 @@ class PlannerConfig(ValidatedConfig):
         if n or not model:  # with all of a model's joints: checked once it is loaded
             self.validate_position_limits(n)
         if self.output not in OUTPUTS:
-            raise ValueError(f'output must be one of {list(OUTPUTS)}, got {self.output!r}')
+            raise ValueError(f'output must be one of {list(OUTPUTS)}, '
+                             f'got {short_repr(self.output)}')
 
         if not 0 <= self.inner_knots <= MAX_INNER_KNOTS:
             raise ValueError(f'inner_knots = {self.inner_knots}: must be in '
@@ -131,7 +176,7 @@ class PlannerConfig(ValidatedConfig):
     def _validate_tool_paths(self):
         if self.kinematics not in KINEMATICS:
             raise ValueError(f'kinematics must be one of {list(KINEMATICS)} ("" = joint space '
-                             f'only), got {self.kinematics!r}')
+                             f'only), got {short_repr(self.kinematics)}')
         self.require_positive('link_lengths', 2)
         if self.kinematics == 'planar_3dof' and len(self.joint_names) != 3:
             raise ValueError(f'kinematics "planar_3dof" needs 3 joint_names (shoulder, elbow, '
@@ -140,9 +185,6 @@ class PlannerConfig(ValidatedConfig):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0.0):
                 raise ValueError(f'{name} = {value}: must be >= 0 and finite (0 = not checked)')
-        if self.kinematics == 'model' and not self.tool_frame:
-            raise ValueError('kinematics "model" needs tool_frame (a link, body or site of '
-                             'the model)')
         if not 0 <= self.max_inserted_waypoints <= MAX_INSERTED_WAYPOINTS:
             raise ValueError(f'max_inserted_waypoints = {self.max_inserted_waypoints}: must be '
                              f'in [0, {MAX_INSERTED_WAYPOINTS}]')
@@ -183,5 +225,13 @@ def require_description_limits(name, values, names):
             raise ValueError(f'{name}[{i}] = {v}: must be >= 0 and finite (0 = from the '
                              'robot description)')
     if any(v > 0.0 for v in values) and names and len(values) != len(names):
-        raise ValueError(f'{name} needs one value per joint ({len(names)}) or only zeros '
-                         f'(from the robot description), got {len(values)}')
+        raise ValueError(f'{name} needs one value per joint ({len(names)}) of joint_names '
+                         f'{_names(names)}, got {len(values)}: give them all (0 = from the '
+                         f'robot description for that joint), or -p {name}:=[0.0] to take '
+                         'every one from the description')
+
+
+def _names(names, most=8):
+    """Return joint names as a short list text (at most ``most`` names, each cut to 40)."""
+    shown = [n if len(n) <= 40 else n[:37] + '...' for n in names[:most]]
+    return '[' + ', '.join(shown) + (', ...' if len(names) > most else '') + ']'

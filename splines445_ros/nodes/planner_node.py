@@ -38,7 +38,9 @@ from trajectory_msgs.msg import JointTrajectory
 
 from . import topics
 from .diagnostics import status_message
-from .model_planning import build_robot_setup, plan_model_tool_request, tool_poses_from_message
+from .model_planning import (build_robot_setup, check_model_file, description_source,
+                             load_model, plan_model_tool_request, robot_fields,
+                             tool_poses_from_message)
 from .node_main import run_node
 from .parameters import ConfigParameters
 from .planner_config import MAX_WAYPOINT_TOLERANCE, PlannerConfig
@@ -46,14 +48,24 @@ from .request_planning import (output_samples, plan_from_running, plan_request,
                                plan_tool_request, REPLAN_MAX_DELAY, slow_plan_warning,
                                start_from_state, summary_values, tool_summary_values)
 from .ros_conversions import parse_tool_request, parse_waypoint_request, trajectory_to_msg
+from ..arm.robot_model import MAX_DESCRIPTION_CHARS
 from ..planning import DEFAULT_WAYPOINT_TOLERANCE
 
 PARAMETER_DESCRIPTIONS = {
-    'joint_names': 'Joints planned, in the order of the limit arrays.',
-    'max_velocity': 'Per-joint |velocity| limit [rad/s or m/s], > 0.',
-    'max_acceleration': 'Per-joint |acceleration| limit [rad/s^2 or m/s^2], > 0.',
-    'max_jerk': 'Per-joint |jerk| limit [rad/s^3 or m/s^3]; 0 = no jerk limit '
-                'on that joint; an empty array = no jerk limit at all.',
+    'joint_names': 'Joints planned, in the order of the limit arrays. Not set ([""], the '
+                   'default): with kinematics "model" every actuated joint of the robot, in '
+                   "its order; otherwise the planar arm's joint1, joint2, joint3.",
+    'max_velocity': 'Per-joint |velocity| limit [rad/s or m/s], > 0. Not set ([0.0], the '
+                    'default): with kinematics "model" from the description (URDF <limit '
+                    'velocity>, joint_limits_file), 0 entries likewise joint by joint; '
+                    "otherwise 2.0 for the planar arm's joints (other joints need it set).",
+    'max_acceleration': 'Per-joint |acceleration| limit [rad/s^2 or m/s^2], > 0. Not set '
+                        '([0.0], the default): with kinematics "model" from '
+                        'joint_limits_file (a URDF has none), 0 entries likewise; otherwise '
+                        "10.0 for the planar arm's joints (other joints need it set).",
+    'max_jerk': 'Per-joint |jerk| limit [rad/s^3 or m/s^3]; 0 = no jerk limit on that '
+                'joint (kinematics "model": from joint_limits_file, else none); [0.0] (the '
+                'default) = none at all.',
     'method': '"445" (jerk-continuous, Petrinec & Kovacic; default), "434" (Ho & Cook, C2) '
               'or "555" (C4 quintic spline: jerk-continuous and stable on long paths); '
               'numbers as typed (-p method:=555) are accepted.',
@@ -100,7 +112,10 @@ PARAMETER_DESCRIPTIONS = {
                    'waypoints only (longer). Ignored by other methods and timings.',
     'model_file': 'kinematics "model": URDF or MJCF file of the robot; empty = the '
                   'robot_description topic.',
-    'tool_frame': 'kinematics "model": the tool frame (URDF link, MJCF body or site).',
+    'tool_frame': 'kinematics "model": the tool frame (URDF link, MJCF body or site) of '
+                  'tool_waypoints requests; empty (the default) = the tip of the chain, the '
+                  "one link rigidly attached to the last planned joint (like MoveIt's tip "
+                  'link); when there are several, tool requests are refused naming them.',
     'base_frame': 'kinematics "model": frame of the tool_waypoints poses (a link or body '
                   'fixed to the world); empty = the world (the URDF root).',
     'joint_limits_file': 'kinematics "model": MoveIt joint_limits.yaml; its limits override '
@@ -109,13 +124,18 @@ PARAMETER_DESCRIPTIONS = {
 PARAMETER_DESCRIPTIONS['kinematics'] = (
     'Kinematics for tool_waypoints requests: "" (none: joint space only), "planar_3dof" (the '
     'paper\'s arm with link_lengths, elbow branch +1) or "model" (the robot of model_file or '
-    'robot_description: 6-D poses, limits from the description; joint_names [""] = all '
-    'actuated joints, 0 in max_velocity/max_acceleration/max_jerk = from the description).')
-PARAMETER_DESCRIPTIONS['joint_names'] += (' With kinematics "model", [""] (or empty) = all of '
-                                          'the actuated joints of the model, in its order.')
+    'robot_description: 6-D poses; joint_names, limits and tool_frame not set = from the '
+    'description).')
 ROBOT_DESCRIPTION = 'robot_description'
 
 _STOP = object()
+
+
+class _Compile:
+    """A worker job: compile the robot of a model_file (see PlannerNode._on_config_change)."""
+
+    def __init__(self, source):
+        self.source = source
 
 
 class PlannerNode(Node):
@@ -125,14 +145,17 @@ class PlannerNode(Node):
         """Declare parameters, topics and the planning worker."""
         super().__init__('planner_node', **kwargs)
         self._robot = None        # RobotSetup of kinematics "model" (the last good one)
+        self._robot_fields = None  # robot_fields() of the config it was set up for
+        self._compiled = None     # (description_source, RobotModel) last compiled
+        self._pending = None      # the description_source queued for compiling
         self._description = None  # the latest robot_description string
         self._robot_lock = threading.Lock()
+        self._requests = queue.Queue()
         self.parameters = ConfigParameters(self, PlannerConfig, PARAMETER_DESCRIPTIONS,
                                            on_change=self._on_config_change,
                                            on_reject=self._on_parameters_rejected)
-        self._robot_config = self.parameters.config  # the config the robot was built for
+        self._robot_config = self.parameters.config  # the config last accepted
         self._status_name = self.get_fully_qualified_name()
-        self._requests = queue.Queue()
         self._request_count = 0
         self.trajectory_publisher = self.create_publisher(
             JointTrajectory, topics.JOINT_TRAJECTORY, topics.LATCHED)
@@ -153,7 +176,8 @@ class PlannerNode(Node):
         self._worker.start()
         config = self.parameters.config
         if config.kinematics == 'model':
-            self._on_config_change(config)  # a bad model at start-up: invalid parameters
+            with self._robot_lock:  # a bad model at start-up: invalid parameters
+                self._apply_robot_config(config, compile_now=True)
             if self._robot is None:
                 self.get_logger().info('kinematics "model": waiting for robot_description')
         self.get_logger().info(
@@ -168,49 +192,115 @@ class PlannerNode(Node):
 
     def _on_config_change(self, config):
         """
-        Build the robot of a new config with kinematics "model" (ValueError rejects it).
+        Apply a new config's robot (kinematics "model"); ValueError rejects the config.
 
-        Runs on the executor, while the worker may load a robot_description:
-        both build under one lock, from the config last accepted here, so a
-        description never brings back an older config.  A config that waits
-        for robot_description (model_file empty, none received) drops the
-        robot of the previous one.
+        Runs on the executor.  Nothing is rebuilt for a parameter the robot
+        does not depend on (:data:`ROBOT_FIELDS`); a new tool frame, joint
+        set or limits are set up from the compiled model at once (quick, so
+        a bad one is rejected with the reason); a new model_file is only
+        checked here (exists, is a file, size) and compiled on the worker,
+        in order with the requests, so the executor never waits for MuJoCo.
+        Until it is compiled the last good robot stays, and a model_file
+        that does not compile is reported on ``~/status``.
         """
         with self._robot_lock:
-            setup = (build_robot_setup(config, self._description)
-                     if config.kinematics == 'model' else None)
-            self._robot_config = config
-            self._robot = None
-            if setup is not None:
-                self._use_robot(setup)
+            self._apply_robot_config(config, compile_now=False)
 
-    def _use_robot(self, setup):
+    def _apply_robot_config(self, config, compile_now):
+        """Set the robot for ``config``, under the lock; see :meth:`_on_config_change`."""
+        if config.kinematics != 'model':
+            self._robot_config, self._robot = config, None
+            return
+        source = description_source(config, self._description)
+        if source is None:  # waiting for robot_description
+            self._robot_config, self._robot = config, None
+            return
+        if self._compiled is not None and self._compiled[0] == source:
+            if self._robot is None or self._robot_fields != robot_fields(config):
+                self._use_robot(build_robot_setup(config, self._description,
+                                                  self._compiled[1]), config)
+            self._robot_config = config
+            return
+        if compile_now:
+            robot = load_model(source)
+            setup = build_robot_setup(config, self._description, robot)
+            self._compiled = (source, robot)
+            self._robot_config = config
+            self._use_robot(setup, config)
+            return
+        if source[0] == 'model_file':
+            check_model_file(config.model_file)
+        self._robot_config = config
+        if source != self._pending:  # the queued compile sets up the latest config
+            self._pending = source
+            self._requests.put(_Compile(source))
+
+    def _use_robot(self, setup, config):
         self._robot = setup
+        self._robot_fields = robot_fields(config)
         for note in setup.robot.notes:
             self.get_logger().warning(note)
-        values = {'robot': setup.source, 'joint_names': ' '.join(setup.config.joint_names)}
+        values = {'robot': setup.source, 'joint_names': ' '.join(setup.config.joint_names),
+                  'tool_frame': setup.tool_frame}
+        if setup.tool_problem:
+            values['tool_frame_problem'] = setup.tool_problem
         values.update(setup.limits.report())
         self._report(True, f'robot model loaded from {setup.summary()}', values)
 
-    def _load_description(self, msg):
-        with self._robot_lock:
-            self._load_description_locked(msg, self._robot_config)
+    def _compile(self, source, what):
+        """
+        Compile ``source`` off the lock (on the worker), then set up the latest config.
 
-    def _load_description_locked(self, msg, config):
+        ``what`` names the source in messages.  A description that does not
+        compile, or whose setup fails, is reported; the last good robot stays.
+        """
         try:
-            if len(msg.data) > 20_000_000:
-                raise ValueError(f'robot_description has {len(msg.data)} characters, more '
-                                 'than the 20000000 accepted')
-            if config.kinematics == 'model' and not config.model_file:
-                setup = build_robot_setup(config, msg.data)
-                self._description = msg.data
-                self._use_robot(setup)
-            else:
-                self._description = msg.data
+            robot = load_model(source)
         except ValueError as exc:
-            kept = ('; keeping the last good robot model' if self._robot is not None else '')
-            self._report(False, f'robot_description rejected: {exc}{kept}',
-                         {'robot_description_characters': len(msg.data)})
+            with self._robot_lock:
+                if self._pending == source:
+                    self._pending = None
+            self._report_kept(what, exc, source)
+            return
+        with self._robot_lock:
+            if self._pending == source:
+                self._pending = None
+            description = (source[1] if source[0] == 'robot_description'
+                           else self._description)
+            config = self._robot_config
+            if (config.kinematics != 'model'
+                    or description_source(config, description) != source):
+                # A later config uses another description: keep this one for later.
+                self._description, self._compiled = description, (source, robot)
+                return
+            try:
+                setup = build_robot_setup(config, description, robot)
+            except ValueError as exc:
+                self._report_kept(what, exc, source)
+                return
+            self._description, self._compiled = description, (source, robot)
+            self._use_robot(setup, config)
+
+    def _report_kept(self, what, exc, source):
+        kept = (f'; keeping the last good robot, of {self._robot.source}'
+                if self._robot is not None else '; no robot to plan with')
+        values = ({'robot_description_characters': len(source[1])}
+                  if source[0] == 'robot_description' else {'model_file': source[1]})
+        self._report(False, f'{what} rejected: {exc}{kept}', values)
+
+    def _load_description(self, msg):
+        """Take a robot_description (on the worker): compile it when the config uses it."""
+        if len(msg.data) > MAX_DESCRIPTION_CHARS:
+            self._report_kept('robot_description', f'it has {len(msg.data)} characters, more '
+                              f'than the {MAX_DESCRIPTION_CHARS} accepted',
+                              ('robot_description', msg.data))
+            return
+        with self._robot_lock:
+            config = self._robot_config
+            if config.kinematics != 'model' or config.model_file:
+                self._description = msg.data  # kept for a later config without model_file
+                return
+        self._compile(('robot_description', msg.data), 'robot_description')
 
     def _on_joint_state(self, msg):
         self._latest_joint_state = msg
@@ -220,11 +310,14 @@ class PlannerNode(Node):
             msg = self._requests.get()
             if msg is _STOP:
                 return
-            if isinstance(msg, String):
+            if isinstance(msg, (String, _Compile)):
                 try:
-                    self._load_description(msg)
+                    if isinstance(msg, String):
+                        self._load_description(msg)
+                    else:
+                        self._compile(msg.source, f'model_file {msg.source[1]!r}')
                 except Exception as exc:  # noqa: B902 - a description must never kill the node
-                    self._report(False, f'robot_description: internal error: '
+                    self._report(False, f'robot model: internal error: '
                                         f'{type(exc).__name__}: {exc}', {})
                     self.get_logger().error(traceback.format_exc())
                 continue
@@ -248,12 +341,12 @@ class PlannerNode(Node):
                 if robot is None:
                     raise ValueError('kinematics "model" has no robot yet: set model_file or '
                                      'publish robot_description')
-                config = robot.config  # joint names and limits from the description
+                config = robot.effective(config)  # joint names and limits of the robot
                 tool_values = robot.limits.report()
             if isinstance(msg, PoseArray) and robot is not None:
                 tool_path = plan_model_tool_request(
                     robot, tool_poses_from_message(msg, config.base_frame),
-                    self._joint_state_seed(config))
+                    self._joint_state_seed(config), config)
                 traj = tool_path.trajectory
                 tool_values.update(tool_summary_values(tool_path))
             elif isinstance(msg, PoseArray):

@@ -4,6 +4,8 @@ import array
 from dataclasses import fields, replace
 import math
 
+from ..planning.validation import short_repr
+
 
 def _is_number(value):
     return isinstance(value, (int, float)) and not isinstance(value, bool)
@@ -24,18 +26,27 @@ class ValidatedConfig:
         for field in fields(cls):
             value, default = getattr(config, field.name), field.default
             if isinstance(default, str) and not isinstance(value, str):
-                raise ValueError(f'{field.name} must be a string, got {value!r}')
+                raise ValueError(f'{field.name} must be a string, got {short_repr(value)}')
             if isinstance(default, float):
                 if not _is_number(value):
-                    raise ValueError(f'{field.name} must be a number, got {value!r}')
+                    raise ValueError(f'{field.name} must be a number, got {short_repr(value)}')
                 changes[field.name] = float(value)
             if isinstance(default, tuple) and not (default and isinstance(default[0], str)):
                 if not isinstance(value, tuple) or not all(_is_number(v) for v in value):
-                    raise ValueError(f'{field.name} must be an array of numbers, got {value!r}')
+                    raise ValueError(f'{field.name} must be an array of numbers, '
+                                     f'got {short_repr(value)}')
                 changes[field.name] = tuple(float(v) for v in value)
-        config = replace(config, **changes)
+        config = replace(config, **changes).with_defaults()
         config.validate()
         return config
+
+    # Parameter defaults that differ from the dataclass's: values that mean "not set",
+    # which :meth:`with_defaults` resolves (see PlannerConfig).
+    PARAMETER_DEFAULTS = {}
+
+    def with_defaults(self):
+        """Return the config with "not set" values resolved; the base class has none."""
+        return self
 
     def validate(self):
         """Raise ValueError with the reason when any value is unusable."""
