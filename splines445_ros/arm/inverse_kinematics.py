@@ -10,6 +10,10 @@ Tool kinematics of a :class:`~splines445_ros.arm.robot_model.RobotModel`, 6-D; n
 * ``inverse(poses)``: damped least squares on MuJoCo's Jacobians
   (``mj_jac``), every step clipped into the joint ranges.
 
+A joint of the tool's chain that follows another one (URDF ``<mimic>``, a
+MuJoCo joint equality) is driven from its parent in both, its Jacobian
+column folded into the parent's.
+
 How the inverse stays on one branch
 -----------------------------------
 Pose k is not solved from scratch: the solver walks from pose k-1 (whose
@@ -117,8 +121,9 @@ class ModelKinematics:
         if base.moving_joints:
             raise ValueError(f'base_frame {base_frame!r} moves with the joints '
                              f'{base.moving_joints}: it must be fixed to the world')
-        planned = set(self.joint_names)
-        if not planned.intersection(self.tool.moving_joints):
+        # Planned joints that move the tool, also through a joint that follows
+        # them (URDF <mimic>), which the kinematics drive from their parent.
+        if not self.tool.driving_columns:
             raise ValueError(f'tool_frame {tool_frame!r} moves with none of the joints '
                              f'{list(self.joint_names)}')
         n = len(self.joints)
@@ -191,6 +196,9 @@ class ModelKinematics:
         mj, m, d = self.mujoco, self.robot.model, self._data
         d.qpos[:] = self._hold
         d.qpos[self._qpos] = q
+        driven = self.tool.driven_positions(q) if self.tool.driven else ()
+        for adr, _, _, value, _ in driven:
+            d.qpos[adr] = value  # a joint that follows another one (mimic)
         mj.mj_kinematics(m, d)
         body = self.tool.body
         quat = np.empty(4)
@@ -203,6 +211,9 @@ class ModelKinematics:
         mj.mj_comPos(m, d)
         mj.mj_jac(m, d, self._jacp, self._jacr, pos, body)
         jac = self._jac[:, self._dof]
+        for _, dof, col, _, slope in driven:
+            if col is not None:
+                jac[:, col] += slope * self._jac[:, dof]  # chain rule through the mimic
         return pos, quat, jac
 
     # ------------------------------------------------------------------ inverse

@@ -284,7 +284,11 @@ class FrameChain:
     with rotation matrices in numpy over any number of configurations at
     once: the deviation search evaluates thousands per refinement step.
     Joints of the chain that are not planned stay at the model's ``qpos0``
-    (their frame offsets are folded into constant steps).
+    (their frame offsets are folded into constant steps).  A joint driven by
+    another one through a joint equality (URDF ``<mimic>``) follows it as
+    the equality says, ``q - q0 = c0 + c1 (p - p0) + ... + c4 (p - p0)^4``
+    (``q0``, ``p0`` their ``qpos0``): as a function of its parent's column
+    when the parent is planned, else at its constant ``q0 + c0``.
     """
 
     def __init__(self, robot, frame, joints, parameter='frame'):
@@ -295,14 +299,23 @@ class FrameChain:
         self.offset_pos = offset_pos
         self.offset_quat = offset_quat
         column = {j.joint_id: i for i, j in enumerate(joints)}
+        drivers = self._drivers(mj, m)
         chain = []
         b = body
         while b != 0:
             chain.append(b)
             b = int(m.body_parentid[b])
         self.moving_joints = []
-        # Steps: ('fixed', R (3, 3), p (3,)) composes T = T * [R p]; ('hinge', col, axis,
-        # anchor) and ('slide', col, axis) move with joint column col.
+        # Driven joints of the chain, for a MuJoCo pose of the same configuration:
+        # (qpos address, dof address, parent column or None, parent qpos0, coefficients,
+        # own qpos0).
+        self.driven = []
+        # The planned joints' columns that move the frame, directly or through a driven joint.
+        self.driving_columns = set()
+        # Steps: ('fixed', R (3, 3), p (3,)) composes T = T * [R p]; ('hinge', col, ref,
+        # poly, axis, anchor, skew, skew^2) and ('slide', ...) move with joint column col
+        # by poly(q[col] - ref) (poly None: the identity); extent bounds a slide's |move|,
+        # name is the joint's.
         self.steps = []
         hinge = int(mj.mjtJoint.mjJNT_HINGE)
         slide = int(mj.mjtJoint.mjJNT_SLIDE)
@@ -316,17 +329,76 @@ class FrameChain:
                                      'a free or ball joint (only hinge and slide joints are '
                                      'supported)')
                 self.moving_joints.append(name)
-                col = column.get(j)
+                axis = m.jnt_axis[j] / np.linalg.norm(m.jnt_axis[j])
+                anchor = m.jnt_pos[j].copy()
+                col, ref, poly = column.get(j), float(m.qpos0[m.jnt_qposadr[j]]), None
+                if col is None and j in drivers:
+                    parent, poly = drivers[j]
+                    self._check_parent(mj, m, parent, drivers, column, frame, name, parameter)
+                    col = column.get(parent)
+                    self.driven.append((int(m.jnt_qposadr[j]), int(m.jnt_dofadr[j]), col,
+                                        float(m.qpos0[m.jnt_qposadr[parent]])
+                                        if parent >= 0 else 0.0, poly, ref))
+                    if col is None:
+                        # Its parent is held (or it has none): a constant displacement c0.
+                        self._displaced(kind == hinge, axis, anchor, float(poly[0]))
+                        continue
+                    ref = self.driven[-1][3]
+                    poly = None if np.array_equal(poly, [0.0, 1.0, 0.0, 0.0, 0.0]) else poly
                 if col is None:
                     continue  # held at qpos0, where MuJoCo's joint displacement is zero
-                ref = float(m.qpos0[m.jnt_qposadr[j]])
-                axis = m.jnt_axis[j] / np.linalg.norm(m.jnt_axis[j])
+                self.driving_columns.add(col)
                 x, y, z = axis
                 skew = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
-                self.steps.append(('hinge' if kind == hinge else 'slide', col, ref, axis,
-                                   m.jnt_pos[j].copy(), skew, skew @ skew))
+                extent = 0.0
+                if kind == slide:
+                    extent = self._extent(joints[col], ref, poly)
+                self.steps.append(('hinge' if kind == hinge else 'slide', col, ref, poly, axis,
+                                   anchor, skew, skew @ skew, extent, name))
         self._fixed(rot.to_matrix(offset_quat), offset_pos)
         self.n = len(joints)
+
+    @staticmethod
+    def _drivers(mj, m):
+        """Return {driven joint id: (parent joint id or -1, coefficients (5,))}: active equalities."""
+        drivers = {}
+        for e in range(m.neq):
+            if int(m.eq_type[e]) == int(mj.mjtEq.mjEQ_JOINT) and m.eq_active0[e]:
+                drivers[int(m.eq_obj1id[e])] = (int(m.eq_obj2id[e]),
+                                                np.array(m.eq_data[e, :5], dtype=float))
+        return drivers
+
+    @staticmethod
+    def _check_parent(mj, m, parent, drivers, column, frame, name, parameter):
+        """Refuse a driven joint whose parent is itself driven (a chain of equalities)."""
+        if parent >= 0 and parent not in column and parent in drivers:
+            parent_name = mj.mj_id2name(m, mj.mjtObj.mjOBJ_JOINT, parent)
+            raise ValueError(
+                f'{parameter} {frame!r} hangs on joint {name!r}, which follows joint '
+                f'{parent_name!r}, itself driven by another joint: chains of mimic joints are '
+                f'not supported; choose a frame before {name!r}')
+
+    @staticmethod
+    def _extent(joint, ref, poly):
+        """Return the largest |displacement| of a slide over its (parent's) range, inf if none."""
+        lo, hi = joint.lower - ref, joint.upper - ref
+        if poly is None:
+            return max(abs(lo), abs(hi))
+        if np.any(poly[2:] != 0.0):
+            return math.inf
+        if not (math.isfinite(lo) and math.isfinite(hi)) and poly[1] != 0.0:
+            return math.inf
+        return max(abs(poly[0] + poly[1] * lo), abs(poly[0] + poly[1] * hi)) \
+            if poly[1] != 0.0 else abs(poly[0])
+
+    def _displaced(self, is_hinge, axis, anchor, value):
+        """Append a joint held at a constant displacement ``value`` as a fixed step."""
+        if is_hinge:
+            rotation = rot.to_matrix(np.concatenate([[math.cos(0.5 * value)],
+                                                     math.sin(0.5 * value) * axis]))
+            self._fixed(rotation, anchor - rotation @ anchor)
+        else:
+            self._fixed(np.eye(3), value * axis)
 
     def _fixed(self, rotation, position):
         """Append a constant transform, merged into a preceding constant one."""
@@ -336,6 +408,49 @@ class FrameChain:
         else:
             self.steps.append(('fixed', np.array(rotation, dtype=float),
                                np.array(position, dtype=float)))
+
+    def driven_positions(self, joints):
+        """
+        Return the chain's driven joints at planned ``joints`` (n,), for a MuJoCo pose.
+
+        A list of ``(qpos address, dof address, parent column or None,
+        position, d position / d parent)``.
+        """
+        out = []
+        for adr, dof, col, parent_ref, poly, ref in self.driven:
+            x = 0.0 if col is None else float(joints[col]) - parent_ref
+            value = poly[0] + x * (poly[1] + x * (poly[2] + x * (poly[3] + x * poly[4])))
+            slope = poly[1] + x * (2.0 * poly[2] + x * (3.0 * poly[3] + x * 4.0 * poly[4]))
+            out.append((adr, dof, col, ref + value, slope))
+        return out
+
+    def reach(self):
+        """
+        Return ``(pivot (3,), radius, joint name)``: the frame stays within ``radius`` of it.
+
+        ``pivot`` is a world point on the first moving joint (a hinge's axis
+        point, or a slide's frame origin), fixed since nothing before it
+        moves; ``radius`` sums the distances between successive joints' pivots
+        (constant: a hinge turns what follows about its pivot) and the
+        slides' largest moves.  None when the frame moves with no joint.
+        """
+        pos, mat = np.zeros(3), np.eye(3)
+        pivots, extents = [], 0.0
+        for step in self.steps:
+            if step[0] == 'fixed':
+                pos = pos + mat @ step[2]
+                mat = mat @ step[1]
+            elif step[0] == 'hinge':
+                pivots.append(pos + mat @ step[5])
+            else:
+                pivots.append(pos.copy())
+                extents += step[8]
+        if not pivots:
+            return None
+        points = np.array(pivots + [pos])
+        radius = float(np.sum(np.linalg.norm(np.diff(points, axis=0), axis=1))) + extents
+        first = next(s for s in self.steps if s[0] != 'fixed')
+        return pivots[0], radius, first[9]
 
     def transform(self, joints):
         """Return positions (..., 3) and rotation matrices (..., 3, 3) in the world."""
@@ -360,8 +475,11 @@ class FrameChain:
                 pos = pos + times(mat, step[2])
                 mat = times(mat, step[1])
                 continue
-            kind, col, ref, axis, anchor, skew, skew2 = step
+            kind, col, ref, poly, axis, anchor, skew, skew2 = step[:8]
             value = flat[:, col] - ref
+            if poly is not None:
+                x = value
+                value = poly[0] + x * (poly[1] + x * (poly[2] + x * (poly[3] + x * poly[4])))
             if kind == 'slide':
                 pos = pos + times(mat, axis) * value[:, None]
                 continue

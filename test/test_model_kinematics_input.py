@@ -1,0 +1,107 @@
+"""
+Tool kinematics of a robot model on inputs that went wrong (issue 22).
+
+* a ``<mimic>`` joint inside the tool chain follows its parent (it was held
+  at 0, the tool off by centimetres without an error).
+
+Expected poses come from forward kinematics written for the tests
+(:mod:`urdf_reference`, scipy's Rotation), not from the package.
+"""
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+from splines445_ros.arm.inverse_kinematics import ModelKinematics
+from splines445_ros.arm.robot_model import load_robot_model
+from urdf_reference import BatchedUrdfChain
+
+# A solved pose is accepted within this [m and rad]: far below the planner's
+# 1 mm / 1 degree deviation tolerances, far above the solver's rounding.
+ACCEPTED = 1e-9
+
+# Three revolute joints; j3 mimics j1 (j3 = 0.5 * j1 + 0.2).
+MIMIC_ARM = """<robot name="mimic_arm">
+  <link name="base"/>
+  <link name="l1"><inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01"
+    ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <link name="l2"><inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01"
+    ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <link name="l3"><inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01"
+    ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <link name="tip"/>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>
+    <origin xyz="0 0 0.1"/><axis xyz="0 0 1"/>
+    <limit lower="-2" upper="2" velocity="1" effort="1"/></joint>
+  <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/>
+    <origin xyz="0.3 0 0" rpy="0.2 0 0"/><axis xyz="0 1 0"/>
+    <limit lower="-2" upper="2" velocity="1" effort="1"/></joint>
+  <joint name="j3" type="revolute"><parent link="l2"/><child link="l3"/>
+    <origin xyz="0.25 0 0.05"/><axis xyz="0 1 0"/>
+    <limit lower="-2" upper="2" velocity="1" effort="1"/>
+    <mimic joint="j1" multiplier="0.5" offset="0.2"/></joint>
+  <joint name="tip_joint" type="fixed"><parent link="l3"/><child link="tip"/>
+    <origin xyz="0.15 0 0"/></joint>
+</robot>"""
+
+
+def mimic_reference(path, q):
+    """Tip pose (K, 7) of MIMIC_ARM at planned joints q (K, 2), by the test's own FK."""
+    q = np.atleast_2d(q)
+    full = np.column_stack([q[:, 0], q[:, 1], 0.5 * q[:, 0] + 0.2])
+    pos, mat = BatchedUrdfChain(path, 'base', 'tip', ['j1', 'j2', 'j3'])(full)
+    return np.column_stack([pos, Rotation.from_matrix(mat).as_quat(scalar_first=True)])
+
+
+def orientation_error(a, b):
+    """Angles [rad] between quaternion rows (scalar first)."""
+    ra = Rotation.from_quat(np.atleast_2d(a), scalar_first=True)
+    rb = Rotation.from_quat(np.atleast_2d(b), scalar_first=True)
+    return (ra.inv() * rb).magnitude()
+
+
+@pytest.fixture(scope='module')
+def mimic_arm(tmp_path_factory):
+    path = tmp_path_factory.mktemp('mimic') / 'mimic_arm.urdf'
+    path.write_text(MIMIC_ARM)
+    return str(path), load_robot_model(str(path))
+
+
+# --------------------------------------------------------------- 5: mimic joints
+
+def test_a_mimic_joint_in_the_tool_chain_follows_its_parent(mimic_arm):
+    path, robot = mimic_arm
+    assert robot.joint_names == ('j1', 'j2')
+    kin = ModelKinematics(robot, 'tip', 'base')
+    q = np.array([[0.0, 0.0], [0.7, -0.4], [-1.3, 0.9], [1.9, 1.5]])
+    got = kin.forward(q)
+    expected = mimic_reference(path, q)
+    np.testing.assert_allclose(got[:, :3], expected[:, :3], atol=1e-12)
+    np.testing.assert_allclose(orientation_error(got[:, 3:], expected[:, 3:]), 0.0, atol=1e-12)
+
+
+def test_the_inverse_drives_a_mimic_joint_from_its_parent(mimic_arm):
+    path, robot = mimic_arm
+    kin = ModelKinematics(robot, 'tip', 'base', seed=[0.3, -0.2])
+    q = np.array([[0.35, -0.25], [0.5, -0.1], [0.8, 0.2]])
+    poses = mimic_reference(path, q)
+    # One pose at a time: two joints cannot follow the straight line between
+    # two poses.  Only two joints for six pose coordinates: exact poses are met
+    # only if the Jacobian folds the mimic joint's column into its parent's.
+    solution = np.array([kin.inverse(pose[None, :])[0] for pose in poses])
+    np.testing.assert_allclose(solution, q, atol=1e-7)
+    got = mimic_reference(path, solution)
+    np.testing.assert_allclose(got[:, :3], poses[:, :3], atol=ACCEPTED)
+    assert np.all(orientation_error(got[:, 3:], poses[:, 3:]) <= ACCEPTED)
+
+
+def test_a_mimic_joint_of_an_unplanned_parent_stays_at_its_offset(mimic_arm):
+    path, robot = mimic_arm
+    # j1 is not planned: held at 0, so j3 stays at 0.5 * 0 + 0.2.
+    kin = ModelKinematics(robot, 'tip', 'base', joint_names=['j2'])
+    q2 = np.array([[-0.6], [0.0], [1.1]])
+    got = kin.forward(q2)
+    expected = mimic_reference(path, np.column_stack([np.zeros(3), q2[:, 0]]))
+    np.testing.assert_allclose(got[:, :3], expected[:, :3], atol=1e-12)
+    np.testing.assert_allclose(orientation_error(got[:, 3:], expected[:, 3:]), 0.0, atol=1e-12)
+    solution = kin.inverse(expected[2:])
+    np.testing.assert_allclose(solution, q2[2:], atol=1e-7)
