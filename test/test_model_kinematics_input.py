@@ -2,7 +2,9 @@
 Tool kinematics of a robot model on inputs that went wrong (issue 22).
 
 * a ``<mimic>`` joint inside the tool chain follows its parent (it was held
-  at 0, the tool off by centimetres without an error).
+  at 0, the tool off by centimetres without an error);
+* a reachable Panda pose, the tool turned 180 degrees, is solved (it was
+  refused 1e-10 m and rad short of it).
 
 Expected poses come from forward kinematics written for the tests
 (:mod:`urdf_reference`, scipy's Rotation), not from the package.
@@ -13,6 +15,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 from splines445_ros.arm.inverse_kinematics import ModelKinematics
 from splines445_ros.arm.robot_model import load_robot_model
+from splines445_ros.tools import vendor_robots as vr
 from urdf_reference import BatchedUrdfChain
 
 # A solved pose is accepted within this [m and rad]: far below the planner's
@@ -66,6 +69,11 @@ def mimic_arm(tmp_path_factory):
     return str(path), load_robot_model(str(path))
 
 
+@pytest.fixture(scope='module')
+def panda():
+    return load_robot_model(vr.panda_urdf())
+
+
 # --------------------------------------------------------------- 5: mimic joints
 
 def test_a_mimic_joint_in_the_tool_chain_follows_its_parent(mimic_arm):
@@ -105,3 +113,28 @@ def test_a_mimic_joint_of_an_unplanned_parent_stays_at_its_offset(mimic_arm):
     np.testing.assert_allclose(orientation_error(got[:, 3:], expected[:, 3:]), 0.0, atol=1e-12)
     solution = kin.inverse(expected[2:])
     np.testing.assert_allclose(solution, q2[2:], atol=1e-7)
+
+
+# --------------------------------------------------------------- 7: solver precision
+
+def test_a_reachable_panda_pose_turned_half_a_turn_is_solved(panda):
+    # Default seed (the URDF has no 'home' keyframe: qpos0 moved into the ranges);
+    # the tool 2 cm along x and turned 180 degrees about the base's x axis.  Was
+    # refused: "out of reach ... 2.8e-16 m and 6.8e-10 rad short", joint 7 on its
+    # lower limit stalling the damped steps.
+    kin = ModelKinematics(panda, 'panda_hand_tcp', 'panda_link0', vr.PANDA_ARM_JOINTS)
+    fk = BatchedUrdfChain(vr.panda_urdf(), 'panda_link0', 'panda_hand_tcp',
+                          list(vr.PANDA_ARM_JOINTS))
+    pos, mat = fk(kin.seed)
+    start = Rotation.from_matrix(mat[0])
+    goal_rotation = Rotation.from_rotvec([np.pi, 0.0, 0.0]) * start
+    poses = np.array([
+        np.concatenate([pos[0], start.as_quat(scalar_first=True)]),
+        np.concatenate([pos[0] + [0.02, 0.0, 0.0], goal_rotation.as_quat(scalar_first=True)])])
+    joints = kin.inverse(poses)
+    assert np.all(joints >= kin.lower) and np.all(joints <= kin.upper)
+    got_pos, got_mat = fk(joints)
+    np.testing.assert_allclose(got_pos, poses[:, :3], atol=ACCEPTED)
+    angles = (Rotation.from_quat(poses[:, 3:], scalar_first=True).inv()
+              * Rotation.from_matrix(got_mat)).magnitude()
+    assert np.all(angles <= ACCEPTED), angles

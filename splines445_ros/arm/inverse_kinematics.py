@@ -8,7 +8,8 @@ Tool kinematics of a :class:`~splines445_ros.arm.robot_model.RobotModel`, 6-D; n
 
 * ``forward(joints)``: vectorised, by :class:`~splines445_ros.arm.robot_model.FrameChain`;
 * ``inverse(poses)``: damped least squares on MuJoCo's Jacobians
-  (``mj_jac``), every step clipped into the joint ranges.
+  (``mj_jac``), every step kept in the joint ranges (a joint on a limit
+  sits out the steps that push it further).
 
 A joint of the tool's chain that follows another one (URDF ``<mimic>``, a
 MuJoCo joint equality) is driven from its parent in both, its Jacobian
@@ -38,7 +39,12 @@ import numpy as np
 from . import rotations as rot
 from .robot_model import joint_ranges
 
-POSITION_TOLERANCE = 1e-10   # m and rad, a solved pose
+POSITION_TOLERANCE = 1e-10   # m and rad, what the solver aims at for a pose
+# m and rad, a pose is accepted when the solver's iterations end within it: six
+# orders of magnitude below the planner's 1 mm / 1 degree deviation tolerances,
+# ten times the aim (the last steps near a joint limit or a singular pose only
+# crawl below 1e-9, where rounding of the forward kinematics is 1e-15).
+ACCEPT_TOLERANCE = 1e-9
 STEP_TOLERANCE = 1e-4        # m and rad, intermediate continuation sub-steps
 CONTINUATION_STEP = 0.04     # m of tool travel per sub-step
 CONTINUATION_ANGLE = 0.1     # rad of tool rotation per sub-step
@@ -218,11 +224,17 @@ class ModelKinematics:
 
     # ------------------------------------------------------------------ inverse
 
-    def solve(self, target_pos, target_quat, start, tolerance=POSITION_TOLERANCE):
+    def solve(self, target_pos, target_quat, start, tolerance=POSITION_TOLERANCE,
+              accept=None):
         """
         Damped least squares from ``start`` to a world pose; return (q, converged, residual).
 
-        ``residual`` is (position error [m], orientation error [rad]).
+        ``residual`` is (position error [m], orientation error [rad]) of q.
+        The iterations stop within ``tolerance``; when they run out, q is
+        converged if within ``accept`` (default ``tolerance``).  A joint on
+        a limit that a step would push beyond is left out of that step (the
+        others then solve for the pose without it) instead of being clipped
+        afterwards, which stalled the steps short of the pose.
         """
         mj = self.mujoco
         q = np.array(start, dtype=float)
@@ -231,7 +243,7 @@ class ModelKinematics:
         error = (math.inf, math.inf)
         target_quat = np.ascontiguousarray(target_quat, dtype=float)
         inverse, turn, e = np.empty(4), np.empty(4), np.empty(6)
-        for _ in range(MAX_ITERATIONS):
+        for iteration in range(MAX_ITERATIONS + 1):
             pos, quat, jac = self._world_pose(q, jacobian=True)
             e[:3] = target_pos - pos
             # World-frame rotation from the tool to the target, as a rotation vector.
@@ -245,6 +257,21 @@ class ModelKinematics:
                      math.sqrt(e[3] ** 2 + e[4] ** 2 + e[5] ** 2))
             if error[0] <= tolerance and error[1] <= tolerance:
                 return q, True, error
+            if iteration == MAX_ITERATIONS:
+                break
+            dq = self._step(jac, e, damping, step, q)
+            largest = float(np.max(np.abs(dq)))
+            if largest > MAX_UPDATE:
+                dq *= MAX_UPDATE / largest
+            q = np.clip(q + dq, self.lower, self.upper)
+        accept = tolerance if accept is None else accept
+        return q, bool(error[0] <= accept and error[1] <= accept), error
+
+    def _step(self, jac, e, damping, step, q):
+        """Return the damped least-squares step of joints q, without joints held on a limit."""
+        mj = self.mujoco
+        blocked = np.zeros(len(q), dtype=bool)
+        for _ in range(len(q)):
             # (J J^T + lambda^2 I) is symmetric positive definite: MuJoCo's
             # Cholesky, far cheaper than a LAPACK call on a 6x6 system.
             normal = jac @ jac.T
@@ -252,11 +279,13 @@ class ModelKinematics:
             mj.mju_cholFactor(normal, 0.0)
             mj.mju_cholSolve(step, normal, e)
             dq = jac.T @ step
-            largest = float(np.max(np.abs(dq)))
-            if largest > MAX_UPDATE:
-                dq *= MAX_UPDATE / largest
-            q = np.clip(q + dq, self.lower, self.upper)
-        return q, False, error
+            pushed = ((q <= self.lower) & (dq < 0.0)) | ((q >= self.upper) & (dq > 0.0))
+            if not pushed.any():
+                return dq
+            blocked |= pushed
+            jac[:, blocked] = 0.0
+        dq[blocked] = 0.0
+        return dq
 
     def inverse(self, poses):
         """
@@ -326,8 +355,10 @@ class ModelKinematics:
                 local[0] = math.cos(0.5 * s * angle)
                 local[1:] = math.sin(0.5 * s * angle) * axis
                 self.mujoco.mju_mulQuat(quat, q0, local)
-            new, ok, error = self.solve(p, quat, q,
-                                        POSITION_TOLERANCE if last else STEP_TOLERANCE)
+            if last:
+                new, ok, error = self.solve(p, quat, q, POSITION_TOLERANCE, ACCEPT_TOLERANCE)
+            else:
+                new, ok, error = self.solve(p, quat, q, STEP_TOLERANCE)
             if not ok:
                 raise KinematicsError(k, row, (
                     f'is out of reach within the joint ranges: the tool stops '
@@ -356,7 +387,7 @@ class ModelKinematics:
         starts = [seed] + [rng.uniform(lower, upper) for _ in range(FIRST_POSE_RESTARTS)]
         best, best_error = None, None
         for start in starts:
-            q, ok, error = self.solve(*target, start)
+            q, ok, error = self.solve(*target, start, accept=ACCEPT_TOLERANCE)
             if ok and (best is None or np.linalg.norm(q - seed) < np.linalg.norm(best - seed)):
                 best = q
             if best_error is None or sum(error) < sum(best_error):
