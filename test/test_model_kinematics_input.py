@@ -4,7 +4,8 @@ Tool kinematics of a robot model on inputs that went wrong (issue 22).
 * a ``<mimic>`` joint inside the tool chain follows its parent (it was held
   at 0, the tool off by centimetres without an error);
 * a reachable Panda pose, the tool turned 180 degrees, is solved (it was
-  refused 1e-10 m and rad short of it).
+  refused 1e-10 m and rad short of it);
+* a Panda pose metres away is "out of reach" (it was called a branch flip).
 
 Expected poses come from forward kinematics written for the tests
 (:mod:`urdf_reference`, scipy's Rotation), not from the package.
@@ -13,7 +14,7 @@ Expected poses come from forward kinematics written for the tests
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
-from splines445_ros.arm.inverse_kinematics import ModelKinematics
+from splines445_ros.arm.inverse_kinematics import KinematicsError, ModelKinematics
 from splines445_ros.arm.robot_model import load_robot_model
 from splines445_ros.tools import vendor_robots as vr
 from urdf_reference import BatchedUrdfChain
@@ -138,3 +139,35 @@ def test_a_reachable_panda_pose_turned_half_a_turn_is_solved(panda):
     angles = (Rotation.from_quat(poses[:, 3:], scalar_first=True).inv()
               * Rotation.from_matrix(got_mat)).magnitude()
     assert np.all(angles <= ACCEPTED), angles
+
+
+# --------------------------------------------------------------- 8b: out of reach
+
+@pytest.mark.parametrize('first', [False, True])
+def test_a_panda_pose_5m_away_is_out_of_reach(panda, first):
+    kin = ModelKinematics(panda, 'panda_hand_tcp', 'panda_link0', vr.PANDA_ARM_JOINTS,
+                          seed=vr.PANDA_READY)
+    start = kin.forward(np.array(vr.PANDA_READY))
+    far = start.copy()
+    far[0] += 5.0  # was "needs a branch flip or passes near a singularity"
+    poses = np.array([far]) if first else np.array([start, far])
+    with pytest.raises(KinematicsError) as info:
+        kin.inverse(poses)
+    index = 0 if first else 1
+    assert info.value.pose_index == index
+    reason = info.value.reason
+    assert 'out of reach' in reason and 'branch flip' not in reason
+    # The distance from the first joint (panda_joint1's axis point, 0.333 m up) is said.
+    distance = np.linalg.norm(far[:3] - [0.0, 0.0, 0.333])
+    assert f'{distance:.3g} m' in reason, reason
+
+
+def test_a_pose_within_reach_is_still_solved(panda):
+    # The reach check refuses nothing the arm reaches.
+    kin = ModelKinematics(panda, 'panda_hand_tcp', 'panda_link0', vr.PANDA_ARM_JOINTS,
+                          seed=vr.PANDA_READY)
+    start = kin.forward(np.array(vr.PANDA_READY))
+    near = start.copy()
+    near[0] += 0.1
+    joints = kin.inverse(np.array([start, near]))
+    np.testing.assert_allclose(kin.forward(joints)[:, :3], [start[:3], near[:3]], atol=ACCEPTED)

@@ -30,6 +30,9 @@ the same way from the ``seed`` configuration (the current joint state when
 the caller knows it, else the model's ``home`` keyframe or reference pose);
 when that walk fails, it is solved directly from the seed and from a few
 fixed pseudo-random starts, keeping the solution closest to the seed.
+A pose farther from the chain's first joint than the sum of the lengths
+between its joints (:meth:`~splines445_ros.arm.robot_model.FrameChain.reach`)
+is refused as out of reach, with that distance, before any walk.
 """
 
 import math
@@ -143,6 +146,7 @@ class ModelKinematics:
         self._jac = np.zeros((6, model.nv))
         self._jacp = self._jac[:3]  # contiguous row blocks, filled by mj_jac
         self._jacr = self._jac[3:]
+        self._reach = self.tool.reach()
         self._cache = {}
         self._reached = {}  # pose -> (the pose it was walked from, its joints)
         self._seed = None
@@ -301,6 +305,7 @@ class ModelKinematics:
         previous = None
         for k, row in enumerate(rows):
             target = self._to_world(row)
+            self._check_reach(k, row, target[0])
             # The walk from the previous pose is deterministic: a refinement that asks
             # again for the same pair of poses from (nearly) the same joints gets the
             # same answer without walking again.
@@ -329,6 +334,20 @@ class ModelKinematics:
             pos, quat = target
             previous = row
         return out
+
+    def _check_reach(self, k, row, position):
+        """Refuse a pose farther from the tool chain's first joint than the chain is long."""
+        if self._reach is None:
+            return
+        pivot, radius, joint = self._reach
+        distance = float(np.linalg.norm(position - pivot))
+        if distance > radius * (1.0 + 1e-9) + 1e-12:
+            at = (pivot - self.base_pos) @ self._base_mat
+            raise KinematicsError(k, row, (
+                f'is out of reach: it is {distance:.3g} m from joint {joint} (at '
+                f'({at[0]:.3g}, {at[1]:.3g}, {at[2]:.3g}) m in the base frame), and '
+                f'{self.tool_frame} stays within {radius:.3g} m of it (the sum of the '
+                f'lengths between the joints)'))
 
     def _follow(self, k, row, start, target, q):
         """Walk from the world pose ``start`` (joints q) to ``target``; return the joints."""
