@@ -360,7 +360,7 @@ class FrameChain:
 
     @staticmethod
     def _drivers(mj, m):
-        """Return {driven joint id: (parent joint id or -1, coefficients (5,))}: active equalities."""
+        """Return {driven joint id: (parent joint id or -1, coefficients (5,))}, active ones."""
         drivers = {}
         for e in range(m.neq):
             if int(m.eq_type[e]) == int(mj.mjtEq.mjEQ_JOINT) and m.eq_active0[e]:
