@@ -85,9 +85,16 @@ def resolve_model_config(config):
             config.control_damping_ratio)
         kp = _merge(config.kp, gain_p, config.from_model('kp'))
         kd = _merge(config.kd, gain_d, config.from_model('kd'))
+        damping = arm.rigid.dof_damping[arm.rigid_dof]
         sources['gains'] = (f'inertia {", ".join(f"{v:.4g}" for v in inertia)} kg m^2 at the '
                             f'initial pose, {config.control_bandwidth:g} Hz, damping ratio '
-                            f'{config.control_damping_ratio:g} (explicit non-zero kp, kd kept)')
+                            f'{config.control_damping_ratio:g}, joint damping '
+                            f'{", ".join(f"{v:.4g}" for v in damping)} N m s/rad (kp raised '
+                            'where it would slow the loop; explicit non-zero kp, kd kept)')
+        friction = arm.model.dof_frictionloss[arm.dof]
+        if np.any(friction > 0.0):
+            sources['dry friction'] = (f'frictionloss {", ".join(f"{v:.4g}" for v in friction)} '
+                                       'N m, compensated by the controller')
     effective = replace(
         config, joint_names=names, initial_positions=tuple(float(v) for v in initial),
         torque_limits=tuple(float(v) for v in torque),
