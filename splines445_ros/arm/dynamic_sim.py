@@ -6,13 +6,40 @@ Control law, every physics step, for each driven joint::
     tau_ff  = inverse dynamics of the rigid model at (q_d, v_d, a_d)   (mujoco.mj_inverse)
     theta_d = q_d + (tau_ff - armature * a_d - damping * v_d) / k      (elastic joints;
               the motor leads the link by the spring's deflection; q_d when rigid)
-    tau     = clip(tau_ff + kp (theta_d - theta) + kd (v_d - omega), -limit, limit)
+    tau_f   = f tanh(v_d / v_f + (theta_d - theta) / e_f)             (dry friction)
+    tau     = clip(tau_ff + tau_f + kp (theta_d - theta) + kd (v_d - omega), -limit, limit)
 
 where theta, omega are the driven (motor) joint's position and velocity (the
 link's when rigid).  ``tau`` is the actuator's control; the actuator follows
 it with a first-order lag (MuJoCo ``filterexact`` dynamics), so the applied
 torque (``effort``) lags the command.  MuJoCo integrates everything
 (``implicitfast``): there is no integrator here.
+
+**Dry friction.**  The rigid model leaves the joints' ``frictionloss`` ``f``
+out (its exact sign would step the command at every reversal); ``tau_f``
+puts it back, smoothed.  MuJoCo's friction is a soft constraint: below the
+sliding speed ``s = f R / B`` of its constraint row (regulariser ``efc_R``,
+reference damping ``efc_KBIP[1]``; see :func:`dry_friction`) it acts as a
+viscous damper ``beta = B / R``, above it as Coulomb's ``f``.  On a heavy
+joint ``s`` is a few mrad/s: a PD loop alone stops ``f / kp`` short and
+creeps on at ``kp / (beta + kd + c)`` (xArm7 joint 2: 1 mrad, 3 /s).  On a
+light wrist ``s`` is several rad/s (xArm7 joint 7: 7.7 rad/s): its friction
+is a damper.  So the smoothing follows the model:
+
+* ``v_f = max(FRICTION_VELOCITY, s)``: while the reference moves, the
+  commanded velocity sets the compensation, never steeper than MuJoCo's own
+  friction (no torque step at reversals, no over-compensation of a soft one);
+* ``e_f = s / FRICTION_RATE``: at rest, the position error does.  Where
+  ``|tau_f| < f`` the joint creeps at about ``tau_f / beta``, so the error
+  closes at up to ``FRICTION_RATE`` (``f / e_f = beta * FRICTION_RATE``): a
+  joint that stopped short in its friction is pushed on at a rate the physics
+  step and the actuator lag carry, whatever its inertia, and eases in
+  without overshoot.  A sharper error term (a fixed small ``e_f``) makes a light
+  wrist hunt around the goal.
+
+By default a user's model file is compensated (the description's friction is
+the file's); the built-in arm is not: its figures and tests are those of the
+plain PD loop with stiff gains (dead band ``friction / kp``).
 
 :class:`TrackingMetrics` accumulates the tracking and effort figures that
 ``arm_sim_node`` reports at the end of each trajectory and the benchmark
@@ -23,12 +50,50 @@ import numpy as np
 
 from .mujoco_import import import_mujoco as _import_mujoco
 
+# Commanded velocity [rad/s or m/s] at which 76 % of the dry friction is compensated
+# (more where MuJoCo's friction is softer: see the module docstring).
+FRICTION_VELOCITY = 0.02
+# Rate [1/s] at which the position error alone moves a joint at rest through its friction.
+FRICTION_RATE = 50.0
+
+
+def dry_friction(mujoco, model, dofs):
+    """
+    Return MuJoCo's dry friction (n,) on ``dofs`` and the speed (n,) where it is reached.
+
+    ``frictionloss`` is a soft constraint: below the speed ``f R / B`` it acts
+    as a viscous damper ``B / R`` (the constraint row's reference damping
+    ``efc_KBIP[1]`` over its regulariser ``efc_R``, both fixed by the model).
+    A dof without a friction row (none, or disabled) has friction 0.
+    """
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    friction = np.zeros(len(dofs))
+    speed = np.full(len(dofs), np.inf)
+    where = {int(dof): j for j, dof in enumerate(dofs)}
+    kind = int(mujoco.mjtConstraint.mjCNSTR_FRICTION_DOF)
+    for row in range(data.nefc):
+        j = where.get(int(data.efc_id[row]))
+        if int(data.efc_type[row]) != kind or j is None:
+            continue
+        friction[j] = model.dof_frictionloss[dofs[j]]
+        damping = data.efc_KBIP[row, 1]
+        if damping > 0.0:
+            speed[j] = friction[j] * data.efc_R[row] / damping
+    return friction, speed
+
 
 class DynamicArm:
     """One simulated arm with its controller; ``run`` steps it along reference arrays."""
 
-    def __init__(self, arm_model, kp, kd, torque_limits):
-        """Create MuJoCo data for ``arm_model`` (:class:`ArmModel`) with PD gains (n,)."""
+    def __init__(self, arm_model, kp, kd, torque_limits, compensate_friction=None):
+        """
+        Create MuJoCo data for ``arm_model`` (:class:`ArmModel`) with PD gains (n,).
+
+        ``compensate_friction``: put the driven joints' dry friction
+        (``frictionloss``) into the command; None: for a model file, not for
+        the built-in arm.
+        """
         self.mujoco = _import_mujoco()
         self.arm = arm_model
         self.model = arm_model.model
@@ -37,6 +102,13 @@ class DynamicArm:
         self.kp = np.asarray(kp, dtype=float)
         self.kd = np.asarray(kd, dtype=float)
         self.limits = np.asarray(torque_limits, dtype=float)
+        if compensate_friction is None:
+            compensate_friction = arm_model.source != 'built-in'
+        friction, speed = dry_friction(self.mujoco, self.model, arm_model.motor_dof)
+        #: Dry friction (n,) put into the command [N m or N]; 0 = none.
+        self.friction = friction if compensate_friction else np.zeros_like(friction)
+        self._friction_v = np.maximum(FRICTION_VELOCITY, speed)
+        self._friction_e = np.maximum(speed / FRICTION_RATE, 1e-12)
         rigid = arm_model.rigid
         self._armature = rigid.dof_armature[arm_model.rigid_dof].copy()
         self._damping = rigid.dof_damping[arm_model.rigid_dof].copy()
@@ -76,6 +148,10 @@ class DynamicArm:
         mj.mj_inverse(arm.rigid, rd)
         return rd.qfrc_inverse[arm.rigid_dof].copy()
 
+    def friction_compensation(self, v_d, error):
+        """Return ``tau_f`` (n,) at a commanded velocity and position error (motor side)."""
+        return self.friction * np.tanh(v_d / self._friction_v + error / self._friction_e)
+
     def reset(self, positions, velocities=None, accelerations=None):
         """Put the arm at ``positions`` (moving when given), springs and actuators in balance."""
         mj, d, arm = self.mujoco, self.data, self.arm
@@ -90,7 +166,7 @@ class DynamicArm:
             link = tau - self._armature * a - self._damping * v
             d.qpos[arm.motor_qpos[self._elastic]] = (q + link * self._inverse_k)[self._elastic]
             d.qvel[arm.motor_dof[self._elastic]] = v[self._elastic]
-        tau = np.clip(tau, -self.limits, self.limits)
+        tau = np.clip(tau + self.friction_compensation(v, 0.0), -self.limits, self.limits)
         d.ctrl[arm.actuators] = tau
         valid = self._act_adr >= 0
         d.act[self._act_adr[valid]] = tau[valid]
@@ -145,6 +221,7 @@ class DynamicArm:
         tool_error = np.zeros(K) if site is not None and self._rigid_site is not None else None
         elastic = np.any(self._elastic)
         kp, kd, limits = self.kp, self.kd, self.limits
+        compensate = bool(np.any(self.friction > 0.0))
         for k in range(K):
             mj.mj_step1(m, d)
             q = d.qpos[arm.qpos]
@@ -159,8 +236,10 @@ class DynamicArm:
                 target = q_d[k] + link * self._inverse_k
             else:
                 target = q_d[k]
-            raw = (tau + kp * (target - d.qpos[arm.motor_qpos])
-                   + kd * (v_d[k] - d.qvel[arm.motor_dof]))
+            error = target - d.qpos[arm.motor_qpos]
+            raw = tau + kp * error + kd * (v_d[k] - d.qvel[arm.motor_dof])
+            if compensate:
+                raw += self.friction_compensation(v_d[k], error)
             raw = np.nan_to_num(raw, nan=0.0, posinf=1e300, neginf=-1e300)
             saturated[k] = bool(np.any(np.abs(raw) > limits))
             tau = np.clip(raw, -limits, limits)
