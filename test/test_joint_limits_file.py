@@ -1,13 +1,17 @@
 """Limits from the robot's description: URDF <limit velocity>, MoveIt joint_limits.yaml."""
 
+import itertools
+import re
 import xml.etree.ElementTree as ElementTree
 
 import numpy as np
 import pytest
+from splines445_ros.arm import joint_limits_file as jlf
 from splines445_ros.arm.joint_limits_file import read_joint_limits_file, resolve_limits
 from splines445_ros.arm.robot_model import load_robot_model
 from splines445_ros.nodes.model_planning import build_robot_setup
 from splines445_ros.nodes.planner_config import PlannerConfig
+from splines445_ros.planning import plan
 from splines445_ros.tools import vendor_robots as vr
 
 # As MoveIt Setup Assistant writes it (moveit_resources style), for the UR5.
@@ -142,3 +146,152 @@ def test_position_limits_default_to_the_models_joint_ranges():
         'kinematics', 'model_file', 'tool_frame', 'joint_names', 'max_velocity',
         'max_acceleration', 'max_jerk')}, 'min_position': [-1.0] * 6, 'max_position': [1.0] * 6})
     assert build_robot_setup(explicit).config.max_position == (1.0,) * 6
+
+
+# ------------------------------------------ hostile and careless files (issue 22)
+
+LONG = 'x' * 100_000
+
+
+def alias_bomb(levels=9, width=9):
+    """Return a joint_limits.yaml whose has_velocity_limits has width**levels items."""
+    value = '&a0 [' + ', '.join(['1'] * width) + ']'
+    for level in range(1, levels):
+        value = f'&a{level} [{value}' + f', *a{level - 1}' * (width - 1) + ']'
+    return f'joint_limits:\n  j:\n    has_velocity_limits: {value}\n    max_velocity: 1.0\n'
+
+
+def test_a_yaml_alias_bomb_is_refused_without_expanding_it(tmp_path):
+    text = alias_bomb()
+    assert len(text) < 2000
+    with pytest.raises(ValueError) as error:
+        read_joint_limits_file(write(tmp_path, text))
+    message = str(error.value)
+    assert 'aliases' in message and len(message) < 500, message[:1000]
+
+
+def test_yaml_aliases_are_refused(tmp_path):
+    text = ('joint_limits:\n'
+            '  shoulder: &limits {has_velocity_limits: true, max_velocity: 1.0}\n'
+            '  elbow: *limits\n')
+    with pytest.raises(ValueError, match=r'anchors and aliases .* not accepted \(line 2, '):
+        read_joint_limits_file(write(tmp_path, text))
+
+
+@pytest.mark.parametrize('text', [
+    f'joint_limits:\n  ? {LONG}\n  : max_vel: 1\n',
+    f'joint_limits:\n  j:\n    ? {LONG}\n    : 1\n',
+    f'joint_limits:\n  j:\n    has_velocity_limits: {LONG}\n',
+    'joint_limits:\n  j:\n    has_velocity_limits: true\n    max_velocity: ['
+    + ', '.join(['1'] * 50_000) + ']\n',
+    f'joint_limits:\n  j:\n    has_velocity_limits: true\n    max_velocity: {LONG}\n',
+    f'joint_limits:\n  ? {LONG}\n  : 5\n',
+    f'? {LONG}\n: 1\njoint_limits: {{}}\n',
+], ids=['joint', 'key', 'has', 'list value', 'string value', 'entry', 'top-level key'])
+def test_limits_file_messages_show_user_values_bounded(tmp_path, text):
+    with pytest.raises(ValueError) as error:
+        read_joint_limits_file(write(tmp_path, text))
+    message = str(error.value)
+    assert len(message) < 1000, message[:2000]
+    assert 'joint_limits_file' in message
+
+
+def test_resolve_limits_messages_show_joint_names_bounded():
+    for call in (lambda: resolve_limits([LONG], {}),
+                 lambda: resolve_limits([LONG], {LONG: 1e-300}, max_acceleration=[1.0]),
+                 lambda: resolve_limits(['a'], {}, {LONG: {'velocity': 1.0}},
+                                        max_acceleration=[1.0], known_joints=['a'])):
+        with pytest.raises(ValueError, match='xxx') as error:
+            call()
+        assert len(str(error.value)) < 500, str(error.value)[:1000]
+
+
+TYPO_YAML = """
+joint_limits:
+  shoulder_pan:
+    has_velocity_limits: true
+    max_velocity: 0.1
+"""
+
+
+def test_a_limits_entry_for_a_joint_the_model_lacks_is_refused(tmp_path, ur5_velocity):
+    limits = read_joint_limits_file(write(tmp_path, TYPO_YAML))
+    with pytest.raises(ValueError, match=r"joint 'shoulder_pan', but the robot model has no "
+                                         r'joint of that name \(did you mean '
+                                         r"'shoulder_pan_joint'\?\)"):
+        resolve_limits(vr.UR5_JOINTS, ur5_velocity, limits, max_acceleration=[5.0] * 6,
+                       known_joints=vr.UR5_JOINTS + ('finger_joint',))
+    # Joints of the model that are not planned may have limits in the file.
+    text = 'joint_limits:\n  finger_joint: {has_velocity_limits: true, max_velocity: 0.1}\n'
+    resolve_limits(vr.UR5_JOINTS, ur5_velocity, read_joint_limits_file(write(tmp_path, text)),
+                   max_acceleration=[5.0] * 6, known_joints=vr.UR5_JOINTS + ('finger_joint',))
+    # Without known_joints (no model at hand) nothing is checked, as before.
+    assert resolve_limits(['a'], {'a': 1.0}, {'b': {'velocity': 1.0}},
+                          max_acceleration=[1.0]).velocity[0] == 1.0
+
+
+CORNER_REQUESTS = [
+    np.array([[0.0, 0.0], [0.8, -1.5], [2.9, -0.2], [1.0, 0.3]]),
+    np.array([[0.0], [0.1], [0.05], [0.2], [0.3], [-0.1], [0.0], [0.12], [0.2], [0.25]]),
+]
+
+
+@pytest.mark.parametrize('method', ['434', '445', '555'])
+@pytest.mark.parametrize('timing', ['uniform', 'optimal'])
+def test_plans_at_the_corners_of_the_usable_limit_ranges_are_finite_and_within(method,
+                                                                               timing):
+    ranges = jlf.LIMIT_RANGES
+    for velocity, acceleration, jerk in itertools.product(
+            ranges['velocity'], ranges['acceleration'], ranges['jerk'] + (None,)):
+        for points in CORNER_REQUESTS:
+            n = points.shape[1]
+            traj = plan(points, method, timing, max_velocity=[velocity] * n,
+                        max_acceleration=[acceleration] * n,
+                        max_jerk=None if jerk is None else [jerk] * n)
+            assert np.all(np.isfinite(traj.coefficients)) and np.isfinite(traj.duration)
+            assert traj.within_limits(1e-6), (velocity, acceleration, jerk)
+
+
+def test_check_limit_value_says_the_range_that_works():
+    low, high = jlf.LIMIT_RANGES['velocity']
+    assert jlf.check_limit_value('velocity', low, 'here') == low
+    assert jlf.check_limit_value('velocity', high, 'here') == high
+    for value in (0.5 * low, 2.0 * high, 0.0, -1.0, float('inf'), float('nan')):
+        with pytest.raises(ValueError, match=r'^here = \S+ is outside the usable range '
+                                             r'\[1e-06, 10000\] \(rad/s or m/s\)'):
+            jlf.check_limit_value('velocity', value, 'here')
+
+
+def test_an_absurd_urdf_velocity_is_refused_naming_the_joint_and_range():
+    with pytest.raises(ValueError, match=r"joint 'b': the URDF's <limit velocity> = 1e-300 is "
+                                         r'outside the usable range \[1e-06, 10000\]'):
+        resolve_limits(['a', 'b'], {'a': 1.0, 'b': 1e-300}, max_acceleration=[1.0, 1.0])
+    with pytest.raises(ValueError, match=r"max_acceleration\[1\] \(joint 'b'\) = 1e\+300 is "
+                                         r'outside the usable range \[1e-06, 1e\+06\]'):
+        resolve_limits(['a', 'b'], {'a': 1.0, 'b': 1.0}, max_acceleration=[1.0, 1e300])
+    # A value that does not win is not used, and not checked; 0 is "no URDF limit".
+    limits = resolve_limits(['a', 'b'], {'a': 0.0, 'b': 1e-300}, max_velocity=[2.0, 3.0],
+                            max_acceleration=[1.0, 1.0])
+    assert list(limits.velocity) == [2.0, 3.0]
+    with pytest.raises(ValueError, match="joint 'a' has no velocity limit"):
+        resolve_limits(['a'], {'a': 0.0}, max_acceleration=[1.0])
+
+
+@pytest.mark.parametrize('value', ['1e300', '1.0e+300', '1e-300', '2e9'])
+def test_an_absurd_limits_file_value_is_refused_naming_the_joint_and_range(tmp_path, value):
+    quantity = 'jerk' if value == '2e9' else 'velocity'
+    text = (f'joint_limits:\n  elbow_joint:\n    has_{quantity}_limits: true\n'
+            f'    max_{quantity}: {value}\n')
+    number = re.escape(f'{float(value):g}')
+    with pytest.raises(ValueError, match=rf"joint 'elbow_joint': max_{quantity} = {number} "
+                                         r'is outside the usable range \['):
+        read_joint_limits_file(write(tmp_path, text))
+
+
+def test_yaml_1_2_numbers_are_numbers(tmp_path):
+    # PyYAML reads 1e3 (YAML 1.2, yaml-cpp: a number) as a string; MoveIt reads a number.
+    text = ('joint_limits:\n  j:\n    has_velocity_limits: true\n    max_velocity: 1e1\n'
+            '    has_acceleration_limits: true\n    max_acceleration: 2.5E+1\n'
+            '    has_jerk_limits: true\n    max_jerk: 1_000\n')
+    assert read_joint_limits_file(write(tmp_path, text)) == {
+        'j': {'velocity': 10.0, 'acceleration': 25.0, 'jerk': 1000.0}}

@@ -24,15 +24,27 @@ and per quantity, in this order (the first that gives a value wins):
 A joint left without a velocity or an acceleration limit is an error that
 names the joint; a jerk limit is optional.  :class:`JointLimits` keeps where
 each value came from, for the status report.
+
+Hostile or careless input (issue 22): the file is read with a size bound
+and parsed without YAML anchors and aliases (an alias bomb of a few hundred
+bytes would otherwise expand to billions of items when shown); every user
+value in a message is shown cut short (:func:`~.user_text.show`); limits
+outside :data:`LIMIT_RANGES`, where the planner is known to work, are
+refused (:func:`check_limit_value`); and with ``known_joints``,
+:func:`resolve_limits` refuses file entries for joints the robot does not
+have (a typo would otherwise be ignored silently).
 """
 
 from dataclasses import dataclass
+import difflib
 import math
-import os
+import re
 from typing import Dict, Optional, Tuple
 
 import numpy as np
 import yaml
+
+from .user_text import clip, read_text_file, show, show_path
 
 # MoveIt's joint_limits.yaml keys (moveit_core joint_limits): anything else is a typo.
 QUANTITY_KEYS = {
@@ -47,6 +59,22 @@ OTHER_KEYS = {'has_position_limits', 'min_position', 'max_position', 'has_effort
 TOP_LEVEL_KEYS = {'joint_limits', 'default_velocity_scaling_factor',
                   'default_acceleration_scaling_factor'}
 MAX_FILE_BYTES = 1_000_000
+
+# The usable range of each limit [rad/s^k or m/s^k]: 434, 445 and 555 plans, uniform and
+# optimal timing, of random requests (3-10 waypoints, 1-3 joints, steps of 1 mm to 3 rad)
+# come out finite and within their limits at every corner of these ranges, and with
+# per-joint mixtures of the corners (test_hostile_descriptions.py plans at the corners).
+# The planner still works far beyond them (corners at 1e-50 and 1e50 pass; a lone
+# velocity of 1e-100 gives "the plan is not finite"): they bound what a real robot, in
+# rad or m, could need, so that a typo (1e-300, 1e300) is refused with this range
+# instead of failing every request.
+LIMIT_RANGES = {
+    'velocity': (1e-6, 1e4),
+    'acceleration': (1e-6, 1e6),
+    'jerk': (1e-6, 1e9),
+}
+LIMIT_UNITS = {'velocity': 'rad/s or m/s', 'acceleration': 'rad/s^2 or m/s^2',
+               'jerk': 'rad/s^3 or m/s^3'}
 
 PARAMETER = 'parameter'
 YAML = 'joint_limits_file'
@@ -79,35 +107,85 @@ class JointLimits:
         return values
 
 
+def check_limit_value(quantity, value, where):
+    """
+    Return ``value`` as a float when it lies in ``LIMIT_RANGES[quantity]`` (else ValueError).
+
+    ``quantity`` is 'velocity', 'acceleration' or 'jerk'; ``where`` names
+    the value in the message (e.g. ``"joint 'elbow': max_velocity"``), which
+    says the range that works.  NaN and infinities are outside.
+    """
+    low, high = LIMIT_RANGES[quantity]
+    number = float(value)
+    if not low <= number <= high:
+        raise ValueError(f'{where} = {number:g} is outside the usable range [{low:g}, '
+                         f'{high:g}] ({LIMIT_UNITS[quantity]}) of a {quantity} limit')
+    return number
+
+
+class _AliasError(ValueError):
+    """A YAML anchor or alias, refused."""
+
+
+class _Loader(yaml.SafeLoader):
+    """
+    PyYAML's safe loader without anchors and aliases, reading YAML 1.2 numbers like ``1e3``.
+
+    MoveIt (yaml-cpp) reads ``max_jerk: 1e3`` as a number; PyYAML (YAML
+    1.1) as the string '1e3'.  An alias bomb (nested aliases, each level
+    repeating the one below) is refused at its first anchor, before
+    anything is built.
+    """
+
+    def compose_node(self, parent, index):
+        event = self.peek_event()
+        if isinstance(event, yaml.AliasEvent) or getattr(event, 'anchor', None):
+            mark = event.start_mark
+            raise _AliasError(f'YAML anchors and aliases (&name, *name) are not accepted '
+                              f'(line {mark.line + 1}, column {mark.column + 1})')
+        return super().compose_node(parent, index)
+
+
+_Loader.add_implicit_resolver(
+    'tag:yaml.org,2002:float',
+    re.compile(r'^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9][0-9_]*)[eE][-+]?[0-9]+$'),
+    list('-+0123456789.'))
+
+
+def load_yaml(text, where):
+    """Parse YAML ``text`` with :class:`_Loader` (ValueError naming ``where``, bounded)."""
+    try:
+        return yaml.load(text, Loader=_Loader)  # noqa: S506 - a SafeLoader subclass
+    except _AliasError as exc:
+        raise ValueError(f'{where}: {exc}') from None
+    except (yaml.YAMLError, ValueError, RecursionError) as exc:
+        # ValueError: e.g. an integer of more than 4300 digits.
+        raise ValueError(f'{where} is not readable YAML: {clip(exc, 500)}') from None
+
+
 def read_joint_limits_file(path):
     """
     Read a MoveIt ``joint_limits.yaml``; return {joint: {quantity: value}}.
 
     Only limits whose ``has_*_limits`` is true are returned.  ValueError
-    names the file and the offending joint and key: unknown keys, a
-    ``has_*`` that is not a boolean, a limit that is not a positive number, or
-    a ``has_*: true`` without its ``max_*``.
+    names the file and the offending joint and key: a path that is not a
+    regular file or is larger than :data:`MAX_FILE_BYTES`, YAML anchors or
+    aliases, unknown keys, a ``has_*`` that is not a boolean, a limit that is
+    not a number in :data:`LIMIT_RANGES`, or a ``has_*: true`` without its
+    ``max_*``.
     """
-    where = f'joint_limits_file {path!r}'
-    if not os.path.isfile(path):
-        raise ValueError(f'{where}: no such file')
-    if os.path.getsize(path) > MAX_FILE_BYTES:
-        raise ValueError(f'{where} is larger than {MAX_FILE_BYTES} bytes')
-    try:
-        with open(path, encoding='utf-8') as stream:
-            data = yaml.safe_load(stream)
-    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
-        raise ValueError(f'{where} is not readable YAML: {exc}') from None
-    return parse_joint_limits(data, where)
+    where = f'joint_limits_file {show_path(path)}'
+    text = read_text_file(path, where, MAX_FILE_BYTES)
+    return parse_joint_limits(load_yaml(text, where), where)
 
 
 def parse_joint_limits(data, where='joint limits'):
     """Check the parsed YAML of a joint_limits.yaml; see :func:`read_joint_limits_file`."""
     if not isinstance(data, dict) or 'joint_limits' not in data:
         raise ValueError(f'{where} has no top-level "joint_limits" mapping')
-    unknown = sorted(str(k) for k in data if k not in TOP_LEVEL_KEYS)
+    unknown = [k for k in data if k not in TOP_LEVEL_KEYS]
     if unknown:
-        raise ValueError(f'{where} has unknown top-level key(s) {unknown}; known: '
+        raise ValueError(f'{where} has unknown top-level key(s) {_names(unknown)}; known: '
                          f'{sorted(TOP_LEVEL_KEYS)}')
     joints = data['joint_limits']
     if not isinstance(joints, dict):
@@ -115,31 +193,39 @@ def parse_joint_limits(data, where='joint limits'):
     known = OTHER_KEYS.union(*(set(keys) for keys in QUANTITY_KEYS.values()))
     result = {}
     for joint, entry in joints.items():
+        name = show(joint)
         if not isinstance(entry, dict):
-            raise ValueError(f'{where}: joint {joint!r} must map keys to values')
-        bad = sorted(str(k) for k in entry if k not in known)
+            raise ValueError(f'{where}: joint {name} must map keys to values')
+        bad = [k for k in entry if k not in known]
         if bad:
-            raise ValueError(f'{where}: joint {joint!r} has unknown key(s) {bad}; MoveIt keys '
-                             f'are {sorted(known)}')
+            raise ValueError(f'{where}: joint {name} has unknown key(s) {_names(bad)}; MoveIt '
+                             f'keys are {sorted(known)}')
         limits = {}
         for quantity, (has_key, max_key) in QUANTITY_KEYS.items():
             has = entry.get(has_key, False)
             if not isinstance(has, bool):
-                raise ValueError(f'{where}: joint {joint!r}: {has_key} must be true or false, '
-                                 f'got {has!r}')
+                raise ValueError(f'{where}: joint {name}: {has_key} must be true or false, '
+                                 f'got {show(has)}')
             if not has:
                 continue
             if max_key not in entry:
-                raise ValueError(f'{where}: joint {joint!r} has {has_key}: true but no '
-                                 f'{max_key}')
+                raise ValueError(f'{where}: joint {name} has {has_key}: true but no {max_key}')
             value = entry[max_key]
             if (isinstance(value, bool) or not isinstance(value, (int, float))
                     or not math.isfinite(value) or value <= 0.0):
-                raise ValueError(f'{where}: joint {joint!r}: {max_key} = {value!r} must be a '
+                raise ValueError(f'{where}: joint {name}: {max_key} = {show(value)} must be a '
                                  'positive number')
-            limits[quantity] = float(value)
+            limits[quantity] = check_limit_value(quantity, value,
+                                                 f'{where}: joint {name}: {max_key}')
         result[str(joint)] = limits
     return result
+
+
+def _names(keys, most=5):
+    """Return a bounded list of user keys for a message: the first ``most``, each cut short."""
+    shown = [show(str(k)) for k in keys[:most]]
+    more = f', ... ({len(keys)} in all)' if len(keys) > most else ''
+    return '[' + ', '.join(shown) + more + ']'
 
 
 def _explicit(values, name, n):
@@ -155,19 +241,44 @@ def _explicit(values, name, n):
     return arr
 
 
+def check_known_joints(file_limits, known_joints):
+    """
+    Refuse limits of a joint that is not in ``known_joints`` (ValueError naming the closest).
+
+    ``file_limits`` is the result of :func:`read_joint_limits_file`.
+    """
+    known = set(known_joints)
+    for joint in file_limits:
+        if joint in known:
+            continue
+        close = difflib.get_close_matches(joint, sorted(known), n=1)
+        hint = (f'did you mean {show(close[0])}?' if close else
+                f'its joints: {_names(sorted(known), 12)}')
+        raise ValueError(f'the joint_limits_file gives limits for joint {show(joint)}, but '
+                         f'the robot model has no joint of that name ({hint})')
+
+
 def resolve_limits(joint_names, urdf_velocity=None, file_limits=None, max_velocity=None,
-                   max_acceleration=None, max_jerk=None):
+                   max_acceleration=None, max_jerk=None, *, known_joints=None):
     """
     Return the :class:`JointLimits` of ``joint_names`` (ValueError naming a joint without).
 
     ``urdf_velocity``: {joint: velocity or None}; ``file_limits``: the result
     of :func:`read_joint_limits_file`; ``max_*``: explicit per-joint values
-    (0 entries or an empty sequence = not set).
+    (0 entries or an empty sequence = not set).  ``known_joints``: every
+    joint of the robot model (planned or not, e.g. a gripper's); when given,
+    a file entry for any other joint is refused, naming the closest known
+    name (a typo would otherwise leave the joint at its URDF limit).  The
+    value that wins for each joint and quantity must lie in
+    :data:`LIMIT_RANGES` (a URDF ``velocity`` of 0 or none is "no URDF
+    limit"; one that is overridden is not checked).
     """
     names = tuple(joint_names)
     n = len(names)
     urdf_velocity = urdf_velocity or {}
     file_limits = file_limits or {}
+    if known_joints is not None:
+        check_known_joints(file_limits, known_joints)
     explicit = {'velocity': _explicit(max_velocity, 'max_velocity', n),
                 'acceleration': _explicit(max_acceleration, 'max_acceleration', n),
                 'jerk': _explicit(max_jerk, 'max_jerk', n)}
@@ -175,17 +286,22 @@ def resolve_limits(joint_names, urdf_velocity=None, file_limits=None, max_veloci
     for quantity in ('velocity', 'acceleration', 'jerk'):
         numbers, origin = np.full(n, math.inf), [''] * n
         for i, name in enumerate(names):
-            candidates = [(explicit[quantity][i] or None, PARAMETER),
-                          (file_limits.get(name, {}).get(quantity), YAML)]
+            shown = show(name)
+            candidates = [(explicit[quantity][i] or None, PARAMETER,
+                           f'max_{quantity}[{i}] (joint {shown})'),
+                          (file_limits.get(name, {}).get(quantity), YAML,
+                           f'joint {shown}: max_{quantity} of the joint_limits_file')]
             if quantity == 'velocity':
-                candidates.append((_positive(urdf_velocity.get(name)), URDF))
-            for value, source in candidates:
+                candidates.append((_positive(urdf_velocity.get(name)), URDF,
+                                   f"joint {shown}: the URDF's <limit velocity>"))
+            for value, source, where in candidates:
                 if value is not None:
-                    numbers[i], origin[i] = float(value), source
+                    numbers[i] = check_limit_value(quantity, value, where)
+                    origin[i] = source
                     break
             if quantity != 'jerk' and not origin[i]:
                 where = ('the URDF, ' if quantity == 'velocity' else '')
-                raise ValueError(f'joint {name!r} has no {quantity} limit: give it in '
+                raise ValueError(f'joint {shown} has no {quantity} limit: give it in '
                                  f'{where}the joint_limits_file or max_{quantity}')
         values[quantity], sources[quantity] = numbers, tuple(origin)
     return JointLimits(names, values['velocity'], values['acceleration'], values['jerk'],

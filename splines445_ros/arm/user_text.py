@@ -1,0 +1,96 @@
+"""
+Text from users: files read with a size bound, values shown in messages with a length bound.
+
+A leaf module of ``arm`` (standard library only).  :func:`read_text_file`
+opens the path first and then looks at what it opened, so a directory, a
+device such as ``/dev/zero`` or a named pipe is named as such (never read,
+never waited on), and a regular file is read up to its cap and no further.
+:func:`show` is ``repr`` cut to :data:`SHOWN_CHARS` characters, at a cost
+independent of the value's size (``reprlib``): an error message never
+grows with what the user gave.
+"""
+
+import os
+import reprlib
+import stat
+
+SHOWN_CHARS = 80
+PATH_CHARS = 300  # a file path is shown longer: its end matters
+
+_REPR = reprlib.Repr()
+_REPR.maxlevel = 2
+_REPR.maxlist = _REPR.maxtuple = _REPR.maxset = _REPR.maxfrozenset = 4
+_REPR.maxdict = 3
+_REPR.maxstring = _REPR.maxother = _REPR.maxlong = SHOWN_CHARS
+
+
+def clip(text, limit=SHOWN_CHARS):
+    """Return ``str(text)`` cut to at most ``limit`` characters (ending in ``...`` when cut)."""
+    text = str(text)
+    return text if len(text) <= limit else text[:limit - 3] + '...'
+
+
+def show(value, limit=SHOWN_CHARS):
+    """Return ``repr(value)`` cut to at most ``limit`` characters, cheaply for any value."""
+    if isinstance(value, str):
+        text = repr(value[:limit])
+    else:
+        try:
+            text = _REPR.repr(value)
+        except Exception:  # a value whose repr fails is still named
+            text = f'<{type(value).__name__}>'
+    return clip(text, limit)
+
+
+def show_path(path):
+    """Return a file path for messages: its repr, at most :data:`PATH_CHARS` characters."""
+    return show(path, PATH_CHARS)
+
+
+def read_text_file(path, where, max_bytes):
+    """
+    Return the UTF-8 text of the regular file ``path`` (ValueError with the reason).
+
+    ``where`` names the file in messages.  Refused: a missing path, a
+    directory, anything that is not a regular file (a device, a named pipe,
+    a socket), a file of more than ``max_bytes`` bytes (at most
+    ``max_bytes + 1`` bytes are ever read), text that is not UTF-8.
+    """
+    try:
+        # O_NONBLOCK: opening a named pipe must not wait for a writer.
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, 'O_CLOEXEC', 0))
+    except FileNotFoundError:
+        raise ValueError(f'{where}: no such file') from None
+    except IsADirectoryError:
+        raise ValueError(f'{where} is a directory, not a file') from None
+    except (OSError, ValueError, TypeError) as exc:
+        reason = exc.strerror if isinstance(exc, OSError) else clip(exc)
+        raise ValueError(f'{where}: cannot open it ({reason})') from None
+    try:
+        status = os.fstat(fd)
+        if stat.S_ISDIR(status.st_mode):
+            raise ValueError(f'{where} is a directory, not a file')
+        if not stat.S_ISREG(status.st_mode):
+            raise ValueError(f'{where} is not a regular file (a device, pipe or socket)')
+        if status.st_size > max_bytes:
+            raise ValueError(f'{where} has {status.st_size} bytes, more than the {max_bytes} '
+                             'bytes accepted')
+        chunks, left = [], max_bytes + 1
+        while left > 0:
+            chunk = os.read(fd, min(left, 1 << 20))
+            if not chunk:
+                break
+            chunks.append(chunk)
+            left -= len(chunk)
+        data = b''.join(chunks)
+    except OSError as exc:
+        raise ValueError(f'{where}: cannot read it ({exc.strerror})') from None
+    finally:
+        os.close(fd)
+    if len(data) > max_bytes:  # it grew since fstat
+        raise ValueError(f'{where} has more than the {max_bytes} bytes accepted')
+    try:
+        return data.decode('utf-8')
+    except UnicodeDecodeError as exc:
+        raise ValueError(f'{where} is not UTF-8 text ({exc.reason} at byte {exc.start})') \
+            from None
