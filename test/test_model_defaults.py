@@ -12,6 +12,7 @@ Any arm from its description alone: the defaults follow the model (issue 22, par
 """
 
 import os
+import re
 import xml.etree.ElementTree as ET
 
 from diagnostic_msgs.msg import DiagnosticStatus
@@ -162,6 +163,8 @@ def test_the_short_form_plans_and_drives_every_actuated_joint(urdf, limits_file,
         lower, upper = (np.array(v) for v in zip(
             *[(j.lower, j.upper) for j in load_robot_model(urdf()).select(joints)]))
         span = np.minimum(upper - lower, 2.0)
+        # The simulated finger may rest a few micrometres outside its range: start inside.
+        start = np.clip(start, lower, upper)
         goal = np.clip(start + rng.uniform(-0.15, 0.15, len(joints)) * span,
                        lower + 0.2 * span, upper - 0.2 * span)
         n_arm = len(system.arm_status)
@@ -210,3 +213,26 @@ def test_tool_requests_need_tool_frame_only_where_the_tip_is_ambiguous():
         assert tuple(trajectory.joint_names) == vr.PANDA_ARM_JOINTS
         reached, _ = fk(np.array([trajectory.points[-1].positions]))
         np.testing.assert_allclose(reached[0], goal, atol=1e-6)
+
+
+def test_a_typo_in_the_limits_file_and_absurd_limits_are_refused_when_set(tmp_path):
+    # Issue 22, findings 3 and 6: a limit for an unknown joint was ignored (the URDF's
+    # 3.15 rad/s applied), and 1e-300 was accepted, then every request failed.
+    typo = tmp_path / 'typo.yaml'
+    typo.write_text('joint_limits:\n  shoulder_pan:\n    has_velocity_limits: true\n'
+                    '    max_velocity: 0.1\n')
+    planner, _ = short_form(vr.ur5_urdf(), 'ur5_joint_limits.yaml')
+    with LocalRos() as ros:
+        node = ros.add(PlannerNode(context=ros.context,
+                                   parameter_overrides=overrides(planner)))
+        for values, reason in (
+                ({'joint_limits_file': str(typo)},
+                 r"no joint of that name \(did you mean 'shoulder_pan_joint'\?\)"),
+                ({'max_velocity': [1e-300] + [0.0] * 5},
+                 r'max_velocity\[0\] = 1e-300 is outside the usable range \[1e-06, 10000\]'),
+                ({'max_jerk': [1e300]},
+                 r'max_jerk\[0\] = 1e\+300 is outside the usable range')):
+            result, = node.set_parameters(overrides(values))
+            assert not result.successful
+            assert re.search(reason, result.reason), result.reason
+        assert node.parameters.config.joint_limits_file.endswith('ur5_joint_limits.yaml')

@@ -12,6 +12,7 @@ import math
 from typing import Tuple
 
 from .validated_config import ValidatedConfig
+from ..arm.joint_limits_file import check_limit_value
 from ..arm.kinematics import PlanarArm
 from ..planning import DEFAULT_WAYPOINT_TOLERANCE, METHODS, TIMINGS
 from ..planning.inner_knots import DEFAULT_INNER_KNOTS, MAX_INNER_KNOTS
@@ -119,6 +120,11 @@ class PlannerConfig(ValidatedConfig):
             else:
                 self.require_positive(name, n, f'one value per joint ({n}) of joint_names '
                                       f'{_names(names)}')
+        for name, quantity in (('max_velocity', 'velocity'),
+                               ('max_acceleration', 'acceleration'), ('max_jerk', 'jerk')):
+            for i, value in enumerate(getattr(self, name)):
+                if value > 0.0:  # 0: not set (or no jerk limit), checked above
+                    check_limit_value(quantity, value, f'{name}[{i}]')
         if len(self.max_jerk) not in (0, n) and not model:
             raise ValueError(f'max_jerk needs one value per joint ({n}) of joint_names '
                              f'{_names(names)}, or [0.0] for no jerk limit; got '
