@@ -27,13 +27,13 @@ the same arm with stiff joints).
 
 from dataclasses import dataclass
 import math
-import os
 from typing import Optional, Tuple
 
 import numpy as np
 
 from .mujoco_import import import_mujoco
-from .robot_model import urdf_spec
+from .robot_model import check_mjcf_size, read_description_file, urdf_spec
+from .user_text import clip, show_path
 
 TOOL_SITE = 'tool'
 TOOL_OFFSET = 0.15  # m, centre of mass of the tool body beyond joint 3
@@ -154,25 +154,28 @@ class ArmModel:
         return float(self.model.opt.timestep)
 
 
-def _load_spec(mujoco, xml=None, path=None):
+def _load_spec(mujoco, xml=None, path=None, text=None):
+    """Return the MjSpec of MJCF ``xml``, or of the file ``path`` whose ``text`` was read."""
     if path is not None:
-        spec = urdf_spec(mujoco, path)
+        spec = urdf_spec(mujoco, path, text)
         if spec is not None:
             return spec
+        check_mjcf_size(text, f'model_file {show_path(path)}')
     try:
         if path is not None:
             return mujoco.MjSpec.from_file(path)
         return mujoco.MjSpec.from_string(xml)
     except Exception as exc:  # mujoco raises ValueError or its own errors
-        where = path if path is not None else 'built-in model'
-        raise ValueError(f'cannot load MJCF {where}: {str(exc).strip()}') from None
+        where = show_path(path) if path is not None else 'built-in model'
+        raise ValueError(f'cannot load MJCF {where}: {clip(str(exc).strip(), 500)}') from None
 
 
 def _compile(spec, where):
     try:
         return spec.compile()
     except Exception as exc:
-        raise ValueError(f'cannot compile MJCF {where}: {str(exc).strip()}') from None
+        raise ValueError(f'cannot compile MJCF {where}: {clip(str(exc).strip(), 500)}') \
+            from None
 
 
 def _add_actuators(mujoco, spec, targets, torque_limits, time_constant):
@@ -244,11 +247,10 @@ def load_arm_model(joint_names, torque_limits, actuator_time_constant, timestep=
     mujoco = import_mujoco()
     names = tuple(joint_names)
     if model_file:
-        where = f'model_file {model_file!r}'
-        if not os.path.isfile(model_file):
-            raise ValueError(f'{where}: no such file')
-        spec = _load_spec(mujoco, path=model_file)
-        rigid_spec = _load_spec(mujoco, path=model_file)
+        where = f'model_file {show_path(model_file)}'
+        text = read_description_file(model_file, where)
+        spec = _load_spec(mujoco, path=model_file, text=text)
+        rigid_spec = _load_spec(mujoco, path=model_file, text=text)
         stiffness = np.zeros(len(names))
         targets = list(names)
     else:

@@ -29,6 +29,22 @@ a ``<collision>`` mesh is kept only when its file is found (absolute path,
 ``rest`` below one of the URDF's parent folders) and MuJoCo can read its
 format (STL, OBJ, MSH).  What was dropped is said once, in
 :attr:`RobotModel.notes` and on the Python log.
+
+A revolute or prismatic joint's ``<limit lower upper>`` must be finite
+numbers with ``lower <= upper`` (MuJoCo would drop an upside-down range and
+leave the joint unlimited); ``lower == upper`` holds the joint there (MuJoCo
+drops that range too; :class:`JointInfo` keeps it).
+
+Size caps
+---------
+MuJoCo's compile time grows faster than linearly with the number of bodies
+(the UR5 plus 60,000 fixed links: two minutes).  Before MuJoCo sees it, a
+description is counted with ElementTree and refused, with the count and the
+cap, when it has more than :data:`MAX_LINKS` links (MJCF bodies, including
+``<replicate>`` copies), :data:`MAX_JOINTS` joints, or a link more than
+:data:`MAX_DEPTH` links from the root (MJCF: bodies nested that deep).  Real
+robots stay far below (a humanoid has about 100 links).  The count does not
+follow an MJCF's ``<include>`` elements.
 """
 
 from dataclasses import dataclass
@@ -42,8 +58,12 @@ import numpy as np
 
 from . import rotations as rot
 from .mujoco_import import import_mujoco
+from .user_text import clip, read_text_file, show, show_path
 
 MAX_DESCRIPTION_CHARS = 20_000_000
+MAX_LINKS = 1000    # URDF links, MJCF bodies
+MAX_JOINTS = 1000   # URDF joints (fixed ones too), MJCF joints
+MAX_DEPTH = 200     # links from the root to the deepest one (MJCF: nested bodies)
 MESH_FORMATS = ('.stl', '.obj', '.msh')
 _LOG = logging.getLogger('splines445_ros.robot_model')
 
@@ -63,17 +83,80 @@ class JointInfo:
     joint_id: int
 
 
-def _float_attribute(element, name, joint):
+def _float_attribute(element, name, joint, where, finite=False, default=None):
+    """Return a ``<limit>`` attribute as a float (``default`` when absent; ValueError)."""
     text = element.get(name)
     if text is None:
-        return None
+        return default
     try:
         value = float(text)
     except ValueError:
-        raise ValueError(f'joint {joint!r}: <limit {name}="{text}"> is not a number') from None
+        raise ValueError(f'{where}: joint {show(joint)}: <limit {name}="{clip(text)}"> is not '
+                         'a number') from None
+    if finite and not math.isfinite(value):
+        raise ValueError(f'{where}: joint {show(joint)}: <limit> {name}="{clip(text)}" is not '
+                         'a finite number')
     if math.isnan(value):
-        raise ValueError(f'joint {joint!r}: <limit {name}> is NaN')
+        raise ValueError(f'{where}: joint {show(joint)}: <limit {name}> is NaN')
     return value
+
+
+def _check_range(limit, joint, where):
+    """Return a revolute or prismatic joint's (lower, upper) (URDF default 0; ValueError)."""
+    lower = _float_attribute(limit, 'lower', joint, where, finite=True, default=0.0)
+    upper = _float_attribute(limit, 'upper', joint, where, finite=True, default=0.0)
+    if lower > upper:
+        raise ValueError(f'{where}: joint {show(joint)}: <limit> '
+                         f'lower="{clip(limit.get("lower"))}" is above '
+                         f'upper="{clip(limit.get("upper", "0"))}"')
+    return lower, upper
+
+
+def _check_urdf_size(root, where):
+    """Refuse a URDF with more links, joints or depth than the caps (ValueError)."""
+    links = root.findall('link')
+    joints = root.findall('joint')
+    if len(links) > MAX_LINKS:
+        raise ValueError(f'{where} has {len(links)} links, more than the {MAX_LINKS} '
+                         'accepted')
+    if len(joints) > MAX_JOINTS:
+        raise ValueError(f'{where} has {len(joints)} joints, more than the {MAX_JOINTS} '
+                         'accepted')
+    parent_of = {}
+    for joint in joints:
+        parent, child = joint.find('parent'), joint.find('child')
+        if parent is not None and child is not None:
+            parent_of[child.get('link')] = parent.get('link')
+    link, depth = _deepest(parent_of)
+    if depth > MAX_DEPTH:
+        raise ValueError(f'{where}: link {show(link)} is {depth} links deep (from the root '
+                         f'link), more than the {MAX_DEPTH} accepted')
+
+
+def _deepest(parent_of):
+    """
+    Return ``(link, depth)`` of the deepest link of a tree given as {child: parent}.
+
+    A root (a link that is no joint's child) has depth 1.  Linear in the
+    number of links; a loop (not a tree: MuJoCo refuses it) does not hang it.
+    """
+    depth = {}
+    deepest = (None, 0)
+    for link in parent_of:
+        path, seen, node = [], set(), link
+        while node in parent_of and node not in depth and node not in seen:
+            seen.add(node)
+            path.append(node)
+            node = parent_of[node]
+        if node not in parent_of:
+            depth.setdefault(node, 1)
+        level = depth.get(node, 0)
+        for item in reversed(path):
+            level += 1
+            depth[item] = level
+            if level > deepest[1]:
+                deepest = (item, level)
+    return deepest
 
 
 class _UrdfDescription:
@@ -90,16 +173,24 @@ class _UrdfDescription:
         except ET.ParseError as exc:
             raise ValueError(f'{where} is not well-formed XML: {exc}') from None
         if root.tag != 'robot':
-            raise ValueError(f'{where} is not a URDF (its root element is <{root.tag}>, '
+            raise ValueError(f'{where} is not a URDF (its root element is <{clip(root.tag)}>, '
                              'not <robot>)')
+        _check_urdf_size(root, where)
         self.limits = {}
         self.mimic = set()
+        self.held = {}         # joint -> position, for a range with lower == upper
+        self.joint_names = []  # every <joint>, fixed ones too
         for joint in root.findall('joint'):
             name = joint.get('name', '')
+            self.joint_names.append(name)
             limit = joint.find('limit')
             if limit is not None:
-                self.limits[name] = (_float_attribute(limit, 'velocity', name),
-                                     _float_attribute(limit, 'effort', name))
+                self.limits[name] = (_float_attribute(limit, 'velocity', name, where),
+                                     _float_attribute(limit, 'effort', name, where))
+                if joint.get('type') in ('revolute', 'prismatic'):
+                    lower, upper = _check_range(limit, name, where)
+                    if lower == upper:
+                        self.held[name] = lower
             if joint.find('mimic') is not None:
                 self.mimic.add(name)
         dropped = []
@@ -121,8 +212,13 @@ class _UrdfDescription:
         if dropped:
             self.notes.append(
                 f'{where}: {len(dropped)} collision mesh(es) not found or not readable by '
-                f'MuJoCo were dropped (kinematics does not need them), e.g. {dropped[0]!r}; '
-                'visuals are never loaded')
+                f'MuJoCo were dropped (kinematics does not need them), e.g. '
+                f'{show(dropped[0])}; visuals are never loaded')
+        if self.held:
+            held = ', '.join(f'{show(n)} at {v:g}' for n, v in list(self.held.items())[:5])
+            self.notes.append(
+                f'{where}: {len(self.held)} joint(s) with <limit lower> = <limit upper> are '
+                f'held there ({held}); MuJoCo would leave them unlimited')
         extension = root.find('mujoco')
         if extension is None:
             extension = ET.SubElement(root, 'mujoco')
@@ -178,8 +274,15 @@ def _drop_mjcf_meshes(mujoco, spec):
 class RobotModel:
     """A compiled MuJoCo model of a robot with its actuated joints and URDF limits."""
 
-    def __init__(self, model, kind, source, urdf_limits=None, mimic=(), notes=()):
-        """Wrap a compiled ``mujoco.MjModel``; use :func:`load_robot_model` instead."""
+    def __init__(self, model, kind, source, urdf_limits=None, mimic=(), notes=(), held=None,
+                 all_joint_names=None):
+        """
+        Wrap a compiled ``mujoco.MjModel``; use :func:`load_robot_model` instead.
+
+        ``held``: {joint: position} of URDF joints whose range is that one
+        position (MuJoCo leaves them unlimited); ``all_joint_names``: every
+        joint of the description (None: the MuJoCo model's joints).
+        """
         self.mujoco = import_mujoco()
         self.model = model
         self.kind = kind          # 'urdf' or 'mjcf'
@@ -187,6 +290,11 @@ class RobotModel:
         self.notes = tuple(notes)
         mj = self.mujoco
         urdf_limits = urdf_limits or {}
+        held = held or {}
+        if all_joint_names is None:
+            all_joint_names = [mj.mj_id2name(model, mj.mjtObj.mjOBJ_JOINT, j) or ''
+                               for j in range(model.njnt)]
+        self.all_joint_names = tuple(n for n in all_joint_names if n)
         driven = set()
         for e in range(model.neq):
             if int(model.eq_type[e]) == int(mj.mjtEq.mjEQ_JOINT):
@@ -201,6 +309,8 @@ class RobotModel:
             lower, upper = -math.inf, math.inf
             if model.jnt_limited[j]:
                 lower, upper = (float(v) for v in model.jnt_range[j])
+            elif name in held:
+                lower = upper = held[name]
             velocity, effort = urdf_limits.get(name, (None, None))
             joints.append(JointInfo(name, kind, lower, upper, velocity, effort,
                                     int(model.jnt_qposadr[j]), int(model.jnt_dofadr[j]), j))
@@ -504,7 +614,9 @@ def load_robot_model(model_file='', urdf_string=None, where=None):
 
     A file is a URDF when its root element is ``<robot>``, else MJCF.
     ``where`` names a string's origin in messages (default
-    ``robot_description``).
+    ``robot_description``).  A description beyond the size caps
+    (:data:`MAX_LINKS`, :data:`MAX_JOINTS`, :data:`MAX_DEPTH`) is refused
+    before MuJoCo compiles it.
     """
     mujoco = import_mujoco()
     if urdf_string is not None:
@@ -514,22 +626,80 @@ def load_robot_model(model_file='', urdf_string=None, where=None):
         return _from_urdf(mujoco, urdf_string, where, None, where)
     if not model_file:
         raise ValueError('no model: model_file is empty')
-    where = where or f'model_file {model_file!r}'
-    if not os.path.isfile(model_file):
-        raise ValueError(f'{where}: no such file')
-    size = os.path.getsize(model_file)
-    if size > MAX_DESCRIPTION_CHARS:
-        raise ValueError(f'{where} has {size} bytes, more than the {MAX_DESCRIPTION_CHARS} '
-                         'accepted')
-    try:
-        with open(model_file, encoding='utf-8') as stream:
-            text = stream.read()
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ValueError(f'{where}: cannot read it ({exc})') from None
+    where = where or f'model_file {show_path(model_file)}'
+    text = read_description_file(model_file, where)
     if _root_tag(text) == 'robot':
         return _from_urdf(mujoco, text, where, os.path.dirname(os.path.abspath(model_file)),
                           model_file)
+    check_mjcf_size(text, where)
     return _from_mjcf(mujoco, model_file, where)
+
+
+def read_description_file(path, where):
+    """
+    Return the text of a URDF or MJCF file (ValueError with the reason).
+
+    Refused: a missing path, a directory, anything but a regular file (a
+    device such as ``/dev/zero``, a named pipe), more than
+    :data:`MAX_DESCRIPTION_CHARS` bytes (never read further), text that is
+    not UTF-8.
+    """
+    return read_text_file(path, where, MAX_DESCRIPTION_CHARS)
+
+
+def check_mjcf_size(text, where):
+    """
+    Refuse an MJCF text beyond the size caps before MuJoCo compiles it (ValueError).
+
+    Counted with ElementTree, resolving nothing: ``<body>`` elements (each
+    times the ``count`` of every ``<replicate>`` around it; a
+    ``<composite>`` or ``<flexcomp>`` as the product of its ``count``),
+    ``<joint>`` and ``<freejoint>`` elements in bodies, and the nesting
+    depth of bodies.  Files named by ``<include>`` are not read.  Text that
+    ElementTree cannot parse is left to MuJoCo's own error.
+    """
+    bodies = joints = 0
+    stack = []  # per open element: (tag, copies, body depth)
+    try:
+        for event, element in ET.iterparse(_Lines(text), events=('start', 'end')):
+            if event == 'end':
+                stack.pop()
+                element.clear()
+                continue
+            tag = element.tag
+            parent, copies, depth = stack[-1] if stack else ('', 1, 0)
+            if tag == 'replicate':
+                copies *= max(_count(element.get('count')), 1)
+            elif tag == 'body':
+                bodies += copies
+                depth += 1
+                if depth > MAX_DEPTH:
+                    name = element.get('name')
+                    body = f'body {show(name)}' if name else 'a body'
+                    raise ValueError(f'{where}: {body} is {depth} bodies deep, more than the '
+                                     f'{MAX_DEPTH} accepted')
+            elif tag in ('composite', 'flexcomp'):
+                bodies += copies * _count(element.get('count'))
+            elif tag in ('joint', 'freejoint') and parent == 'body':
+                joints += copies
+            stack.append((tag, copies, depth))
+    except ET.ParseError:
+        return
+    if bodies > MAX_LINKS:
+        raise ValueError(f'{where} has {bodies} bodies, more than the {MAX_LINKS} accepted')
+    if joints > MAX_JOINTS:
+        raise ValueError(f'{where} has {joints} joints, more than the {MAX_JOINTS} accepted')
+
+
+def _count(text):
+    """Return the product of the integers of an MJCF ``count`` attribute (1 if none)."""
+    product = 1
+    for word in (text or '').split()[:3]:
+        try:
+            product *= max(int(word), 1)
+        except ValueError:
+            pass
+    return product
 
 
 def _root_tag(text):
@@ -556,17 +726,22 @@ class _Lines:
         return chunk
 
 
+def _mujoco_error(exc):
+    """Return MuJoCo's error message, stripped and cut short."""
+    return clip(str(exc).strip(), 500)
+
+
 def _from_urdf(mujoco, text, where, base_dir, source):
     description = _UrdfDescription(text, where, base_dir)
     try:
         spec = mujoco.MjSpec.from_string(description.text)
         model = spec.compile()
     except Exception as exc:  # mujoco raises ValueError or its own errors
-        raise ValueError(f'MuJoCo cannot load {where}: {str(exc).strip()}') from None
+        raise ValueError(f'MuJoCo cannot load {where}: {_mujoco_error(exc)}') from None
     for note in description.notes:
         _LOG.warning(note)
     return RobotModel(model, 'urdf', source, description.limits, description.mimic,
-                      description.notes)
+                      description.notes, description.held, description.joint_names)
 
 
 def _from_mjcf(mujoco, path, where):
@@ -574,7 +749,7 @@ def _from_mjcf(mujoco, path, where):
     try:
         spec = mujoco.MjSpec.from_file(path)
     except Exception as exc:
-        raise ValueError(f'cannot load MJCF {where}: {str(exc).strip()}') from None
+        raise ValueError(f'cannot load MJCF {where}: {_mujoco_error(exc)}') from None
     try:
         model = spec.compile()
     except Exception as first:
@@ -583,9 +758,9 @@ def _from_mjcf(mujoco, path, where):
             dropped = _drop_mjcf_meshes(mujoco, spec)
             model = spec.compile()
         except Exception:
-            raise ValueError(f'cannot compile MJCF {where}: {str(first).strip()}') from None
+            raise ValueError(f'cannot compile MJCF {where}: {_mujoco_error(first)}') from None
         notes.append(f'{where}: {dropped} mesh geom(s) dropped since the model did not '
-                     f'compile with them ({str(first).strip()})')
+                     f'compile with them ({_mujoco_error(first)})')
         _LOG.warning(notes[-1])
     return RobotModel(model, 'mjcf', path, notes=notes)
 
@@ -596,28 +771,27 @@ def joint_ranges(joints):
             np.array([j.upper for j in joints], dtype=float))
 
 
-def urdf_spec(mujoco, path):
+def urdf_spec(mujoco, path, text=None):
     """
     Return an MjSpec of the URDF file ``path`` for simulation, or None when it is not a URDF.
 
-    The URDF is cleaned as for :func:`load_robot_model`; contacts are
+    ``text`` is the file's text when the caller has read it (with
+    :func:`read_description_file`; read here otherwise).  The URDF is
+    cleaned and checked as for :func:`load_robot_model`; contacts are
     disabled (a URDF arm has no environment, and its collision meshes touch
     between links).
     """
-    try:
-        with open(path, encoding='utf-8') as stream:
-            text = stream.read(MAX_DESCRIPTION_CHARS + 1)
-    except (OSError, UnicodeDecodeError):
-        return None
+    where = f'model_file {show_path(path)}'
+    if text is None:
+        text = read_description_file(path, where)
     if _root_tag(text) != 'robot':
         return None
-    where = f'model_file {path!r}'
     description = _UrdfDescription(text, where, os.path.dirname(os.path.abspath(path)))
     for note in description.notes:
         _LOG.warning(note)
     try:
         spec = mujoco.MjSpec.from_string(description.text)
     except Exception as exc:  # mujoco raises ValueError or its own errors
-        raise ValueError(f'MuJoCo cannot load {where}: {str(exc).strip()}') from None
+        raise ValueError(f'MuJoCo cannot load {where}: {_mujoco_error(exc)}') from None
     spec.option.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
     return spec
