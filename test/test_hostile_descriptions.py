@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from splines445_ros.arm import joint_limits_file as jlf
 from splines445_ros.arm import robot_model as rm
-from splines445_ros.arm.mujoco_model import load_arm_model
+from splines445_ros.arm.mujoco_model import load_arm_model, planar_arm_mjcf, PlanarArmModel
 from splines445_ros.tools import vendor_robots as vr
 
 PLANAR_JOINTS = ('joint1', 'joint2', 'joint3')
@@ -237,3 +237,18 @@ def test_a_file_larger_than_its_cap_is_refused_unread(tmp_path, monkeypatch):
     path = write(tmp_path, '<robot name="r">' + ' ' * 200 + '</robot>', 'r.urdf')
     with pytest.raises(ValueError, match='more than the 100 bytes accepted'):
         rm.load_robot_model(path)
+
+
+def test_model_messages_show_user_names_bounded(ur5, tmp_path):
+    long = 'x' * 100_000
+    path = write(tmp_path, planar_arm_mjcf(PlanarArmModel(), PLANAR_JOINTS), 'arm.xml')
+    calls = [lambda: ur5.joint(long), lambda: ur5.select((long, long)),
+             lambda: ur5.frame(long, 'tool_frame'),
+             lambda: rm.load_robot_model(str(tmp_path / long[:200])),
+             lambda: load_arm_model((long,) * 3, [1.0] * 3, 0.0, model_file=path),
+             lambda: load_arm_model(PLANAR_JOINTS, [1.0] * 3, 0.0, model_file=path,
+                                    tool_frame=long)]
+    for call in calls:
+        with pytest.raises(ValueError, match='xxx') as error:
+            call()
+        assert len(str(error.value)) < 2000, str(error.value)[:3000]

@@ -44,7 +44,7 @@ from typing import Dict, Optional, Tuple
 import numpy as np
 import yaml
 
-from .user_text import clip, read_text_file, show, show_path
+from .user_text import clip, read_text_file, show, show_names, show_path
 
 # MoveIt's joint_limits.yaml keys (moveit_core joint_limits): anything else is a typo.
 QUANTITY_KEYS = {
@@ -223,9 +223,7 @@ def parse_joint_limits(data, where='joint limits'):
 
 def _names(keys, most=5):
     """Return a bounded list of user keys for a message: the first ``most``, each cut short."""
-    shown = [show(str(k)) for k in keys[:most]]
-    more = f', ... ({len(keys)} in all)' if len(keys) > most else ''
-    return '[' + ', '.join(shown) + more + ']'
+    return show_names([str(k) for k in keys], most)
 
 
 def _explicit(values, name, n):

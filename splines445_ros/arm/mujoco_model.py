@@ -33,7 +33,7 @@ import numpy as np
 
 from .mujoco_import import import_mujoco
 from .robot_model import check_mjcf_size, read_description_file, urdf_spec
-from .user_text import clip, show_path
+from .user_text import clip, show, show_names, show_path
 
 TOOL_SITE = 'tool'
 TOOL_OFFSET = 0.15  # m, centre of mass of the tool body beyond joint 3
@@ -206,14 +206,14 @@ def _joint_addresses(mujoco, model, names, where):
             continue
         kinds = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
         if int(model.jnt_type[jid]) not in kinds:
-            raise ValueError(f'joint {name!r} of {where} is not a hinge or slide joint')
+            raise ValueError(f'joint {show(name)} of {where} is not a hinge or slide joint')
         qpos.append(int(model.jnt_qposadr[jid]))
         dof.append(int(model.jnt_dofadr[jid]))
     if missing:
         available = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j)
                      for j in range(model.njnt)]
-        raise ValueError(f'{where} has no joint(s) {missing} (joint_names); its joints: '
-                         f'{available}')
+        raise ValueError(f'{where} has no joint(s) {show_names(missing)} (joint_names); its '
+                         f'joints: {show_names(available)}')
     return np.array(qpos, dtype=int), np.array(dof, dtype=int)
 
 
@@ -224,7 +224,7 @@ def _add_tool_frame_site(mujoco, spec, tool_frame, where):
             return tool_frame
     body = spec.body(tool_frame)
     if body is None:
-        raise ValueError(f'{where} has no link, body or site {tool_frame!r} (tool_frame)')
+        raise ValueError(f'{where} has no link, body or site {show(tool_frame)} (tool_frame)')
     name = f'splines445_tool_frame_{tool_frame}'
     body.add_site(name=name)
     return name
@@ -286,7 +286,7 @@ def load_arm_model(joint_names, torque_limits, actuator_time_constant, timestep=
     if tool_site:
         site = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, tool_site)
         if site < 0:
-            raise ValueError(f'{where} has no site {tool_site!r} (tool_site)')
+            raise ValueError(f'{where} has no site {show(tool_site)} (tool_site)')
     return ArmModel(model, rigid, names, qpos, dof, motor_qpos, motor_dof, actuators,
                     rigid_qpos, rigid_dof, stiffness, site,
                     'built-in' if not model_file else model_file)

@@ -58,7 +58,7 @@ import numpy as np
 
 from . import rotations as rot
 from .mujoco_import import import_mujoco
-from .user_text import clip, read_text_file, show, show_path
+from .user_text import clip, read_text_file, show, show_names, show_path
 
 MAX_DESCRIPTION_CHARS = 20_000_000
 MAX_LINKS = 1000    # URDF links, MJCF bodies
@@ -326,20 +326,20 @@ class RobotModel:
         for info in self.joints:
             if info.name == name:
                 return info
-        raise ValueError(f'{self.describe()} has no actuated joint {name!r}; its actuated '
-                         f'joints: {list(self.joint_names)}')
+        raise ValueError(f'{self.describe()} has no actuated joint {show(name)}; its actuated '
+                         f'joints: {show_names(self.joint_names)}')
 
     def select(self, joint_names=()):
         """Return the JointInfo of ``joint_names`` (all actuated joints when empty)."""
         if not joint_names:
             return self.joints
         if len(set(joint_names)) != len(joint_names):
-            raise ValueError(f'joint_names has duplicates: {list(joint_names)}')
+            raise ValueError(f'joint_names has duplicates: {show_names(joint_names)}')
         return tuple(self.joint(n) for n in joint_names)
 
     def describe(self):
         """Return a short text naming the model, for error messages."""
-        return f'the {self.kind.upper()} model {self.source!r}'
+        return f'the {self.kind.upper()} model {show_path(self.source)}'
 
     def frame(self, name, parameter='frame'):
         """
@@ -361,8 +361,8 @@ class RobotModel:
         bodies = [mj.mj_id2name(m, mj.mjtObj.mjOBJ_BODY, b) for b in range(m.nbody)]
         sites = [mj.mj_id2name(m, mj.mjtObj.mjOBJ_SITE, s) for s in range(m.nsite)]
         known = [n for n in bodies + sites if n]
-        shown = ', '.join(known[:40]) + (' ...' if len(known) > 40 else '')
-        raise ValueError(f'{parameter} {name!r} is not a link, body or site of '
+        shown = ', '.join(clip(n) for n in known[:40]) + (' ...' if len(known) > 40 else '')
+        raise ValueError(f'{parameter} {show(name)} is not a link, body or site of '
                          f'{self.describe()}; it has: {shown}')
 
     def frame_chain(self, frame, joint_names=(), parameter='frame'):

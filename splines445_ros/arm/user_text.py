@@ -42,6 +42,13 @@ def show(value, limit=SHOWN_CHARS):
     return clip(text, limit)
 
 
+def show_names(names, most=40):
+    """Return names for a message, like ``repr(list)``: the first ``most``, each cut short."""
+    names = list(names)
+    more = f', ... ({len(names)} in all)' if len(names) > most else ''
+    return '[' + ', '.join(show(n) for n in names[:most]) + more + ']'
+
+
 def show_path(path):
     """Return a file path for messages: its repr, at most :data:`PATH_CHARS` characters."""
     return show(path, PATH_CHARS)
