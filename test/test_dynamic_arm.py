@@ -181,7 +181,7 @@ def test_bad_parameters_and_model_files_are_rejected_and_the_arm_lives_on(tmp_pa
         ({'model_file': str(broken)}, 'cannot load MJCF'),
         # joint_names not set: all of the file's joints, which the 3 explicit
         # initial_positions do not fit.
-        ({'model_file': str(other)}, "initial_positions must be 2 values (one per joint of "
+        ({'model_file': str(other)}, 'initial_positions must be 2 values (one per joint of '
                                      "['shoulder', 'elbow'])"),
         ({'tool_site': 'gripper'}, "no site 'gripper'"),
         ({'kp': [1.0, -2.0, 3.0]}, 'kp must be 3 values'),

@@ -8,7 +8,7 @@ from .planner_config import DEFAULT_JOINTS
 from .validated_config import ValidatedConfig
 from ..arm.model_drives import DEFAULT_BANDWIDTH, DEFAULT_DAMPING_RATIO
 from ..arm.mujoco_model import PlanarArmModel
-from ..planning.validation import short_repr
+from ..arm.user_text import show
 
 MIN_PUBLISH_RATE = 0.001
 # The dynamic arm steps its physics in the publishing timer: at least this rate.
@@ -115,9 +115,9 @@ class ArmSimConfig(ValidatedConfig):
         if any(not isinstance(n, str) or not n for n in names) or (
                 not self.model_file and len(names) != 3) or not names:
             raise ValueError(f'joint_names must be 3 non-empty names (the planar arm has 3 '
-                             f'joints; any number with model_file), got {short_repr(names)}')
+                             f'joints; any number with model_file), got {show(names)}')
         if len(set(names)) != len(names):
-            raise ValueError(f'joint_names has duplicates: {short_repr(names)}')
+            raise ValueError(f'joint_names has duplicates: {show(names)}')
         n = len(names)
         self.require_positive('link_lengths', 2)
         if self.model_file:
@@ -125,7 +125,7 @@ class ArmSimConfig(ValidatedConfig):
             return
         if len(self.initial_positions) != n or not _finite(self.initial_positions):
             raise ValueError(f'initial_positions must be {n} finite angles, got '
-                             f'{short_repr(self.initial_positions)}')
+                             f'{show(self.initial_positions)}')
         self._validate_common()
         self._validate_built_in()
         per_joint = (('torque_limits', 0.0, math.inf, True, 'positive'),
@@ -135,7 +135,7 @@ class ArmSimConfig(ValidatedConfig):
             values = getattr(self, name)
             if len(values) != n or not _finite(values, low, high, low_open):
                 raise ValueError(f'{name} must be {n} values (one per joint), each {words}, '
-                                 f'got {short_repr(values)}')
+                                 f'got {show(values)}')
         self._validate_discretisation()
 
     def _validate_common(self):
@@ -147,10 +147,10 @@ class ArmSimConfig(ValidatedConfig):
                              f'{MIN_DYNAMIC_PUBLISH_RATE:g} Hz')
         if self.simulation not in SIMULATIONS:
             raise ValueError(f'simulation must be one of {list(SIMULATIONS)}, got '
-                             f'{short_repr(self.simulation)}')
+                             f'{show(self.simulation)}')
         self.require_in_range('physics_rate', MIN_PHYSICS_RATE, MAX_PHYSICS_RATE, 'Hz')
         if not isinstance(self.gravity, bool):
-            raise ValueError(f'gravity must be true or false, got {short_repr(self.gravity)}')
+            raise ValueError(f'gravity must be true or false, got {show(self.gravity)}')
         self.require_in_range('actuator_time_constant', 0.0, MAX_TIME_CONSTANT, 's')
         self.require_in_range('control_bandwidth', 0.1, 200.0, 'Hz')
         self.require_in_range('control_damping_ratio', 0.05, 5.0)
@@ -158,13 +158,13 @@ class ArmSimConfig(ValidatedConfig):
     def _validate_model_file(self, n=None):
         """With model_file: per-joint arrays one per joint, or unset (from the model)."""
         if len(set(self.joint_names)) != len(self.joint_names):
-            raise ValueError(f'joint_names has duplicates: {short_repr(self.joint_names)}')
+            raise ValueError(f'joint_names has duplicates: {show(self.joint_names)}')
         self._validate_common()
         if not self.from_model('initial_positions'):
             if not _finite(self.initial_positions) or (
                     n is not None and len(self.initial_positions) != n):
                 raise ValueError(f'initial_positions must be {n or "one per joint"} finite '
-                                 f'angles, got {short_repr(self.initial_positions)}')
+                                 f'angles, got {show(self.initial_positions)}')
         per_joint = (('torque_limits', MAX_KP * MAX_KD, 'in [0, inf) (0 = from the model)'),
                      ('kp', MAX_KP, f'in [0, {MAX_KP:g}] (0 = from the model)'),
                      ('kd', MAX_KD, f'in [0, {MAX_KD:g}] (0 = from the model)'))
@@ -174,7 +174,7 @@ class ArmSimConfig(ValidatedConfig):
                 continue
             if (n is not None and len(values) != n) or not _finite(values, 0.0, high):
                 raise ValueError(f'{name} must be {n or "one per joint"} values, each {words}, '
-                                 f'got {short_repr(values)}')
+                                 f'got {show(values)}')
 
     def _validate_built_in(self):
         arrays = (('link_masses', 0.0, True, 'positive'),
@@ -186,7 +186,7 @@ class ArmSimConfig(ValidatedConfig):
             values = getattr(self, name)
             if len(values) != 3 or not _finite(values, low, low_open=low_open):
                 raise ValueError(f'{name} must be 3 values (the built-in arm), each {words}, '
-                                 f'got {short_repr(values)}')
+                                 f'got {show(values)}')
         for j, (k, rotor) in enumerate(zip(self.joint_stiffness, self.rotor_inertia)):
             if k > 0.0 and rotor <= 0.0:
                 raise ValueError(f'joint {j + 1} is elastic (joint_stiffness > 0): its '

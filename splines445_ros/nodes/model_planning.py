@@ -157,7 +157,7 @@ def build_robot_setup(config, description=None, robot=None):
                    if config.joint_limits_file else None)
     velocity, acceleration, jerk = config.description_limits()
     limits = resolve_limits(joint_names, {j.name: j.velocity for j in joints}, file_limits,
-                            velocity, acceleration, jerk, known_joints=_model_joints(robot))
+                            velocity, acceleration, jerk, known_joints=robot.all_joint_names)
     # Position limits: the parameters when set, else the model's joint ranges.
     lower = config.min_position or tuple(float(j.lower) for j in joints)
     upper = config.max_position or tuple(float(j.upper) for j in joints)
@@ -170,12 +170,6 @@ def build_robot_setup(config, description=None, robot=None):
     effective.validate_position_limits(len(joint_names))
     source_text = where if source[0] == 'robot_description' else f'model_file {source[1]!r}'
     return RobotSetup(robot, kinematics, limits, effective, source_text, tool_frame, problem)
-
-
-def _model_joints(robot):
-    """Return the names of every joint of the compiled model (mimic and unplanned too)."""
-    mj, m = robot.mujoco, robot.model
-    return tuple(mj.mj_id2name(m, mj.mjtObj.mjOBJ_JOINT, j) or '' for j in range(m.njnt))
 
 
 def tool_poses_from_message(msg, base_frame):

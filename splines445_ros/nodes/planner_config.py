@@ -14,9 +14,9 @@ from typing import Tuple
 from .validated_config import ValidatedConfig
 from ..arm.joint_limits_file import check_limit_value
 from ..arm.kinematics import PlanarArm
+from ..arm.user_text import show
 from ..planning import DEFAULT_WAYPOINT_TOLERANCE, METHODS, TIMINGS
 from ..planning.inner_knots import DEFAULT_INNER_KNOTS, MAX_INNER_KNOTS
-from ..planning.validation import short_repr
 
 DEFAULT_JOINTS = ('joint1', 'joint2', 'joint3')
 # The planar arm's (and a joint-space planner's) limits when none are set.
@@ -134,10 +134,10 @@ class PlannerConfig(ValidatedConfig):
                 raise ValueError(f'max_jerk[{i}] = {v}: must be >= 0 (0 = no jerk limit)')
         if self.method not in METHODS:
             raise ValueError(f'method must be one of {list(METHODS)}, '
-                             f'got {short_repr(self.method)}')
+                             f'got {show(self.method)}')
         if self.timing not in TIMINGS:
             raise ValueError(f'timing must be one of {list(TIMINGS)}, '
-                             f'got {short_repr(self.timing)}')
+                             f'got {show(self.timing)}')
         if not (math.isfinite(self.sample_period) and self.sample_period >= MIN_SAMPLE_PERIOD):
             raise ValueError(f'sample_period = {self.sample_period}: must be at least '
                              f'{MIN_SAMPLE_PERIOD} s')
@@ -147,7 +147,7 @@ class PlannerConfig(ValidatedConfig):
             self.validate_position_limits(n)
         if self.output not in OUTPUTS:
             raise ValueError(f'output must be one of {list(OUTPUTS)}, '
-                             f'got {short_repr(self.output)}')
+                             f'got {show(self.output)}')
 
         if not 0 <= self.inner_knots <= MAX_INNER_KNOTS:
             raise ValueError(f'inner_knots = {self.inner_knots}: must be in '
@@ -182,7 +182,7 @@ class PlannerConfig(ValidatedConfig):
     def _validate_tool_paths(self):
         if self.kinematics not in KINEMATICS:
             raise ValueError(f'kinematics must be one of {list(KINEMATICS)} ("" = joint space '
-                             f'only), got {short_repr(self.kinematics)}')
+                             f'only), got {show(self.kinematics)}')
         self.require_positive('link_lengths', 2)
         if self.kinematics == 'planar_3dof' and len(self.joint_names) != 3:
             raise ValueError(f'kinematics "planar_3dof" needs 3 joint_names (shoulder, elbow, '

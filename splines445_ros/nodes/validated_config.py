@@ -4,7 +4,7 @@ import array
 from dataclasses import fields, replace
 import math
 
-from ..planning.validation import short_repr
+from ..arm.user_text import show
 
 
 def _is_number(value):
@@ -26,15 +26,15 @@ class ValidatedConfig:
         for field in fields(cls):
             value, default = getattr(config, field.name), field.default
             if isinstance(default, str) and not isinstance(value, str):
-                raise ValueError(f'{field.name} must be a string, got {short_repr(value)}')
+                raise ValueError(f'{field.name} must be a string, got {show(value)}')
             if isinstance(default, float):
                 if not _is_number(value):
-                    raise ValueError(f'{field.name} must be a number, got {short_repr(value)}')
+                    raise ValueError(f'{field.name} must be a number, got {show(value)}')
                 changes[field.name] = float(value)
             if isinstance(default, tuple) and not (default and isinstance(default[0], str)):
                 if not isinstance(value, tuple) or not all(_is_number(v) for v in value):
                     raise ValueError(f'{field.name} must be an array of numbers, '
-                                     f'got {short_repr(value)}')
+                                     f'got {show(value)}')
                 changes[field.name] = tuple(float(v) for v in value)
         config = replace(config, **changes).with_defaults()
         config.validate()

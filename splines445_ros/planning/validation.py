@@ -1,24 +1,6 @@
 """Checks of user input: every problem is a ValueError that names it and its index."""
 
-import reprlib
-
 import numpy as np
-
-_SHORT = reprlib.Repr()
-_SHORT.maxstring = _SHORT.maxother = 60
-_SHORT.maxlist = _SHORT.maxtuple = _SHORT.maxdict = _SHORT.maxset = 8
-_SHORT.maxlevel = 3
-
-
-def short_repr(value):
-    """
-    Return ``repr(value)`` cut to a few dozen characters, for error messages.
-
-    A user's value (a parameter, a file's entry, a message field) may be
-    megabytes long or, from YAML aliases, exponentially nested: messages
-    never format it whole.
-    """
-    return _SHORT.repr(value)
 
 
 def _first_bad(mask):
