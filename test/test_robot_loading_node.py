@@ -46,6 +46,15 @@ class HeldCompiles:
         return robot
 
 
+def ur5_system(tmp_path):
+    """Return both nodes on the UR5 (the parameters spelled out, valid before issue 22 too)."""
+    limits = tmp_path / 'limits.yaml'
+    limits.write_text(LIMITS_YAML)
+    planner = {'kinematics': 'model', 'model_file': vr.ur5_urdf(),
+               'joint_limits_file': str(limits), 'tool_frame': 'tool0', **ALL_FROM_MODEL}
+    return InProcessSystem(planner, {'model_file': vr.ur5_urdf(), 'joint_names': ['']})
+
+
 @pytest.fixture
 def compiles(monkeypatch):
     held = HeldCompiles(model_planning.load_robot_model)
@@ -55,12 +64,7 @@ def compiles(monkeypatch):
 
 
 def test_parameters_are_answered_while_a_model_compiles(compiles, tmp_path):
-    limits = tmp_path / 'limits.yaml'
-    limits.write_text(LIMITS_YAML)
-    planner = {'kinematics': 'model', 'model_file': vr.ur5_urdf(),
-               'joint_limits_file': str(limits), 'tool_frame': 'tool0', **ALL_FROM_MODEL}
-    with InProcessSystem(planner, {'model_file': vr.ur5_urdf(), 'joint_names': ['']}) \
-            as system:
+    with ur5_system(tmp_path) as system:
         assert compiles.count == 1
         # Parameters the robot does not depend on: nothing is compiled or set up again.
         robot = system.planner._robot
@@ -101,12 +105,7 @@ def test_a_model_file_that_does_not_compile_keeps_the_last_good_robot(tmp_path):
     bad = tmp_path / 'bad.urdf'
     bad.write_text('<robot name="bad"><link name="a"/><joint name="j" type="revolute">'
                    '<parent link="a"/><child link="nowhere"/></joint></robot>')
-    limits = tmp_path / 'limits.yaml'
-    limits.write_text(LIMITS_YAML)
-    planner = {'kinematics': 'model', 'model_file': vr.ur5_urdf(),
-               'joint_limits_file': str(limits), 'tool_frame': 'tool0', **ALL_FROM_MODEL}
-    with InProcessSystem(planner, {'model_file': vr.ur5_urdf(), 'joint_names': ['']}) \
-            as system:
+    with ur5_system(tmp_path) as system:
         first = len(system.planner_status)
         for path, reason in ((str(tmp_path), 'is a directory'), ('/dev/zero', 'not a regular')):
             result, = system.set_planner_parameters({'model_file': path})
