@@ -27,6 +27,7 @@ from ..arm.chain_tip import chain_tips
 from ..arm.inverse_kinematics import ModelKinematics
 from ..arm.joint_limits_file import JointLimits, read_joint_limits_file, resolve_limits
 from ..arm.robot_model import load_robot_model, MAX_DESCRIPTION_CHARS, RobotModel
+from ..arm.user_text import show_path
 
 # The parameters a RobotSetup is built from: a change to any other one (method,
 # timing, ...) never rebuilds the robot.
@@ -95,7 +96,7 @@ def description_source(config, description=None):
 
 def check_model_file(path):
     """Raise ValueError unless ``path`` is a regular file of an acceptable size (cheap)."""
-    where = f'model_file {path!r}'
+    where = f'model_file {show_path(path)}'
     if os.path.isdir(path):
         raise ValueError(f'{where} is a directory, not a URDF or MJCF file')
     if not os.path.exists(path):
