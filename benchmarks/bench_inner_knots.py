@@ -13,6 +13,13 @@ limit held (exact peaks).  Then the paper's example (its boundary values)
 and the planning time at 100 x 7 and 1000 x 7 against TOPP-RA's on the same
 request, each timed in turn in this run.
 
+Smoothness next to speed (issue 23): for j = 20 a, every plan's shaking of
+a lightly damped mode at 4 and 8 Hz on every joint (``shaking.py``: peak
+while moving and residual after the end, each divided by TOPP-RA's on the
+same case), for knots only, the default, and ``vibration_frequency=4``;
+medians over the cases, and the same figures on the 100 x 7 and 1000 x 7
+requests.
+
 Usage: ``python benchmarks/bench_inner_knots.py [inner_knots]`` (default: plan()'s).
 """
 
@@ -23,14 +30,30 @@ import time
 
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but the rule holds
 
-from bench_planning import toppra_plan  # noqa: E402, I100
+from bench_planning import toppra_trajectory  # noqa: E402, I100
 import numpy as np  # noqa: E402, I100
+from shaking import FREQUENCIES, of_toppra, of_trajectory, shaking_figures  # noqa: E402
 from splines445_ros.arm import paper_example as pe  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
 
 SEED = 17
 N_CASES = 20
 JERK_RATIOS = (None, 20.0, 5.0)
+# The plans whose shaking is measured (j = 20 a), as plan() keywords.
+SHAKEN = (('inner_knots=0', {'inner_knots': 0}), ('default', {}),
+          ('vibration_frequency=4', {'vibration_frequency': 4.0}))
+SHAKING_JERK = 20.0
+
+
+def shaking_ratios(traj, reference, amax):
+    """[4 Hz peak, 4 Hz residual, 8 Hz peak, 8 Hz residual] of ``traj`` / ``reference``'s."""
+    ours = shaking_figures(of_trajectory(traj), traj.duration, amax)
+    return [ours[f][k] / reference[f][k] for f in FREQUENCIES for k in (0, 1)]
+
+
+def shaking_header():
+    """Column names of :func:`shaking_ratios`."""
+    return ' | '.join(f'{f:g} Hz {kind}' for f in FREQUENCIES for kind in ('peak', 'residual'))
 
 
 def timed(func):
@@ -97,10 +120,20 @@ def main():
     after = {r: [] for r in JERK_RATIOS}
     speed = {r: [] for r in JERK_RATIOS}
     held = dict.fromkeys(JERK_RATIOS, True)
+    shaken = {name: [] for name, _ in SHAKEN}
     bounds = []
     for case in range(N_CASES):
         waypoints, vmax, amax = random_case(rng)
-        t_top, d_top = timed(lambda: toppra_plan(waypoints, vmax, amax))
+        t_top, top = timed(lambda: toppra_trajectory(waypoints, vmax, amax))
+        d_top = top.duration
+        reference = shaking_figures(of_toppra(top), d_top, amax)
+        kwargs = {'max_velocity': vmax, 'max_acceleration': amax,
+                  'max_jerk': SHAKING_JERK * amax}
+        for shaken_name, extra in SHAKEN:
+            elapsed, traj = timed(lambda: plan(waypoints, '555', 'optimal', **kwargs, **extra))
+            shaken[shaken_name].append([traj.duration / d_top]
+                                       + shaking_ratios(traj, reference, amax)
+                                       + [elapsed / t_top])
         bounds.append(lower_bound(waypoints, vmax, amax) / d_top)
         cells = []
         for ratio in JERK_RATIOS:
@@ -130,6 +163,19 @@ def main():
               f'| {np.median(speed[ratio]):.2f} / {np.max(speed[ratio]):.2f} '
               f'| {held[ratio]} | {np.median(bounds):.3f} |')
     print()
+    print(f'Speed and shaking, j = {SHAKING_JERK:g} a: medians over the cases of each plan / '
+          'TOPP-RA on the same case (shaking: peak while moving, residual after the end; '
+          'benchmarks/shaking.py)')
+    print('| plan | duration: median / worst | ' + shaking_header()
+          + ' | planning time: median / worst |')
+    print('|' + '---|' * (3 + 2 * len(FREQUENCIES)))
+    for shaken_name, rows in shaken.items():
+        rows = np.array(rows)
+        median = np.median(rows, axis=0)
+        print(f'| {shaken_name} | {median[0]:.3f} / {np.max(rows[:, 0]):.3f} | '
+              + ' | '.join(f'{value:.2f}' for value in median[1:-1])
+              + f' | {median[-1]:.2f} / {np.max(rows[:, -1]):.2f} |')
+    print()
     kwargs = pe.plan_kwargs()
     for knots in (0, inner):
         times = []
@@ -144,18 +190,22 @@ def main():
     print()
     print('Random walks x 7 joints, v = 2, a = 10, j = 200 (TOPP-RA: v/a), one run each in turn:')
     print('| N x n | TOPP-RA [s] | inner_knots=0 [s] | inner knots [s] | TOPP-RA planning [s] '
-          '| inner knots planning [s] | planning / TOPP-RA planning |')
-    print('|---|---|---|---|---|---|---|')
+          '| inner knots planning [s] | planning / TOPP-RA planning | '
+          + shaking_header() + ' (/ TOPP-RA) |')
+    print('|' + '---|' * (7 + 2 * len(FREQUENCIES)))
     for n_points in (100, 1000):
         waypoints = np.cumsum(rng.uniform(-1.0, 1.0, (n_points, 7)), axis=0)
         vmax, amax = np.full(7, 2.0), np.full(7, 10.0)
         kwargs = {'max_velocity': vmax, 'max_acceleration': amax, 'max_jerk': 20.0 * amax}
-        t_top, d_top = timed(lambda: toppra_plan(waypoints, vmax, amax))
+        t_top, top = timed(lambda: toppra_trajectory(waypoints, vmax, amax))
+        d_top = top.duration
         elapsed, traj = timed(lambda: plan(waypoints, '555', 'optimal', inner_knots=inner,
                                            **kwargs))
         knots_only = plan(waypoints, '555', 'optimal', inner_knots=0, **kwargs)
+        shaking = shaking_ratios(traj, shaking_figures(of_toppra(top), d_top, amax), amax)
         print(f'| {n_points} x 7 | {d_top:.2f} | {knots_only.duration:.2f} '
-              f'| {traj.duration:.2f} | {t_top:.2f} | {elapsed:.2f} | {elapsed / t_top:.2f} |')
+              f'| {traj.duration:.2f} | {t_top:.2f} | {elapsed:.2f} | {elapsed / t_top:.2f} | '
+              + ' | '.join(f'{value:.2f}' for value in shaking) + ' |')
         sys.stdout.flush()
     return 0
 

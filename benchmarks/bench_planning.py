@@ -55,6 +55,11 @@ def random_request(n_points, n_joints, rng):
 
 def toppra_plan(waypoints, vmax, amax):
     """TOPP-RA through the waypoints (toppra's spline path); returns its duration."""
+    return toppra_trajectory(waypoints, vmax, amax).duration
+
+
+def toppra_trajectory(waypoints, vmax, amax):
+    """TOPP-RA through the waypoints (toppra's spline path); returns its trajectory."""
     import toppra
     import toppra.algorithm
     import toppra.constraint
@@ -64,8 +69,7 @@ def toppra_plan(waypoints, vmax, amax):
                        np.column_stack([-amax, amax]))]
     instance = toppra.algorithm.TOPPRA(constraints, path,
                                        parametrizer='ParametrizeConstAccel')
-    trajectory = instance.compute_trajectory()
-    return trajectory.duration
+    return instance.compute_trajectory()
 
 
 def cubic_fit(waypoints):

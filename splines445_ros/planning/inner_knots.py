@@ -17,7 +17,14 @@ Construction (:func:`plan_with_inner_knots`):
 2. Speed along it.  The fastest path speed under the velocity and
    acceleration limits, each times a local factor ``lambda(s)``
    (:class:`path_velocity.PathLimits`, :data:`GRID_STEPS` grid steps per
-   segment).  It gives the time at which every waypoint is passed.
+   segment).  Rest to rest, the path position ``s(t)`` of that profile is
+   then averaged over moving windows (:func:`smoothing_windows`; issue 23):
+   a box of width ``W`` turns every jump of the path acceleration into a
+   ramp lasting ``W`` and removes the frequencies ``k / W`` (k = 1, 2, ...)
+   from the path acceleration, so the spline built on it does not ring and
+   does not shake an arm whose lowest mode is near them; the profile stays
+   on the path, still starts and ends at rest and lasts ``W`` longer.  It
+   gives the time at which every waypoint is passed.
 3. Knots.  Each segment gets ``m`` inner knots at equal time fractions, ``m``
    up to the requested count and fewer on short segments: a piece lasts at
    least :data:`RAMP_PIECES` jerk ramp times ``a / j`` (a C4 spline that
@@ -71,9 +78,17 @@ from .trajectory import _check_finite, representable_durations, Trajectory
 
 # Largest number of inner knots per segment accepted by plan().
 MAX_INNER_KNOTS = 8
-# The count used when plan() is not given one (555 optimal): the best
-# durations on the benchmark's random paths (bench_inner_knots.py).
-DEFAULT_INNER_KNOTS = 6
+# The count used when plan() is not given one (555 optimal): with the
+# default smoothing, 4 is as short as 6 and 8 on the benchmark's random paths
+# and shakes the arm least (bench_inner_knots.py, issue 23).
+DEFAULT_INNER_KNOTS = 4
+# Step 2's moving window [s] when no vibration frequency is given: a box of
+# 0.25 s has zeros at 4, 8, 12, ... Hz and passes at most 22 % of any
+# frequency above 4 Hz, the range where arms' first structural modes sit.
+DEFAULT_SMOOTHING = 0.25
+# A vibration frequency above this [Hz] is refused (its window would be
+# shorter than a servo cycle of 1 ms).
+MAX_VIBRATION_FREQUENCY = 1000.0
 # Grid steps per segment of the speed profile (step 2).
 GRID_STEPS = 24
 # A piece lasts at least this many jerk ramp times a / j (step 3).
@@ -101,6 +116,115 @@ RECOUNTS = 2
 OUTLIER = 1.01
 # Safety factor on exact restoring factors against round-off.
 _ROUNDOFF = 1.0 + 1e-12
+
+
+def vibration_frequency_value(value, inner_knots):
+    """
+    Validate the ``vibration_frequency`` argument of plan() [Hz]; return it as a float.
+
+    None and 0 mean "not given" (the default smoothing).  Otherwise a finite
+    number in (0, :data:`MAX_VIBRATION_FREQUENCY`], which needs inner knots
+    (555 optimal): the other timings have no profile to shape.
+    """
+    if value is None:
+        return 0.0
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ValueError(f'vibration_frequency must be a number [Hz], got {type(value).__name__}')
+    value = float(value)
+    if not (np.isfinite(value) and 0.0 <= value <= MAX_VIBRATION_FREQUENCY):
+        raise ValueError(f'vibration_frequency must be between 0 (not used) and '
+                         f'{MAX_VIBRATION_FREQUENCY:g} Hz, got {value:.6g}')
+    if value and not inner_knots:
+        raise ValueError('vibration_frequency needs method "555" with timing "optimal" and '
+                         'inner_knots > 0: the other timings have no speed profile to shape')
+    return value
+
+
+def smoothing_windows(vibration_frequency):
+    """
+    Return the moving windows [s] of step 2 for a ``vibration_frequency`` [Hz] (0: not given).
+
+    Not given: one box of :data:`DEFAULT_SMOOTHING`.  Given ``f``: two boxes
+    of ``1 / f``, a double zero of the path acceleration's spectrum at ``f``
+    (and at its multiples), so that the zero survives the small change of
+    time scale of step 5 and the mode's damping; it costs about one more
+    period ``1 / f`` than a single box.
+    """
+    if vibration_frequency:
+        return (1.0 / vibration_frequency,) * 2
+    return (DEFAULT_SMOOTHING,)
+
+
+class _Timing:
+    """
+    The profile's path position in time, ``s(t)``, averaged over moving windows (step 2).
+
+    Within a grid step ``u`` is constant, so ``s(t)`` is a quadratic there
+    (:func:`path_velocity.path_position`), ``s = 0`` before the start and
+    the path's end after it.  One average over ``[t - W, t]`` is
+    ``(S1(t) - S1(t - W)) / W`` with ``S1`` the antiderivative; k windows
+    are the alternating sum of the k-th antiderivative over the 2**k
+    combinations of shifts, divided by the widths' product.  The
+    antiderivatives are exact polynomials per step, so positions are exact
+    to round-off.
+    """
+
+    def __init__(self, times, x, s, widths):
+        self.times, self.s = times, s
+        self.widths = [w for w in np.atleast_1d(widths) if w > 0.0]
+        self.root = np.sqrt(np.maximum(x, 0.0))
+        u = np.diff(x) / (2.0 * np.diff(s))
+        h = np.diff(times)
+        # Polynomial coefficients in tau = t - t_i of s and of its k-th
+        # antiderivatives on every step; the last row holds s beyond the end.
+        poly = np.zeros((s.size, 3 + len(self.widths)))
+        poly[:-1, 0], poly[:-1, 1], poly[:-1, 2] = s[:-1], self.root[:-1], u / 2.0
+        poly[-1, 0] = s[-1]
+        powers = np.arange(poly.shape[1])
+        for _ in self.widths:
+            poly = np.concatenate([np.zeros((s.size, 1)), poly[:, :-1] / powers[1:]], axis=1)
+            ends = np.sum(poly[:-1] * h[:, None] ** powers, axis=1)
+            poly[:, 0] = np.concatenate([[0.0], np.cumsum(ends)])
+        self.poly = poly
+        self.duration = times[-1] + sum(self.widths)
+        if self.widths:
+            samples = times[None, :]
+            for w in self.widths:
+                samples = np.concatenate([samples, samples + w])
+            mid = 0.5 * (samples[:, 1:] + samples[:, :-1])
+            self._t = np.unique(np.concatenate([samples.ravel(), mid.ravel()]))
+            self._s = np.maximum.accumulate(self.position_at(self._t))
+
+    def _antiderivative(self, t):
+        t = np.asarray(t, float)
+        i = np.clip(np.searchsorted(self.times, t, side='right') - 1, 0, self.s.size - 1)
+        tau = t - self.times[i]
+        value = self.poly[i, -1]
+        for k in range(self.poly.shape[1] - 2, -1, -1):
+            value = value * tau + self.poly[i, k]
+        return np.where(t > 0.0, value, 0.0)
+
+    def position_at(self, t):
+        """Return the path position at the times ``t``."""
+        if not self.widths:
+            return path_position(self.times, self.root ** 2, self.s, t)
+        t = np.asarray(t, float)
+        # Repeated moving averages: differences of the k-th antiderivative.
+        total = np.zeros_like(t)
+        n = len(self.widths)
+        for subset in range(1 << n):
+            shift = sum(w for k, w in enumerate(self.widths) if subset >> k & 1)
+            sign = -1.0 if bin(subset).count('1') % 2 else 1.0
+            total += sign * self._antiderivative(t - shift)
+        return np.clip(total / np.prod(self.widths), 0.0, self.s[-1])
+
+    def time_at(self, s):
+        """Return the times at which the path positions ``s`` are passed."""
+        if not self.widths:
+            return np.interp(s, self.s, self.times)
+        out = np.interp(s, self._s, self._t)
+        out[-1] = self.duration
+        return out
 
 
 def inner_knot_count(value, method, timing):
@@ -164,10 +288,11 @@ class _Path:
     the ``most`` inner knots per segment.
     """
 
-    def __init__(self, points, boundary, limits, most, end_share=1.0):
+    def __init__(self, points, boundary, limits, most, windows, end_share=1.0):
         """Build the path through ``points`` with ``boundary`` values."""
         self.points = points
         self.most = most
+        self.windows = windows
         self.start = 1.0 if np.any(boundary[0]) or np.any(boundary[1]) else 0.0
         self.end = 1.0 if np.any(boundary[2]) or np.any(boundary[3]) else 0.0
         durations = rest_to_rest_durations(points, limits)
@@ -202,11 +327,14 @@ class _Candidate:
         """Build the candidate; ``counts`` (S,) inner knots per segment, or None to choose them."""
         self.valid = False
         self.local = local
+        self.grid_s = path.s
         x = path.limits.profile(local, path.start, path.end)
         self.times = traversal_times(x, path.steps)
         if not np.all(np.isfinite(self.times)) or not self.times[-1] > 0.0:
             return
-        passed = self.times[::GRID_STEPS]
+        timing = _Timing(self.times, x, path.s, path.windows if rest else ())
+        passed = timing.time_at(path.s[::GRID_STEPS])
+        passed[0] = 0.0
         if counts is None:
             counts = knots_per_segment(np.diff(passed), limits, path.most)
         self.counts = counts
@@ -217,7 +345,8 @@ class _Candidate:
         pieces = np.diff(self.knot_times)
         if not np.all(pieces > 0.0):
             return
-        self.positions = path.ppoly(path_position(self.times, x, path.s, self.knot_times))
+        self.knot_s = timing.position_at(self.knot_times)
+        self.positions = path.ppoly(self.knot_s)
         self.positions[self.waypoint_knots] = path.points
         try:
             coeffs = spline_coefficients('555', self.positions, pieces, boundary)
@@ -246,12 +375,13 @@ class _Candidate:
     def relaxed(self, local):
         """Step 6: ``local`` divided by each piece's factor on that piece's grid points."""
         piece_factor = np.max(self.factors, axis=1)
-        piece_of = np.clip(np.searchsorted(self.knot_times, self.times, side='right') - 1, 0,
+        piece_of = np.clip(np.searchsorted(self.knot_s, self.grid_s, side='right') - 1, 0,
                            piece_factor.size - 1)
         return np.clip(local / piece_factor[piece_of] ** RELAX, MIN_LOCAL_FACTOR, 1.0)
 
 
-def plan_with_inner_knots(points, boundary, limits, most, dropped_waypoints=()):
+def plan_with_inner_knots(points, boundary, limits, most, dropped_waypoints=(),
+                          windows=(DEFAULT_SMOOTHING,)):
     """
     Return the 555 optimal Trajectory with up to ``most`` inner knots per segment, or None.
 
@@ -270,7 +400,7 @@ def plan_with_inner_knots(points, boundary, limits, most, dropped_waypoints=()):
     rest = not any(np.any(b) for b in boundary)
     for share in (1.0,) if rest else (1.0,) + END_SEGMENT_SHARES:
         try:
-            path = _Path(points, boundary, limits, most, share)
+            path = _Path(points, boundary, limits, most, windows, share)
         except ValueError:
             continue
         best, iterations = _construct(path, boundary, limits, rest)
@@ -279,7 +409,8 @@ def plan_with_inner_knots(points, boundary, limits, most, dropped_waypoints=()):
         traj = _trajectory(points, boundary, limits, rest, best, dropped_waypoints,
                            {'inner_knots': most, 'knots': int(best.pieces.size + 1),
                             'inner_knots_per_segment': best.counts.tolist(),
-                            'iterations': iterations, 'end_segment_share': share})
+                            'iterations': iterations, 'end_segment_share': share,
+                            'smoothing_windows': list(windows) if rest else []})
         if traj is not None:
             return traj
     return None

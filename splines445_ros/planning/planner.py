@@ -2,7 +2,8 @@
 
 import numpy as np
 
-from .inner_knots import inner_knot_count, plan_with_inner_knots
+from .inner_knots import (inner_knot_count, plan_with_inner_knots, smoothing_windows,
+                          vibration_frequency_value)
 from .limits import check_boundary_feasible, JointLimits
 from .methods import get_method
 from .optimal import optimal_durations
@@ -75,7 +76,7 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
          start_velocity=None, start_acceleration=None,
          end_velocity=None, end_acceleration=None,
          waypoint_tolerance=DEFAULT_WAYPOINT_TOLERANCE, min_position=None, max_position=None,
-         inner_knots=None):
+         inner_knots=None, vibration_frequency=None):
     """
     Plan a trajectory through ``waypoints`` (N, n_joints).
 
@@ -131,15 +132,24 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         no spline with inner knots is found (non-zero boundary values it
         cannot keep within the limits), the knots-only optimum is returned
         and ``optimizer['inner_knots']`` is 0.
+    vibration_frequency : float >= 0 [Hz], or None
+        The arm's lowest structural mode, for 555 optimal with inner knots:
+        the speed profile is averaged over two windows of ``1 / f``, so the
+        path acceleration has no content at ``f`` (:func:`inner_knots.
+        smoothing_windows`).  None or 0 (the default): one window of
+        :data:`inner_knots.DEFAULT_SMOOTHING`.  Rest-to-rest requests only:
+        with non-zero boundary values the profile is not averaged
+        (``optimizer['smoothing_windows']`` is then empty).
 
     """
     if not isinstance(timing, str) or timing not in TIMINGS:
         raise ValueError(f'unknown timing {timing!r}: expected one of {TIMINGS}')
     inner_knots = inner_knot_count(inner_knots, get_method(method).name, timing)
+    windows = smoothing_windows(vibration_frequency_value(vibration_frequency, inner_knots))
     with np.errstate(over='ignore', invalid='ignore', divide='ignore', under='ignore'):
         traj = _plan(waypoints, method, timing, durations, max_velocity, max_acceleration,
                      max_jerk, (start_velocity, start_acceleration, end_velocity,
-                                end_acceleration), waypoint_tolerance, inner_knots)
+                                end_acceleration), waypoint_tolerance, inner_knots, windows)
         check_position_limits(traj, min_position, max_position)
     return traj
 
@@ -179,7 +189,7 @@ def check_position_limits(traj, min_position=None, max_position=None, joint_name
 
 
 def _plan(waypoints, method, timing, durations, max_velocity, max_acceleration, max_jerk,
-          boundary, waypoint_tolerance, inner_knots):
+          boundary, waypoint_tolerance, inner_knots, windows):
     method = get_method(method).name
     points = waypoint_array(waypoints)
     n = points.shape[1]
@@ -209,7 +219,8 @@ def _plan(waypoints, method, timing, durations, max_velocity, max_acceleration, 
         # A dropped waypoint's segment joins the one before it.
         start = np.diff(np.delete(np.concatenate([[0.0], np.cumsum(start)]), dropped))
     if inner_knots:
-        refined = plan_with_inner_knots(points, boundary, limits, inner_knots, dropped)
+        refined = plan_with_inner_knots(points, boundary, limits, inner_knots, dropped,
+                                        windows)
         if refined is not None:
             return _with_knots_only_rival(refined, method, points, start, boundary, limits,
                                           dropped)
