@@ -31,7 +31,7 @@ FREQUENCIES = (4.0, 8.0)
 
 
 def oscillator(acceleration, frequency, zeta=ZETA, rate=RATE):
-    """Return the mode's deflection (T, n) driven by ``acceleration`` (T, n) sampled at ``rate``."""
+    """Return the deflection (T, n) driven by ``acceleration`` (T, n) sampled at ``rate``."""
     w = 2.0 * np.pi * frequency
     num, den, _ = cont2discrete(([-1.0], [1.0, 2.0 * zeta * w, w * w]), 1.0 / rate,
                                 method='zoh')
