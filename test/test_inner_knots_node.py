@@ -48,8 +48,22 @@ def test_555_optimal_request_uses_inner_knots_and_reports_knots():
     assert summary_values(knots_only, config().joint_names)['knots'] == len(WAYPOINTS)
 
 
-def test_the_default_is_six_inner_knots_at_most():
-    assert PlannerConfig().inner_knots == 6
+def test_the_default_is_four_inner_knots_at_most():
+    # The documented default (doc/nodes.md, issue 23), the same as plan()'s.
+    assert PlannerConfig().inner_knots == 4
+    traj = plan_request(config(inner_knots=PlannerConfig().inner_knots), request())
+    assert traj.optimizer['inner_knots'] == 4
+
+
+def test_vibration_frequency_reaches_plan_and_is_refused_where_it_would_be_ignored():
+    traj = plan_request(config(vibration_frequency=5.0), request())
+    assert traj.optimizer['smoothing_windows'] == [0.2, 0.2]
+    assert plan_request(config(), request()).optimizer['smoothing_windows'] == [0.25]
+    for overrides in ({'method': '445'}, {'timing': 'uniform'}, {'inner_knots': 0},
+                      {'vibration_frequency': -1.0}, {'vibration_frequency': float('nan')},
+                      {'vibration_frequency': 1e4}):
+        with pytest.raises(ValueError, match='vibration_frequency'):
+            config(**dict({'vibration_frequency': 4.0}, **overrides)).validate()
 
 
 @pytest.mark.parametrize('overrides', [{'method': '445'}, {'timing': 'uniform'}])

@@ -91,7 +91,7 @@ import numpy as np
 
 from . import rotations as rot
 from ..planning import merge_duplicates, plan
-from ..planning.inner_knots import inner_knot_count
+from ..planning.inner_knots import inner_knot_count, vibration_frequency_value
 from ..planning.methods import get_method
 
 GRID = 24
@@ -491,6 +491,9 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
     inner_knots = inner_knot_count(plan_kwargs.pop('inner_knots', None),
                                    get_method(method).name, timing)
     plan_kwargs['inner_knots'] = 0
+    # vibration_frequency shapes the inner-knot timing only.
+    vibration = vibration_frequency_value(plan_kwargs.pop('vibration_frequency', None),
+                                          inner_knots)
     request = tool_pose_array(poses)
     tol_position = _tolerance('max_deviation', max_deviation)
     tol_orientation = _tolerance('max_orientation_deviation', max_orientation_deviation)
@@ -544,7 +547,8 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
             if inner_knots:
                 traj, deviation = _with_inner_knots(
                     traj, deviation, knot_joints, kinematics, edge_poses, segment_edges,
-                    (tol_position, tol_orientation), method, timing, inner_knots, plan_kwargs)
+                    (tol_position, tol_orientation), method, timing, inner_knots,
+                    dict(plan_kwargs, vibration_frequency=vibration))
             return ToolPath(traj, knots, knot_joints, _knot_of_waypoint(
                 waypoint_knots, segment_edges, len(knots)), segment_edges, inserted,
                 deviation, initial[0], initial[1], iteration)

@@ -16,7 +16,8 @@ from ..arm.joint_limits_file import check_limit_value
 from ..arm.kinematics import PlanarArm
 from ..arm.user_text import show
 from ..planning import DEFAULT_WAYPOINT_TOLERANCE, METHODS, TIMINGS
-from ..planning.inner_knots import DEFAULT_INNER_KNOTS, MAX_INNER_KNOTS
+from ..planning.inner_knots import (DEFAULT_INNER_KNOTS, MAX_INNER_KNOTS,
+                                    MAX_VIBRATION_FREQUENCY)
 
 DEFAULT_JOINTS = ('joint1', 'joint2', 'joint3')
 # The planar arm's (and a joint-space planner's) limits when none are set.
@@ -62,6 +63,7 @@ class PlannerConfig(ValidatedConfig):
     max_position: Tuple[float, ...] = ()
     output: str = 'sampled'
     inner_knots: int = DEFAULT_INNER_KNOTS
+    vibration_frequency: float = 0.0
     # kinematics "model": a robot description (see nodes/robot_description.py).
     model_file: str = ''
     tool_frame: str = ''
@@ -152,6 +154,12 @@ class PlannerConfig(ValidatedConfig):
         if not 0 <= self.inner_knots <= MAX_INNER_KNOTS:
             raise ValueError(f'inner_knots = {self.inner_knots}: must be in '
                              f'[0, {MAX_INNER_KNOTS}]')
+        self.require_in_range('vibration_frequency', 0.0, MAX_VIBRATION_FREQUENCY, 'Hz')
+        if self.vibration_frequency and not self.plan_inner_knots():
+            raise ValueError(f'vibration_frequency = {self.vibration_frequency:g} Hz needs '
+                             'method "555" with timing "optimal" and inner_knots > 0 (got '
+                             f'method {show(self.method)}, timing {show(self.timing)}, '
+                             f'inner_knots {self.inner_knots}); 0 = not used')
         if self.max_trajectory_points < 2:
             raise ValueError(f'max_trajectory_points = {self.max_trajectory_points}: must be '
                              'at least 2')

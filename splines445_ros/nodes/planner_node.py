@@ -106,10 +106,15 @@ PARAMETER_DESCRIPTIONS = {
               'quintic interpolation of joint_trajectory_controller between them reproduces '
               'the planned trajectory).',
     'inner_knots': 'Most inner knots per segment for method "555" with timing "optimal", '
-                   'in [0, 8] (default 6; fewer on segments shorter than a few jerk ramp '
+                   'in [0, 8] (default 4; fewer on segments shorter than a few jerk ramp '
                    'times a/j): a C4 spline with knots between the waypoints too, about '
                    'the duration of TOPP-RA with the jerk limits held; 0 = knots at the '
                    'waypoints only (longer). Ignored by other methods and timings.',
+    'vibration_frequency': "The arm's lowest structural mode [Hz] for method 555 with "
+                           'timing "optimal" (inner_knots > 0): the speed profile is '
+                           'averaged over two windows of 1/f so the plan does not excite '
+                           'it (about one period longer than the default). 0 (default) = '
+                           'not used: one window of 0.25 s. Rest-to-rest requests only.',
     'model_file': 'kinematics "model": URDF or MJCF file of the robot; empty = the '
                   'robot_description topic.',
     'tool_frame': 'kinematics "model": the tool frame (URDF link, MJCF body or site) of '

@@ -55,7 +55,8 @@ def plan_request(config, request):
                 start_acceleration=request.start_acceleration,
                 end_velocity=request.end_velocity, end_acceleration=request.end_acceleration,
                 waypoint_tolerance=config.waypoint_tolerance,
-                inner_knots=config.plan_inner_knots())
+                inner_knots=config.plan_inner_knots(),
+                vibration_frequency=config.vibration_frequency)
     check_position_limits(traj, **config.position_limits())
     if not traj.within_limits(rtol=FIXED_TIMING_RTOL):
         b = traj.binding
@@ -106,7 +107,8 @@ def plan_tool_poses(config, poses, kinematics):
                                method=config.method, timing=config.timing,
                                max_velocity=config.max_velocity,
                                max_acceleration=config.max_acceleration,
-                               max_jerk=config.jerk_limits())
+                               max_jerk=config.jerk_limits(),
+                               vibration_frequency=config.vibration_frequency)
     check_position_limits(tool_path.trajectory, **config.position_limits())
     return tool_path
 
