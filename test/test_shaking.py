@@ -1,6 +1,8 @@
 """
-Fast and smooth (issue 23): the default must not shake a flexible arm, and
-``vibration_frequency`` must keep the residual vibration at that frequency down.
+Fast and smooth (issue 23): the default and ``vibration_frequency`` against shaking.
+
+The default must not shake a flexible arm, and ``vibration_frequency`` must
+keep the residual vibration at that frequency down.
 
 The arm's mode is this test's own: a lightly damped oscillator base-excited
 by each joint's acceleration, its response computed as Duhamel's convolution
@@ -89,7 +91,7 @@ def test_the_default_shakes_much_less_than_without_its_smoothing():
 
 
 def rough_plan(points, vmax, amax, inner_knots):
-    """The inner-knot construction without smoothing windows (before issue 23)."""
+    """Plan with the inner-knot construction without smoothing windows (before issue 23)."""
     limits = JointLimits.from_user(points.shape[1], vmax, amax, 20.0 * amax)
     return plan_with_inner_knots(points, (np.zeros(points.shape[1]),) * 4, limits,
                                  inner_knots or 4, windows=())
