@@ -170,15 +170,18 @@ class _Timing:
     """
 
     def __init__(self, times, x, s, widths):
-        self.times, self.s = times, s
-        self.widths = [w for w in np.atleast_1d(widths) if w > 0.0]
-        self.root = np.sqrt(np.maximum(x, 0.0))
-        u = np.diff(x) / (2.0 * np.diff(s))
-        h = np.diff(times)
+        self.times, self.x, self.s = times, x, s
+        self.widths = list(widths)
+        self.duration = times[-1] + sum(self.widths)
+        if not self.widths:
+            return
         # Polynomial coefficients in tau = t - t_i of s and of its k-th
         # antiderivatives on every step; the last row holds s beyond the end.
+        h = np.diff(times)
         poly = np.zeros((s.size, 3 + len(self.widths)))
-        poly[:-1, 0], poly[:-1, 1], poly[:-1, 2] = s[:-1], self.root[:-1], u / 2.0
+        poly[:-1, 0] = s[:-1]
+        poly[:-1, 1] = np.sqrt(np.maximum(x[:-1], 0.0))
+        poly[:-1, 2] = np.diff(x) / (4.0 * np.diff(s))  # u / 2
         poly[-1, 0] = s[-1]
         powers = np.arange(poly.shape[1])
         for _ in self.widths:
@@ -186,17 +189,14 @@ class _Timing:
             ends = np.sum(poly[:-1] * h[:, None] ** powers, axis=1)
             poly[:, 0] = np.concatenate([[0.0], np.cumsum(ends)])
         self.poly = poly
-        self.duration = times[-1] + sum(self.widths)
-        if self.widths:
-            samples = times[None, :]
-            for w in self.widths:
-                samples = np.concatenate([samples, samples + w])
-            mid = 0.5 * (samples[:, 1:] + samples[:, :-1])
-            self._t = np.unique(np.concatenate([samples.ravel(), mid.ravel()]))
-            self._s = np.maximum.accumulate(self.position_at(self._t))
+        samples = times[None, :]
+        for w in self.widths:
+            samples = np.concatenate([samples, samples + w])
+        mid = 0.5 * (samples[:, 1:] + samples[:, :-1])
+        self._t = np.unique(np.concatenate([samples.ravel(), mid.ravel()]))
+        self._s = np.maximum.accumulate(self.position_at(self._t))
 
     def _antiderivative(self, t):
-        t = np.asarray(t, float)
         i = np.clip(np.searchsorted(self.times, t, side='right') - 1, 0, self.s.size - 1)
         tau = t - self.times[i]
         value = self.poly[i, -1]
@@ -207,7 +207,7 @@ class _Timing:
     def position_at(self, t):
         """Return the path position at the times ``t``."""
         if not self.widths:
-            return path_position(self.times, self.root ** 2, self.s, t)
+            return path_position(self.times, self.x, self.s, t)
         t = np.asarray(t, float)
         # Repeated moving averages: differences of the k-th antiderivative.
         total = np.zeros_like(t)
@@ -219,11 +219,17 @@ class _Timing:
         return np.clip(total / np.prod(self.widths), 0.0, self.s[-1])
 
     def time_at(self, s):
-        """Return the times at which the path positions ``s`` are passed."""
+        """
+        Return the times at which the path positions ``s`` (from the start to the end) are passed.
+
+        The ends are pinned to 0 and :attr:`duration`: at rest there, the
+        averaged samples repeat the end positions, where interpolation
+        would pick any of their times.
+        """
         if not self.widths:
             return np.interp(s, self.s, self.times)
         out = np.interp(s, self._s, self._t)
-        out[-1] = self.duration
+        out[0], out[-1] = 0.0, self.duration
         return out
 
 
@@ -329,12 +335,11 @@ class _Candidate:
         self.local = local
         self.grid_s = path.s
         x = path.limits.profile(local, path.start, path.end)
-        self.times = traversal_times(x, path.steps)
-        if not np.all(np.isfinite(self.times)) or not self.times[-1] > 0.0:
+        times = traversal_times(x, path.steps)
+        if not np.all(np.isfinite(times)) or not times[-1] > 0.0:
             return
-        timing = _Timing(self.times, x, path.s, path.windows if rest else ())
+        timing = _Timing(times, x, path.s, path.windows if rest else ())
         passed = timing.time_at(path.s[::GRID_STEPS])
-        passed[0] = 0.0
         if counts is None:
             counts = knots_per_segment(np.diff(passed), limits, path.most)
         self.counts = counts
