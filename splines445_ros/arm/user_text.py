@@ -54,6 +54,34 @@ def show_path(path):
     return show(path, PATH_CHARS)
 
 
+def check_text_file(path, where, max_bytes):
+    """
+    Raise ValueError unless ``path`` is a regular file of at most ``max_bytes`` bytes.
+
+    The cheap check before a slow load: the path is looked at (``stat``), not
+    opened or read; :func:`read_text_file` checks again what it opens.
+    """
+    try:
+        status = os.stat(path)
+    except FileNotFoundError:
+        raise ValueError(f'{where}: no such file') from None
+    except (OSError, ValueError, TypeError) as exc:
+        reason = exc.strerror if isinstance(exc, OSError) else clip(exc)
+        raise ValueError(f'{where}: cannot open it ({reason})') from None
+    _check_status(status, where, max_bytes)
+
+
+def _check_status(status, where, max_bytes):
+    """Raise ValueError unless ``status`` (os.stat_result) is a regular file of ``max_bytes``."""
+    if stat.S_ISDIR(status.st_mode):
+        raise ValueError(f'{where} is a directory, not a file')
+    if not stat.S_ISREG(status.st_mode):
+        raise ValueError(f'{where} is not a regular file (a device, pipe or socket)')
+    if status.st_size > max_bytes:
+        raise ValueError(f'{where} has {status.st_size} bytes, more than the {max_bytes} '
+                         'bytes accepted')
+
+
 def read_text_file(path, where, max_bytes):
     """
     Return the UTF-8 text of the regular file ``path`` (ValueError with the reason).
@@ -74,14 +102,7 @@ def read_text_file(path, where, max_bytes):
         reason = exc.strerror if isinstance(exc, OSError) else clip(exc)
         raise ValueError(f'{where}: cannot open it ({reason})') from None
     try:
-        status = os.fstat(fd)
-        if stat.S_ISDIR(status.st_mode):
-            raise ValueError(f'{where} is a directory, not a file')
-        if not stat.S_ISREG(status.st_mode):
-            raise ValueError(f'{where} is not a regular file (a device, pipe or socket)')
-        if status.st_size > max_bytes:
-            raise ValueError(f'{where} has {status.st_size} bytes, more than the {max_bytes} '
-                             'bytes accepted')
+        _check_status(os.fstat(fd), where, max_bytes)
         chunks, left = [], max_bytes + 1
         while left > 0:
             chunk = os.read(fd, min(left, 1 << 20))

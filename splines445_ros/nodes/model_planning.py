@@ -17,7 +17,6 @@ good setup.
 
 from dataclasses import dataclass, replace
 import math
-import os
 from typing import Optional
 
 import numpy as np
@@ -27,7 +26,7 @@ from ..arm.chain_tip import chain_tips
 from ..arm.inverse_kinematics import ModelKinematics
 from ..arm.joint_limits_file import JointLimits, read_joint_limits_file, resolve_limits
 from ..arm.robot_model import load_robot_model, MAX_DESCRIPTION_CHARS, RobotModel
-from ..arm.user_text import show_path
+from ..arm.user_text import check_text_file, show_path
 
 # The parameters a RobotSetup is built from: a change to any other one (method,
 # timing, ...) never rebuilds the robot.
@@ -96,17 +95,7 @@ def description_source(config, description=None):
 
 def check_model_file(path):
     """Raise ValueError unless ``path`` is a regular file of an acceptable size (cheap)."""
-    where = f'model_file {show_path(path)}'
-    if os.path.isdir(path):
-        raise ValueError(f'{where} is a directory, not a URDF or MJCF file')
-    if not os.path.exists(path):
-        raise ValueError(f'{where}: no such file')
-    if not os.path.isfile(path):
-        raise ValueError(f'{where} is not a regular file')
-    size = os.path.getsize(path)
-    if size > MAX_DESCRIPTION_CHARS:
-        raise ValueError(f'{where} has {size} bytes, more than the {MAX_DESCRIPTION_CHARS} '
-                         'accepted')
+    check_text_file(path, f'model_file {show_path(path)}', MAX_DESCRIPTION_CHARS)
 
 
 def load_model(source):
