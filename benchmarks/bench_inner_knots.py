@@ -32,7 +32,8 @@ os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but th
 
 from bench_planning import toppra_trajectory  # noqa: E402, I100
 import numpy as np  # noqa: E402, I100
-from shaking import FREQUENCIES, of_toppra, of_trajectory, shaking_figures  # noqa: E402
+from shaking import (FREQUENCIES, of_toppra, shaking_figures, shaking_header,  # noqa: E402
+                     shaking_ratios)
 from splines445_ros.arm import paper_example as pe  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
 
@@ -49,17 +50,6 @@ def shaking_row(traj, elapsed, reference, d_top, t_top, amax):
     """Duration, :func:`shaking_ratios` and planning time of ``traj``, each / TOPP-RA's."""
     return ([traj.duration / d_top] + shaking_ratios(traj, reference, amax)
             + [elapsed / t_top])
-
-
-def shaking_ratios(traj, reference, amax):
-    """[4 Hz peak, 4 Hz residual, 8 Hz peak, 8 Hz residual] of ``traj`` / ``reference``'s."""
-    ours = shaking_figures(of_trajectory(traj), traj.duration, amax)
-    return [ours[f][k] / reference[f][k] for f in FREQUENCIES for k in (0, 1)]
-
-
-def shaking_header():
-    """Column names of :func:`shaking_ratios`."""
-    return ' | '.join(f'{f:g} Hz {kind}' for f in FREQUENCIES for kind in ('peak', 'residual'))
 
 
 def timed(func):
@@ -152,8 +142,8 @@ def main():
                                                 vibration_frequency=VIBRATION_FREQUENCY,
                                                 **kwargs))
                 for row, planned, elapsed in (('inner_knots=0', knots_only, t0),
-                                            (f'inner_knots={name}', traj, t1),
-                                            (shaped_name, shaped, t2)):
+                                              (f'inner_knots={name}', traj, t1),
+                                              (shaped_name, shaped, t2)):
                     shaken[row].append(shaking_row(planned, elapsed, reference, d_top, t_top,
                                                    amax))
             cells.append(f'{before[ratio][-1]:.3f} ({t0 / t_top:.2f}) -> '

@@ -11,6 +11,9 @@ example, and the planning time of optimal timing against TOPP-RA's on the
 same 100 x 7 and 1000 x 7 requests (ratios from this run;
 SPLINES445_BENCH_QUICK=1 skips 1000 x 7).  555 optimal is plan()'s default,
 with inner knots (bench_inner_knots.py compares it with knots only).
+Next to every median duration: the median shaking of a lightly damped 4 and
+8 Hz mode on every joint, peak while moving and residual after the end, each
+divided by TOPP-RA's on the same request (``shaking.py``).
 """
 
 import logging
@@ -20,8 +23,9 @@ import time
 
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but the rule holds
 
-from bench_planning import toppra_plan  # noqa: E402, I100
+from bench_planning import toppra_plan, toppra_trajectory  # noqa: E402, I100
 import numpy as np  # noqa: E402, I100
+from shaking import of_toppra, shaking_figures, shaking_header, shaking_ratios  # noqa: E402
 from splines445_ros.arm import paper_example as pe  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
 
@@ -53,12 +57,15 @@ def main():
     print('|' + '---|' * (3 + len(keys)))
     ratios = {key: [] for key in keys}
     held = dict.fromkeys(keys, True)
+    shaking = {key: [] for key in keys}
     for case in range(N_CASES):
         n_joints = 3 if case % 2 == 0 else 7
         n_points = int(rng.integers(5, 51))
         waypoints = np.cumsum(rng.uniform(-1.0, 1.0, (n_points, n_joints)), axis=0)
         vmax, amax = np.full(n_joints, 2.0), np.full(n_joints, 10.0)
-        t_top, d_top = timed(lambda: toppra_plan(waypoints, vmax, amax))
+        t_top, top = timed(lambda: toppra_trajectory(waypoints, vmax, amax))
+        d_top = top.duration
+        reference = shaking_figures(of_toppra(top), d_top, amax)
         cells = []
         for key in keys:
             method, timing = key.split()
@@ -67,15 +74,18 @@ def main():
             ratio = traj.duration / d_top
             ratios[key].append(ratio)
             held[key] &= limits_held(traj)
+            shaking[key].append(shaking_ratios(traj, reference, amax))
             cells.append(f'{ratio:.2f} ({1e3 * elapsed:.0f})')
         print(f'| {case} | {n_points} x {n_joints} | {d_top:.2f} ({1e3 * t_top:.0f}) | '
               + ' | '.join(cells) + ' |')
         sys.stdout.flush()
     print()
-    print('| method, timing | median ratio to TOPP-RA | worst | all limits held |')
-    print('|---|---|---|---|')
+    print('| method, timing | median ratio to TOPP-RA | worst | all limits held | '
+          + shaking_header() + ' (medians / TOPP-RA) |')
+    print('|' + '---|' * 8)
     for key, values in ratios.items():
-        print(f'| {key} | {np.median(values):.3f} | {np.max(values):.3f} | {held[key]} |')
+        print(f'| {key} | {np.median(values):.3f} | {np.max(values):.3f} | {held[key]} | '
+              + ' | '.join(f'{v:.2f}' for v in np.median(shaking[key], axis=0)) + ' |')
     print()
     kwargs = pe.plan_kwargs()
     waypoints = pe.joint_waypoints()

@@ -60,6 +60,22 @@ def shaking_figures(acceleration_of, duration, max_acceleration, frequencies=FRE
     return {f: shaking(acceleration_of, duration, max_acceleration, f) for f in frequencies}
 
 
+def shaking_ratios(traj, reference, max_acceleration):
+    """
+    Return [4 Hz peak, 4 Hz residual, 8 Hz peak, 8 Hz residual] of ``traj`` / ``reference``'s.
+
+    ``traj`` is a splines445 Trajectory, ``reference`` the
+    :func:`shaking_figures` of the rival (TOPP-RA) on the same request.
+    """
+    ours = shaking_figures(of_trajectory(traj), traj.duration, max_acceleration)
+    return [ours[f][k] / reference[f][k] for f in FREQUENCIES for k in (0, 1)]
+
+
+def shaking_header():
+    """Return the column names of :func:`shaking_ratios`, as a Markdown row's middle."""
+    return ' | '.join(f'{f:g} Hz {kind}' for f in FREQUENCIES for kind in ('peak', 'residual'))
+
+
 def of_trajectory(traj):
     """``acceleration_of`` for a splines445 Trajectory."""
     return lambda t: traj.evaluate(np.minimum(t, traj.duration), 2)
