@@ -165,8 +165,11 @@ def test_a_urdf_joint_range_upside_down_or_not_finite_is_refused(lower, upper, m
         rm.load_robot_model(urdf_string=text)
 
 
-def test_a_urdf_range_of_one_position_holds_the_joint(ur5):
-    # MuJoCo drops a range with lower == upper (the joint would be unlimited).
+def test_a_urdf_range_of_one_position_holds_the_joint(ur5, tmp_path, monkeypatch):
+    # MuJoCo drops a range with lower == upper (the joint would be unlimited),
+    # and writes its warning to MUJOCO_LOG.TXT in the working directory: not
+    # into the checkout.
+    monkeypatch.chdir(tmp_path)
     robot = rm.load_robot_model(urdf_string=ur5_with_limit('elbow_joint', lower='0.5',
                                                            upper='0.5'))
     elbow = robot.joint('elbow_joint')
