@@ -19,6 +19,8 @@ from splines445_ros.planning import plan
 from splines445_ros.planning.continuity_system import spline_coefficients
 from splines445_ros.planning.inner_knots import DEFAULT_INNER_KNOTS, plan_with_inner_knots
 from splines445_ros.planning.limits import JointLimits
+from splines445_ros.planning.path_constraints import (GriddedPath, JointAcceleration,
+                                                      JointVelocity)
 from splines445_ros.planning.path_velocity import PathLimits, traversal_times
 from splines445_ros.planning.planner import SMALL_REQUEST
 
@@ -235,8 +237,10 @@ def test_speed_profile_of_a_straight_path_is_the_closed_form_optimum(distance, v
     """Along q(s) = d s / S the fastest rest-to-rest time is the trapezoid's (or triangle's)."""
     steps = np.full(400, 2.0 / 400)                       # s from 0 to S = 2
     first = np.full((401, 1), distance / 2.0)
-    x = PathLimits(first, np.zeros((401, 1)), steps, np.array([vmax]),
-                   np.array([amax])).profile(np.ones(401))
+    path = GriddedPath(np.linspace(0.0, 2.0, 401), np.zeros((401, 1)), first,
+                       np.zeros((401, 1)))
+    x = PathLimits(path, (JointVelocity([vmax]), JointAcceleration([amax]))).profile(
+        np.ones(401))
     if distance >= vmax * vmax / amax:
         expected = distance / vmax + vmax / amax
     else:
@@ -260,7 +264,8 @@ def test_speed_profile_meets_the_limits_on_curved_paths(seed):
     steps = np.diff(s)
     vmax, amax = rng.uniform(0.5, 3.0, n), rng.uniform(2.0, 20.0, n)
     scale = rng.uniform(0.5, 1.0, s.size)
-    x = PathLimits(path.ppoly(s, 1), path.ppoly(s, 2), steps, vmax, amax).profile(scale)
+    x = PathLimits(GriddedPath.of_ppoly(path.ppoly, s),
+                   (JointVelocity(vmax), JointAcceleration(amax))).profile(scale)
     assert x[0] == 0.0 and x[-1] == 0.0 and np.all(x >= 0.0)
     assert np.isfinite(traversal_times(x, steps)[-1])
     u = np.diff(x) / (2.0 * steps)                        # constant over each step

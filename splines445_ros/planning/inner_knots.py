@@ -72,6 +72,7 @@ import numpy as np
 
 from .continuity_system import spline_coefficients
 from .limits import limit_ratios
+from .path_constraints import GriddedPath, JointAcceleration, JointVelocity
 from .path_velocity import path_position, PathLimits, traversal_times
 from .timing import closed_form_scale, rest_to_rest_durations
 from .trajectory import _check_finite, representable_durations, Trajectory
@@ -314,8 +315,9 @@ class _Path:
         self.s = np.concatenate([(knots[:-1, None] + fractions * np.diff(knots)[:, None])
                                  .reshape(-1), knots[-1:]])
         self.steps = np.diff(self.s)
-        self.limits = PathLimits(self.ppoly(self.s, 1), self.ppoly(self.s, 2), self.steps,
-                                 limits.velocity, limits.acceleration)
+        self.limits = PathLimits(GriddedPath.of_ppoly(self.ppoly, self.s),
+                                 (JointVelocity(limits.velocity),
+                                  JointAcceleration(limits.acceleration)))
 
 
 class _Candidate:

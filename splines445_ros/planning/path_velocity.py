@@ -1,5 +1,5 @@
 """
-Time-optimal speed along a fixed joint path under velocity and acceleration limits.
+Time-optimal speed along a fixed joint path under first- and second-order constraints.
 
 A path ``q(s)`` (here the 555 spline through the waypoints, in its own
 time ``s``) is traversed at path speed ``sdot(t)``; with ``x = sdot**2`` and
@@ -15,6 +15,11 @@ constraint per joint the per-step problem is an interval, no LP) gives the
 largest ``x`` from which the end is still reachable (backward pass) and the
 fastest profile that stays within it (forward pass).
 
+The limits come as constraint objects (:mod:`path_constraints`): joint
+velocity and tool speed bound ``x``; joint acceleration and joint torque
+are rows ``lo <= a u + b x <= hi``, each giving ``u`` an interval whose ends
+are linear in ``x``.
+
 Only the ideas are used here: the spline later built from this profile
 (:mod:`inner_knots`) is what is checked exactly against the limits, jerk
 included, so this profile only needs to be a good reference.
@@ -25,63 +30,82 @@ scaling: velocity limit times ``scale``, acceleration times ``scale**2``).
 
 import numpy as np
 
-# |q'_j| below this (relative to the largest |q'|) counts as a joint at rest
-# on the path: only its q'' x term is limited.
+# A row's |a| below this (relative to the largest of its column, at least 1)
+# counts as a joint at rest on the path: only its b x term is limited.
 _AT_REST = 1e-12
 
 
 class PathLimits:
     """
-    The velocity and acceleration limits along one gridded path, ready for many profiles.
+    The constraints along one gridded path, ready for many profiles.
 
-    ``first``, ``second`` (M + 1, n) are ``q'`` and ``q''`` at the grid points
-    and ``steps`` (M,) the grid spacing in ``s``.  Every bound on ``x`` and
-    ``u`` is proportional to the square of the local factor (see the module
-    docstring), so they are prepared once for factor 1 and
-    :meth:`profile` only multiplies them.  Per step only the joints that can
-    bind are kept: a joint whose braking (or acceleration) line lies above
-    another joint's for every ``x >= 0`` never decides the step.
+    ``path`` is a :class:`path_constraints.GriddedPath` and ``constraints``
+    its constraint objects (first order: a bound on ``x``; second order:
+    rows ``lo <= a u + b x <= hi``).  Every bound is proportional to the
+    square of the local factor (see the module docstring), so they are
+    prepared once for factor 1 and :meth:`profile` only multiplies them.
+
+    A second-order row with ``a != 0`` bounds ``u`` between two lines in
+    ``x``: the upper ``u <= alpha x + beta`` (``beta >= 0``) and the lower
+    ``u >= gamma x + delta`` (``delta <= 0``); a row with ``a = 0`` (a joint
+    at rest on the path) bounds ``x`` alone.  Per step only the lines that
+    can bind are kept: a line lying above another for every ``x >= 0``
+    never decides the step.
     """
 
-    def __init__(self, first, second, steps, max_velocity, max_acceleration):
+    def __init__(self, path, constraints):
         """Prepare the bounds for factor 1."""
-        speed = np.abs(first)
-        moving = speed > _AT_REST * max(float(np.max(speed)), 1.0)
-        v, a = max_velocity[None, :], max_acceleration[None, :]
+        steps = np.diff(path.s)
+        x_max = np.full(path.s.size, np.inf)
+        a, b, lo, hi = [], [], [], []
+        for constraint in constraints:
+            if constraint.order == 1:
+                x_max = np.minimum(x_max, constraint.squared_speed_limit(path))
+            else:
+                for rows, part in zip((a, b, lo, hi), constraint.rows(path)):
+                    rows.append(np.asarray(part, float))
+        if a:
+            a, b, lo, hi = (np.concatenate(rows, axis=1) for rows in (a, b, lo, hi))
+        else:
+            a = b = lo = hi = np.zeros((path.s.size, 0))
+        if np.any(lo > 0.0) or np.any(hi < 0.0):
+            raise ValueError('a path-velocity constraint does not allow rest on the path')
+        # Relative to each column's largest |a|: below it, a row of a joint at rest.
+        scale = np.max(np.abs(a), axis=0, initial=0.0)
+        moving = np.abs(a) > _AT_REST * np.maximum(scale, 1.0)[None, :]
         with np.errstate(divide='ignore', invalid='ignore', over='ignore'):
-            safe = np.where(moving, speed, 1.0)
-            # Velocity limit: x <= (v / |q'|)^2.
-            x_max = np.min(np.where(moving, (v / safe) ** 2, np.inf), axis=1)
-            # Acceleration: u in [-c_j + g_j x, c_j + g_j x] for a moving joint.
-            c = np.where(moving, a / safe, np.inf)
-            g = np.where(moving, -second / np.where(moving, first, 1.0), 0.0)
-            # A joint at rest on the path: |q''| x <= a.
-            curvature = np.abs(second)
-            x_max = np.minimum(x_max, np.min(np.where(~moving & (curvature > 0.0),
-                                                      a / curvature, np.inf), axis=1))
-            # Those intervals intersect while (g_j - g_k) x <= c_j + c_k for all j, k.
-            dg = g[:, :, None] - g[:, None, :]
+            safe = np.where(moving, a, 1.0)
+            # A row at rest: lo <= b x <= hi.
+            x_max = np.minimum(x_max, np.min(np.where(~moving & (b > 0.0), hi / b, np.inf),
+                                             axis=1, initial=np.inf))
+            x_max = np.minimum(x_max, np.min(np.where(~moving & (b < 0.0), lo / b, np.inf),
+                                             axis=1, initial=np.inf))
+            # A moving row: u between (lo - b x) / a and (hi - b x) / a.
+            slope = np.where(moving, -b / safe, np.inf)
+            up = np.where(moving, np.where(a > 0.0, hi, lo) / safe, np.inf)
+            down = np.where(moving, np.where(a > 0.0, lo, hi) / safe, -np.inf)
+            # The lines intersect while (gamma_j - alpha_k) x <= beta_k - delta_j.
+            dg = slope[:, None, :] - slope[:, :, None]      # [i, k, j]: lower j - upper k
             both = moving[:, :, None] & moving[:, None, :] & (dg > 0.0)
-            cc = np.where(moving, c, 0.0)
-            pair = np.where(both, (cc[:, :, None] + cc[:, None, :])
-                            / np.where(both, dg, 1.0), np.inf)
-            self.x_max = np.minimum(x_max, np.min(pair, axis=(1, 2)))
-            # Backward pass: x_i is kept when its slowest braking reaches
-            # beta_{i+1}: x + 2 ds (-c_j + g_j x) <= beta_{i+1} for every joint j,
-            # i.e. x <= slope_j beta_{i+1} + offset_j.
+            gap = np.where(both, up[:, :, None] - down[:, None, :], 0.0)
+            pair = np.where(both, gap / np.where(both, dg, 1.0), np.inf)
+            self.x_max = np.minimum(x_max, np.min(pair, axis=(1, 2), initial=np.inf))
+            # Backward pass: x_i is kept when its hardest braking reaches
+            # beta_{i+1}: x + 2 ds (gamma_j x + delta_j) <= beta_{i+1} for
+            # every lower line j, i.e. x <= slope_j beta_{i+1} + offset_j.
             two_ds = 2.0 * steps[:, None]
-            denominator = 1.0 + two_ds * g[:-1]
+            denominator = 1.0 + two_ds * slope[:-1]
             binds = moving[:-1] & (denominator > 0.0)
-            slope = np.where(binds, 1.0 / np.where(binds, denominator, 1.0), np.inf)
-            offset = np.where(binds, two_ds * c[:-1] * slope, np.inf)
+            braking = np.where(binds, 1.0 / np.where(binds, denominator, 1.0), np.inf)
+            offset = np.where(binds, -two_ds * down[:-1] * braking, np.inf)
             # And the largest acceleration must not take x below 0:
-            # x + 2 ds (c_j + g_j x) >= 0, a bound on x where 1 + 2 ds g_j < 0.
+            # x + 2 ds (alpha_k x + beta_k) >= 0, a bound where 1 + 2 ds alpha_k < 0.
             falls = moving[:-1] & (denominator < 0.0)
             self.x_max[:-1] = np.minimum(self.x_max[:-1], np.min(
-                np.where(falls, two_ds * c[:-1] / np.where(falls, -denominator, 1.0), np.inf),
-                axis=1))
-        self._braking = _lower_envelopes(slope, offset)
-        self._accelerating = _lower_envelopes(np.where(moving, g, np.inf)[:-1], c[:-1])
+                np.where(falls, two_ds * up[:-1] / np.where(falls, -denominator, 1.0), np.inf),
+                axis=1, initial=np.inf))
+        self._braking = _lower_envelopes(braking, offset)
+        self._accelerating = _lower_envelopes(slope[:-1], up[:-1])
         self._two_ds = (2.0 * steps).tolist()
 
     def profile(self, scale, start=0.0, end=0.0):

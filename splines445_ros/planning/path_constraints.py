@@ -1,0 +1,167 @@
+"""
+The limits of the path-velocity step as constraint objects (issues 24 and 25).
+
+Along a gridded joint path ``q(s)`` traversed at path speed ``sdot``, with
+``x = sdot**2`` and ``u = sddot`` (:mod:`path_velocity`), every limit this
+package holds is one of two kinds at each grid point ``i``:
+
+* first order, a bound on the squared path speed alone: ``x <= x_max_i``
+  (joint velocity ``|q'_j| sdot <= v_j``; tool speed ``|p'(s)| sdot <= v``);
+* second order, rows ``lo <= a u + b x <= hi`` (joint acceleration
+  ``q' u + q'' x``; joint torque ``M q' u + (M q'' + C(q, q') q') x + g``,
+  whose constant ``g`` is moved into ``lo`` and ``hi``).
+
+Both are the canonical forms of Pham & Pham's TOPP-RA (their "first-order"
+and "canonical linear second-order" constraints); each object here gives its
+bounds per grid point and knows nothing of the solver.  Rows must allow rest
+(``lo <= 0 <= hi``): a path that needs more than the limit to be held still
+at some point (a torque that gravity alone exceeds) cannot be traversed at
+any speed, and the object says so with a ValueError naming the grid point.
+
+A time scaling by the local factor ``lambda`` (velocity limits times
+``lambda``, accelerations times ``lambda**2``) multiplies ``x_max``, ``lo``
+and ``hi`` by ``lambda**2``; :class:`path_velocity.PathLimits` applies it.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class GriddedPath:
+    """
+    A joint path ``q(s)`` on a grid: what every constraint reads.
+
+    ``s`` (M + 1,) grid, ``steps`` (M,) its spacing, ``positions``,
+    ``first``, ``second`` (M + 1, n): ``q``, ``q'`` and ``q''`` at the grid points.
+    """
+
+    s: np.ndarray
+    positions: np.ndarray
+    first: np.ndarray
+    second: np.ndarray
+
+    @property
+    def steps(self):
+        """Grid spacing (M,)."""
+        return np.diff(self.s)
+
+    @classmethod
+    def of_ppoly(cls, ppoly, s):
+        """Sample a piecewise polynomial path (scipy ``PPoly``) and its derivatives at ``s``."""
+        return cls(s, ppoly(s), ppoly(s, 1), ppoly(s, 2))
+
+
+class SpeedConstraint:
+    """A first-order constraint: ``x <= squared_speed_limit(path)`` at every grid point."""
+
+    order = 1
+
+    def squared_speed_limit(self, path):
+        """Return the largest squared path speed (M + 1,) at every grid point (inf: none)."""
+        raise NotImplementedError
+
+
+class AccelerationConstraint:
+    """A second-order constraint: rows ``lo <= a u + b x <= hi`` at every grid point."""
+
+    order = 2
+
+    def rows(self, path):
+        """Return ``(a, b, lo, hi)``, each (M + 1, k), with ``lo <= 0 <= hi``."""
+        raise NotImplementedError
+
+
+class JointVelocity(SpeedConstraint):
+    """``|q'_j(s)| sdot <= v_j``: ``x <= (v_j / |q'_j|)**2``."""
+
+    def __init__(self, max_velocity):
+        """Take the velocity limit per joint (n,)."""
+        self.max_velocity = np.asarray(max_velocity, float)
+
+    def squared_speed_limit(self, path):
+        """Return ``min_j (v_j / |q'_j|)**2`` (inf where no joint moves)."""
+        speed = np.abs(path.first)
+        with np.errstate(divide='ignore'):
+            return np.min((self.max_velocity[None, :] / speed) ** 2, axis=1)
+
+
+class JointAcceleration(AccelerationConstraint):
+    """``|q'_j u + q''_j x| <= a_j``: eqs. of :mod:`path_velocity`'s docstring."""
+
+    def __init__(self, max_acceleration):
+        """Take the acceleration limit per joint (n,)."""
+        self.max_acceleration = np.asarray(max_acceleration, float)
+
+    def rows(self, path):
+        """Return ``(q', q'', -a, a)``."""
+        bound = np.broadcast_to(self.max_acceleration, path.first.shape)
+        return path.first, path.second, -bound, bound
+
+
+class ToolSpeed(SpeedConstraint):
+    """
+    The linear (or angular) speed of a tool frame: ``|p'(s)| sdot <= v``.
+
+    ``tangent(path)`` returns the tool's velocity per unit path speed,
+    ``dp/ds`` (M + 1, 3), e.g. the frame's Jacobian times ``q'``.
+    """
+
+    def __init__(self, max_speed, tangent):
+        """Take the speed limit (> 0) and the function giving ``dp/ds`` along a path."""
+        self.max_speed = float(max_speed)
+        self.tangent = tangent
+
+    def squared_speed_limit(self, path):
+        """Return ``(v / |dp/ds|)**2`` (inf where the tool does not move)."""
+        rate = np.linalg.norm(self.tangent(path), axis=1)
+        with np.errstate(divide='ignore'):
+            return (self.max_speed / rate) ** 2
+
+
+class JointTorque(AccelerationConstraint):
+    """
+    Joint torques of the rigid-body dynamics within ``|tau_j| <= max_torque_j``.
+
+    ``inverse_dynamics(q, qd, qdd)`` (each (N, n), returning (N, n)) is
+    ``M(q) qdd + c(q, qd) + g(q)``.  Along the path ``qd = q' sdot`` and
+    ``qdd = q' u + q'' x``, so (Pham & Pham's canonical form)::
+
+        tau = a u + b x + g,  a = ID(q, 0, q') - g,  b = ID(q, q', q'') - g,  g = ID(q, 0, 0)
+
+    (``c`` is quadratic in ``qd``, so ``c(q, q') = c(q, q' sdot) / x``).
+    Only the torques of the planned joints are limited.
+    """
+
+    def __init__(self, max_torque, inverse_dynamics):
+        """Take the torque limit per joint (n,) and the vectorised inverse dynamics."""
+        self.max_torque = np.asarray(max_torque, float)
+        self.inverse_dynamics = inverse_dynamics
+
+    def rows(self, path):
+        """Return ``(a, b, -tau_max - g, tau_max - g)``; refuse a pose gravity alone overloads."""
+        q, first, second = path.positions, path.first, path.second
+        zero = np.zeros_like(q)
+        gravity = self.inverse_dynamics(q, zero, zero)
+        a = self.inverse_dynamics(q, zero, first) - gravity
+        b = self.inverse_dynamics(q, first, second) - gravity
+        limit = np.broadcast_to(self.max_torque, gravity.shape)
+        over = np.abs(gravity) > limit
+        if np.any(over):
+            i, j = np.argwhere(over)[np.argmax((np.abs(gravity) / limit)[over])]
+            raise GravityOverload(int(i), int(j), q[i], float(gravity[i, j]),
+                                  float(limit[i, j]))
+        return a, b, -limit - gravity, limit - gravity
+
+
+class GravityOverload(ValueError):
+    """Gravity alone needs more torque than a joint's limit at some point of the path."""
+
+    def __init__(self, index, joint, pose, torque, limit):
+        """Record grid point ``index``, joint column ``joint``, the ``pose`` and the torque."""
+        self.index, self.joint, self.pose = index, joint, np.array(pose)
+        self.torque, self.limit = torque, limit
+        super().__init__(f'joint {joint}: gravity alone needs {torque:.4g} N m at the pose '
+                         f'{np.array2string(self.pose, precision=4)}, beyond its limit of '
+                         f'{limit:.4g} N m: no speed along this path holds it')
