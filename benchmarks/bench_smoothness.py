@@ -25,8 +25,31 @@ the commanded torque rate between two 1 ms steps away from the ends (a
 torque-rate discontinuity: the waypoints), the same at the stop (the end's
 jerk drops to zero there), and the residual vibration (RMS joint error over
 the second after the end).  Rows: the paper's example alone and the mean
-over the random paths; the verdicts count all paths.  Then the real-time
-factor.
+over the random paths; the verdicts count all paths.
+
+Then 555 optimal with and without inner knots (issue 23, "fast and
+smooth"), on the same paths and arms with the same columns, for no jerk
+limit (as above) and for j = 20 a (the issue's other benches): four plans,
+
+* ``inner_knots=0``: knots at the waypoints only, at its own duration;
+* ``default``: ``plan()``'s default, up to 4 free inner knots per segment
+  and the 0.25 s moving average of the speed profile, at its own duration
+  (the 555 rows of the optimal tables above, when there is no jerk limit);
+* ``vibration_frequency=4``: the averaging aimed at a 4 Hz mode;
+* ``default slowed``: the default slowed uniformly to the knots-only
+  duration (equal duration): ``q(t / k)``, re-planned as the 555 spline
+  through the default's knots with every piece duration times ``k`` (on
+  the paper's example, whose ends move, its end velocities and
+  accelerations scale by ``1 / k`` and ``1 / k**2``).
+
+``plan()`` returns the knots-only plan when it is the shorter one (paths
+of at most 8 waypoints), so the default has inner knots on some paths only;
+how many is printed, and so are the slow-down factors (below 1 where the
+default is the longer plan: there it is sped up and exceeds the limits a
+little).  Per arm: the ratio default / knots-only of max error and residual
+(means over all paths, the paper's example included, as in the issue),
+against the issue's target (at most 1.25 on the elastic arms).  Runs that
+play the same spline again are simulated once.  Then the real-time factor.
 
 Run: ``make bench`` or ``python benchmarks/bench_smoothness.py [--paths N]``.
 """
@@ -54,6 +77,13 @@ EDGE_SKIP = 0.01     # s: jumps are counted away from both ends
 ARMS = (('rigid', 0.0), ('elastic 4 Hz', 4.0), ('elastic 8 Hz', 8.0), ('elastic 16 Hz', 16.0))
 TIMINGS = ('same duration', 'optimal')
 LIMITS = {'max_velocity': pe.MAX_VELOCITY, 'max_acceleration': pe.MAX_ACCELERATION}
+# The inner-knot section (issue 23): its plans of 555 optimal, the jerk limits
+# (a multiple of the acceleration limit, None: none) and the issue's target.
+VARIANTS = ('inner_knots=0', 'default', 'vibration_frequency=4', 'default slowed')
+VARIANT_KWARGS = {'inner_knots=0': {'inner_knots': 0}, 'default': {},
+                  'vibration_frequency=4': {'vibration_frequency': 4.0}}
+JERK_RATIOS = (None, 20.0)
+TARGET = 1.25
 COLUMNS = (('rms', 'RMS err [mrad]', 1e3), ('max', 'max err [mrad]', 1e3),
            ('tool', 'tool err [mm]', 1e3), ('tau', 'peak |tau| [N m]', 1.0),
            ('rate', 'peak |dtau/dt| [kN m/s]', 1e-3),
@@ -93,6 +123,47 @@ def plans(waypoints, boundary):
     return {'same duration': same, 'optimal': optimal}
 
 
+def jerk_name(ratio):
+    """Name of a jerk setting."""
+    return 'no jerk limit' if ratio is None else f'j = {ratio:g} a'
+
+
+def limits_with_jerk(ratio):
+    """LIMITS plus ``max_jerk`` = ``ratio`` times the acceleration limit (none when None)."""
+    if ratio is None:
+        return dict(LIMITS)
+    return {**LIMITS, 'max_jerk': ratio * np.asarray(LIMITS['max_acceleration'], float)}
+
+
+def slowed(traj, duration):
+    """
+    Return ``traj`` (555) slowed uniformly to ``duration``: ``q(t / k)``.
+
+    Re-planned with ``timing='fixed'``: the 555 spline through the same
+    knots, every piece duration times ``k``, end velocities divided by ``k``
+    and end accelerations by ``k**2`` (zero rest to rest).  That C4 quintic
+    spline is unique, so it is ``traj`` slowed.
+    """
+    k = duration / traj.duration
+    if k == 1.0:
+        return traj
+    knots = traj.evaluate(traj.breakpoints)
+    return plan(knots, '555', 'fixed', durations=traj.durations * k,
+                start_velocity=traj.start_velocity / k,
+                start_acceleration=traj.start_acceleration / k ** 2,
+                end_velocity=traj.end_velocity / k,
+                end_acceleration=traj.end_acceleration / k ** 2)
+
+
+def inner_knot_plans(waypoints, boundary, ratio):
+    """Plan the section's 555 optimal variants of one path: {variant: Trajectory}."""
+    limits = limits_with_jerk(ratio)
+    found = {name: plan(waypoints, '555', 'optimal', **limits, **boundary, **kwargs)
+             for name, kwargs in VARIANT_KWARGS.items()}
+    found['default slowed'] = slowed(found['default'], found['inner_knots=0'].duration)
+    return found
+
+
 class Simulator:
     """The node's default dynamic arm with a given joint stiffness, reused across runs."""
 
@@ -109,8 +180,16 @@ class Simulator:
         self.dt = config.timestep
         self.wall = 0.0
         self.simulated = 0.0
+        self.played = {}
 
     def run(self, traj):
+        """Return the row's figures of ``traj``, simulated once per distinct spline."""
+        key = (traj.breakpoints.tobytes(), np.ascontiguousarray(traj.coefficients).tobytes())
+        if key not in self.played:
+            self.played[key] = self.simulate(traj)
+        return dict(self.played[key])
+
+    def simulate(self, traj):
         """Play ``traj`` and SETTLE seconds of holding; return the row's figures."""
         dt = self.dt
         t = np.arange(0.0, traj.duration + SETTLE, dt)
@@ -150,13 +229,13 @@ class Simulator:
         }
 
 
-def table(rows, title):
+def table(rows, title, names=METHODS, header='method'):
     """Print one condition: the paper's example and the mean over all paths, per method."""
     print(f'\n{title}')
-    print('| method | paths | duration [s] | ' + ' | '.join(c[1] for c in COLUMNS)
+    print(f'| {header} | paths | duration [s] | ' + ' | '.join(c[1] for c in COLUMNS)
           + ' | saturated steps |')
     print('|' + '---|' * (len(COLUMNS) + 4))
-    for method in METHODS:
+    for method in names:
         for label, chosen in (('paper', rows[method][:1]), ('random mean', rows[method][1:])):
             cells = [f'{np.mean([r[key] for r in chosen]) * scale:.3g}'
                      for key, _, scale in COLUMNS]
@@ -181,6 +260,62 @@ def verdict(rows, a='445', b='434'):
     return f'verdict {a} vs {b}: ' + ', '.join(parts)
 
 
+def ratio(rows, key, name, base='inner_knots=0'):
+    """Mean of ``key`` over all paths of plan ``name`` divided by that of ``base``."""
+    return (np.mean([r[key] for r in rows[name]])
+            / np.mean([r[key] for r in rows[base]]))
+
+
+def ratio_lines(rows, arm_frequency):
+    """Return two lines of ratios to knots only; the first states the issue's target."""
+    err, res = ratio(rows, 'max', 'default'), ratio(rows, 'residual', 'default')
+    if arm_frequency > 0.0:
+        verdicts = [f'{"met" if value <= TARGET else "NOT met"} ({what})'
+                    for what, value in (('max err', err), ('residual', res))]
+        target = f'target <= {TARGET:g}x: ' + ', '.join(verdicts)
+    else:
+        target = 'the target is for the elastic arms'
+    others = '; '.join(f'{name} {ratio(rows, "max", name):.2f}x / '
+                       f'{ratio(rows, "residual", name):.2f}x'
+                       for name in ('vibration_frequency=4', 'default slowed'))
+    return (f'default / inner_knots=0 (mean over all paths): max err {err:.2f}x, '
+            f'residual {res:.2f}x; {target}',
+            f'max err / residual over inner_knots=0: {others}')
+
+
+def inner_knots_section(found_cases, simulators):
+    """Print the section on 555 optimal with and without inner knots; return the target lines."""
+    print('\n555 optimal with and without inner knots (issue 23): inner_knots=0, the default '
+          f'(<= 4 inner knots, 0.25 s averaging), vibration_frequency=4, the default slowed '
+          f'to the knots-only duration; v <= {LIMITS["max_velocity"][0]:g} rad/s, '
+          f'a <= {LIMITS["max_acceleration"][0]:g} rad/s^2')
+    summary = []
+    for jerk in JERK_RATIOS:
+        planned = [inner_knot_plans(w, b, jerk) for _, w, b in found_cases]
+        limits = limits_with_jerk(jerk)
+        jerk_text = ('none' if jerk is None
+                     else f'{jerk:g} a = {limits["max_jerk"][0]:g} rad/s^3')
+        with_knots = sum(p['default'].optimizer.get('inner_knots', 0) > 0 for p in planned)
+        factors = np.array([p['inner_knots=0'].duration / p['default'].duration
+                            for p in planned])
+        print(f'\n* {jerk_name(jerk)} (jerk limit: {jerk_text}): the default has inner knots '
+              f'on {with_knots}/{len(planned)} paths (on the others plan() returns the shorter '
+              f'knots-only plan); slow-down factor k = {factors.min():.3f} to '
+              f'{factors.max():.3f} (k < 1, the default sped up: '
+              f'{int(np.sum(factors < 1.0))}/{len(planned)} paths)')
+        for arm_name, frequency in ARMS:
+            sim = simulators[arm_name]
+            rows = {v: [sim.run(p[v]) for p in planned] for v in VARIANTS}
+            title = f'{arm_name}, 555 optimal, {jerk_name(jerk)}'
+            table(rows, title, VARIANTS, 'plan')
+            lines = ratio_lines(rows, frequency)
+            for line in lines:
+                print(line)
+            summary.append(f'{title}: {lines[0]}')
+            sys.stdout.flush()
+    return summary
+
+
 def main(argv=None):
     """Run every condition, print the tables, verdicts and the real-time factor."""
     global N_RANDOM
@@ -191,7 +326,8 @@ def main(argv=None):
     print(__doc__.strip().splitlines()[0])
     print(f'methods {list(METHODS)}; paper example + {N_RANDOM} random paths; '
           f'physics at {1.0 / ArmSimConfig().timestep:.0f} Hz')
-    planned = [(name, plans(w, b)) for name, w, b in cases()]
+    found_cases = cases()
+    planned = [(name, plans(w, b)) for name, w, b in found_cases]
     simulators = {name: Simulator(f) for name, f in ARMS}
     started = time.perf_counter()
     verdicts = []
@@ -207,10 +343,15 @@ def main(argv=None):
             if '555' in rows:
                 print(verdict(rows, '555', '434'))
             sys.stdout.flush()
+    targets = inner_knots_section(found_cases, simulators)
     wall = sum(s.wall for s in simulators.values())
     simulated = sum(s.simulated for s in simulators.values())
     print('\nVerdicts (mean change of 445 against 434; paths where 445 is lower):')
     for line in verdicts:
+        print(f'* {line}')
+    print(f'\n555 optimal, default against inner_knots=0 at their own durations (issue 23: '
+          f'max error and residual <= {TARGET:g}x on the elastic arms):')
+    for line in targets:
         print(f'* {line}')
     print(f'\nReal-time factor: {simulated:.0f} s simulated in {wall:.1f} s of stepping = '
           f'{simulated / wall:.0f}x (controller and logging included); whole run '
