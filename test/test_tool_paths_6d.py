@@ -86,8 +86,12 @@ def test_ur5_seam_within_1mm_and_1deg(ur5, method, timing):
     poses = seam(kin, vr.UR5_READY, UR5_SEAM, 0.15, turn_last_edge=math.radians(60))
     result = plan_tool_path(poses, kin, MM, DEG, max_inserted=2000, method=method,
                             timing=timing, **UR5_LIMITS)
-    assert result.initial_deviation.max_position > 10 * MM  # the refinement had work to do
-    assert result.inserted > 0
+    if (method, timing) == ('555', 'optimal'):
+        # Timed along the inverse kinematics of the lines themselves.
+        assert result.construction == 'tool lines'
+    else:
+        assert result.initial_deviation.max_position > 10 * MM  # the refinement had work to do
+        assert result.inserted > 0
     position, angle = check_1khz(result, poses, fk, MM, DEG)
     # The library's maxima bound what a 1 kHz sampling sees.
     assert result.max_deviation >= position - 1e-9

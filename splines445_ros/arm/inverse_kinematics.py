@@ -167,6 +167,17 @@ class ModelKinematics:
             self._reached.clear()
         self._seed = value
 
+    def forget_walks(self):
+        """
+        Forget every remembered walk: the next :meth:`inverse` walks all its poses afresh.
+
+        A redundant arm's joints at a pose depend on the walk that reached
+        it; a dense walk along lines must not jump to a pose's joints from
+        an earlier, coarser walk (:mod:`tool_lines`).
+        """
+        self._cache.clear()
+        self._reached.clear()
+
     @property
     def n_joints(self):
         """Return the number of planned joints."""

@@ -90,8 +90,9 @@ import numbers
 import numpy as np
 
 from . import rotations as rot
-from ..planning import merge_duplicates, plan
-from ..planning.inner_knots import inner_knot_count, vibration_frequency_value
+from .tool_lines import plan_tool_lines
+from ..planning import check_position_limits, JointLimits, merge_duplicates, plan
+from ..planning.inner_knots import inner_knot_count, smoothing_windows, vibration_frequency_value
 from ..planning.methods import get_method
 
 GRID = 24
@@ -108,6 +109,10 @@ DEFAULT_MAX_INSERTED = 200
 # Edges shorter than this [m] are pure rotations: parameterised by time.
 MIN_EDGE_LENGTH = 1e-9
 _GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
+BOUNDARY_KEYWORDS = ('start_velocity', 'start_acceleration', 'end_velocity', 'end_acceleration')
+# plan() keywords the 'tool lines' construction understands (boundary values only at rest).
+LINES_KEYWORDS = {'max_velocity', 'max_acceleration', 'max_jerk', 'min_position', 'max_position',
+                  'waypoint_tolerance', 'inner_knots', *BOUNDARY_KEYWORDS}
 
 
 @dataclass(frozen=True)
@@ -156,6 +161,13 @@ class ToolPath:
     deviation, initial_deviation : :class:`Deviation` of the result and of the
         unrefined plan; ``initial_duration`` the unrefined plan's duration.
     iterations : number of plans made.
+    construction : ``'tool lines'`` (timed along the inverse kinematics of
+        the lines, :mod:`tool_lines`) or ``'refined'`` (knots inserted into
+        a plan through the waypoints).
+    tool_speed, tool_angular_speed : the largest tool speeds [m/s], [rad/s]
+        (checked every millisecond; ``'tool lines'`` only, else None).
+    speed_share : the share of the path's length the tool runs at >= 99 %
+        of ``max_tool_speed`` (None without one).
 
     """
 
@@ -169,6 +181,10 @@ class ToolPath:
     initial_deviation: Deviation
     initial_duration: float
     iterations: int
+    construction: str = 'refined'
+    tool_speed: float = None
+    tool_angular_speed: float = None
+    speed_share: float = None
 
     @property
     def max_deviation(self):
@@ -453,7 +469,8 @@ def path_deviation(tool_path, kinematics, grid=GRID):
 
 def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviation=None,
                    max_inserted=DEFAULT_MAX_INSERTED, method='445', timing='uniform',
-                   durations=None, **plan_kwargs):
+                   durations=None, max_tool_speed=None, max_tool_angular_speed=None,
+                   **plan_kwargs):
     """
     Plan a joint trajectory whose tool follows the straight lines between ``poses``.
 
@@ -478,7 +495,18 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
         ``durations`` (N-1,) are per requested edge ("fixed" only, kept: see
         the module docstring).  With "optimal", every re-plan after an
         insertion starts from the previous optimal durations (split).
+    max_tool_speed, max_tool_angular_speed : float
+        Largest linear speed [m/s] of the tool frame's origin and angular
+        speed [rad/s] of the tool; None or 0: no limit.  They need method
+        555 with optimal timing, rest to rest (:mod:`tool_lines`).
     plan_kwargs : limits and boundary values passed on to ``plan()``.
+
+    Method 555 with optimal timing (inner knots, rest to rest) is timed
+    along the inverse kinematics of the lines themselves
+    (:func:`tool_lines.plan_tool_lines`, the ``'tool lines'``
+    construction); when that fails without a tool speed limit, and for
+    every other method and timing, knots are inserted into a plan through
+    the waypoints (the module docstring).
 
     Returns a :class:`ToolPath`.  Raises ValueError for bad input, an
     unreachable pose (tool waypoint or inserted point), anything ``plan()``
@@ -501,6 +529,15 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
             or not math.isfinite(max_inserted) or int(max_inserted) != max_inserted
             or max_inserted < 0):
         raise ValueError(f'max_inserted = {max_inserted}: must be a non-negative integer')
+    speeds = (_speed_limit('max_tool_speed', max_tool_speed),
+              _speed_limit('max_tool_angular_speed', max_tool_angular_speed))
+    moving = any(plan_kwargs.get(k) is not None and np.any(plan_kwargs[k])
+                 for k in BOUNDARY_KEYWORDS)
+    lines = (get_method(method).name == '555' and timing == 'optimal' and inner_knots > 0
+             and set(plan_kwargs) <= LINES_KEYWORDS and not moving)
+    if any(speeds) and not lines:
+        raise ValueError('max_tool_speed and max_tool_angular_speed need method "555" with '
+                         'timing "optimal" (inner_knots > 0), rest to rest')
     joints = _inverse(kinematics, request, lambda k: f'tool waypoint {k}')
     n_req = len(request)
     if timing == 'fixed':
@@ -518,6 +555,12 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
     kept_index = np.flatnonzero(keep)
     waypoint_knots = np.cumsum(keep) - 1
     edge_poses = request[keep]
+    if lines:
+        found = _tool_lines(edge_poses, joints[keep], waypoint_knots, kinematics,
+                            (tol_position, tol_orientation), speeds, vibration, max_inserted,
+                            plan_kwargs)
+        if found is not None:
+            return found
     knots = edge_poses.copy()
     knot_joints = joints[keep]
     segment_edges = np.arange(len(knots) - 1)
@@ -573,6 +616,50 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
         knots, knot_joints = new_knots, new_joints
         inserted += bad.size
     raise AssertionError('unreachable: every iteration inserts at least one knot')
+
+
+def _speed_limit(name, value):
+    """Return a tool speed limit: None or 0 -> 0 (no limit); ValueError unless finite, >= 0."""
+    if value is None:
+        return 0.0
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ValueError(f'{name} must be a number, got {type(value).__name__}')
+    value = float(value)
+    if not (math.isfinite(value) and value >= 0.0):
+        raise ValueError(f'{name} = {value:.6g}: must be a finite number >= 0 (0 = no limit)')
+    return value
+
+
+def _tool_lines(edge_poses, joints, waypoint_knots, kinematics, tolerances, speeds, vibration,
+                max_inserted, plan_kwargs):
+    """
+    Return the :class:`ToolPath` of :func:`tool_lines.plan_tool_lines`, or None to refine instead.
+
+    None when that construction fails without a tool speed limit (the
+    refinement then names the problem); with one its error is raised.
+    """
+    limits = JointLimits.from_user(joints.shape[1], plan_kwargs.get('max_velocity'),
+                                   plan_kwargs.get('max_acceleration'),
+                                   plan_kwargs.get('max_jerk'))
+    segment_edges = np.arange(len(edge_poses) - 1)
+
+    def measure(traj, edges):
+        return _PathMeasure(traj, kinematics, edge_poses, edges).deviation(tolerances)
+
+    windows = smoothing_windows(vibration) if vibration else ()
+    try:
+        found = plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, *speeds,
+                                windows=windows, max_inserted=max_inserted)
+    except ValueError:
+        if any(speeds):
+            raise
+        return None
+    check_position_limits(found.trajectory, plan_kwargs.get('min_position'),
+                          plan_kwargs.get('max_position'))
+    return ToolPath(found.trajectory, edge_poses, found.joints, waypoint_knots, segment_edges,
+                    found.inserted, found.deviation, found.initial_deviation,
+                    found.initial_duration, found.rounds, 'tool lines', found.tool_speed,
+                    found.tool_angular_speed, found.speed_share if speeds[0] else None)
 
 
 def _with_inner_knots(traj, deviation, joints, kinematics, edge_poses, segment_edges,

@@ -256,18 +256,19 @@ def inner_knot_count(value, method, timing):
     return value
 
 
-def knots_per_segment(segment_times, limits, most):
+def knots_per_segment(segment_times, limits, most, min_piece=0.0, ramp_pieces=RAMP_PIECES):
     """
     Inner knots of every segment (S,): ``most``, fewer where pieces would be short (step 3).
 
-    A segment of duration ``T`` gets at most ``T / (RAMP_PIECES * ramp) - 1``
-    inner knots, ``ramp`` the longest jerk ramp ``a_j / j_j`` of the joints
-    (0 without jerk limits), and at least one.
+    A segment of duration ``T`` gets at most ``T / piece - 1`` inner knots
+    and at least one, ``piece`` the larger of ``min_piece`` and
+    ``ramp_pieces`` times the longest jerk ramp ``a_j / j_j`` of the joints
+    (0 without jerk limits; then ``most`` when ``min_piece`` is 0 too).
     """
-    ramp = float(np.max(limits.acceleration / limits.jerk))
+    piece = max(ramp_pieces * float(np.max(limits.acceleration / limits.jerk)), min_piece)
     counts = np.full(segment_times.size, most)
-    if ramp > 0.0:
-        fit = np.floor(segment_times / (RAMP_PIECES * ramp)) - 1
+    if piece > 0.0:
+        fit = np.floor(segment_times / piece) - 1
         counts = np.clip(np.nan_to_num(fit, nan=1.0), 1, most).astype(int)
     return counts
 
@@ -315,6 +316,7 @@ class _Path:
         self.s = np.concatenate([(knots[:-1, None] + fractions * np.diff(knots)[:, None])
                                  .reshape(-1), knots[-1:]])
         self.steps = np.diff(self.s)
+        self.waypoint_s = self.s[::GRID_STEPS]
         self.limits = PathLimits(GriddedPath.of_ppoly(self.ppoly, self.s),
                                  (JointVelocity(limits.velocity),
                                   JointAcceleration(limits.acceleration)))
@@ -331,24 +333,38 @@ class _Candidate:
     C4 one through the positions (step 4), so they and the pieces define it.
     """
 
-    def __init__(self, path, local, counts, boundary, limits, rest):
-        """Build the candidate; ``counts`` (S,) inner knots per segment, or None to choose them."""
+    def __init__(self, path, local, counts, boundary, limits, rest, fractions=None):
+        """
+        Build the candidate; ``counts`` (S,) inner knots per segment, or None to choose them.
+
+        ``fractions``, when given, replaces ``counts``: per segment, the
+        increasing time fractions in [0, 1) of its knots (the first 0, its
+        waypoint), for knots not at equal fractions (:mod:`path_timing`).
+        """
         self.valid = False
         self.local = local
         self.grid_s = path.s
         x = path.limits.profile(local, path.start, path.end)
+        self.x = x
         times = traversal_times(x, path.steps)
         if not np.all(np.isfinite(times)) or not times[-1] > 0.0:
             return
-        timing = _Timing(times, x, path.s, path.windows if rest else ())
-        passed = timing.time_at(path.s[::GRID_STEPS])
-        if counts is None:
-            counts = knots_per_segment(np.diff(passed), limits, path.most)
+        timing = (path.timing(times, x) if hasattr(path, 'timing')
+                  else _Timing(times, x, path.s, path.windows if rest else ()))
+        passed = timing.time_at(path.waypoint_s)
+        if fractions is None:
+            if counts is None:
+                counts = knots_per_segment(np.diff(passed), limits, path.most,
+                                           getattr(path, 'min_piece', 0.0),
+                                           getattr(path, 'ramp_pieces', RAMP_PIECES))
+            fractions = [np.arange(c + 1) / (c + 1) for c in counts]
+        else:
+            counts = np.array([f.size - 1 for f in fractions])
         self.counts = counts
         self.waypoint_knots = np.concatenate([[0], np.cumsum(counts + 1)])
         self.knot_times = np.concatenate(
-            [passed[k] + np.arange(c + 1) / (c + 1) * (passed[k + 1] - passed[k])
-             for k, c in enumerate(counts)] + [passed[-1:]])
+            [passed[k] + f * (passed[k + 1] - passed[k]) for k, f in enumerate(fractions)]
+            + [passed[-1:]])
         pieces = np.diff(self.knot_times)
         if not np.all(pieces > 0.0):
             return
@@ -360,6 +376,10 @@ class _Candidate:
         except ValueError:
             return
         self.factors = exact_factors(coeffs, pieces, limits)
+        if getattr(path, 'piece_factors', None) is not None:
+            # The path's own limits beyond v/a/j (a tool speed): first order.
+            self.factors = np.concatenate([self.factors, path.piece_factors(coeffs, pieces)],
+                                          axis=1)
         f = float(np.max(self.factors)) * _ROUNDOFF
         if not (np.isfinite(f) and f > 0.0):
             return
@@ -451,16 +471,18 @@ def _construct(path, boundary, limits, rest):
     return best, iterations
 
 
-def _iterate(path, local, counts, boundary, limits, rest, best):
+def _iterate(path, local, counts, boundary, limits, rest, best, fractions=None,
+             iterations=ITERATIONS):
     """
     Run steps 2-6 from the local factors ``local``; return (best candidate or None, iterations).
 
-    Stops after :data:`ITERATIONS`, or :data:`STALL` iterations in a row
-    without a relative gain of :data:`MIN_GAIN` over ``best`` (the best so far).
+    Stops after ``iterations``, or :data:`STALL` iterations in a row
+    without a relative gain of :data:`MIN_GAIN` over ``best`` (the best so
+    far).  ``fractions`` as for :class:`_Candidate`.
     """
-    stall, iterations = 0, 0
-    for iterations in range(1, ITERATIONS + 1):
-        candidate = _Candidate(path, local, counts, boundary, limits, rest)
+    stall, most = 0, iterations
+    for iterations in range(1, most + 1):
+        candidate = _Candidate(path, local, counts, boundary, limits, rest, fractions)
         if not candidate.valid:
             break
         counts = candidate.counts

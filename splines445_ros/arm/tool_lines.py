@@ -1,0 +1,352 @@
+"""
+Tool lines like an industrial linear move: the timing follows the tool's own path (issue 24).
+
+:func:`plan_tool_lines` is the construction :func:`tool_paths.plan_tool_path`
+uses for method 555 with optimal timing, rest to rest:
+
+1. Path.  The straight lines (and the slerps, or yaw interpolations) between
+   the tool waypoints, with a path coordinate ``s``: per edge, its length
+   plus :data:`ANGLE_LENGTH` times its rotation angle, so a pure rotation
+   has a length too.  It is sampled every :data:`SAMPLE_SPACING` of ``s``,
+   more densely towards every waypoint (:data:`CORNER_SAMPLES` samples at
+   halving distances: the joint path turns sharply there), and the inverse
+   kinematics of the samples is the joint path (the kinematics' walk, on the
+   seed's branch).
+2. Timing.  :func:`planning.path_timing.plan_along_path` times that joint
+   path under the joint limits and, when given, the tool speeds: on an edge
+   of length ``L``, rotation ``theta`` and path length ``l``, the tool moves
+   ``L / l`` metres and turns ``theta / l`` radians per unit of ``s``, so
+   ``max_tool_speed`` is the first-order constraint ``sdot <= v l / L``
+   (:class:`planning.path_constraints.ToolSpeed`).  The C4 555 spline passes
+   its knots (on the path) at the profile's times, every waypoint exactly.
+3. Taylor's test.  The deviation of the timed spline's tool from the lines
+   is measured per piece (:class:`tool_paths._PathMeasure`, exact maxima);
+   every piece beyond a tolerance gets a knot at its time midpoint, and step
+   2 is repeated with those knots (at most :data:`MAX_ROUNDS` times).
+4. Tool speed.  The spline follows the profile closely but not exactly: its
+   tool speeds are measured every :data:`CHECK_PERIOD` (central differences
+   of the forward kinematics, every local maximum refined by golden-section
+   search) and the spline is slowed down uniformly by the largest ratio to
+   its limit when one exceeds it (a uniform slow-down divides every speed by
+   its factor and keeps the v/a/j limits).
+
+Between two samples of step 4 the speed cannot rise above its refined local
+maxima: a maximum is found where the samples bracket it; one that lies
+between two samples without being bracketed would need the speed to rise
+and fall again within one period, i.e. a tool acceleration of order
+``v / CHECK_PERIOD``, far beyond what the joint limits allow.
+"""
+
+from dataclasses import dataclass
+import math
+
+import numpy as np
+
+from . import rotations as rot
+from ..planning.path_constraints import ToolSpeed
+from ..planning.path_timing import JointPathSamples, midpoint_fractions, plan_along_path, \
+    rescaled
+
+# Path length [m] that one radian of tool rotation counts for in s.
+ANGLE_LENGTH = 0.1
+# Largest spacing of the path samples [m of s] along an edge.
+SAMPLE_SPACING = 0.01
+# Extra samples towards each waypoint, at SAMPLE_SPACING / 2, / 4, ...
+CORNER_SAMPLES = 5
+# Rounds of knot insertion (step 3).
+MAX_ROUNDS = 10
+# Tool speed check period [s] and the central-difference half step [s].
+CHECK_PERIOD = 1e-3
+_DIFFERENCE_STEP = 1e-5
+_GOLDEN_STEPS = 20
+# Samples per spline piece of the tool speed seen by the timing's iteration.
+PIECE_SAMPLES = 12
+_GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
+# Slack on the final slow-down against round-off.
+_ROUNDOFF = 1.0 + 1e-9
+# The profile aims at this share of a tool speed limit: the spline follows it
+# within a few tenths of a percent on the lines, so the last step's uniform
+# slow-down stays below the 1 % that "at the programmed speed" allows.
+SPEED_MARGIN = 0.998
+# Most knots per edge (inner knots plus its waypoint) of the first spline, and
+# the shortest piece [s]: knots every 30 ms at most follow a speed ramp.
+START_KNOTS = 64
+MIN_PIECE = 0.03
+# Rounds of splitting the pieces that slow a tool-speed line down (_unbound).
+SPEED_ROUNDS = 4
+
+
+@dataclass(frozen=True)
+class ToolLines:
+    """What :func:`plan_tool_lines` found: the trajectory and its figures."""
+
+    trajectory: object
+    joints: np.ndarray
+    inserted: int
+    initial_duration: float
+    initial_deviation: object
+    deviation: object
+    rounds: int
+    samples: int
+    tool_speed: float
+    tool_angular_speed: float
+    speed_share: float
+
+
+def edge_geometry(poses):
+    """Return per edge (E,) the position length [m], the rotation angle [rad] and its s-length."""
+    if poses.shape[1] == 3:
+        length = np.hypot(*np.diff(poses[:, :2], axis=0).T)
+        angle = np.abs(np.diff(poses[:, 2]))
+    else:
+        length = np.linalg.norm(np.diff(poses[:, :3], axis=0), axis=1)
+        angle = rot.angle_between(poses[:-1, 3:], poses[1:, 3:])
+    return length, angle, length + ANGLE_LENGTH * angle
+
+
+def sample_edges(poses):
+    """
+    Return (s, edge fraction, edge) of every path sample (K,), and the waypoints' sample indices.
+
+    Every edge is sampled at most :data:`SAMPLE_SPACING` apart in ``s`` and
+    :data:`CORNER_SAMPLES` more times towards each of its ends.
+    """
+    _, _, ell = edge_geometry(poses)
+    s0 = np.concatenate([[0.0], np.cumsum(ell)])
+    parts, edges = [], []
+    for e, length in enumerate(ell):
+        count = max(1, int(math.ceil(length / SAMPLE_SPACING)))
+        sigma = np.arange(count) / count
+        near = SAMPLE_SPACING / length * 0.5 ** np.arange(1, CORNER_SAMPLES + 1)
+        near = near[near < 0.5 / count]
+        sigma = np.unique(np.concatenate([sigma, near, 1.0 - near]))
+        parts.append(sigma)
+        edges.append(np.full(sigma.size, e))
+    sigma = np.concatenate(parts + [[1.0]])
+    edge = np.concatenate(edges + [[len(ell) - 1]])
+    s = s0[edge] + sigma * ell[edge]
+    waypoints = np.concatenate([np.flatnonzero(sigma == 0.0), [s.size - 1]])
+    return s, sigma, edge, waypoints
+
+
+def interpolate_poses(poses, sigma, edge):
+    """Return the tool poses (K, P) at fractions ``sigma`` of edges ``edge``: lines and slerps."""
+    a, b = poses[edge], poses[edge + 1]
+    out = a + sigma[:, None] * (b - a)
+    if poses.shape[1] == 7:
+        out[:, 3:] = rot.slerp(a[:, 3:], b[:, 3:], sigma)
+    return out
+
+
+class _EdgeRates:
+    """The tool's speed per unit path speed on every edge: the ToolSpeed tangents."""
+
+    def __init__(self, poses, edge_s):
+        length, angle, ell = edge_geometry(poses)
+        self.edge_s = edge_s
+        self.linear = length / ell
+        self.angular = angle / ell
+
+    def _at(self, s, rate):
+        e = np.clip(np.searchsorted(self.edge_s, s, side='right') - 1, 0, rate.size - 1)
+        # At a waypoint both edges meet: the larger rate holds.
+        before = np.clip(np.searchsorted(self.edge_s, s, side='left') - 1, 0, rate.size - 1)
+        return np.maximum(rate[e], rate[before])[:, None]
+
+    def linear_tangent(self, path):
+        """Return |dp/ds| (M + 1, 1) at the grid points."""
+        return self._at(path.s, self.linear)
+
+    def angular_tangent(self, path):
+        """Return |dtheta/ds| (M + 1, 1) at the grid points."""
+        return self._at(path.s, self.angular)
+
+
+def tool_speeds(traj, kinematics, period=CHECK_PERIOD):
+    """
+    Return the largest tool (linear [m/s], angular [rad/s]) speed of ``traj``, and the samples.
+
+    Central differences of the forward kinematics at every ``period``, every
+    local maximum refined by golden-section search (module docstring).
+    """
+    t = np.linspace(0.0, traj.duration, max(3, int(math.ceil(traj.duration / period)) + 1))
+
+    def speeds(times):
+        h = _DIFFERENCE_STEP
+        after = np.asarray(kinematics.forward(traj.evaluate(np.minimum(times + h, traj.duration))))
+        before = np.asarray(kinematics.forward(traj.evaluate(np.maximum(times - h, 0.0))))
+        span = np.minimum(times + h, traj.duration) - np.maximum(times - h, 0.0)
+        if after.shape[1] == 3:
+            linear = np.hypot(*(after[:, :2] - before[:, :2]).T)
+            angular = np.abs(after[:, 2] - before[:, 2])
+        else:
+            linear = np.linalg.norm(after[:, :3] - before[:, :3], axis=1)
+            angular = rot.angle_between(before[:, 3:], after[:, 3:])
+        return linear / span, angular / span
+
+    sampled = speeds(t)
+    found = []
+    for kind, values in enumerate(sampled):
+        mid = values[1:-1]
+        peak = np.flatnonzero((mid >= values[:-2]) & (mid >= values[2:]))
+        top = peak[np.argsort(mid[peak])[-16:]]
+        lo, hi = t[top], t[top + 2]
+        x1, x2 = hi - _GOLDEN * (hi - lo), lo + _GOLDEN * (hi - lo)
+        f1, f2 = speeds(x1)[kind], speeds(x2)[kind]
+        for _ in range(_GOLDEN_STEPS):
+            right = f2 > f1
+            lo, hi = np.where(right, x1, lo), np.where(right, hi, x2)
+            x1, x2 = hi - _GOLDEN * (hi - lo), lo + _GOLDEN * (hi - lo)
+            f1, f2 = speeds(x1)[kind], speeds(x2)[kind]
+        found.append(max(float(np.max(values)), float(np.max(f1, initial=0.0)),
+                         float(np.max(f2, initial=0.0))))
+    return found[0], found[1], sampled[0]
+
+
+def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_tool_speed=0.0,
+                    max_tool_angular_speed=0.0, windows=(), max_inserted=None):
+    """
+    Return the :class:`ToolLines` of the tool path through ``edge_poses`` (module docstring).
+
+    ``edge_poses`` (N, P) are the distinct tool waypoints, ``limits`` the
+    :class:`planning.JointLimits`, ``measure(traj, segment_edges)`` the
+    :class:`tool_paths.Deviation` of a trajectory whose segments lie on the
+    given edges, ``tolerances`` (position, orientation), inf for unchecked.
+    Speeds 0 mean no limit.  ValueError when the inverse kinematics fails,
+    no spline meets the limits, or the tolerances are not reached.
+    """
+    s, sigma, edge, waypoint_index = sample_edges(edge_poses)
+    # One continuous walk through every sample (a redundant arm's joints
+    # depend on the walk: none may come from an earlier one).
+    getattr(kinematics, 'forget_walks', lambda: None)()
+    joints = np.asarray(kinematics.inverse(interpolate_poses(edge_poses, sigma, edge)), float)
+    if joints.shape[0] != s.size or not np.all(np.isfinite(joints)):
+        raise ValueError('inverse kinematics of the path samples failed')
+    rates = _EdgeRates(edge_poses, s[waypoint_index])
+    constraints = []
+    if max_tool_speed:
+        constraints.append(ToolSpeed(max_tool_speed * SPEED_MARGIN, rates.linear_tangent))
+    if max_tool_angular_speed:
+        constraints.append(ToolSpeed(max_tool_angular_speed * SPEED_MARGIN, rates.angular_tangent))
+    check = _PieceSpeeds(kinematics, max_tool_speed, max_tool_angular_speed)
+    path = JointPathSamples(s, joints, waypoint_index, limits, constraints, windows,
+                            check if constraints else None, START_KNOTS, MIN_PIECE)
+    timing = plan_along_path(path, limits)
+    initial = None
+    inserted, rounds = 0, 0
+    budget = math.inf if max_inserted is None else max_inserted
+    for rounds in range(1, MAX_ROUNDS + 1):
+        traj = timing.trajectory
+        piece_edges = np.repeat(np.arange(len(timing.fractions)),
+                                [f.size for f in timing.fractions])
+        deviation = measure(_Pieces(traj), piece_edges)
+        if initial is None:
+            initial = (deviation, traj.duration)
+        excess = np.maximum(deviation.position / tolerances[0],
+                            deviation.orientation / tolerances[1])
+        bad = np.flatnonzero(excess > 1.0)
+        if bad.size == 0:
+            break
+        if inserted + bad.size > budget:
+            raise ValueError(f'the tool path needs more than max_inserted = {max_inserted} '
+                             f'knots to stay within the tolerances')
+        fractions = midpoint_fractions(timing.fractions, bad)
+        inserted += int(sum(f.size for f in fractions) - sum(f.size for f in timing.fractions))
+        timing = plan_along_path(path, limits, fractions, timing.local)
+    else:
+        raise ValueError(f'the tool path is still {float(np.max(excess)):.3g} times its '
+                         f'tolerance after {MAX_ROUNDS} rounds of knot insertion')
+    if constraints:
+        timing, more = _unbound(timing, path, limits, check, measure, tolerances)
+        inserted += more
+    traj = timing.trajectory
+    linear, angular, sampled = tool_speeds(traj, kinematics)
+    factor = max(linear / max_tool_speed if max_tool_speed else 0.0,
+                 angular / max_tool_angular_speed if max_tool_angular_speed else 0.0)
+    if factor > 1.0:
+        traj = rescaled(traj, factor * _ROUNDOFF)
+        linear, angular, sampled = tool_speeds(traj, kinematics)
+    share = 0.0
+    if max_tool_speed:
+        # By length: every sample weighs the distance the tool covers there.
+        share = float(np.sum(sampled[sampled >= 0.99 * max_tool_speed]) / np.sum(sampled))
+    segment_edges = np.arange(len(edge_poses) - 1)
+    return ToolLines(traj, joints[waypoint_index], inserted, initial[1], initial[0],
+                     measure(traj, segment_edges), rounds, int(s.size), linear, angular, share)
+
+
+def _unbound(timing, path, limits, check, measure, tolerances):
+    """
+    Return (timing, knots added): the pieces that slow a tool-speed line down split in two.
+
+    A rest-to-rest spline is slowed down as a whole by its largest factor,
+    so a piece near a stop that needs 1 % more time (its jerk) takes 1 % off
+    the tool speed along every line.  While the tool's speed on the pieces
+    stays below :data:`SPEED_MARGIN` of its limits, the pieces whose joint
+    factor binds get a knot at their time midpoint (a spline with more knots
+    there follows the stop more closely), at most :data:`SPEED_ROUNDS`
+    times; a round is kept when the spline gets shorter and stays within
+    the tolerances.
+    """
+    added = 0
+    for _ in range(SPEED_ROUNDS):
+        traj = timing.trajectory
+        pieces = np.diff(traj.breakpoints)
+        if np.max(check(traj.coefficients, pieces)) >= SPEED_MARGIN * (1.0 - 1e-3):
+            break
+        joint = np.max(traj.limit_ratios() ** (1.0 / np.arange(1, 4)), axis=(1, 2))
+        binding = np.flatnonzero(joint >= 1.0 - 1e-3)
+        fractions = midpoint_fractions(timing.fractions, binding)
+        try:
+            found = plan_along_path(path, limits, fractions, timing.local)
+        except ValueError:
+            break
+        if not found.trajectory.duration < traj.duration:
+            break
+        piece_edges = np.repeat(np.arange(len(found.fractions)),
+                                [f.size for f in found.fractions])
+        deviation = measure(_Pieces(found.trajectory), piece_edges)
+        if np.any(deviation.position > tolerances[0]) or \
+                np.any(deviation.orientation > tolerances[1]):
+            break
+        added += int(sum(f.size for f in found.fractions) - sum(f.size for f in timing.fractions))
+        timing = found
+    return timing, added
+
+
+class _PieceSpeeds:
+    """Tool speed over its limit per spline piece, from :data:`PIECE_SAMPLES` samples each."""
+
+    def __init__(self, kinematics, linear, angular):
+        self.kinematics = kinematics
+        self.limits = [(k, v) for k, v in enumerate((linear, angular)) if v]
+        self.tau = np.linspace(0.0, 1.0, PIECE_SAMPLES)
+
+    def __call__(self, coeffs, pieces):
+        """Return (P, k): the largest sampled speed of each piece over each speed limit."""
+        tau = pieces[:, None] * self.tau[None, :]                     # (P, S)
+        powers = tau[..., None] ** np.arange(6)                       # (P, S, 6)
+        q = np.einsum('psk,pkn->psn', powers, coeffs)
+        rates = np.arange(1, 6) * powers[..., :5]
+        qd = np.einsum('psk,pkn->psn', rates, coeffs[:, 1:])
+        h = _DIFFERENCE_STEP
+        after = np.asarray(self.kinematics.forward(q + h * qd))
+        before = np.asarray(self.kinematics.forward(q - h * qd))
+        if after.shape[-1] == 3:
+            speeds = (np.hypot(after[..., 0] - before[..., 0], after[..., 1] - before[..., 1]),
+                      np.abs(after[..., 2] - before[..., 2]))
+        else:
+            speeds = (np.linalg.norm(after[..., :3] - before[..., :3], axis=-1),
+                      rot.angle_between(before[..., 3:].reshape(-1, 4),
+                                        after[..., 3:].reshape(-1, 4)).reshape(tau.shape))
+        return np.stack([np.max(speeds[k], axis=1) / (2.0 * h * v) for k, v in self.limits],
+                        axis=1)
+
+
+class _Pieces:
+    """A trajectory seen piece by piece: its knots as the segments to measure."""
+
+    def __init__(self, traj):
+        self.evaluate = traj.evaluate
+        self.breakpoints = traj.breakpoints
+        self.waypoint_times = traj.breakpoints

@@ -1,0 +1,271 @@
+"""
+A C4 555 spline timed along a given joint path (issue 24): the inner-knot construction on any path.
+
+:mod:`inner_knots` builds its own path (the 555 spline through the
+waypoints).  Here the caller gives the path: joint positions ``q`` at
+increasing path coordinates ``s`` (e.g. the inverse kinematics of a tool's
+straight lines, ``s`` the tool's arc length), with some of them the
+waypoints that must be passed exactly.  The rest is the same construction
+(module docstring of :mod:`inner_knots`, steps 2-6):
+
+1. Path.  A C2 cubic spline through the samples, ``q(s)``; its grid has
+   :data:`GRID_PER_SAMPLE` steps per sample interval.
+2. Speed along it.  The fastest path speed under the caller's constraint
+   objects (:mod:`path_constraints`: joint velocity and acceleration always,
+   tool speed or torque when given), times the local factors, averaged over
+   the smoothing windows; rest to rest.
+   A waypoint where that profile nearly stops (a sharp corner of the path)
+   is made a stop, and each span between stops is averaged on its own.
+3. Knots.  Per segment between waypoints, knots at given time fractions of
+   the segment (``fractions``) or at equal ones, as many as the jerk ramp
+   and the caller's shortest piece allow, up to the caller's count
+   (:func:`inner_knots.knots_per_segment`), each at the path's position at
+   its time; the waypoints exactly.
+4-6. The C4 quintic spline through them (eqs. 13-23, :mod:`continuity_system`),
+   its exact v/a/j factors (and the caller's ``piece_factors`` for limits the
+   polynomials do not show, a tool speed), scaled to its limits, and the
+   iteration on the local factors; the shortest spline is kept.
+
+The caller decides where more knots are needed (:func:`midpoint_fractions`
+splits pieces at their time midpoints): the spline passes through its
+knots, which lie on the path, so more knots bring it closer to the path
+between them.  This module knows nothing of tools: the tool-path module
+measures the deviation and asks again.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+
+from .inner_knots import _iterate, _Timing, _trajectory, DEFAULT_SMOOTHING
+from .path_constraints import GriddedPath, JointAcceleration, JointVelocity, SpeedConstraint
+from .path_velocity import PathLimits
+
+# Grid steps of the speed profile per interval between two path samples.
+GRID_PER_SAMPLE = 2
+# Most knots per segment between waypoints (inner knots plus the waypoint).
+MAX_SEGMENT_KNOTS = 256
+# Most inner knots per segment of the first spline (more are inserted where needed).
+START_KNOTS = 8
+# A waypoint where the fastest profile's speed is below this share of both
+# neighbouring segments' top speeds is a stop (JointPathSamples).
+STOP_RATIO = 0.2
+# A piece lasts at least this many jerk ramp times a / j (inner_knots' step 3
+# keeps 1.5 on its coarser knots; along a sampled path 1 is shorter and as smooth).
+RAMP_PIECES = 1.0
+
+
+class JointPathSamples:
+    """
+    A joint path through samples ``q`` (K, n) at path coordinates ``s`` (K,), for the timing.
+
+    ``waypoint_index`` (N,) are the samples that are waypoints (the first
+    and the last sample among them).  ``constraints`` are the path-velocity
+    constraint objects beyond the joint velocity and acceleration limits
+    (which come from ``limits``); ``piece_factors(coeffs, pieces)``, when
+    given, returns per spline piece (P, k) the factors by which the piece
+    must be slowed down for limits the polynomials do not show exactly (a
+    tool speed), first order: they join the exact v/a/j factors of step 5.
+
+    Stops: a waypoint where the fastest profile nearly stops (its speed
+    below :data:`STOP_RATIO` of the slower of the two neighbouring
+    segments' top speeds: a sharp corner of the path) is made a stop, and
+    the smoothing windows average each span between stops on its own, so
+    the averaged profile still stops there.
+
+    What :class:`inner_knots._Candidate` reads: ``s``, ``steps``,
+    ``waypoint_s``, ``points``, ``ppoly``, ``limits`` (a :class:`PathLimits`),
+    ``start``, ``end``, ``most``, :meth:`timing` and ``piece_factors``.
+    """
+
+    def __init__(self, s, q, waypoint_index, limits, constraints=(),
+                 windows=(DEFAULT_SMOOTHING,), piece_factors=None, most=None,
+                 min_piece=0.0, margin=1.0):
+        """Interpolate the samples and prepare the constraints on the grid."""
+        s = np.asarray(s, float)
+        q = np.asarray(q, float)
+        if s.ndim != 1 or q.shape[0] != s.size or s.size < 2 or not np.all(np.diff(s) > 0.0):
+            raise ValueError('path samples need increasing path coordinates, one per row')
+        self.ppoly = CubicSpline(s, q, axis=0)
+        fractions = np.arange(GRID_PER_SAMPLE) / GRID_PER_SAMPLE
+        self.s = np.concatenate([(s[:-1, None] + fractions * np.diff(s)[:, None]).ravel(),
+                                 s[-1:]])
+        self.steps = np.diff(self.s)
+        index = np.asarray(waypoint_index, int)
+        self.waypoint_s = s[index]
+        self.points = q[index]
+        self.gridded = GriddedPath.of_ppoly(self.ppoly, self.s)
+        constraints = (JointVelocity(limits.velocity),
+                       JointAcceleration(limits.acceleration * margin)) + tuple(constraints)
+        self.limits = PathLimits(self.gridded, constraints)
+        self.start = self.end = 0.0
+        self.most = START_KNOTS if most is None else int(most)
+        self.min_piece = float(min_piece)
+        self.ramp_pieces = RAMP_PIECES
+        self.windows = tuple(windows)
+        self.piece_factors = piece_factors
+        self.stops = self._stops(self.limits.profile(np.ones(self.s.size)))
+        if self.stops.size > 2:
+            self.limits = PathLimits(self.gridded, constraints + (_Stops(self.stops),))
+
+    def _stops(self, x):
+        """Grid indices (first, stops, last) where the profile ``x`` nearly stops."""
+        grid = np.searchsorted(self.s, self.waypoint_s)
+        top = np.array([np.max(x[a:b + 1]) for a, b in zip(grid[:-1], grid[1:])])
+        slower = np.minimum(top[:-1], top[1:])
+        inner = grid[1:-1][x[grid[1:-1]] < STOP_RATIO ** 2 * slower]
+        return np.concatenate([grid[:1], inner, grid[-1:]])
+
+    def timing(self, times, x):
+        """Return the averaged path position in time (step 2), span by span between stops."""
+        return _SpanTiming(times, x, self.s, self.windows, self.stops)
+
+
+class _Stops(SpeedConstraint):
+    """Rest (x = 0) at the given grid points."""
+
+    def __init__(self, index):
+        self.index = index
+
+    def squared_speed_limit(self, path):
+        cap = np.full(path.s.size, np.inf)
+        cap[self.index] = 0.0
+        return cap
+
+
+class _SpanTiming:
+    """
+    :class:`inner_knots._Timing` of every span between stops, one after the other.
+
+    Each span starts and ends at rest, so each is averaged on its own and
+    lasts its windows longer; ``time_at`` and ``position_at`` as there.
+    """
+
+    def __init__(self, times, x, s, windows, stops):
+        self.spans, offsets = [], [0.0]
+        for a, b in zip(stops[:-1], stops[1:]):
+            span = _Timing(times[a:b + 1] - times[a], x[a:b + 1], s[a:b + 1] - s[a], windows)
+            self.spans.append(span)
+            offsets.append(offsets[-1] + span.duration)
+        self.offsets = np.array(offsets)
+        self.s_start = s[stops]
+        self.duration = offsets[-1]
+
+    def time_at(self, s):
+        """Return the times at which the path positions ``s`` are passed."""
+        s = np.asarray(s, float)
+        k = np.clip(np.searchsorted(self.s_start, s, side='right') - 1, 0, len(self.spans) - 1)
+        out = np.empty_like(s)
+        for j in np.unique(k):
+            mine = k == j
+            span = self.spans[j]
+            local = np.clip(s[mine] - self.s_start[j], 0.0, span.s[-1])
+            found = (np.interp(local, span._s, span._t) if span.widths
+                     else np.interp(local, span.s, span.times))
+            out[mine] = self.offsets[j] + found
+        # Span ends exactly: the stops at their spans' ends.
+        at_start = np.isin(s, self.s_start)
+        out[at_start] = self.offsets[np.searchsorted(self.s_start, s[at_start])]
+        return out
+
+    def position_at(self, t):
+        """Return the path position at the times ``t``."""
+        t = np.asarray(t, float)
+        k = np.clip(np.searchsorted(self.offsets, t, side='right') - 1, 0, len(self.spans) - 1)
+        out = np.empty_like(t)
+        for j in np.unique(k):
+            mine = k == j
+            out[mine] = self.s_start[j] + self.spans[j].position_at(t[mine] - self.offsets[j])
+        return out
+
+
+@dataclass
+class PathTiming:
+    """
+    The spline timed along a path: ``trajectory`` and its knots.
+
+    ``trajectory`` passes the waypoints at ``trajectory.waypoint_times``;
+    ``knot_s`` (K,) are the knots' path coordinates, ``fractions`` the time
+    fractions of the knots per segment (for :func:`midpoint_fractions`),
+    ``iterations`` the splines built.
+    """
+
+    trajectory: object
+    knot_s: np.ndarray
+    fractions: list
+    iterations: int
+    local: np.ndarray
+
+
+def plan_along_path(path, limits, fractions=None, local=None, iterations=None):
+    """
+    Return the :class:`PathTiming` of the C4 spline along ``path`` (a :class:`JointPathSamples`).
+
+    ``fractions``: knots per segment as time fractions (None: equal ones, as
+    many as the jerk ramp allows).  ``local``: the local factors to start
+    from (a previous :attr:`PathTiming.local`).  ValueError when no spline
+    within the limits is found.
+    """
+    boundary = [np.zeros(path.points.shape[1])] * 4
+    start = np.ones(path.s.size) if local is None else local
+    kwargs = {} if iterations is None else {'iterations': iterations}
+    best, count = _iterate(path, start, None, boundary, limits, True, None, fractions, **kwargs)
+    if best is None:
+        raise ValueError('no spline along the path meets the limits')
+    traj = _trajectory(path.points, boundary, limits, True, best, (),
+                       {'knots': int(best.pieces.size + 1), 'iterations': count,
+                        'smoothing_windows': list(path.windows)})
+    if traj is None:
+        raise ValueError('no spline along the path meets the limits')
+    times = best.knot_times
+    ends = best.waypoint_knots
+    found = [(times[ends[k]:ends[k + 1]] - times[ends[k]]) / (times[ends[k + 1]] - times[ends[k]])
+             for k in range(ends.size - 1)]
+    return PathTiming(traj, best.knot_s, found, count, best.local)
+
+
+def midpoint_fractions(fractions, pieces):
+    """
+    Return ``fractions`` with the pieces ``pieces`` (indices over all segments) split in two.
+
+    A piece is split at the midpoint of its time fractions; a segment keeps
+    at most :data:`MAX_SEGMENT_KNOTS` knots.
+    """
+    out, first = [], 0
+    pieces = np.asarray(pieces, int)
+    for f in fractions:
+        mine = pieces[(pieces >= first) & (pieces < first + f.size)] - first
+        ends = np.append(f, 1.0)
+        added = 0.5 * (ends[mine] + ends[mine + 1])
+        room = MAX_SEGMENT_KNOTS - f.size
+        out.append(np.sort(np.concatenate([f, added[:max(room, 0)]])))
+        first += f.size
+    return out
+
+
+def rescaled(traj, factor):
+    """Return the rest-to-rest ``traj`` slowed down by ``factor`` >= 1 (same knots)."""
+    if not factor > 1.0:
+        return traj
+    candidate = _Scaled(traj, factor)
+    scaled = _trajectory(traj.waypoints, [np.zeros(traj.waypoints.shape[1])] * 4, traj.limits,
+                         True, candidate, (), dict(traj.optimizer, time_scale=float(factor)))
+    if scaled is None:
+        raise ValueError('slowing the spline down failed')
+    return scaled
+
+
+class _Scaled:
+    """The knots of ``traj`` on pieces ``factor`` times longer: what _trajectory reads."""
+
+    def __init__(self, traj, factor):
+        self.pieces = np.diff(traj.breakpoints) * factor
+        self.positions = traj.ppoly(traj.breakpoints)
+        self.positions[-1] = traj.waypoints[-1]
+        self.waypoint_knots = np.searchsorted(traj.breakpoints, traj.waypoint_times)
+        self.positions[self.waypoint_knots] = traj.waypoints
+
+
+__all__ = ['GRID_PER_SAMPLE', 'JointPathSamples', 'midpoint_fractions', 'PathTiming',
+           'plan_along_path', 'rescaled']
