@@ -1,0 +1,393 @@
+"""
+Tool lines like an industrial linear move (issue 24): ours against dense IK + TOPP-RA, one run.
+
+The seams of ``make demo`` (:mod:`splines445_ros.tools.robot_seam_demo`: the
+UR5 and the Franka Panda, 4 straight edges on a table, the last one turning
+the tool 60 degrees; limits from the shipped configs), for the tool speed
+limits v = none, 0.1 and 0.25 m/s, each planned two ways in this run:
+
+* Ours: ``plan_tool_path(..., method='555', timing='optimal',
+  max_tool_speed=v)`` at 1 mm and 1 degree (v/a/j limits), a fresh
+  ``ModelKinematics`` per run (no IK walk remembered), best of 3.
+* MoveIt's route (dense IK + TOPP-RA, v/a limits, no jerk limit): the lines
+  sampled every 2 mm of path length ``s`` (tool arc length plus 0.1 m per
+  radian of rotation: position linear, orientation slerp), one continuous
+  ``kin.inverse`` walk through them (fresh kinematics), then toppra: its
+  ``SplineInterpolator`` over the samples against ``s``, joint velocity and
+  acceleration constraints, ``ParametrizeConstAccel``, its default grid
+  (``propose_gridpoints`` with TOPPRA's defaults, computed here so that the
+  tool speed limit can be tabulated on it).  The tool speed limit is
+  ``JointVelocityConstraintVarying``: at every grid point the path speed
+  that keeps the tool at v is ``c = v / |dp/ds|`` (``dp/ds``: central
+  differences of the forward kinematics along toppra's own path, so it is
+  exact for the path timed, about 1 on a straight edge, L / (L + 0.1 theta)
+  on the turning one), and joint j's velocity limit there is
+  ``min(v_j, c |dq_j/ds|)``: then ``sdot |dq_j/ds| <= v_j`` for every j
+  and ``sdot <= c`` (from any moving joint), i.e. exactly the joint limits
+  plus the tool speed limit at the grid points (between them, where
+  ``|dp/ds|`` changes fast near a corner, the tool may run a little faster:
+  toppra checks its constraints at the grid points only).  IK and TOPP-RA
+  are timed separately (best of 3 each).
+
+Per row: durations; planning times (ours against IK + TOPP-RA); the largest
+deviation from the lines sampled at 1 kHz through the forward kinematics
+(``robot_seam_demo.sampled_deviation``; toppra's trajectory passes the tool
+waypoints at the times its path parameter reaches the waypoint samples);
+the largest tool speed (``tool_lines.tool_speeds``: central differences of
+the forward kinematics every millisecond, local maxima refined) and the
+share of the length run at >= 99 % of v; the duration bound; and the
+shaking of a lightly damped mode at 4 and 8 Hz on every joint
+(``shaking.py``: peak while moving and residual after the end), ours
+divided by TOPP-RA's.
+
+The duration bound of the issue ("within 5 % of the edge lengths / speed
+plus the corner times that the joints' limits force") is computed as the
+duration of the time-optimal path-velocity profile (no jerk limit) along
+our own dense IK path under the joint velocity and acceleration limits and
+the tool speed: ``tool_lines.sample_edges``, one IK walk,
+``path_timing.JointPathSamples(..., [ToolSpeed(v, ...)], windows=())`` and
+``traversal_times`` of ``path.limits.profile`` (the planner's constraints,
+its rest at the sharp corners included).  The plain sum of edge lengths / v
+is printed next to it.  The no-limit rows show the same profile without
+the tool speed.
+
+Targets (met / not met, after the tables): duration <= 1.05 x TOPP-RA's
+(no-limit rows); planning <= 200 ms and <= dense IK + TOPP-RA; tool speed
+<= v everywhere, share >= 0.9 and duration <= 1.05 x the bound (speed
+rows).  A report: exits 0 whatever the targets, but 1 when one of our plans
+deviates more than 1 mm or 1 degree at 1 kHz (as ``bench_robot_seam.py``).
+
+Usage: ``python benchmarks/bench_tool_lines.py`` (about 10 s).
+"""
+
+import logging
+import math
+import os
+import sys
+import time
+from types import SimpleNamespace
+
+os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but the rule holds
+
+import numpy as np  # noqa: E402, I100
+from shaking import of_toppra, shaking_figures, shaking_ratios  # noqa: E402, I100
+from splines445_ros.arm import rotations as rot  # noqa: E402
+from splines445_ros.arm import tool_lines as tl  # noqa: E402
+from splines445_ros.arm.inverse_kinematics import ModelKinematics  # noqa: E402
+from splines445_ros.arm.tool_paths import plan_tool_path  # noqa: E402
+from splines445_ros.planning import JointLimits  # noqa: E402
+from splines445_ros.planning.path_constraints import ToolSpeed  # noqa: E402
+from splines445_ros.planning.path_timing import JointPathSamples  # noqa: E402
+from splines445_ros.planning.path_velocity import traversal_times  # noqa: E402
+from splines445_ros.tools import robot_seam_demo as rsd  # noqa: E402
+import toppra  # noqa: E402, I100
+import toppra.algorithm  # noqa: E402
+import toppra.constraint  # noqa: E402
+from toppra.interpolator import propose_gridpoints  # noqa: E402
+
+ROBOTS = ('ur5', 'panda')
+SPEEDS = (None, 0.1, 0.25)          # tool speed limits [m/s]; None: no limit
+REPEATS = 3                         # planning times: best of
+SPACING = 2e-3                      # dense IK samples [m of s]
+ANGLE_LENGTH = 0.1                  # m of s per radian of tool rotation
+DIFFERENCE_STEP = 1e-6              # [m of s] for |dp/ds| of toppra's path
+PLANNING_TARGET = 0.2               # s
+DURATION_SLACK = 1.05
+SHARE_TARGET = 0.9
+SPEED_SLACK = 1.0 + 1e-9            # round-off on "tool speed <= v"
+
+
+def fresh_kinematics(robot, kin):
+    """Return a new ModelKinematics of ``robot``, as ``seam_table`` builds it (no walks)."""
+    spec = rsd.ROBOTS[robot]
+    return ModelKinematics(kin.robot, spec['tool'], spec['base'], spec['joints'],
+                           seed=spec['ready'])
+
+
+def best_of(func, repeats=REPEATS):
+    """Return (the shortest wall time [s] of ``repeats`` calls, the last result)."""
+    best, result = math.inf, None
+    for _ in range(repeats):
+        started = time.perf_counter()
+        result = func()
+        best = min(best, time.perf_counter() - started)
+    return best, result
+
+
+def dense_lines(poses, spacing=SPACING):
+    """
+    Return (s (K,), tool poses (K, 7), waypoint samples (N,)) of the lines every ``spacing``.
+
+    ``s``: tool arc length plus :data:`ANGLE_LENGTH` per radian of rotation;
+    positions linear and orientations slerped along every edge.
+    """
+    length = np.linalg.norm(np.diff(poses[:, :3], axis=0), axis=1)
+    ell = length + ANGLE_LENGTH * rot.angle_between(poses[:-1, 3:], poses[1:, 3:])
+    sigma, edge = [], []
+    for e, size in enumerate(ell):
+        count = max(1, int(math.ceil(size / spacing)))
+        sigma.append(np.arange(count) / count)
+        edge.append(np.full(count, e))
+    sigma = np.concatenate(sigma + [[1.0]])
+    edge = np.concatenate(edge + [[len(ell) - 1]])
+    a, b = poses[edge], poses[edge + 1]
+    samples = np.empty((sigma.size, 7))
+    samples[:, :3] = a[:, :3] + sigma[:, None] * (b[:, :3] - a[:, :3])
+    samples[:, 3:] = rot.slerp(a[:, 3:], b[:, 3:], sigma)
+    s = np.concatenate([[0.0], np.cumsum(ell)])[edge] + sigma * ell[edge]
+    waypoints = np.concatenate([np.flatnonzero(sigma == 0.0), [sigma.size - 1]])
+    return s, samples, waypoints
+
+
+def toppra_plan(s, joints, kin, vmax, amax, tool_speed):
+    """
+    TOPP-RA along the spline through ``joints`` at ``s``; return (trajectory, grid, sdot).
+
+    ``tool_speed`` [m/s] or None: the tool speed limit as joint velocity
+    limits varying along the path (module docstring).
+    """
+    path = toppra.SplineInterpolator(s, joints)
+    grid = np.asarray(propose_gridpoints(path, max_err_threshold=1e-3, min_nb_points=100))
+    constraints = [toppra.constraint.JointVelocityConstraint(np.column_stack([-vmax, vmax])),
+                   toppra.constraint.JointAccelerationConstraint(
+                       np.column_stack([-amax, amax]))]
+    if tool_speed:
+        ahead = np.minimum(grid + DIFFERENCE_STEP, s[-1])
+        behind = np.maximum(grid - DIFFERENCE_STEP, s[0])
+        dp = (kin.forward(path(ahead))[:, :3] - kin.forward(path(behind))[:, :3])
+        rate = np.linalg.norm(dp, axis=1) / (ahead - behind)            # |dp/ds|
+        cap = tool_speed / np.maximum(rate, 1e-12)                      # largest sdot
+        # Joint j: sdot |dq_j/ds| <= min(v_j, cap |dq_j/ds|); a joint at rest
+        # (dq_j/ds = 0) gets a tiny positive bound (toppra: lower < upper).
+        table = np.maximum(np.minimum(vmax, cap[:, None] * np.abs(path(grid, 1))), 1e-12)
+
+        def vlim(x):
+            row = table[min(int(np.searchsorted(grid, x)), grid.size - 1)]
+            return np.column_stack([-row, row])
+
+        constraints.append(toppra.constraint.JointVelocityConstraintVarying(vlim))
+    instance = toppra.algorithm.TOPPRA(constraints, path, gridpoints=grid,
+                                       parametrizer='ParametrizeConstAccel')
+    trajectory = instance.compute_trajectory()
+    if trajectory is None:
+        raise RuntimeError('TOPP-RA found no parametrisation')
+    return trajectory, grid, np.asarray(instance.problem_data.sd_vec, float)
+
+
+def passing_times(grid, sdot, at):
+    """Return the times the constant-acceleration profile ``sdot`` on ``grid`` reaches ``at``."""
+    times = np.concatenate([[0.0], np.cumsum(2.0 * np.diff(grid) / (sdot[:-1] + sdot[1:]))])
+    i = np.clip(np.searchsorted(grid, at, side='right') - 1, 0, grid.size - 2)
+    into = at - grid[i]
+    x = sdot[i] ** 2 + (sdot[i + 1] ** 2 - sdot[i] ** 2) * into / (grid[i + 1] - grid[i])
+    speed = sdot[i] + np.sqrt(np.maximum(x, 0.0))
+    with np.errstate(divide='ignore', invalid='ignore'):
+        return times[i] + np.where(into > 0.0, 2.0 * into / speed, 0.0)
+
+
+class ToppraTrajectory:
+    """A toppra trajectory as the deviation and tool speed checks read ours."""
+
+    def __init__(self, trajectory, waypoint_times):
+        """Wrap ``trajectory``; ``waypoint_times`` are when it passes the tool waypoints."""
+        self.toppra = trajectory
+        self.duration = float(trajectory.duration)
+        self.waypoint_times = np.asarray(waypoint_times, float)
+
+    def evaluate(self, t, derivative=0):
+        """Return the joint positions (or derivatives) (T, n) at the times ``t``."""
+        t = np.clip(np.atleast_1d(np.asarray(t, float)), 0.0, self.duration)
+        return self.toppra(t, derivative)
+
+    def sample(self, period):
+        """Sample every ``period`` and at the end, as ``Trajectory.sample`` does."""
+        times = np.arange(int(np.floor(self.duration / period)) + 1) * period
+        keep = times < self.duration - 0.5 * period
+        keep[0] = True
+        times = np.append(times[keep], self.duration)
+        return SimpleNamespace(times=times, positions=self.evaluate(times))
+
+
+def speed_figures(trajectory, kin, tool_speed):
+    """Return (largest tool speed [m/s], share of the length at >= 99 % of ``tool_speed``)."""
+    linear, _, sampled = tl.tool_speeds(trajectory, kin)
+    if not tool_speed:
+        return linear, None
+    # By length: every sample weighs the distance the tool covers there (as ToolPath's).
+    return linear, float(np.sum(sampled[sampled >= 0.99 * tool_speed]) / np.sum(sampled))
+
+
+def profile_bound(path_samples, limits, tool_speed):
+    """
+    Duration [s] of the time-optimal path-velocity profile along our dense IK path (no jerk).
+
+    ``path_samples`` = (s, joints, waypoint indices, edge rates) of
+    :func:`bound_path`; with ``tool_speed`` its ToolSpeed constraint too.
+    """
+    s, joints, waypoints, rates = path_samples
+    constraints = [ToolSpeed(tool_speed, rates.linear_tangent)] if tool_speed else []
+    path = JointPathSamples(s, joints, waypoints, limits, constraints, windows=())
+    x = path.limits.profile(np.ones(path.s.size))
+    return float(traversal_times(x, path.steps)[-1])
+
+
+def bound_path(poses, kin):
+    """Return (s, joints, waypoint indices, edge rates) of our dense path (``tool_lines``)."""
+    s, sigma, edge, waypoints = tl.sample_edges(poses)
+    joints = np.asarray(kin.inverse(tl.interpolate_poses(poses, sigma, edge)), float)
+    return s, joints, waypoints, tl._EdgeRates(poses, s[waypoints])
+
+
+def robot_rows(robot):
+    """Plan ``robot``'s seam both ways for every tool speed; return one dict per row."""
+    kin, kwargs, poses = rsd.setup(robot)
+    vmax = np.asarray(kwargs['max_velocity'], float)
+    amax = np.asarray(kwargs['max_acceleration'], float)
+    limits = JointLimits.from_user(kin.n_joints, kwargs['max_velocity'],
+                                   kwargs['max_acceleration'], kwargs['max_jerk'])
+    s, samples, waypoints = dense_lines(poses)
+    ik_time, joints = best_of(lambda: np.asarray(
+        fresh_kinematics(robot, kin).inverse(samples), float))
+    bound_samples = bound_path(poses, fresh_kinematics(robot, kin))
+    edge_sum = float(np.sum(np.linalg.norm(np.diff(poses[:, :3], axis=0), axis=1)))
+    rows = []
+    for v in SPEEDS:
+        top_time, (top, grid, sdot) = best_of(
+            lambda: toppra_plan(s, joints, kin, vmax, amax, v))
+        rival = SimpleNamespace(
+            trajectory=ToppraTrajectory(top, passing_times(grid, sdot, s[waypoints])),
+            waypoint_knots=np.arange(len(poses)))
+        ours_time, ours = best_of(lambda: plan_tool_path(
+            poses, fresh_kinematics(robot, kin), rsd.TOLERANCE, rsd.ANGLE_TOLERANCE,
+            max_inserted=rsd.MAX_INSERTED, method='555', timing='optimal', max_tool_speed=v,
+            **kwargs))
+        reference = shaking_figures(of_toppra(top), top.duration, amax)
+        rows.append({
+            'robot': robot, 'v': v, 'construction': ours.construction,
+            'ours': ours.trajectory.duration, 'toppra': rival.trajectory.duration,
+            'ours_time': ours_time, 'ik_time': ik_time, 'top_time': top_time,
+            'ours_dev': rsd.sampled_deviation(ours, poses, kin),
+            'top_dev': rsd.sampled_deviation(rival, poses, kin),
+            'ours_speed': speed_figures(ours.trajectory, kin, v),
+            'top_speed': speed_figures(rival.trajectory, kin, v),
+            'bound': profile_bound(bound_samples, limits, v),
+            'edges_over_v': edge_sum / v if v else None,
+            'shaking': shaking_ratios(ours.trajectory, reference, amax)})
+    return rows
+
+
+def speed_label(v):
+    """'no limit' or the tool speed limit."""
+    return 'no limit' if v is None else f'{v:g}'
+
+
+def speed_cell(figures):
+    """'speed / share' of :func:`speed_figures`."""
+    speed, share = figures
+    return f'{speed:.4f}' + ('' if share is None else f' / {share:.2f}')
+
+
+def dev_cell(deviation):
+    """'mm / deg' of a (m, rad) deviation."""
+    return f'{1e3 * deviation[0]:.3f} / {math.degrees(deviation[1]):.3f}'
+
+
+def markdown_table(rows):
+    """Return the Markdown table of one robot's rows."""
+    lines = ['| v [m/s] | ours duration [s] | TOPP-RA duration [s] | ratio | ours planning [ms] '
+             '| TOPP-RA planning (IK + TOPP) [ms] | ratio | ours dev [mm / deg] '
+             '| TOPP-RA dev [mm / deg] | ours max tool speed [m/s] / share '
+             '| TOPP-RA max tool speed [m/s] / share | bound (profile) / sum L/v [s] '
+             '| ours / bound | shaking 4 Hz peak / res, 8 Hz peak / res (ours / TOPP-RA) |',
+             '|' + '---|' * 14]
+    for r in rows:
+        rival = r['ik_time'] + r['top_time']
+        bound = f"{r['bound']:.3f}" + ('' if r['v'] is None else f" / {r['edges_over_v']:.3f}")
+        shake = r['shaking']
+        lines.append(
+            f"| {speed_label(r['v'])} | {r['ours']:.3f} "
+            f"| {r['toppra']:.3f} | {r['ours'] / r['toppra']:.3f} "
+            f"| {1e3 * r['ours_time']:.1f} "
+            f"| {1e3 * r['ik_time']:.1f} + {1e3 * r['top_time']:.1f} = {1e3 * rival:.1f} "
+            f"| {r['ours_time'] / rival:.2f} | {dev_cell(r['ours_dev'])} "
+            f"| {dev_cell(r['top_dev'])} | {speed_cell(r['ours_speed'])} "
+            f"| {speed_cell(r['top_speed'])} | {bound} | {r['ours'] / r['bound']:.3f} "
+            f'| {shake[0]:.2f} / {shake[1]:.2f}, {shake[2]:.2f} / {shake[3]:.2f} |')
+    return '\n'.join(lines)
+
+
+def within_tolerance(row):
+    """Whether our plan's 1 kHz deviation is within 1 mm and 1 degree."""
+    position, angle = row['ours_dev']
+    return (position <= rsd.TOLERANCE * (1 + 1e-6)
+            and angle <= rsd.ANGLE_TOLERANCE * (1 + 1e-6))
+
+
+# (name, which rows, value of a row, met(value), format of the value)
+TARGETS = (
+    ('duration <= 1.05 x TOPP-RA (no limit)', lambda r: r['v'] is None,
+     lambda r: r['ours'] / r['toppra'], lambda x: x <= DURATION_SLACK, '{:.3f} x'),
+    ('planning <= 200 ms', lambda r: True, lambda r: 1e3 * r['ours_time'],
+     lambda x: x <= 1e3 * PLANNING_TARGET, '{:.1f} ms'),
+    ('planning <= dense IK + TOPP-RA', lambda r: True,
+     lambda r: r['ours_time'] / (r['ik_time'] + r['top_time']), lambda x: x <= 1.0,
+     '{:.2f} x'),
+    ('tool speed <= v at every sample', lambda r: r['v'] is not None,
+     lambda r: r['ours_speed'][0] / r['v'], lambda x: x <= SPEED_SLACK, '{:.4f} v'),
+    ('share at >= 99 % of v >= 0.9', lambda r: r['v'] is not None,
+     lambda r: r['ours_speed'][1], lambda x: x >= SHARE_TARGET, '{:.2f}'),
+    ('duration <= 1.05 x bound', lambda r: r['v'] is not None,
+     lambda r: r['ours'] / r['bound'], lambda x: x <= DURATION_SLACK, '{:.3f} x'),
+    ('deviation <= 1 mm / 1 deg at 1 kHz', lambda r: True,
+     lambda r: r, within_tolerance, None),
+)
+
+
+def targets_table(rows):
+    """Return the Markdown table of the targets (met / not met per row) and (met, checked)."""
+    heads = [f"{r['robot']} {speed_label(r['v'])}" for r in rows]
+    lines = ['| target | ' + ' | '.join(heads) + ' |', '|' + '---|' * (len(rows) + 1)]
+    met = checked = 0
+    for name, applies, value, test, fmt in TARGETS:
+        cells = []
+        for r in rows:
+            if not applies(r):
+                cells.append('-')
+                continue
+            x = value(r)
+            ok = bool(test(x))
+            met, checked = met + ok, checked + 1
+            shown = dev_cell(r['ours_dev']) if fmt is None else fmt.format(x)
+            cells.append(f"{'met' if ok else 'NOT MET'} ({shown})")
+        lines.append(f'| {name} | ' + ' | '.join(cells) + ' |')
+    return '\n'.join(lines), met, checked
+
+
+def main():
+    """Print the tables; 1 when one of our plans is not within 1 mm / 1 degree, else 0."""
+    logging.getLogger('toppra').setLevel(logging.ERROR)
+    started = time.perf_counter()
+    every = []
+    for robot in ROBOTS:
+        rows = robot_rows(robot)
+        every += rows
+        print(f'{robot.upper()} seam, 1 mm / 1 deg: ours (555 optimal, v/a/j) against dense IK '
+              f'every {1e3 * SPACING:g} mm + TOPP-RA (v/a); planning best of {REPEATS}.')
+        print(markdown_table(rows))
+        others = sorted({r['construction'] for r in rows} - {'tool lines'})
+        if others:
+            print(f'(ours fell back to the construction {others} on some rows)')
+        print()
+        sys.stdout.flush()
+    table, met, checked = targets_table(every)
+    print("Issue 24's targets (ours):")
+    print(table)
+    print(f'{met} of {checked} met; run time {time.perf_counter() - started:.1f} s.')
+    failed = [r for r in every if not within_tolerance(r)]
+    for r in failed:
+        print(f"NOT WITHIN TOLERANCE: {r['robot']} v = {r['v']}")
+    return 1 if failed else 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
