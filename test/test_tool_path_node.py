@@ -82,7 +82,12 @@ def test_optimal_timing_and_an_orientation_tolerance(system, method):
     assert status.level == DiagnosticStatus.OK, status.message
     values = status_values(status)
     assert (values['method'], values['timing']) == (method, 'optimal')
-    assert int(values['inserted_waypoints']) > 0
+    if method == '445':
+        assert int(values['inserted_waypoints']) > 0   # refined
+    else:
+        # 555 optimal is timed along the lines' own inverse kinematics: the
+        # unrefined deviation is the spline's, already small.
+        assert float(values['unrefined_max_path_deviation']) <= 5e-3
     assert float(values['max_path_deviation_reached']) <= 5e-3
     assert float(values['max_orientation_deviation_reached']) <= 0.01
     played = sampled_trajectory_from_msg(msg, pe.JOINT_NAMES)
