@@ -58,7 +58,9 @@ MAX_ROUNDS = 10
 # Tool speed check period [s] and the central-difference half step [s].
 CHECK_PERIOD = 1e-3
 _DIFFERENCE_STEP = 1e-5
-_GOLDEN_STEPS = 20
+_GOLDEN_STEPS = 16
+# Local maxima of each speed refined by the search (the largest ones).
+REFINED_MAXIMA = 8
 # Samples per spline piece of the tool speed seen by the timing's iteration.
 PIECE_SAMPLES = 12
 _GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
@@ -166,41 +168,68 @@ def tool_speeds(traj, kinematics, period=CHECK_PERIOD):
     """
     Return the largest tool (linear [m/s], angular [rad/s]) speed of ``traj``, and the samples.
 
-    Central differences of the forward kinematics at every ``period``, every
-    local maximum refined by golden-section search (module docstring).
+    Central differences of the forward kinematics at every ``period``, the
+    largest local maxima refined by golden-section search (module docstring).
     """
     t = np.linspace(0.0, traj.duration, max(3, int(math.ceil(traj.duration / period)) + 1))
-
-    def speeds(times):
-        h = _DIFFERENCE_STEP
-        after = np.asarray(kinematics.forward(traj.evaluate(np.minimum(times + h, traj.duration))))
-        before = np.asarray(kinematics.forward(traj.evaluate(np.maximum(times - h, 0.0))))
-        span = np.minimum(times + h, traj.duration) - np.maximum(times - h, 0.0)
-        if after.shape[1] == 3:
-            linear = np.hypot(*(after[:, :2] - before[:, :2]).T)
-            angular = np.abs(after[:, 2] - before[:, 2])
-        else:
-            linear = np.linalg.norm(after[:, :3] - before[:, :3], axis=1)
-            angular = rot.angle_between(before[:, 3:], after[:, 3:])
-        return linear / span, angular / span
-
-    sampled = speeds(t)
-    found = []
-    for kind, values in enumerate(sampled):
+    sampled = _speeds(traj, kinematics, t)
+    lo, hi, kind = [], [], []
+    for k, values in enumerate(sampled):
         mid = values[1:-1]
         peak = np.flatnonzero((mid >= values[:-2]) & (mid >= values[2:]))
-        top = peak[np.argsort(mid[peak])[-16:]]
-        lo, hi = t[top], t[top + 2]
-        x1, x2 = hi - _GOLDEN * (hi - lo), lo + _GOLDEN * (hi - lo)
-        f1, f2 = speeds(x1)[kind], speeds(x2)[kind]
-        for _ in range(_GOLDEN_STEPS):
-            right = f2 > f1
-            lo, hi = np.where(right, x1, lo), np.where(right, hi, x2)
-            x1, x2 = hi - _GOLDEN * (hi - lo), lo + _GOLDEN * (hi - lo)
-            f1, f2 = speeds(x1)[kind], speeds(x2)[kind]
-        found.append(max(float(np.max(values)), float(np.max(f1, initial=0.0)),
-                         float(np.max(f2, initial=0.0))))
-    return found[0], found[1], sampled[0]
+        top = peak[np.argsort(mid[peak])[-REFINED_MAXIMA:]]
+        lo.append(t[top])
+        hi.append(t[top + 2])
+        kind.append(np.full(top.size, k))
+    lo, hi, kind = np.concatenate(lo), np.concatenate(hi), np.concatenate(kind)
+
+    def value(times):
+        linear, angular = _speeds(traj, kinematics, times)
+        return np.where(kind == 0, linear, angular)
+
+    x1, x2 = hi - _GOLDEN * (hi - lo), lo + _GOLDEN * (hi - lo)
+    f1, f2 = value(x1), value(x2)
+    for _ in range(_GOLDEN_STEPS):
+        right = f2 > f1  # the maximum lies in [x1, hi]
+        lo, hi = np.where(right, x1, lo), np.where(right, hi, x2)
+        keep_x, keep_f = np.where(right, x2, x1), np.where(right, f2, f1)
+        x_new = np.where(right, lo + _GOLDEN * (hi - lo), hi - _GOLDEN * (hi - lo))
+        f_new = value(x_new)
+        x1, f1 = np.where(right, keep_x, x_new), np.where(right, keep_f, f_new)
+        x2, f2 = np.where(right, x_new, keep_x), np.where(right, f_new, keep_f)
+    best = np.maximum(f1, f2)
+    return (max(float(np.max(sampled[0])), float(np.max(best[kind == 0], initial=0.0))),
+            max(float(np.max(sampled[1])), float(np.max(best[kind == 1], initial=0.0))),
+            sampled[0])
+
+
+def _speeds(traj, kinematics, times):
+    """Return the tool's linear and angular speed at ``times`` (central differences)."""
+    h = _DIFFERENCE_STEP
+    late, early = np.minimum(times + h, traj.duration), np.maximum(times - h, 0.0)
+    span = late - early
+    return _difference(kinematics, traj.evaluate(early), traj.evaluate(late), span)
+
+
+def _difference(kinematics, before, after, span):
+    """Return the tool's (linear, angular) speed from joints ``before`` to ``after`` in ``span``."""
+    if hasattr(kinematics, 'forward_transform'):
+        p0, m0 = kinematics.forward_transform(before)
+        p1, m1 = kinematics.forward_transform(after)
+        d = np.einsum('...ji,...jk->...ik', m0, m1)
+        cosine = 0.5 * (d[..., 0, 0] + d[..., 1, 1] + d[..., 2, 2] - 1.0)
+        sine = 0.5 * np.sqrt((d[..., 2, 1] - d[..., 1, 2]) ** 2
+                             + (d[..., 0, 2] - d[..., 2, 0]) ** 2
+                             + (d[..., 1, 0] - d[..., 0, 1]) ** 2)
+        return (np.linalg.norm(p1 - p0, axis=-1) / span, np.arctan2(sine, cosine) / span)
+    a = np.asarray(kinematics.forward(after))
+    b = np.asarray(kinematics.forward(before))
+    if a.shape[-1] == 3:
+        return (np.hypot(a[..., 0] - b[..., 0], a[..., 1] - b[..., 1]) / span,
+                np.abs(a[..., 2] - b[..., 2]) / span)
+    angle = rot.angle_between(b[..., 3:].reshape(-1, 4), a[..., 3:].reshape(-1, 4))
+    return (np.linalg.norm(a[..., :3] - b[..., :3], axis=-1) / span,
+            angle.reshape(a.shape[:-1]) / span)
 
 
 def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_tool_speed=0.0,
@@ -330,17 +359,8 @@ class _PieceSpeeds:
         rates = np.arange(1, 6) * powers[..., :5]
         qd = np.einsum('psk,pkn->psn', rates, coeffs[:, 1:])
         h = _DIFFERENCE_STEP
-        after = np.asarray(self.kinematics.forward(q + h * qd))
-        before = np.asarray(self.kinematics.forward(q - h * qd))
-        if after.shape[-1] == 3:
-            speeds = (np.hypot(after[..., 0] - before[..., 0], after[..., 1] - before[..., 1]),
-                      np.abs(after[..., 2] - before[..., 2]))
-        else:
-            speeds = (np.linalg.norm(after[..., :3] - before[..., :3], axis=-1),
-                      rot.angle_between(before[..., 3:].reshape(-1, 4),
-                                        after[..., 3:].reshape(-1, 4)).reshape(tau.shape))
-        return np.stack([np.max(speeds[k], axis=1) / (2.0 * h * v) for k, v in self.limits],
-                        axis=1)
+        speeds = _difference(self.kinematics, q - h * qd, q + h * qd, 2.0 * h)
+        return np.stack([np.max(speeds[k], axis=1) / v for k, v in self.limits], axis=1)
 
 
 class _Pieces:

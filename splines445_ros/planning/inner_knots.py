@@ -72,7 +72,7 @@ import numpy as np
 
 from .continuity_system import spline_coefficients
 from .limits import limit_ratios
-from .path_constraints import GriddedPath, JointAcceleration, JointVelocity
+from .path_constraints import GravityOverload, GriddedPath, JointAcceleration, JointVelocity
 from .path_velocity import path_position, PathLimits, traversal_times
 from .timing import closed_form_scale, rest_to_rest_durations
 from .trajectory import _check_finite, representable_durations, Trajectory
@@ -296,8 +296,8 @@ class _Path:
     the ``most`` inner knots per segment.
     """
 
-    def __init__(self, points, boundary, limits, most, windows, end_share=1.0):
-        """Build the path through ``points`` with ``boundary`` values."""
+    def __init__(self, points, boundary, limits, most, windows, end_share=1.0, torque=None):
+        """Build the path through ``points`` with ``boundary`` values (and torque limits)."""
         self.points = points
         self.most = most
         self.windows = windows
@@ -317,9 +317,12 @@ class _Path:
                                  .reshape(-1), knots[-1:]])
         self.steps = np.diff(self.s)
         self.waypoint_s = self.s[::GRID_STEPS]
-        self.limits = PathLimits(GriddedPath.of_ppoly(self.ppoly, self.s),
-                                 (JointVelocity(limits.velocity),
-                                  JointAcceleration(limits.acceleration)))
+        constraints = (JointVelocity(limits.velocity), JointAcceleration(limits.acceleration))
+        if torque is not None:
+            constraints += (torque.constraint(),)
+        self.limits = PathLimits(GriddedPath.of_ppoly(self.ppoly, self.s), constraints)
+        # The torque of each piece (step 5): a factor like the exact v/a/j ones.
+        self.piece_factors = None if torque is None else torque.piece_factors
 
 
 class _Candidate:
@@ -408,7 +411,7 @@ class _Candidate:
 
 
 def plan_with_inner_knots(points, boundary, limits, most, dropped_waypoints=(),
-                          windows=(DEFAULT_SMOOTHING,)):
+                          windows=(DEFAULT_SMOOTHING,), torque=None):
     """
     Return the 555 optimal Trajectory with up to ``most`` inner knots per segment, or None.
 
@@ -420,14 +423,18 @@ def plan_with_inner_knots(points, boundary, limits, most, dropped_waypoints=(),
     :data:`END_SEGMENT_SHARES` of their time when its own is not kept.  None
     when no spline within the limits is found (boundary values the
     construction cannot keep, or a request without motion): plan() then
-    keeps knots at the waypoints.
+    keeps knots at the waypoints.  ``torque`` (a :class:`torque.TorqueLimit`)
+    adds the joint torque to step 2's constraints and to step 5's factors
+    (sampled per piece; the caller checks the result at 1 kHz).
     """
     if np.all(points == points[0]):
         return None
     rest = not any(np.any(b) for b in boundary)
     for share in (1.0,) if rest else (1.0,) + END_SEGMENT_SHARES:
         try:
-            path = _Path(points, boundary, limits, most, windows, share)
+            path = _Path(points, boundary, limits, most, windows, share, torque)
+        except GravityOverload:
+            raise
         except ValueError:
             continue
         best, iterations = _construct(path, boundary, limits, rest)

@@ -7,8 +7,10 @@ from .inner_knots import (inner_knot_count, plan_with_inner_knots, smoothing_win
 from .limits import check_boundary_feasible, JointLimits
 from .methods import get_method
 from .optimal import optimal_durations
+from .path_timing import rescaled
 from .timing import (chord_durations, rest_to_rest_durations, rest_to_rest_scale,
                      scaled_spline, ScaledSpline, uniform_scale)
+from .torque import TorqueLimit
 from .trajectory import Trajectory
 from .validation import (boundary_vector, duration_array, non_negative,
                          position_limit_vector, waypoint_array)
@@ -32,6 +34,9 @@ ABSURD_UNIFORM = 2.0
 # Requests of at most this many waypoints also get the knots-only optimum,
 # and the shorter plan is returned (see _with_knots_only_rival).
 SMALL_REQUEST = 8
+# A plan slowed down for its torque limits gets this much more (the 1 kHz
+# check's own round-off).
+TORQUE_MARGIN = 1e-6
 
 
 def merge_duplicates(waypoints, tolerance=0.0):
@@ -76,7 +81,7 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
          start_velocity=None, start_acceleration=None,
          end_velocity=None, end_acceleration=None,
          waypoint_tolerance=DEFAULT_WAYPOINT_TOLERANCE, min_position=None, max_position=None,
-         inner_knots=None, vibration_frequency=None):
+         inner_knots=None, vibration_frequency=None, max_torque=None, inverse_dynamics=None):
     """
     Plan a trajectory through ``waypoints`` (N, n_joints).
 
@@ -140,16 +145,28 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         :data:`inner_knots.DEFAULT_SMOOTHING`.  Rest-to-rest requests only:
         with non-zero boundary values the profile is not averaged
         (``optimizer['smoothing_windows']`` is then empty).
+    max_torque, inverse_dynamics : (n,) positive limits [N m] (inf: none) and
+        a function ``tau(q, qd, qdd)`` ((N, n) each -> (N, n)), or both None
+        (:mod:`torque`).  Rest to rest only.  555 optimal with inner knots
+        shapes its speed profile for them (the torque is one more constraint
+        of the path-velocity step and of every piece); every other timing is
+        slowed down uniformly by the smallest factor that holds them
+        (checked at 1 kHz); "fixed" is only checked.  A pose where gravity
+        alone exceeds a limit is refused.  The result's ``torque_ratios``
+        (n,) are the peak torques over their limits.
 
     """
     if not isinstance(timing, str) or timing not in TIMINGS:
         raise ValueError(f'unknown timing {timing!r}: expected one of {TIMINGS}')
     inner_knots = inner_knot_count(inner_knots, get_method(method).name, timing)
     windows = smoothing_windows(vibration_frequency_value(vibration_frequency, inner_knots))
+    if (max_torque is None) != (inverse_dynamics is None):
+        raise ValueError('max_torque and inverse_dynamics must be given together')
     with np.errstate(over='ignore', invalid='ignore', divide='ignore', under='ignore'):
         traj = _plan(waypoints, method, timing, durations, max_velocity, max_acceleration,
                      max_jerk, (start_velocity, start_acceleration, end_velocity,
-                                end_acceleration), waypoint_tolerance, inner_knots, windows)
+                                end_acceleration), waypoint_tolerance, inner_knots, windows,
+                     (max_torque, inverse_dynamics))
         check_position_limits(traj, min_position, max_position)
     return traj
 
@@ -189,13 +206,62 @@ def check_position_limits(traj, min_position=None, max_position=None, joint_name
 
 
 def _plan(waypoints, method, timing, durations, max_velocity, max_acceleration, max_jerk,
-          boundary, waypoint_tolerance, inner_knots, windows):
+          boundary, waypoint_tolerance, inner_knots, windows, torque=(None, None)):
     method = get_method(method).name
     points = waypoint_array(waypoints)
     n = points.shape[1]
     boundary = tuple(boundary_vector(name, value, n) for name, value in zip(
         ('start_velocity', 'start_acceleration', 'end_velocity', 'end_acceleration'),
         boundary))
+    torque = None if torque[0] is None else TorqueLimit(*torque, n)
+    if torque is not None and any(np.any(b) for b in boundary):
+        raise ValueError('torque limits are planned rest to rest: the boundary velocities '
+                         'and accelerations must be zero')
+    traj = _plan_limited(method, points, timing, durations, max_velocity, max_acceleration,
+                         max_jerk, boundary, waypoint_tolerance, inner_knots, windows, torque)
+    return traj if torque is None else _torque_limited(traj, torque)
+
+
+def _torque_limited(traj, torque):
+    """
+    Return ``traj`` slowed down uniformly as little as its torque limits need (rest to rest).
+
+    Fixed timing is only checked: a ValueError names the joint.  The result
+    carries ``torque_ratios`` (n,): peak torque over its limit per joint.
+    """
+    if getattr(traj, 'torque_factor', np.inf) <= 1.0:
+        return traj     # checked already
+    factor, ratios = torque.time_factor(traj)
+    if factor > 1.0:
+        if traj.timing == 'fixed':
+            j = int(np.argmax(ratios))
+            raise ValueError(f'joint {j} needs {ratios[j]:.4g} times its torque limit with '
+                             f'the given durations: slow them down by {factor:.4g}')
+        traj = slowed_down(traj, factor * (1.0 + TORQUE_MARGIN))
+        factor, ratios = torque.time_factor(traj)
+    traj.torque_ratios = ratios
+    traj.torque_factor = factor
+    return traj
+
+
+def slowed_down(traj, factor):
+    """Return the rest-to-rest ``traj`` with every duration times ``factor`` (> 1)."""
+    if traj.breakpoints.size != traj.waypoint_times.size:
+        return rescaled(traj, factor)   # inner knots
+    slow = Trajectory.build(traj.method, traj.timing, traj.waypoints, traj.durations * factor,
+                            (traj.start_velocity, traj.start_acceleration, traj.end_velocity,
+                             traj.end_acceleration), traj.limits,
+                            scale=None if traj.scale is None else traj.scale * factor,
+                            dropped_waypoints=traj.dropped_waypoints)
+    if hasattr(traj, 'optimizer'):
+        slow.optimizer = dict(traj.optimizer, time_scale=float(factor))
+    return slow
+
+
+def _plan_limited(method, points, timing, durations, max_velocity, max_acceleration, max_jerk,
+                  boundary, waypoint_tolerance, inner_knots, windows, torque):
+    """Plan under the v/a/j limits (and, for 555 optimal with inner knots, the torque)."""
+    n = points.shape[1]
     tolerance = non_negative('waypoint_tolerance', waypoint_tolerance)
     limits = None
     if max_velocity is not None or max_acceleration is not None or max_jerk is not None:
@@ -220,10 +286,10 @@ def _plan(waypoints, method, timing, durations, max_velocity, max_acceleration, 
         start = np.diff(np.delete(np.concatenate([[0.0], np.cumsum(start)]), dropped))
     if inner_knots:
         refined = plan_with_inner_knots(points, boundary, limits, inner_knots, dropped,
-                                        windows)
+                                        windows, torque)
         if refined is not None:
             return _with_knots_only_rival(refined, method, points, start, boundary, limits,
-                                          dropped)
+                                          dropped, torque)
     knots_only = _plan_knots_only(method, timing, points, start, boundary, limits, dropped)
     if timing == 'optimal':
         knots_only.optimizer['inner_knots'] = 0
@@ -232,7 +298,8 @@ def _plan(waypoints, method, timing, durations, max_velocity, max_acceleration, 
     return knots_only
 
 
-def _with_knots_only_rival(refined, method, points, start, boundary, limits, dropped):
+def _with_knots_only_rival(refined, method, points, start, boundary, limits, dropped,
+                           torque=None):
     """
     Return ``refined`` (inner knots), or a knots-only plan of the request when it is shorter.
 
@@ -240,20 +307,27 @@ def _with_knots_only_rival(refined, method, points, start, boundary, limits, dro
     :data:`SMALL_REQUEST` waypoints, where it costs tens of milliseconds
     and wins now and then (one segment, a joint reversing at every
     waypoint); uniform timing otherwise, which costs a banded solve.  So
-    the result is never longer than either.
+    the result is never longer than either.  With torque limits both are
+    compared as they will be returned (slowed down for the torque).
     """
     timing = 'optimal' if len(points) <= SMALL_REQUEST else 'uniform'
     try:
         rival = _plan_knots_only(method, timing, points, start, boundary, limits, dropped)
+        if torque is not None:
+            refined = _torque_limited(refined, torque)
+            rival = _torque_limited(rival, torque)
     except ValueError:
         return refined
     if refined.duration <= rival.duration:
         return refined
     if timing == 'uniform':
+        ratios = getattr(rival, 'torque_ratios', None)
         rival = Trajectory.build(rival.method, 'optimal', points, rival.durations, boundary,
                                  limits, rival.coefficients, rival.limit_ratios(),
                                  dropped_waypoints=dropped)
         rival.optimizer = {}
+        if ratios is not None:
+            rival.torque_ratios = ratios
     rival.optimizer.update(inner_knots=0, inner_knots_duration=refined.duration)
     return rival
 

@@ -1,0 +1,128 @@
+"""
+Joint torque limits along a trajectory (issue 25): the rigid-body torque within each joint's limit.
+
+The caller gives the limits ``max_torque`` (n,) and the inverse dynamics
+``inverse_dynamics(q, qd, qdd)`` (each (N, n) -> (N, n)), ``M(q) qdd +
+c(q, qd) + g(q)`` with the payload (e.g. :class:`splines445_ros.arm.dynamics.
+ArmDynamics`); the planning core never sees the model.
+
+A rest-to-rest spline slowed down uniformly by ``f`` (every duration times
+``f``) has the same path, velocities ``/ f`` and accelerations ``/ f**2``, so
+its torque is ``g + d / f**2`` with ``d = tau - g`` the dynamic part at
+``f = 1``: at every sample and joint, ``|g + d / f**2| <= tau_max`` holds for
+
+    f**2 >= d / (sign(d) tau_max - g)      (gravity alone within the limit)
+
+and the smallest common factor is the largest of those (:meth:`TorqueLimit.
+time_factor`).  A pose where gravity alone exceeds a limit holds it at no
+speed: :class:`path_constraints.GravityOverload`.
+
+The check of a finished trajectory samples it every :data:`CHECK_PERIOD`
+(1 kHz).  Between two samples the torque is a smooth function of time; the
+largest it can exceed the larger sampled neighbour by is ``h**2 / 8`` times
+its second derivative (h the period), which the check estimates from the
+samples' second differences and adds (:meth:`TorqueLimit.time_factor`).
+"""
+
+import math
+
+import numpy as np
+
+from .path_constraints import GravityOverload, JointTorque
+
+CHECK_PERIOD = 1e-3
+# Samples per spline piece of the inner-knot iteration's torque factor.
+PIECE_SAMPLES = 8
+
+
+class TorqueLimit:
+    """Per-joint torque limits and the inverse dynamics that gives the torques."""
+
+    def __init__(self, max_torque, inverse_dynamics, n_joints):
+        """Validate ``max_torque`` (n,) > 0 (inf: no limit) and the callable."""
+        try:
+            limit = np.array(max_torque, dtype=float).reshape(-1)
+        except (TypeError, ValueError):
+            raise ValueError('max_torque must be numbers, one per joint [N m]') from None
+        if limit.size != n_joints:
+            raise ValueError(f'max_torque needs one value per joint ({n_joints}), '
+                             f'got {limit.size}')
+        bad = np.flatnonzero(~(limit > 0.0))
+        if bad.size:
+            raise ValueError(f'max_torque[{int(bad[0])}] = {limit[bad[0]]:.6g}: '
+                             'must be > 0 (inf: no limit)')
+        if not callable(inverse_dynamics):
+            raise ValueError('inverse_dynamics must be a function tau(q, qd, qdd)')
+        self.max_torque = limit
+        self.inverse_dynamics = inverse_dynamics
+        self.n_joints = n_joints
+
+    def constraint(self):
+        """Return the path-velocity constraint object (:class:`path_constraints.JointTorque`)."""
+        return JointTorque(self.max_torque, self._torques)
+
+    def _torques(self, q, qd, qdd):
+        tau = np.asarray(self.inverse_dynamics(q, qd, qdd), dtype=float)
+        if tau.shape != q.shape or not np.all(np.isfinite(tau)):
+            raise ValueError(f'inverse_dynamics returned {tau.shape} or non-finite torques '
+                             f'for {q.shape} samples')
+        return tau
+
+    def squared_factors(self, q, qd, qdd, bend=0.0):
+        """
+        Return per sample and joint (N, n) the squared slow-down each needs, ``f**2`` above.
+
+        ``bend`` (N, n) is added to the size of the dynamic torque (the
+        excess between samples).  Raises :class:`GravityOverload` where
+        gravity alone exceeds a limit.
+        """
+        zero = np.zeros_like(q)
+        gravity = self._torques(q, zero, zero)
+        dynamic = self._torques(q, qd, qdd) - gravity
+        limit = np.broadcast_to(self.max_torque, gravity.shape)
+        over = np.abs(gravity) > limit
+        if np.any(over):
+            ratio = np.where(over, np.abs(gravity) / limit, 0.0)
+            i, j = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
+            raise GravityOverload(int(i), int(j), q[i], float(gravity[i, j]),
+                                  float(limit[i, j]))
+        dynamic = dynamic + np.sign(dynamic) * bend
+        room = np.where(dynamic >= 0.0, limit - gravity, -limit - gravity)
+        with np.errstate(divide='ignore', invalid='ignore'):
+            need = np.where(dynamic == 0.0, 0.0, dynamic / room)
+        # No room at all (gravity exactly at the limit) and motion: infinite.
+        return np.where(np.isnan(need), np.inf, np.maximum(need, 0.0))
+
+    def piece_factors(self, coeffs, pieces):
+        """Return per piece (P, 1) the slow-down its :data:`PIECE_SAMPLES` samples need."""
+        tau = pieces[:, None] * np.linspace(0.0, 1.0, PIECE_SAMPLES)[None, :]
+        powers = tau[..., None] ** np.arange(6)
+        q = np.einsum('psk,pkn->psn', powers, coeffs)
+        qd = np.einsum('psk,pkn->psn', np.arange(1, 6) * powers[..., :5], coeffs[:, 1:])
+        qdd = np.einsum('psk,pkn->psn', np.arange(1, 5) * np.arange(2, 6) * powers[..., :4],
+                        coeffs[:, 2:])
+        n = coeffs.shape[2]
+        need = self.squared_factors(q.reshape(-1, n), qd.reshape(-1, n), qdd.reshape(-1, n))
+        return np.sqrt(np.max(need.reshape(pieces.size, -1), axis=1))[:, None]
+
+    def time_factor(self, traj, period=CHECK_PERIOD):
+        """
+        Return (factor, ratios): the slow-down ``traj`` needs and its peak torque / limit (n,).
+
+        Sampled every ``period``, each sample's dynamic torque raised by the
+        estimated excess between samples (module docstring).  A factor at
+        most 1 means the torque is within its limits.
+        """
+        t = np.linspace(0.0, traj.duration, max(3, int(math.ceil(traj.duration / period)) + 1))
+        q, qd, qdd = (traj.evaluate(t, d) for d in range(3))
+        tau = self._torques(q, qd, qdd)
+        # Between samples: h**2 / 8 |tau''|, from second differences.
+        bend = np.zeros_like(tau)
+        bend[1:-1] = np.abs(tau[2:] - 2.0 * tau[1:-1] + tau[:-2]) / 8.0
+        bend[:-1] = np.maximum(bend[:-1], bend[1:])
+        need = self.squared_factors(q, qd, qdd, bend)
+        ratios = np.max((np.abs(tau) + bend) / self.max_torque, axis=0)
+        return math.sqrt(float(np.max(need))), ratios
+
+
+__all__ = ['CHECK_PERIOD', 'GravityOverload', 'TorqueLimit']
