@@ -212,7 +212,7 @@ def _speeds(traj, kinematics, times):
 
 
 def _difference(kinematics, before, after, span):
-    """Return the tool's (linear, angular) speed from joints ``before`` to ``after`` in ``span``."""
+    """Return the tool's (linear, angular) speed between joints ``before`` and ``after``."""
     if hasattr(kinematics, 'forward_transform'):
         p0, m0 = kinematics.forward_transform(before)
         p1, m1 = kinematics.forward_transform(after)
