@@ -37,6 +37,8 @@ MAX_INSERTED_WAYPOINTS = 100000
 MAX_WAYPOINT_TOLERANCE = 0.1
 # Values of the ``output`` parameter: a point every sample_period, or one per knot.
 OUTPUTS = ('sampled', 'knots')
+# Tool speed limits of tool_waypoints requests and their units (0 = no limit).
+TOOL_SPEEDS = (('max_tool_speed', 'm/s'), ('max_tool_angular_speed', 'rad/s'))
 
 
 @dataclass(frozen=True)
@@ -57,6 +59,9 @@ class PlannerConfig(ValidatedConfig):
     link_lengths: Tuple[float, ...] = (1.1, 0.9)
     max_path_deviation: float = 0.0
     max_orientation_deviation: float = 0.0
+    # Tool speed limits [m/s], [rad/s] of tool_waypoints requests; 0 = no limit.
+    max_tool_speed: float = 0.0
+    max_tool_angular_speed: float = 0.0
     max_inserted_waypoints: int = 200
     waypoint_tolerance: float = DEFAULT_WAYPOINT_TOLERANCE
     min_position: Tuple[float, ...] = ()
@@ -202,6 +207,38 @@ class PlannerConfig(ValidatedConfig):
         if not 0 <= self.max_inserted_waypoints <= MAX_INSERTED_WAYPOINTS:
             raise ValueError(f'max_inserted_waypoints = {self.max_inserted_waypoints}: must be '
                              f'in [0, {MAX_INSERTED_WAYPOINTS}]')
+        self._validate_tool_speeds()
+
+    def _validate_tool_speeds(self):
+        """
+        Refuse a tool speed limit that is not a finite value >= 0, or that could never apply.
+
+        A limit (non-zero) is only held by the 'tool lines' construction of
+        method 555 with timing "optimal" and inner knots, and only on
+        tool_waypoints requests, which need kinematics: anywhere else it
+        would be silently ignored, so it is refused with the reason (like
+        ``vibration_frequency``).  Joint-space requests (``waypoints``) have
+        no tool path and are planned without it.
+        """
+        for name, unit in TOOL_SPEEDS:
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0.0):
+                raise ValueError(f'{name} = {value}: must be >= 0 and finite ({unit}; '
+                                 '0 = no limit)')
+        for name, unit in TOOL_SPEEDS:
+            value = getattr(self, name)
+            if not value:
+                continue
+            if not self.plan_inner_knots():
+                raise ValueError(f'{name} = {value:g} {unit} needs method "555" with timing '
+                                 '"optimal" and inner_knots > 0 (got method '
+                                 f'{show(self.method)}, timing {show(self.timing)}, '
+                                 f'inner_knots {self.inner_knots}); 0 = no limit')
+            if not self.kinematics:
+                raise ValueError(f'{name} = {value:g} {unit} limits the tool of tool_waypoints '
+                                 'requests, which need kinematics "planar_3dof" or "model" '
+                                 '(kinematics is "": joint space only, where a tool speed '
+                                 'never applies); 0 = no limit')
 
     def tool_kinematics(self):
         """Return the kinematics object of ``kinematics`` (with ``link_lengths``), or None."""

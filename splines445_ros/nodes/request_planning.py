@@ -92,9 +92,12 @@ def plan_tool_poses(config, poses, kinematics):
 
     The part every tool request shares (planar or a robot model): refined to
     ``max_path_deviation`` and ``max_orientation_deviation``, within the
-    position limits.  Raises ValueError for "fixed" timing (a PoseArray has
-    no times), for replanning (tool requests start at rest at their first
-    waypoint), and for anything the refinement or the limits reject.
+    position limits, with ``inner_knots`` (555 optimal) and the tool speed
+    limits ``max_tool_speed`` [m/s] and ``max_tool_angular_speed`` [rad/s]
+    (0 = no limit; the config refuses them where they cannot apply).  Raises
+    ValueError for "fixed" timing (a PoseArray has no times), for replanning
+    (tool requests start at rest at their first waypoint), and for anything
+    the refinement or the limits reject.
     """
     if config.timing == 'fixed':
         raise ValueError('timing "fixed" needs times, which tool_waypoints (PoseArray) do not '
@@ -108,7 +111,10 @@ def plan_tool_poses(config, poses, kinematics):
                                max_velocity=config.max_velocity,
                                max_acceleration=config.max_acceleration,
                                max_jerk=config.jerk_limits(),
-                               vibration_frequency=config.vibration_frequency)
+                               inner_knots=config.plan_inner_knots(),
+                               vibration_frequency=config.vibration_frequency,
+                               max_tool_speed=config.max_tool_speed,
+                               max_tool_angular_speed=config.max_tool_angular_speed)
     check_position_limits(tool_path.trajectory, **config.position_limits())
     return tool_path
 
@@ -139,15 +145,30 @@ def output_samples(config, traj):
 
 
 def tool_summary_values(tool_path):
-    """Key/value details of a refined tool path for the status report."""
-    return {
+    """
+    Key/value details of a tool path for the status report.
+
+    ``tool_construction`` is ``'tool lines'`` or ``'refined'``; the tool
+    speeds reached [m/s], [rad/s] (checked every millisecond) come with the
+    'tool lines' construction only, and ``tool_speed_share`` (of the path's
+    length at >= 99 % of ``max_tool_speed``) with a linear tool speed limit
+    only: keys without a value are left out, like ``limit_velocity``.
+    """
+    values = {
         'tool_waypoints': len(tool_path.waypoint_knots),
         'inserted_waypoints': tool_path.inserted,
         'max_path_deviation_reached': f'{tool_path.max_deviation:.6g}',
         'max_orientation_deviation_reached': f'{tool_path.max_orientation_deviation:.6g}',
         'unrefined_max_path_deviation': f'{tool_path.initial_deviation.max_position:.6g}',
         'unrefined_duration': f'{tool_path.initial_duration:.9g}',
+        'tool_construction': tool_path.construction,
     }
+    for key, value in (('max_tool_speed_reached', tool_path.tool_speed),
+                       ('max_tool_angular_speed_reached', tool_path.tool_angular_speed),
+                       ('tool_speed_share', tool_path.speed_share)):
+        if value is not None:
+            values[key] = f'{value:.6g}'
+    return values
 
 
 def start_from_state(request, position, velocity, acceleration, tolerance=0.0):
