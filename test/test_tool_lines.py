@@ -147,3 +147,14 @@ def test_other_methods_keep_the_refinement(arms):
     result = plan_tool_path(poses, kinematics(arm), MM, DEG, method='555', timing='uniform',
                             **arm[5])
     assert result.construction == 'refined' and result.tool_speed is None
+
+
+def test_a_line_out_of_reach_names_its_tool_waypoints():
+    """The paper's arm cannot reach near its base: the line between two reachable poses can't."""
+    from splines445_ros.arm.kinematics import PlanarArm
+    poses = np.array([[0.6, 0.05, 0.0], [-0.6, 0.05, 0.0]])
+    limits = {'max_velocity': [2.0] * 3, 'max_acceleration': [10.0] * 3, 'max_jerk': [100.0] * 3}
+    with pytest.raises(ValueError, match=r'line from tool waypoint 0 to 1 leaves the reach of '
+                                         r'the arm: its point at \(x, y, yaw\) = .* unreachable'):
+        plan_tool_path(poses, PlanarArm(), MM, None, method='555', timing='optimal',
+                       max_tool_speed=0.2, **limits)

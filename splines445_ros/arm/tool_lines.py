@@ -78,6 +78,15 @@ MIN_PIECE = 0.03
 SPEED_ROUNDS = 4
 
 
+class LineUnreachable(ValueError):
+    """The inverse kinematics of line ``edge`` (from waypoint ``edge``) failed at ``pose``."""
+
+    def __init__(self, edge, pose, reason):
+        """Record the edge, the pose and the kinematics' reason."""
+        self.edge, self.pose, self.reason = edge, pose, reason
+        super().__init__(f'line {edge} leaves the reach of the arm: {reason}')
+
+
 @dataclass(frozen=True)
 class ToolLines:
     """What :func:`plan_tool_lines` found: the trajectory and its figures."""
@@ -248,7 +257,19 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
     # One continuous walk through every sample (a redundant arm's joints
     # depend on the walk: none may come from an earlier one).
     getattr(kinematics, 'forget_walks', lambda: None)()
-    joints = np.asarray(kinematics.inverse(interpolate_poses(edge_poses, sigma, edge)), float)
+    samples = interpolate_poses(edge_poses, sigma, edge)
+    try:
+        with np.errstate(over='ignore', invalid='ignore'):
+            joints = np.asarray(kinematics.inverse(samples), float)
+    except ValueError as exc:
+        k = getattr(exc, 'pose_index', None)
+        reason = getattr(exc, 'reason', None)
+        if k is None:
+            # A kinematics that does not say which pose: the first it refuses alone.
+            k, reason = _first_refused(kinematics, samples)
+            if k is None:
+                raise
+        raise LineUnreachable(int(edge[k]), samples[k], reason or str(exc)) from None
     if joints.shape[0] != s.size or not np.all(np.isfinite(joints)):
         raise ValueError('inverse kinematics of the path samples failed')
     rates = _EdgeRates(edge_poses, s[waypoint_index])
@@ -341,6 +362,17 @@ def _unbound(timing, path, limits, check, measure, tolerances):
         added += int(sum(f.size for f in found.fractions) - sum(f.size for f in timing.fractions))
         timing = found
     return timing, added
+
+
+def _first_refused(kinematics, samples):
+    """Return (index, reason) of the first sample the kinematics refuses alone, or (None, None)."""
+    for k, pose in enumerate(samples):
+        try:
+            with np.errstate(over='ignore', invalid='ignore'):
+                kinematics.inverse(pose[None, :])
+        except ValueError as exc:
+            return k, f'is unreachable ({exc})'
+    return None, None
 
 
 class _PieceSpeeds:

@@ -90,7 +90,7 @@ import numbers
 import numpy as np
 
 from . import rotations as rot
-from .tool_lines import plan_tool_lines
+from .tool_lines import LineUnreachable, plan_tool_lines
 from ..planning import check_position_limits, JointLimits, merge_duplicates, plan
 from ..planning.inner_knots import inner_knot_count, smoothing_windows, vibration_frequency_value
 from ..planning.methods import get_method
@@ -556,7 +556,7 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
     waypoint_knots = np.cumsum(keep) - 1
     edge_poses = request[keep]
     if lines:
-        found = _tool_lines(edge_poses, joints[keep], waypoint_knots, kinematics,
+        found = _tool_lines(edge_poses, joints[keep], waypoint_knots, kept_index, kinematics,
                             (tol_position, tol_orientation), speeds, vibration, max_inserted,
                             plan_kwargs)
         if found is not None:
@@ -630,8 +630,8 @@ def _speed_limit(name, value):
     return value
 
 
-def _tool_lines(edge_poses, joints, waypoint_knots, kinematics, tolerances, speeds, vibration,
-                max_inserted, plan_kwargs):
+def _tool_lines(edge_poses, joints, waypoint_knots, kept_index, kinematics, tolerances, speeds,
+                vibration, max_inserted, plan_kwargs):
     """
     Return the :class:`ToolPath` of :func:`tool_lines.plan_tool_lines`, or None to refine instead.
 
@@ -650,6 +650,13 @@ def _tool_lines(edge_poses, joints, waypoint_knots, kinematics, tolerances, spee
     try:
         found = plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, *speeds,
                                 windows=windows, max_inserted=max_inserted)
+    except LineUnreachable as exc:
+        if not any(speeds):
+            return None
+        a, b = kept_index[exc.edge], kept_index[exc.edge + 1]
+        raise ValueError(f'the straight line from tool waypoint {a} to {b} leaves the reach '
+                         f'of the arm: its point at {_format_pose(exc.pose)} '
+                         f'{exc.reason}') from None
     except ValueError:
         if any(speeds):
             raise
