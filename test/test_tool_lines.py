@@ -158,3 +158,44 @@ def test_a_line_out_of_reach_names_its_tool_waypoints():
                                          r'the arm: its point at \(x, y, yaw\) = .* unreachable'):
         plan_tool_path(poses, PlanarArm(), MM, None, method='555', timing='optimal',
                        max_tool_speed=0.2, **limits)
+
+
+@settings(max_examples=EXAMPLES * 4, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), spatial=st.booleans())
+def test_corner_blends_pass_the_corner_smoothly_within_their_share(seed, spatial):
+    """Blended corners: through the waypoint, tangent continuous, within the tolerance share."""
+    from splines445_ros.arm import tool_lines as tl
+    rng = np.random.default_rng(seed)
+    dims = 3 if spatial else 2
+    corners = np.cumsum(rng.uniform(-0.3, 0.3, (4, dims)), axis=0)
+    if spatial:
+        poses = np.hstack([corners, np.tile([1.0, 0.0, 0.0, 0.0], (4, 1))])
+    else:
+        poses = np.hstack([corners, np.zeros((4, 1))])
+    tolerance = 1e-3
+    blends = tl.CornerBlends(poses, tolerance)
+    sigma = np.linspace(0.0, 1.0, 20001)
+    for e in range(3):
+        edge = np.full(sigma.size, e)
+        points = tl.interpolate_poses(poses, sigma, edge, blends)[:, :dims]
+        # Distance from the edge's own line (the test's projection).
+        a, b = poses[e, :dims], poses[e + 1, :dims]
+        ab = b - a
+        t = np.clip((points - a) @ ab / (ab @ ab), 0.0, 1.0)
+        distance = np.linalg.norm(points - a - t[:, None] * ab, axis=1)
+        assert distance.max() <= tl.BLEND_SHARE * tolerance * (1 + 1e-9)
+        np.testing.assert_allclose(points[[0, -1]], poses[[e, e + 1], :dims], atol=1e-15)
+    for k in (1, 2):   # the interior corners: the same direction on both sides
+        before = tl.interpolate_poses(poses, np.array([1.0 - 1e-7, 1.0]), np.array([k - 1] * 2),
+                                      blends)[:, :dims]
+        after = tl.interpolate_poses(poses, np.array([0.0, 1e-7]), np.array([k] * 2),
+                                     blends)[:, :dims]
+        d1, d2 = np.diff(before, axis=0)[0], np.diff(after, axis=0)[0]
+        d1, d2 = d1 / np.linalg.norm(d1), d2 / np.linalg.norm(d2)
+        turn = math.degrees(math.acos(np.clip(
+            (corners[k] - corners[k - 1]) @ (corners[k + 1] - corners[k])
+            / np.linalg.norm(corners[k] - corners[k - 1])
+            / np.linalg.norm(corners[k + 1] - corners[k]), -1.0, 1.0)))
+        if blends.radius[k] > 0.0:
+            assert turn < math.degrees(tl.MAX_BLEND_TURN)
+            assert np.linalg.norm(d1 - d2) < 1e-5

@@ -53,6 +53,13 @@ ANGLE_LENGTH = 0.1
 SAMPLE_SPACING = 0.01
 # Extra samples towards each waypoint, at SAMPLE_SPACING / 2, / 4, ...
 CORNER_SAMPLES = 5
+# Corner blends (CornerBlends): the share of the position tolerance a blend
+# may use (the spline's own deviation has the rest), the share of each edge
+# it may take, and the turns blended [rad] (a turn back on itself is not).
+BLEND_SHARE = 0.5
+BLEND_EDGE_SHARE = 0.45
+MIN_BLEND_TURN = 1e-6
+MAX_BLEND_TURN = math.radians(60.0)
 # Rounds of knot insertion (step 3).
 MAX_ROUNDS = 10
 # Tool speed check period [s] and the central-difference half step [s].
@@ -76,6 +83,8 @@ START_KNOTS = 64
 MIN_PIECE = 0.03
 # Rounds of splitting the pieces that slow a tool-speed line down (_unbound).
 SPEED_ROUNDS = 4
+# Iterations of the timing after a round of _unbound (warm-started).
+UNBOUND_ITERATIONS = 15
 
 
 class LineUnreachable(ValueError):
@@ -140,33 +149,126 @@ def sample_edges(poses):
     return s, sigma, edge, waypoints
 
 
-def interpolate_poses(poses, sigma, edge):
-    """Return the tool poses (K, P) at fractions ``sigma`` of edges ``edge``: lines and slerps."""
+def interpolate_poses(poses, sigma, edge, blends=None):
+    """
+    Return the tool poses (K, P) at fractions ``sigma`` of edges ``edge``: lines and slerps.
+
+    ``blends`` (:func:`corner_blends`) moves the positions near the blended
+    corners off the lines (module docstring); the orientations stay on the slerps.
+    """
     a, b = poses[edge], poses[edge + 1]
     out = a + sigma[:, None] * (b - a)
     if poses.shape[1] == 7:
         out[:, 3:] = rot.slerp(a[:, 3:], b[:, 3:], sigma)
+    if blends is not None:
+        dims = 2 if poses.shape[1] == 3 else 3
+        out[:, :dims] += blends.offsets(sigma, edge)
     return out
 
 
-class _EdgeRates:
-    """The tool's speed per unit path speed on every edge: the ToolSpeed tangents."""
+class CornerBlends:
+    """
+    Smooth corners through the waypoints, within a share of the position tolerance.
 
-    def __init__(self, poses, edge_s):
+    At a corner where the tool turns by ``theta`` between two edges that
+    do not rotate the tool, the path leaves the first line ``r`` before the
+    corner on its outer side, passes the corner exactly along the bisector
+    of the two directions and rejoins the second line ``r`` after it: the
+    offset from each line at distance ``u`` from the corner is
+    ``tan(theta / 2) u (1 - u / r)**2`` (its slope at the corner turns each
+    line's direction onto the bisector, the offset and its slope vanish at
+    ``u = r``), at most ``4 / 27 tan(theta / 2) r``, which sets
+    ``r`` from :data:`BLEND_SHARE` of the tolerance.  So the joint path has
+    no kink there, and the tool need not stop.
+    """
+
+    def __init__(self, poses, tolerance):
+        """Find the corners of ``poses`` (N, P) to blend within ``tolerance`` [m]."""
+        dims = 2 if poses.shape[1] == 3 else 3
+        self.dims = dims
+        length, angle, _ = edge_geometry(poses)
+        safe = np.where(length > 0.0, length, 1.0)
+        direction = np.diff(poses[:, :dims], axis=0) / safe[:, None]
+        n_edges = length.size
+        self.radius = np.zeros(n_edges + 1)
+        self.slope = np.zeros(n_edges + 1)
+        self.inside_in = np.zeros((n_edges + 1, dims))
+        self.inside_out = np.zeros((n_edges + 1, dims))
+        self.length = length
+        if not math.isfinite(tolerance):
+            return
+        for k in range(1, n_edges):
+            d1, d2 = direction[k - 1], direction[k]
+            cosine = float(np.clip(d1 @ d2, -1.0, 1.0))
+            theta = math.acos(cosine)
+            if not (MIN_BLEND_TURN < theta < MAX_BLEND_TURN) or angle[k - 1] > 1e-12 or \
+                    angle[k] > 1e-12 or min(length[k - 1], length[k]) <= 0.0:
+                continue
+            slope = math.tan(0.5 * theta)
+            radius = BLEND_SHARE * tolerance / (4.0 / 27.0 * slope)
+            self.radius[k] = min(radius, BLEND_EDGE_SHARE * length[k - 1],
+                                 BLEND_EDGE_SHARE * length[k])
+            self.slope[k] = slope
+            sine = math.sin(theta)
+            self.inside_in[k] = (d2 - cosine * d1) / sine
+            self.inside_out[k] = (cosine * d2 - d1) / sine
+
+    def stretch(self, sigma, edge):
+        """Return |dp/du| (K,) at ``sigma`` of ``edge``: sqrt(1 + offset slope**2) in a blend."""
+        out = np.ones(sigma.size)
+        for u, corner in (((1.0 - sigma) * self.length[edge], edge + 1),
+                          (sigma * self.length[edge], edge)):
+            r = self.radius[corner]
+            near = (r > 0.0) & (u < r)
+            if np.any(near):
+                x = u[near] / r[near]
+                slope = self.slope[corner][near] * (1.0 - x) * (1.0 - 3.0 * x)
+                out[near] = np.hypot(1.0, slope)
+        return out
+
+    def offsets(self, sigma, edge):
+        """Return how far (K, dims) the samples at ``sigma`` of ``edge`` leave the lines."""
+        out = np.zeros((sigma.size, self.dims))
+        to_end = (1.0 - sigma) * self.length[edge]
+        from_start = sigma * self.length[edge]
+        for u, corner, inside in ((to_end, edge + 1, self.inside_in),
+                                  (from_start, edge, self.inside_out)):
+            r = self.radius[corner]
+            near = (r > 0.0) & (u < r)
+            if not np.any(near):
+                continue
+            rr = r[near]
+            size = self.slope[corner][near] * u[near] * (1.0 - u[near] / rr) ** 2
+            out[near] -= size[:, None] * inside[corner][near]
+        return out
+
+
+class _EdgeRates:
+    """The tool's speed per unit path speed along the path: the ToolSpeed tangents."""
+
+    def __init__(self, poses, edge_s, blends=None):
         length, angle, ell = edge_geometry(poses)
         self.edge_s = edge_s
+        self.ell = ell
         self.linear = length / ell
         self.angular = angle / ell
+        self.blends = blends
 
-    def _at(self, s, rate):
-        e = np.clip(np.searchsorted(self.edge_s, s, side='right') - 1, 0, rate.size - 1)
+    def _at(self, s, rate, blended=False):
+        out = None
         # At a waypoint both edges meet: the larger rate holds.
-        before = np.clip(np.searchsorted(self.edge_s, s, side='left') - 1, 0, rate.size - 1)
-        return np.maximum(rate[e], rate[before])[:, None]
+        for side in ('right', 'left'):
+            e = np.clip(np.searchsorted(self.edge_s, s, side=side) - 1, 0, rate.size - 1)
+            value = rate[e]
+            if blended and self.blends is not None:
+                sigma = np.clip((s - self.edge_s[e]) / self.ell[e], 0.0, 1.0)
+                value = value * self.blends.stretch(sigma, e)
+            out = value if out is None else np.maximum(out, value)
+        return out[:, None]
 
     def linear_tangent(self, path):
-        """Return |dp/ds| (M + 1, 1) at the grid points."""
-        return self._at(path.s, self.linear)
+        """Return |dp/ds| (M + 1, 1) at the grid points (longer in the corner blends)."""
+        return self._at(path.s, self.linear, blended=True)
 
     def angular_tangent(self, path):
         """Return |dtheta/ds| (M + 1, 1) at the grid points."""
@@ -257,7 +359,8 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
     # One continuous walk through every sample (a redundant arm's joints
     # depend on the walk: none may come from an earlier one).
     getattr(kinematics, 'forget_walks', lambda: None)()
-    samples = interpolate_poses(edge_poses, sigma, edge)
+    blends = CornerBlends(edge_poses, tolerances[0])
+    samples = interpolate_poses(edge_poses, sigma, edge, blends)
     try:
         with np.errstate(over='ignore', invalid='ignore'):
             joints = np.asarray(kinematics.inverse(samples), float)
@@ -272,7 +375,7 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
         raise LineUnreachable(int(edge[k]), samples[k], reason or str(exc)) from None
     if joints.shape[0] != s.size or not np.all(np.isfinite(joints)):
         raise ValueError('inverse kinematics of the path samples failed')
-    rates = _EdgeRates(edge_poses, s[waypoint_index])
+    rates = _EdgeRates(edge_poses, s[waypoint_index], blends)
     constraints = []
     if max_tool_speed:
         constraints.append(ToolSpeed(max_tool_speed * SPEED_MARGIN, rates.linear_tangent))
@@ -348,7 +451,7 @@ def _unbound(timing, path, limits, check, measure, tolerances):
         binding = np.flatnonzero(joint >= 1.0 - 1e-3)
         fractions = midpoint_fractions(timing.fractions, binding)
         try:
-            found = plan_along_path(path, limits, fractions, timing.local)
+            found = plan_along_path(path, limits, fractions, timing.local, UNBOUND_ITERATIONS)
         except ValueError:
             break
         if not found.trajectory.duration < traj.duration:
