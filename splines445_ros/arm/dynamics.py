@@ -98,7 +98,7 @@ def effort_limits(robot, joint_names=(), missing='raise'):
     return limits
 
 
-def _payload_inertia(inertia):
+def payload_inertia_matrix(inertia):
     """Return a payload's inertia (3, 3) from None, (3,) or (6,) values (ValueError)."""
     if inertia is None:
         return np.zeros((3, 3))
@@ -212,7 +212,7 @@ class ArmDynamics:
         if center.shape != (3,):
             raise ValueError('payload_center_of_mass must be 3 numbers [m], got shape '
                              f'{center.shape}')
-        inertia = _payload_inertia(payload_inertia)
+        inertia = payload_inertia_matrix(payload_inertia)
         if self.payload_mass == 0.0 and payload_inertia is not None:
             raise ValueError('payload_inertia is given but payload_mass is 0: a payload with '
                              'inertia needs a mass')

@@ -4,7 +4,7 @@ from dataclasses import dataclass, replace
 import math
 from typing import Tuple
 
-from .planner_config import DEFAULT_JOINTS
+from .planner_config import check_payload, DEFAULT_JOINTS
 from .validated_config import ValidatedConfig
 from ..arm.model_drives import DEFAULT_BANDWIDTH, DEFAULT_DAMPING_RATIO
 from ..arm.mujoco_model import PlanarArmModel
@@ -60,6 +60,10 @@ class ArmSimConfig(ValidatedConfig):
     tool_frame: str = ''
     control_bandwidth: float = DEFAULT_BANDWIDTH
     control_damping_ratio: float = DEFAULT_DAMPING_RATIO
+    # dynamic: a payload held by the tool frame (see _validate_payload).
+    payload_mass: float = 0.0
+    payload_center_of_mass: Tuple[float, ...] = (0.0, 0.0, 0.0)
+    payload_inertia: Tuple[float, ...] = ()
 
     # joint_names [''] (not set): every actuated joint of model_file, else the
     # built-in arm's joint1..3.
@@ -154,6 +158,27 @@ class ArmSimConfig(ValidatedConfig):
         self.require_in_range('actuator_time_constant', 0.0, MAX_TIME_CONSTANT, 's')
         self.require_in_range('control_bandwidth', 0.1, 200.0, 'Hz')
         self.require_in_range('control_damping_ratio', 0.05, 5.0)
+        self._validate_payload()
+
+    def _validate_payload(self):
+        """
+        Refuse a payload that is not a rigid body, or that the arm would silently ignore.
+
+        The dynamic arm carries it (merged into the body of the tool frame:
+        ``tool_site`` or ``tool_frame``, checked when the model is built);
+        the kinematic arm plays the commanded state, which no payload
+        changes: a payload there is refused.
+        """
+        check_payload(self.payload_mass, self.payload_center_of_mass, self.payload_inertia)
+        if self.has_payload() and not self.dynamic:
+            raise ValueError('a payload (payload_mass, payload_center_of_mass, '
+                             'payload_inertia) needs simulation "dynamic": the kinematic arm '
+                             'plays the commanded state, which no payload changes (got '
+                             f'simulation {show(self.simulation)})')
+
+    def has_payload(self):
+        """Return True when the arm carries a payload (its other values need a mass)."""
+        return self.payload_mass > 0.0
 
     def _validate_model_file(self, n=None):
         """With model_file: per-joint arrays one per joint, or unset (from the model)."""

@@ -16,15 +16,57 @@ runs with:
   :func:`~splines445_ros.arm.model_drives.inertia_gains`.
 
 Explicit values (non-zero entries) override, joint by joint.
+
+:func:`add_payload` merges ``payload_*`` into the body of the tool frame of
+a compiled simulated arm, both the simulated model and the controller's
+(the gains above are then those of the arm with its payload).
 """
 
 from dataclasses import replace
 
 import numpy as np
 
+from ..arm import rotations as rot
+from ..arm.dynamics import add_rigid_mass, payload_inertia_matrix
 from ..arm.model_drives import inertia_gains, model_torque_limits
+from ..arm.mujoco_import import import_mujoco
 from ..arm.mujoco_model import load_arm_model
 from ..arm.robot_model import load_robot_model
+
+
+def add_payload(arm, config):
+    """
+    Merge ``config``'s payload into the tool frame's body of ``arm`` (an ArmModel; ValueError).
+
+    The payload (``payload_mass`` [kg], ``payload_center_of_mass`` [m] and
+    ``payload_inertia`` [kg m^2] about it, in the tool frame) is rigidly
+    held by the tool frame, the site of ``tool_pose`` (built-in arm: the
+    ``tool`` site on joint 3; a model file: ``tool_frame`` or
+    ``tool_site``), as :class:`~splines445_ros.arm.dynamics.ArmDynamics`
+    holds the planner's.  It goes into the simulated model and into the
+    controller's rigid model (its inverse-dynamics feed-forward knows the
+    payload, as a real arm's controller is told it).  No payload: nothing
+    changes.
+    """
+    if config.payload_mass <= 0.0:
+        return
+    mujoco = import_mujoco()
+    if arm.tool_site is None:
+        raise ValueError(f'payload_mass = {config.payload_mass:g} kg needs the frame that '
+                         'holds it: set tool_frame (a link, body or site of model_file) or '
+                         'tool_site')
+    site_name = mujoco.mj_id2name(arm.model, mujoco.mjtObj.mjOBJ_SITE, arm.tool_site)
+    center = np.array(config.payload_center_of_mass, dtype=float)
+    inertia = payload_inertia_matrix(config.payload_inertia or None)
+    for model in (arm.model, arm.rigid):
+        site = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, site_name)
+        if site < 0:
+            raise ValueError(f'the controller model of {arm.source} has no site '
+                             f'{site_name!r} to hold the payload')
+        turn = rot.to_matrix(np.array(model.site_quat[site], dtype=float))
+        add_rigid_mass(model, int(model.site_bodyid[site]), config.payload_mass,
+                       model.site_pos[site] + turn @ center, turn @ inertia @ turn.T)
+        mujoco.mj_setConst(model, mujoco.MjData(model))
 
 
 def _merge(explicit, from_model, use_model):
@@ -39,7 +81,8 @@ def resolve_model_config(config):
     Return ``(effective config, sources)`` of a config with ``model_file`` (ValueError).
 
     ``sources`` maps 'torque_limits', 'kp' and 'kd' to a short text saying
-    where the values came from, for the log.
+    where the values came from, for the log.  The gains are those of the
+    arm with its payload.
     """
     robot = load_robot_model(config.model_file)
     where = f'model_file {config.model_file!r}'
@@ -79,7 +122,9 @@ def resolve_model_config(config):
     kp = kd = None
     if config.dynamic:
         arm = load_arm_model(names, torque, config.actuator_time_constant, config.timestep,
-                             model_file=config.model_file)
+                             model_file=config.model_file, tool_site=config.tool_site,
+                             tool_frame=config.tool_frame)
+        add_payload(arm, config)
         gain_p, gain_d, inertia = inertia_gains(
             arm.rigid, arm.rigid_qpos, arm.rigid_dof, initial, config.control_bandwidth,
             config.control_damping_ratio)

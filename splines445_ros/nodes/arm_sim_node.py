@@ -12,7 +12,8 @@ ros2_control's joint_trajectory_controller does.
   built from parameters, or ``model_file``) under a PD + inverse-dynamics
   feed-forward joint controller with torque limits and actuator lag; the
   physics steps at ``physics_rate`` to follow the node's clock
-  (``use_sim_time`` works).  At the end of every trajectory, and 0.5 s later
+  (``use_sim_time`` works); ``payload_*`` is carried by the tool frame.
+  At the end of every trajectory, and 0.5 s later
   for the settling error, the tracking and effort figures go to ``~/status``
   (WARN when the torque saturated).
 
@@ -34,7 +35,7 @@ from trajectory_msgs.msg import JointTrajectory
 
 from . import topics
 from .arm_sim_config import ArmSimConfig
-from .arm_sim_model import resolve_model_config
+from .arm_sim_model import add_payload, resolve_model_config
 from .diagnostics import format_vector, status_message
 from .node_main import run_node
 from .parameters import ConfigParameters
@@ -81,6 +82,14 @@ PARAMETER_DESCRIPTIONS = {
     'control_bandwidth': 'model_file, dynamic: natural frequency [Hz] of the PD loop that sets '
                          'kp and kd from the joint inertia when they are not given.',
     'control_damping_ratio': 'model_file, dynamic: damping ratio of that loop (1 = critical).',
+    'payload_mass': 'dynamic: mass [kg] rigidly held by the tool frame (tool_frame or '
+                    'tool_site; built-in arm: the "tool" site), >= 0; 0 (default) = none. '
+                    'Simulated and known to the controller; refused with simulation kinematic.',
+    'payload_center_of_mass': "dynamic: the payload's centre of mass [m], x, y, z in the tool "
+                              'frame.',
+    'payload_inertia': "dynamic: the payload's inertia [kg m^2] about its centre of mass in "
+                       "the tool frame's axes: empty (default) = a point mass, 3 principal "
+                       'moments, or 6 values ixx, iyy, izz, ixy, ixz, iyz.',
 }
 _FROM_MODEL = (' With model_file, the built-in defaults or zeros = from the model (torque: '
                'actuator forcerange, ctrlrange x gear, URDF effort; kp, kd: from the joint '
@@ -148,6 +157,7 @@ class ArmSimNode(Node):
                                config.actuator_time_constant, config.timestep,
                                planar=config.planar_model(), model_file=config.model_file,
                                tool_site=config.tool_site, tool_frame=config.tool_frame)
+        add_payload(model, config)
         arm = DynamicArm(model, config.kp, config.kd, config.torque_limits)
         arm.set_state(position, velocity)
         return arm

@@ -13,31 +13,71 @@ ranges) filled in, which every
 other planning path of the node uses unchanged.  Building raises ValueError
 with the reason and leaves nothing half-done, so the node can keep its last
 good setup.
+
+With ``limit_torque`` the setup also holds a :class:`TorqueSetup`: the
+torque limit of every planned joint (``max_effort``, 0 entries from the
+description as the simulated arm reads it) and the arm's inverse dynamics
+with the payload (:class:`~splines445_ros.arm.dynamics.ArmDynamics`), built
+once per robot, joint set, tool frame and payload, never per request.  A
+joint without an acceleration limit then gets
+:data:`~.planner_config.TORQUE_STAND_IN_ACCELERATION`: the torque limits it.
 """
 
 from dataclasses import dataclass, replace
 import math
-from typing import Optional
+from typing import Optional, Tuple
 
 import numpy as np
 
+from .planner_config import TORQUE_STAND_IN_ACCELERATION
 from .request_planning import plan_tool_poses
 from ..arm.chain_tip import chain_tips
+from ..arm.dynamics import ArmDynamics
 from ..arm.inverse_kinematics import ModelKinematics
 from ..arm.joint_limits_file import JointLimits, read_joint_limits_file, resolve_limits
+from ..arm.model_drives import model_torque_limits
 from ..arm.robot_model import load_robot_model, MAX_DESCRIPTION_CHARS, RobotModel
-from ..arm.user_text import check_text_file, show_path
+from ..arm.user_text import check_text_file, show, show_path
 
 # The parameters a RobotSetup is built from: a change to any other one (method,
 # timing, ...) never rebuilds the robot.
 ROBOT_FIELDS = ('kinematics', 'model_file', 'tool_frame', 'base_frame', 'joint_names',
                 'max_velocity', 'max_acceleration', 'max_jerk', 'joint_limits_file',
-                'min_position', 'max_position')
+                'min_position', 'max_position', 'limit_torque', 'max_effort',
+                'payload_mass', 'payload_center_of_mass', 'payload_inertia')
+# Source of an acceleration limit that limit_torque stood in for (JointLimits.report).
+STAND_IN = 'limit_torque'
 
 
 def robot_fields(config):
     """Return the values of ``config`` that its RobotSetup depends on."""
     return tuple(getattr(config, name) for name in ROBOT_FIELDS)
+
+
+@dataclass(frozen=True)
+class TorqueSetup:
+    """The torque limits of ``limit_torque`` and the dynamics that gives the torques."""
+
+    max_torque: np.ndarray       # (n,) [N m or N]; inf = no limit
+    sources: Tuple[str, ...]     # per joint: 'max_effort', or where the description has it
+    dynamics: ArmDynamics        # with the payload; not thread-safe: the planning worker's
+
+    def plan_kwargs(self):
+        """Return the torque keywords of ``plan()`` and ``plan_tool_path()``."""
+        return {'max_torque': self.max_torque.copy(),
+                'inverse_dynamics': self.dynamics.torques}
+
+    def report(self, joint_names):
+        """Return status values: the torque limits with their sources, and the payload."""
+        dynamics = self.dynamics
+        values = {'limit_torque_sources': ', '.join(
+            f'{name}={limit:.6g} ({source})'
+            for name, limit, source in zip(joint_names, self.max_torque, self.sources))}
+        if dynamics.payload_mass > 0.0:
+            center = ', '.join(f'{v:.6g}' for v in dynamics.payload_center_of_mass)
+            values['payload'] = (f'{dynamics.payload_mass:.6g} kg at [{center}] m in '
+                                 f'{dynamics.tool_frame}')
+        return values
 
 
 @dataclass(frozen=True)
@@ -51,6 +91,7 @@ class RobotSetup:
     source: str             # 'model_file ...' or 'robot_description'
     tool_frame: str         # in use: tool_frame, else the tip of the chain; '' = none
     tool_problem: str = ''  # why tool requests cannot be planned (tool_frame == '')
+    torque: Optional[TorqueSetup] = None  # limit_torque: limits and dynamics
 
     def summary(self):
         """Return a one-line description for the status and log."""
@@ -61,8 +102,26 @@ class RobotSetup:
             tool = f'tool_frame {self.tool_frame!r}'
         else:
             tool = f'no tool frame ({self.tool_problem})'
+        torque = ''
+        if self.torque is not None:
+            mass = self.torque.dynamics.payload_mass
+            torque = ', torque limited' + (f' with a {mass:g} kg payload' if mass else '')
         return (f'{self.source}: {len(names)} joints {list(names)}, {tool} in base_frame '
-                f'{self.config.base_frame or "world"!r}')
+                f'{self.config.base_frame or "world"!r}{torque}')
+
+    def torque_kwargs(self, config):
+        """
+        Return the torque keywords for ``plan()`` under ``config`` ({} without limit_torque).
+
+        ValueError when ``config`` limits the torque and this setup (built
+        for another config, its new description still compiling) does not.
+        """
+        if not config.limit_torque:
+            return {}
+        if self.torque is None:
+            raise ValueError('limit_torque: the robot is still being set up for it (its '
+                             'description is compiling); send the request again')
+        return self.torque.plan_kwargs()
 
     def effective(self, config):
         """
@@ -146,8 +205,18 @@ def build_robot_setup(config, description=None, robot=None):
     file_limits = (read_joint_limits_file(config.joint_limits_file)
                    if config.joint_limits_file else None)
     velocity, acceleration, jerk = config.description_limits()
+    stand_in = ()
+    if config.limit_torque:
+        acceleration, stand_in = _stand_in_accelerations(joint_names, acceleration,
+                                                         file_limits)
     limits = resolve_limits(joint_names, {j.name: j.velocity for j in joints}, file_limits,
                             velocity, acceleration, jerk, known_joints=robot.all_joint_names)
+    if any(stand_in):
+        sources = tuple(STAND_IN if s else source
+                        for s, source in zip(stand_in, limits.sources['acceleration']))
+        limits = replace(limits, sources=dict(limits.sources, acceleration=sources))
+    torque = (build_torque_setup(config, robot, joints, tool_frame, problem)
+              if config.limit_torque else None)
     # Position limits: the parameters when set, else the model's joint ranges.
     lower = config.min_position or tuple(float(j.lower) for j in joints)
     upper = config.max_position or tuple(float(j.upper) for j in joints)
@@ -159,7 +228,65 @@ def build_robot_setup(config, description=None, robot=None):
         min_position=lower, max_position=upper)
     effective.validate_position_limits(len(joint_names))
     source_text = where if source[0] == 'robot_description' else f'model_file {source[1]!r}'
-    return RobotSetup(robot, kinematics, limits, effective, source_text, tool_frame, problem)
+    return RobotSetup(robot, kinematics, limits, effective, source_text, tool_frame, problem,
+                      torque)
+
+
+def _stand_in_accelerations(joint_names, explicit, file_limits):
+    """
+    Return (max_acceleration for resolve_limits, per joint True where the stand-in is used).
+
+    A joint whose acceleration limit is neither given (non-zero entry of
+    ``explicit``) nor in the joint_limits_file gets
+    :data:`TORQUE_STAND_IN_ACCELERATION`.  ``explicit`` of another length
+    is returned as it is, for resolve_limits to refuse.
+    """
+    n = len(joint_names)
+    if len(explicit) not in (0, n):
+        return explicit, ()
+    values = list(explicit) or [0.0] * n
+    missing = tuple(not values[i] and (file_limits or {}).get(name, {}).get('acceleration')
+                    is None for i, name in enumerate(joint_names))
+    return (tuple(TORQUE_STAND_IN_ACCELERATION if m else v for m, v in zip(missing, values)),
+            missing)
+
+
+def build_torque_setup(config, robot, joints, tool_frame, tool_problem=''):
+    """
+    Return the :class:`TorqueSetup` of ``config`` for ``joints`` of ``robot`` (ValueError).
+
+    ``max_effort``: empty (all from the description) or one value per
+    joint, 0 = from the description (an MJCF actuator's forcerange, its
+    ctrlrange times the gear, the joint's actuatorfrcrange or URDF
+    ``<limit effort>``, as the simulated arm reads them).  The payload is
+    held by ``tool_frame``; a payload without one is refused, with
+    ``tool_problem`` (why there is none).
+    """
+    names = tuple(j.name for j in joints)
+    n = len(names)
+    if config.payload_mass > 0.0 and not tool_frame:
+        raise ValueError(f'payload_mass = {config.payload_mass:g} kg needs the tool frame that '
+                         f'holds the payload: {tool_problem or "set tool_frame"}')
+    explicit = np.array(config.max_effort or (0.0,) * n, dtype=float)
+    if explicit.size != n:
+        raise ValueError(f'max_effort needs one value per joint ({n}) of {list(names)}, got '
+                         f'{explicit.size}: give them all (0 = from the robot description for '
+                         'that joint), or -p max_effort:=[0.0] to take every one from it')
+    limits, sources = explicit.copy(), ['max_effort'] * n
+    for i, joint in enumerate(joints):
+        if explicit[i] > 0.0:
+            continue
+        try:
+            value, kind = model_torque_limits(robot.model, [joint.joint_id], [joint.name])
+        except ValueError:
+            raise ValueError(
+                f'limit_torque: joint {show(joint.name)} has no torque limit in the robot '
+                'description (no URDF <limit effort>, MJCF actuator forcerange or ctrlrange, '
+                f'or actuatorfrcrange): set max_effort, one value per joint of {list(names)} '
+                '(0 = from the description, inf = no limit)') from None
+        limits[i], sources[i] = value[0], kind[0]
+    dynamics = ArmDynamics(robot, names, tool_frame, **config.torque_payload())
+    return TorqueSetup(limits, tuple(sources), dynamics)
 
 
 def tool_poses_from_message(msg, base_frame):
@@ -198,4 +325,6 @@ def plan_model_tool_request(setup, rows, seed=None, config=None):
         raise ValueError(f'tool requests need a tool frame: {setup.tool_problem}')
     kinematics.seed = (kinematics.robot.default_seed(kinematics.joints) if seed is None
                        else kinematics.check_seed(seed))
-    return plan_tool_poses(setup.effective(config or setup.config), rows, kinematics)
+    config = config or setup.config
+    return plan_tool_poses(setup.effective(config), rows, kinematics,
+                           setup.torque_kwargs(config))

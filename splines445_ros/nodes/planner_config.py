@@ -12,6 +12,7 @@ import math
 from typing import Tuple
 
 from .validated_config import ValidatedConfig
+from ..arm.dynamics import payload_inertia_matrix
 from ..arm.joint_limits_file import check_limit_value
 from ..arm.kinematics import PlanarArm
 from ..arm.user_text import show
@@ -39,6 +40,10 @@ MAX_WAYPOINT_TOLERANCE = 0.1
 OUTPUTS = ('sampled', 'knots')
 # Tool speed limits of tool_waypoints requests and their units (0 = no limit).
 TOOL_SPEEDS = (('max_tool_speed', 'm/s'), ('max_tool_angular_speed', 'rad/s'))
+# limit_torque: the acceleration limit [rad/s^2 or m/s^2] of a joint that has none
+# (neither max_acceleration nor the joint_limits_file): high enough that the torque
+# limits the arm, within the range the planner works in (LIMIT_RANGES).
+TORQUE_STAND_IN_ACCELERATION = 1000.0
 
 
 @dataclass(frozen=True)
@@ -74,9 +79,16 @@ class PlannerConfig(ValidatedConfig):
     tool_frame: str = ''
     base_frame: str = ''
     joint_limits_file: str = ''
+    # Torque limits (kinematics "model"): see _validate_torque.
+    limit_torque: bool = False
+    max_effort: Tuple[float, ...] = NOT_SET_LIMITS
+    payload_mass: float = 0.0
+    payload_center_of_mass: Tuple[float, ...] = (0.0, 0.0, 0.0)
+    payload_inertia: Tuple[float, ...] = ()
 
     PARAMETER_DEFAULTS = {'joint_names': NOT_SET_NAMES, 'max_velocity': NOT_SET_LIMITS,
-                          'max_acceleration': NOT_SET_LIMITS, 'max_jerk': NOT_SET_LIMITS}
+                          'max_acceleration': NOT_SET_LIMITS, 'max_jerk': NOT_SET_LIMITS,
+                          'max_effort': NOT_SET_LIMITS}
 
     def with_defaults(self):
         """
@@ -91,10 +103,11 @@ class PlannerConfig(ValidatedConfig):
         """
         names = () if tuple(self.joint_names) in ((), NOT_SET_NAMES) else self.joint_names
         jerk = () if not any(self.max_jerk) else self.max_jerk
+        effort = () if not any(self.max_effort) else self.max_effort
         if self.kinematics == 'model':
-            return replace(self, joint_names=names, max_jerk=jerk)
+            return replace(self, joint_names=names, max_jerk=jerk, max_effort=effort)
         names = names or DEFAULT_JOINTS
-        changes = {'joint_names': names, 'max_jerk': jerk}
+        changes = {'joint_names': names, 'max_jerk': jerk, 'max_effort': effort}
         if names == DEFAULT_JOINTS:
             for field, value in (('max_velocity', PLANAR_VELOCITY),
                                  ('max_acceleration', PLANAR_ACCELERATION)):
@@ -106,6 +119,7 @@ class PlannerConfig(ValidatedConfig):
         """Raise ValueError with the reason when any value is unusable."""
         names = self.joint_names
         model = self.kinematics == 'model'
+        self._require_model_for_torque()
         if model and names == NOT_SET_NAMES:
             names = ()  # all of the model's actuated joints
         if not names and not model:
@@ -169,6 +183,7 @@ class PlannerConfig(ValidatedConfig):
             raise ValueError(f'max_trajectory_points = {self.max_trajectory_points}: must be '
                              'at least 2')
         self._validate_tool_paths()
+        self._validate_torque(names)
 
     def validate_position_limits(self, n):
         """Raise ValueError unless the position limits have 0 or ``n`` values, low <= high."""
@@ -240,6 +255,60 @@ class PlannerConfig(ValidatedConfig):
                                  '(kinematics is "": joint space only, where a tool speed '
                                  'never applies); 0 = no limit')
 
+    def _validate_torque(self, names):
+        """
+        Refuse unusable torque parameters, and any that would be silently ignored.
+
+        ``max_effort``: empty or all 0 = every limit from the description;
+        otherwise one value per joint, each >= 0 (0 = from the description
+        for that joint, inf = no torque limit).  The payload: see
+        :func:`check_payload`.  ``limit_torque`` needs kinematics "model"
+        (the torques come from the description's masses and inertias) and
+        no tool speed limit (tool requests with torque limits are refined,
+        a construction that holds no tool speed).  Without ``limit_torque``
+        a max_effort or a payload would change nothing: refused.
+        """
+        check_payload(self.payload_mass, self.payload_center_of_mass, self.payload_inertia)
+        for i, v in enumerate(self.max_effort):
+            if math.isnan(v) or v < 0.0:
+                raise ValueError(f'max_effort[{i}] = {v}: must be >= 0 [N m or N] (0 = from '
+                                 'the robot description for that joint, inf = no torque '
+                                 'limit)')
+        if self.max_effort and names and len(self.max_effort) != len(names):
+            raise ValueError(f'max_effort needs one value per joint ({len(names)}) of '
+                             f'joint_names {_names(names)}, got {len(self.max_effort)}: give '
+                             'them all (0 = from the robot description for that joint), or '
+                             '-p max_effort:=[0.0] to take every one from the description')
+        if not self.limit_torque:
+            for name, used in (('max_effort', any(self.max_effort)),
+                               ('payload_mass', self.payload_mass > 0.0)):
+                if used:
+                    raise ValueError(f'{name} is set but limit_torque is false: it only '
+                                     'matters to the torque limits (set limit_torque:=true, '
+                                     f'or leave {name} at its default)')
+            return
+        self._require_model_for_torque()
+        for name, unit in TOOL_SPEEDS:
+            if getattr(self, name):
+                raise ValueError(f'limit_torque cannot be combined with {name} yet: tool '
+                                 'requests with torque limits are planned by the refinement, '
+                                 "which holds no tool speed (the 'tool lines' construction "
+                                 f'takes no torque limits); set {name} to 0, or limit_torque '
+                                 'to false')
+
+    def _require_model_for_torque(self):
+        """Refuse limit_torque without kinematics "model" (checked first: it says why)."""
+        if self.limit_torque and self.kinematics != 'model':
+            raise ValueError('limit_torque needs kinematics "model": the torques come from the '
+                             "robot description's masses and inertias (kinematics is "
+                             f'{show(self.kinematics)})')
+
+    def torque_payload(self):
+        """Return the payload as ArmDynamics keyword arguments (inertia None when not set)."""
+        return {'payload_mass': self.payload_mass,
+                'payload_center_of_mass': self.payload_center_of_mass,
+                'payload_inertia': self.payload_inertia or None}
+
     def tool_kinematics(self):
         """Return the kinematics object of ``kinematics`` (with ``link_lengths``), or None."""
         if self.kinematics == 'planar_3dof':
@@ -262,6 +331,35 @@ class PlannerConfig(ValidatedConfig):
         if not any(v > 0.0 for v in self.max_jerk):
             return None
         return [v if v > 0.0 else math.inf for v in self.max_jerk]
+
+
+def check_payload(mass, center, inertia):
+    """
+    Raise ValueError unless the payload parameters describe a rigid body (or none).
+
+    ``mass`` [kg] finite >= 0; ``center`` 3 finite values [m] (the centre of
+    mass in the tool frame); ``inertia`` none, 3 principal moments or 6
+    values ``ixx iyy izz ixy ixz iyz`` [kg m^2] about the centre of mass in
+    the tool frame's axes, a physical inertia (positive definite, the
+    triangle inequality).  A centre of mass or an inertia without a mass
+    is refused (it would change nothing).
+    """
+    if not (math.isfinite(mass) and mass >= 0.0):
+        raise ValueError(f'payload_mass = {mass}: must be >= 0 and finite [kg] (0 = no payload)')
+    if len(center) != 3 or not all(math.isfinite(v) for v in center):
+        raise ValueError('payload_center_of_mass must be 3 finite values [m] (x, y, z in the '
+                         f'tool frame), got {show(list(center))}')
+    if len(inertia) not in (0, 3, 6):
+        raise ValueError('payload_inertia must be empty (a point mass), 3 principal moments or '
+                         '6 values [ixx, iyy, izz, ixy, ixz, iyz] [kg m^2], got '
+                         f'{len(inertia)} values')
+    for name, value in (('payload_center_of_mass', any(center)),
+                        ('payload_inertia', bool(inertia))):
+        if value and mass == 0.0:
+            raise ValueError(f'{name} is set but payload_mass is 0: it describes a payload, '
+                             'which needs a mass (0 = no payload)')
+    if inertia:
+        payload_inertia_matrix(inertia)   # finite, positive definite, triangle inequality
 
 
 def require_description_limits(name, values, names):

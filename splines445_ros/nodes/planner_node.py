@@ -18,6 +18,9 @@ reliable and transient-local like robot_state_publisher's): tool poses are
 6-D, limits come from the description (see :mod:`.model_planning`).  A
 description or parameter that does not give a working robot is reported on
 ``~/status`` (a parameter change is rejected) and the last good robot stays.
+With ``limit_torque`` every plan also keeps the rigid-body torque of the
+planned joints (with ``payload_*`` held by the tool frame) within
+``max_effort`` or the description's effort limits (rest to rest).
 
 Planning runs on a worker thread, so a large request never blocks the node's
 other callbacks (parameter services, state subscriptions).  A bad request is
@@ -39,16 +42,18 @@ from std_msgs.msg import String
 from trajectory_msgs.msg import JointTrajectory
 
 from . import topics
-from .diagnostics import status_message
+from .diagnostics import format_vector, status_message
 from .model_planning import (build_robot_setup, check_model_file, description_source,
                              load_model, plan_model_tool_request, robot_fields,
                              tool_poses_from_message)
 from .node_main import run_node
 from .parameters import ConfigParameters
-from .planner_config import MAX_WAYPOINT_TOLERANCE, PlannerConfig
-from .request_planning import (output_samples, plan_from_running, plan_request,
-                               plan_tool_request, REPLAN_MAX_DELAY, slow_plan_warning,
-                               start_from_state, summary_values, tool_summary_values)
+from .planner_config import (MAX_WAYPOINT_TOLERANCE, PlannerConfig,
+                             TORQUE_STAND_IN_ACCELERATION)
+from .request_planning import (gravity_overload, gravity_overload_report, output_samples,
+                               plan_from_running, plan_request, plan_tool_request,
+                               REPLAN_MAX_DELAY, slow_plan_warning, start_from_state,
+                               summary_values, tool_summary_values)
 from .ros_conversions import parse_tool_request, parse_waypoint_request, trajectory_to_msg
 from ..arm.robot_model import MAX_DESCRIPTION_CHARS
 from ..planning import DEFAULT_WAYPOINT_TOLERANCE
@@ -136,6 +141,22 @@ PARAMETER_DESCRIPTIONS = {
                   'fixed to the world); empty = the world (the URDF root).',
     'joint_limits_file': 'kinematics "model": MoveIt joint_limits.yaml; its limits override '
                          'the URDF velocity, explicit max_* values (non-zero) override both.',
+    'limit_torque': 'kinematics "model": keep the rigid-body torque of every planned joint '
+                    '(the payload included) within max_effort, checked every 1 ms; rest to '
+                    'rest only; tool requests are refined (not timed along the tool lines). '
+                    'A joint without an acceleration limit then gets '
+                    f'{TORQUE_STAND_IN_ACCELERATION:g} rad/s^2: the torque limits it. '
+                    'Default false.',
+    'max_effort': 'limit_torque: per-joint torque limit [N m, or N for a slide], one value per '
+                  'planned joint; 0 entries = from the robot description (URDF <limit '
+                  'effort>, MJCF actuator forcerange or ctrlrange x gear), inf = no limit. '
+                  'Not set ([0.0], the default): all from the description.',
+    'payload_mass': 'limit_torque: mass [kg] held by the tool frame, >= 0; 0 (default) = none.',
+    'payload_center_of_mass': "limit_torque: the payload's centre of mass [m], x, y, z in the "
+                              'tool frame.',
+    'payload_inertia': "limit_torque: the payload's inertia [kg m^2] about its centre of mass "
+                       "in the tool frame's axes: empty (default) = a point mass, 3 principal "
+                       'moments, or 6 values ixx, iyy, izz, ixy, ixz, iyz.',
 }
 PARAMETER_DESCRIPTIONS['kinematics'] = (
     'Kinematics for tool_waypoints requests: "" (none: joint space only), "planar_3dof" (the '
@@ -261,6 +282,8 @@ class PlannerNode(Node):
         if setup.tool_problem:
             values['tool_frame_problem'] = setup.tool_problem
         values.update(setup.limits.report())
+        if setup.torque is not None:
+            values.update(setup.torque.report(setup.config.joint_names))
         self._report(True, f'robot model loaded from {setup.summary()}', values)
 
     def _compile(self, source, what):
@@ -351,14 +374,18 @@ class PlannerNode(Node):
         switch_ns = None
         switch_delay = 0.0
         tool_values = {}
+        torque = {}
         robot = self._robot if config.kinematics == 'model' else None
         try:
             if config.kinematics == 'model':
                 if robot is None:
                     raise ValueError('kinematics "model" has no robot yet: set model_file or '
                                      'publish robot_description')
+                torque = robot.torque_kwargs(config)
                 config = robot.effective(config)  # joint names and limits of the robot
                 tool_values = robot.limits.report()
+                if torque:
+                    tool_values['limit_torque'] = format_vector(torque['max_torque'])
             if isinstance(msg, PoseArray) and robot is not None:
                 tool_path = plan_model_tool_request(
                     robot, tool_poses_from_message(msg, config.base_frame),
@@ -374,15 +401,20 @@ class PlannerNode(Node):
                 if config.start_from_current_state:
                     requested_ns = (self.get_clock().now().nanoseconds
                                     + int(config.replan_lead_time * 1e9))
-                    switch_ns, traj = self._replan(config, request, requested_ns)
+                    switch_ns, traj = self._replan(config, request, requested_ns, torque)
                     switch_delay = 1e-9 * (switch_ns - requested_ns)
                 else:
-                    traj = plan_request(config, request)
+                    traj = plan_request(config, request, torque)
             planned = time.perf_counter()
             samples = output_samples(config, traj)
         except ValueError as exc:
-            self._report(False, f'request {request_id} rejected: {exc}',
-                         {'request': request_id})
+            values = {'request': request_id}
+            overload = gravity_overload(exc)
+            if overload is not None:
+                text, details = gravity_overload_report(overload, config.joint_names)
+                values.update(details)
+                exc = text
+            self._report(False, f'request {request_id} rejected: {exc}', values)
             return
         stamp = None if switch_ns is None else Time(nanoseconds=switch_ns).to_msg()
         out = trajectory_to_msg(samples, config.joint_names, stamp)
@@ -423,13 +455,14 @@ class PlannerNode(Node):
                            + ('' if warning is None else f'; WARNING: {warning}'),
                      values, warn=warning is not None)
 
-    def _replan(self, config, request, switch_ns):
+    def _replan(self, config, request, switch_ns, torque=None):
         """
         Plan ``request`` from the state commanded at ``switch_ns``; return (switch_ns, traj).
 
         While the last published trajectory runs, its state is the start (a
         later switch along it when none plans there: see plan_from_running);
-        otherwise the latest joint_states are.
+        otherwise the latest joint_states are.  ``torque``: the torque
+        keywords of plan() (rest to rest only).
         """
         if self._active is not None:
             running, start_ns = self._active
@@ -437,10 +470,10 @@ class PlannerNode(Node):
             if t < running.duration and running.n_joints == len(config.joint_names):
                 def clock():
                     return (self.get_clock().now().nanoseconds - start_ns) * 1e-9
-                used, traj = plan_from_running(config, request, running, t, clock)
+                used, traj = plan_from_running(config, request, running, t, clock, torque)
                 return max(switch_ns, start_ns + int(round(used * 1e9))), traj
         return switch_ns, plan_request(config, start_from_state(
-            request, *self._joint_state_start(config), config.waypoint_tolerance))
+            request, *self._joint_state_start(config), config.waypoint_tolerance), torque)
 
     def _joint_state_seed(self, config):
         """Return the latest joint_states positions of the planned joints, or None."""

@@ -5,12 +5,15 @@ This is everything the planner node does between parsing a message and
 publishing one, so it is testable without ROS.
 """
 
+import re
+
 import numpy as np
 
 from .diagnostics import format_vector
 from .ros_conversions import WaypointRequest
 from ..arm.tool_paths import plan_tool_path
 from ..planning import check_position_limits, plan
+from ..planning.path_constraints import GravityOverload
 
 # A fixed-timing request may exceed a limit by this much (round-off of times
 # that came through nanosecond Durations) before it is rejected.
@@ -32,31 +35,38 @@ SLOW_PLAN_FACTOR = 20.0
 # Resolution of time_from_start (builtin_interfaces/Duration) [s]: knots are
 # published at their times rounded to it.
 TIME_RESOLUTION = 1e-9
+# The torque limits bind a plan whose peak torque reaches this share of a limit
+# (and more than any velocity, acceleration or jerk limit's share).
+TORQUE_BINDING = 0.999
+_BOUNDARY = ('start_velocity', 'start_acceleration', 'end_velocity', 'end_acceleration')
 
 
-def plan_request(config, request):
+def plan_request(config, request, torque=None):
     """
     Plan ``request`` (a WaypointRequest) with ``config`` (a PlannerConfig).
 
-    Raises ValueError for anything the planning core rejects, for a "fixed"
-    request without strictly increasing times, and for a "fixed" request whose
-    times would exceed a limit.
+    ``torque``: the torque keywords of ``plan()`` (``max_torque``,
+    ``inverse_dynamics``; None or {} = no torque limits), which plan rest to
+    rest only.  Raises ValueError for anything the planning core rejects,
+    for a "fixed" request without strictly increasing times, for a "fixed"
+    request whose times would exceed a limit (a torque limit named by its
+    joint), and with torque limits for a request that starts or ends moving.
     """
+    torque = torque or {}
+    if torque:
+        _require_rest(config, request)
     durations = None
     if config.timing == 'fixed':
         if request.times is None:
             raise ValueError('timing "fixed" needs a strictly increasing time_from_start '
                              'on every point')
         durations = np.diff(request.times)
-    traj = plan(request.waypoints, method=config.method, timing=config.timing,
-                durations=durations, max_velocity=config.max_velocity,
-                max_acceleration=config.max_acceleration, max_jerk=config.jerk_limits(),
-                start_velocity=request.start_velocity,
-                start_acceleration=request.start_acceleration,
-                end_velocity=request.end_velocity, end_acceleration=request.end_acceleration,
-                waypoint_tolerance=config.waypoint_tolerance,
-                inner_knots=config.plan_inner_knots(),
-                vibration_frequency=config.vibration_frequency)
+    try:
+        traj = _plan(request, config, durations, torque)
+    except ValueError as exc:
+        if not torque or config.timing != 'fixed' or isinstance(exc, GravityOverload):
+            raise
+        raise _named_joint(exc, config.joint_names) from exc
     check_position_limits(traj, **config.position_limits())
     if not traj.within_limits(rtol=FIXED_TIMING_RTOL):
         b = traj.binding
@@ -64,6 +74,47 @@ def plan_request(config, request):
             f'the requested times exceed the {b.quantity} limit of '
             f'{config.joint_names[b.joint]} on segment {b.segment} by a factor {b.ratio:.4g}')
     return traj
+
+
+def _plan(request, config, durations, torque):
+    """Call ``plan()`` with the request, the config's limits and the torque keywords."""
+    return plan(request.waypoints, method=config.method, timing=config.timing,
+                durations=durations, max_velocity=config.max_velocity,
+                max_acceleration=config.max_acceleration, max_jerk=config.jerk_limits(),
+                start_velocity=request.start_velocity,
+                start_acceleration=request.start_acceleration,
+                end_velocity=request.end_velocity, end_acceleration=request.end_acceleration,
+                waypoint_tolerance=config.waypoint_tolerance,
+                inner_knots=config.plan_inner_knots(),
+                vibration_frequency=config.vibration_frequency, **torque)
+
+
+def _named_joint(exc, joint_names):
+    """Return ``exc`` with a leading 'joint <index> needs' naming the joint (fixed timing)."""
+    text = str(exc)
+    match = re.match(r'joint (\d+) needs ', text)
+    if match is None or int(match.group(1)) >= len(joint_names):
+        return ValueError(text)
+    name = joint_names[int(match.group(1))]
+    return ValueError(f'joint {name!r} (column {match.group(1)}) needs ' + text[match.end():])
+
+
+def _require_rest(config, request):
+    """Refuse a request with non-zero boundary values under torque limits (ValueError)."""
+    moving = [(name, value) for name, value in zip(_BOUNDARY, (
+        request.start_velocity, request.start_acceleration, request.end_velocity,
+        request.end_acceleration)) if value is not None and np.any(np.asarray(value) != 0.0)]
+    if not moving:
+        return
+    name, value = moving[0]
+    hint = ('send the request with zero velocities and accelerations on its first and '
+            'last points')
+    if config.start_from_current_state and name.startswith('start'):
+        hint = ('start_from_current_state starts from the state at the switch time, and the '
+                'arm is moving there: send the request when the arm is at rest, or set '
+                'limit_torque to false for replanning while moving')
+    raise ValueError(f'limit_torque plans rest to rest, but the request has {name} '
+                     f'[{format_vector(value)}]: {hint}')
 
 
 def plan_tool_request(config, poses):
@@ -86,7 +137,7 @@ def plan_tool_request(config, poses):
     return plan_tool_poses(config, poses, kinematics)
 
 
-def plan_tool_poses(config, poses, kinematics):
+def plan_tool_poses(config, poses, kinematics, torque=None):
     """
     Plan tool ``poses`` with ``kinematics`` and ``config``, rest to rest; return a ToolPath.
 
@@ -94,10 +145,13 @@ def plan_tool_poses(config, poses, kinematics):
     ``max_path_deviation`` and ``max_orientation_deviation``, within the
     position limits, with ``inner_knots`` (555 optimal) and the tool speed
     limits ``max_tool_speed`` [m/s] and ``max_tool_angular_speed`` [rad/s]
-    (0 = no limit; the config refuses them where they cannot apply).  Raises
-    ValueError for "fixed" timing (a PoseArray has no times), for replanning
-    (tool requests start at rest at their first waypoint), and for anything
-    the refinement or the limits reject.
+    (0 = no limit; the config refuses them where they cannot apply), and
+    ``torque`` (the torque keywords of ``plan()``; None = none): with them
+    the tool path is always the refinement's (``'refined'``), whose every
+    plan holds the torque limits (the 'tool lines' construction takes none).
+    Raises ValueError for "fixed" timing (a PoseArray has no times), for
+    replanning (tool requests start at rest at their first waypoint), and
+    for anything the refinement or the limits reject.
     """
     if config.timing == 'fixed':
         raise ValueError('timing "fixed" needs times, which tool_waypoints (PoseArray) do not '
@@ -114,7 +168,8 @@ def plan_tool_poses(config, poses, kinematics):
                                inner_knots=config.plan_inner_knots(),
                                vibration_frequency=config.vibration_frequency,
                                max_tool_speed=config.max_tool_speed,
-                               max_tool_angular_speed=config.max_tool_angular_speed)
+                               max_tool_angular_speed=config.max_tool_angular_speed,
+                               **(torque or {}))
     check_position_limits(tool_path.trajectory, **config.position_limits())
     return tool_path
 
@@ -204,7 +259,7 @@ def start_from_state(request, position, velocity, acceleration, tolerance=0.0):
         times)
 
 
-def plan_from_running(config, request, running, switch_time, clock=None):
+def plan_from_running(config, request, running, switch_time, clock=None, torque=None):
     """
     Plan ``request`` from the state of the ``running`` Trajectory at ``switch_time``.
 
@@ -218,6 +273,8 @@ def plan_from_running(config, request, running, switch_time, clock=None):
     ending with the running trajectory's end state when it comes earlier.
     ``clock()``, when given, returns the current time in the running
     trajectory's time; candidates it has already passed are skipped.
+    ``torque``: as for :func:`plan_request` (rest to rest: only a candidate
+    where the running trajectory is at rest, its end, can plan).
 
     Returns ``(time, trajectory)``: the switch time used and the plan.  Raises
     the requested switch time's ValueError (noting the later times tried)
@@ -237,7 +294,7 @@ def plan_from_running(config, request, running, switch_time, clock=None):
         state = tuple(running.evaluate([t], d)[0] for d in (0, 1, 2))
         try:
             return t, plan_request(config, start_from_state(request, *state,
-                                                            config.waypoint_tolerance))
+                                                            config.waypoint_tolerance), torque)
         except ValueError as exc:
             if first_error is None:
                 first_error = exc
@@ -259,6 +316,8 @@ def slow_plan_warning(traj):
     bound = traj.duration_lower_bound()
     if traj.timing != 'uniform' or not bound or traj.duration <= SLOW_PLAN_FACTOR * bound:
         return None
+    if torque_binds(traj):
+        return None  # the torque limits set the time, which the bound does not know
     return (f'the uniform plan lasts {traj.duration:.4g} s, {traj.duration / bound:.3g} times '
             f'the lower bound {bound:.4g} s (sum over segments of max |dq| / v): timing '
             '"optimal" would be far shorter; near-duplicate waypoints above '
@@ -293,4 +352,53 @@ def summary_values(traj, joint_names):
         values['binding'] = (f'{joint_names[b.joint]} {b.quantity} segment {segment} '
                              f'ratio {b.ratio:.6g}')
         values['duration_lower_bound'] = f'{traj.duration_lower_bound():.9g}'
+    ratios = getattr(traj, 'torque_ratios', None)
+    if ratios is not None:
+        values['peak_torque_ratio'] = format_vector(ratios)
+        if torque_binds(traj):
+            j = int(np.argmax(ratios))
+            values['binding'] = f'{joint_names[j]} torque ratio {ratios[j]:.6g}'
     return values
+
+
+def torque_binds(traj):
+    """
+    Return True when a torque limit sets the time of ``traj`` (planned with torque limits).
+
+    Its largest peak torque over limit reaches :data:`TORQUE_BINDING` and
+    exceeds the largest velocity, acceleration or jerk ratio.
+    """
+    ratios = getattr(traj, 'torque_ratios', None)
+    if ratios is None or not np.max(ratios) >= TORQUE_BINDING:
+        return False
+    return traj.limits is None or float(np.max(ratios)) > traj.binding.ratio
+
+
+def gravity_overload(exc):
+    """Return the :class:`GravityOverload` ``exc`` is or was raised from, else None."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, GravityOverload):
+            return exc
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return None
+
+
+def gravity_overload_report(overload, joint_names):
+    """
+    Return (message, status values) of a :class:`GravityOverload`, the joint named.
+
+    The library names the joint by its column; the planned ``joint_names``
+    give its name.
+    """
+    j = overload.joint
+    name = joint_names[j] if 0 <= j < len(joint_names) else f'column {j}'
+    pose = ', '.join(f'{v:.4g}' for v in overload.pose)
+    message = (f'joint {name!r}: gravity alone needs {overload.torque:.4g} N m at the pose '
+               f'[{pose}] (joint_names order), beyond its torque limit of '
+               f'{overload.limit:.4g} N m: no speed along this path holds it (lower the '
+               'payload, raise max_effort, or choose waypoints where the arm can hold it)')
+    values = {'overloaded_joint': name, 'gravity_torque': f'{overload.torque:.6g}',
+              'torque_limit': f'{overload.limit:.6g}', 'pose': pose}
+    return message, values
