@@ -78,6 +78,7 @@ bench: build
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_robot_seam.py
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_tool_lines.py
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_torque.py
+	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_torque_arm.py
 
 lint: env
 	$(BIN)ament_flake8 $(LINTED)
