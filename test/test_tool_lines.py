@@ -199,3 +199,30 @@ def test_corner_blends_pass_the_corner_smoothly_within_their_share(seed, spatial
         if blends.radius[k] > 0.0:
             assert turn < math.degrees(tl.MAX_BLEND_TURN)
             assert np.linalg.norm(d1 - d2) < 1e-5
+
+
+@settings(max_examples=max(2, EXAMPLES // 2), deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(seed=st.integers(0, 2**32 - 1), limited=st.booleans())
+def test_torque_limits_hold_along_tool_lines(arms, seed, limited):
+    """UR5 with 5 kg: the torque (ArmDynamics, checked in test_dynamics) within half the efforts."""
+    from splines445_ros.arm.dynamics import ArmDynamics, effort_limits
+    arm = arms['ur5']
+    robot, joints = arm[0], list(arm[3])
+    dynamics = ArmDynamics(robot, joints, 'tool0', payload_mass=5.0,
+                           payload_center_of_mass=(0.0, 0.0, 0.1))
+    limit = 0.5 * effort_limits(robot, joints)
+    poses = random_lines(np.random.default_rng(seed), arm, 3)
+    speed = 0.2 if limited else 0.0
+    kwargs = dict(arm[5], max_acceleration=[1000.0] * 6, max_jerk=[5000.0] * 6)
+    result = plan_tool_path(poses, kinematics(arm), MM, DEG, method='555', timing='optimal',
+                            max_tool_speed=speed, max_torque=limit,
+                            inverse_dynamics=dynamics.torques, **kwargs)
+    assert result.construction == 'tool lines'
+    check_1khz(result, poses, arm[7], MM, DEG)
+    traj = result.trajectory
+    t = np.linspace(0.0, traj.duration, int(traj.duration * 2000) + 2)
+    tau = dynamics.torques(traj.evaluate(t), traj.evaluate(t, 1), traj.evaluate(t, 2))
+    assert np.all(np.abs(tau) <= limit * 1.005)
+    if limited:
+        assert sampled_tool_speeds(traj, arm[7])[0].max() <= speed * (1 + SPEED_RTOL)

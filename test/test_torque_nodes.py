@@ -162,17 +162,23 @@ def test_the_plan_holds_the_urdf_efforts_with_the_payload(system):
     assert values['binding'].startswith(f'{joint} torque ratio '), values['binding']
     np.testing.assert_allclose(numbers(values['limit_torque']), EFFORT)
     system.wait_until_played(n_arm, duration(msg))
-    # A tool request: refined (the 'tool lines' take no torque limits), torque held.
-    start = np.array(system.joint_states[-1].position)
-    n_arm = len(system.arm_status)
-    status, msg = system.request(tool_poses(start, [0.0, 0.25, -0.1]))
-    assert status.level == DiagnosticStatus.OK, status.message
-    values = status_values(status)
-    assert values['tool_construction'] == 'refined'
-    ratios = torque_ratios(msg, PAYLOAD)
-    assert np.all(ratios <= 1.005), ratios
-    np.testing.assert_allclose(numbers(values['peak_torque_ratio']), ratios, atol=5e-3)
-    system.wait_until_played(n_arm, duration(msg))
+    # A tool request: timed along the line with the torque as a constraint, held;
+    # then with a tool speed too.
+    for speed, offset in ((0.0, [0.0, 0.25, -0.1]), (0.1, [0.0, -0.25, 0.1])):
+        assert system.set_planner_parameters({'max_tool_speed': speed})[0].successful
+        start = np.array(system.joint_states[-1].position)
+        n_arm = len(system.arm_status)
+        status, msg = system.request(tool_poses(start, offset))
+        assert status.level == DiagnosticStatus.OK, status.message
+        values = status_values(status)
+        assert values['tool_construction'] == 'tool lines'
+        ratios = torque_ratios(msg, PAYLOAD)
+        assert np.all(ratios <= 1.005), ratios
+        np.testing.assert_allclose(numbers(values['peak_torque_ratio']), ratios, atol=5e-3)
+        if speed:
+            assert float(values['max_tool_speed_reached']) <= speed * 1.001
+        system.wait_until_played(n_arm, duration(msg))
+    assert system.set_planner_parameters({'max_tool_speed': 0.0})[0].successful
 
 
 def test_the_dynamic_arm_carries_the_payload_without_saturating(system):
@@ -259,7 +265,6 @@ def test_a_heavier_payload_plans_slower(planner):
     ({'max_effort': [100.0, 100.0]}, r'max_effort needs one value per joint \(6\)'),
     ({'max_effort': [-1.0] + [0.0] * 5}, r'max_effort\[0\] = -1.0: must be >= 0'),
     ({'kinematics': ''}, r'limit_torque needs kinematics "model"'),
-    ({'max_tool_speed': 0.1}, r'limit_torque cannot be combined with max_tool_speed'),
     ({'limit_torque': False, 'payload_mass': 1.0},
      r'payload_mass is set but limit_torque is false'),
     ({'payload_mass': 1.0, 'tool_frame': ''},

@@ -344,7 +344,7 @@ def _difference(kinematics, before, after, span):
 
 
 def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_tool_speed=0.0,
-                    max_tool_angular_speed=0.0, windows=(), max_inserted=None):
+                    max_tool_angular_speed=0.0, windows=(), max_inserted=None, torque=None):
     """
     Return the :class:`ToolLines` of the tool path through ``edge_poses`` (module docstring).
 
@@ -352,8 +352,12 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
     :class:`planning.JointLimits`, ``measure(traj, segment_edges)`` the
     :class:`tool_paths.Deviation` of a trajectory whose segments lie on the
     given edges, ``tolerances`` (position, orientation), inf for unchecked.
-    Speeds 0 mean no limit.  ValueError when the inverse kinematics fails,
-    no spline meets the limits, or the tolerances are not reached.
+    Speeds 0 mean no limit.  ``torque`` (a :class:`planning.torque.TorqueLimit`)
+    adds the joint torque: one more constraint of the timing, one more
+    factor of every piece, and a 1 kHz check at the end (the spline is
+    slowed down uniformly when it needs it).  ValueError when the inverse
+    kinematics fails, no spline meets the limits, or the tolerances are not
+    reached.
     """
     s, sigma, edge, waypoint_index = sample_edges(edge_poses)
     # One continuous walk through every sample (a redundant arm's joints
@@ -382,8 +386,13 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
     if max_tool_angular_speed:
         constraints.append(ToolSpeed(max_tool_angular_speed * SPEED_MARGIN, rates.angular_tangent))
     check = _PieceSpeeds(kinematics, max_tool_speed, max_tool_angular_speed)
+    speeds = bool(constraints)
+    factors = [check] if speeds else []
+    if torque is not None:
+        constraints.append(torque.constraint())
+        factors.append(torque.piece_factors)
     path = JointPathSamples(s, joints, waypoint_index, limits, constraints, windows,
-                            check if constraints else None, START_KNOTS, MIN_PIECE)
+                            _joined(factors), START_KNOTS, MIN_PIECE)
     timing = plan_along_path(path, limits)
     initial = None
     inserted, rounds = 0, 0
@@ -409,16 +418,20 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
     else:
         raise ValueError(f'the tool path is still {float(np.max(excess)):.3g} times its '
                          f'tolerance after {MAX_ROUNDS} rounds of knot insertion')
-    if constraints:
+    if speeds:
         timing, more = _unbound(timing, path, limits, check, measure, tolerances)
         inserted += more
     traj = timing.trajectory
     linear, angular, sampled = tool_speeds(traj, kinematics)
     factor = max(linear / max_tool_speed if max_tool_speed else 0.0,
                  angular / max_tool_angular_speed if max_tool_angular_speed else 0.0)
+    if torque is not None:
+        factor = max(factor, torque.time_factor(traj)[0])
     if factor > 1.0:
         traj = rescaled(traj, factor * _ROUNDOFF)
         linear, angular, sampled = tool_speeds(traj, kinematics)
+    if torque is not None:
+        traj.torque_factor, traj.torque_ratios = torque.time_factor(traj)
     share = 0.0
     if max_tool_speed:
         # By length: every sample weighs the distance the tool covers there.
@@ -426,6 +439,18 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
     segment_edges = np.arange(len(edge_poses) - 1)
     return ToolLines(traj, joints[waypoint_index], inserted, initial[1], initial[0],
                      measure(traj, segment_edges), rounds, int(s.size), linear, angular, share)
+
+
+def _joined(factors):
+    """Return one piece-factor function of several ((P, k) each, side by side), or None."""
+    if not factors:
+        return None
+    if len(factors) == 1:
+        return factors[0]
+
+    def joined(coeffs, pieces):
+        return np.concatenate([f(coeffs, pieces) for f in factors], axis=1)
+    return joined
 
 
 def _unbound(timing, path, limits, check, measure, tolerances):

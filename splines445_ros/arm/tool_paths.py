@@ -94,6 +94,8 @@ from .tool_lines import LineUnreachable, plan_tool_lines
 from ..planning import check_position_limits, JointLimits, merge_duplicates, plan
 from ..planning.inner_knots import inner_knot_count, smoothing_windows, vibration_frequency_value
 from ..planning.methods import get_method
+from ..planning.path_constraints import GravityOverload
+from ..planning.torque import TorqueLimit
 
 GRID = 24
 # Golden-section steps on each bracket of two grid cells: 16 shrink it to
@@ -112,7 +114,8 @@ _GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
 BOUNDARY_KEYWORDS = ('start_velocity', 'start_acceleration', 'end_velocity', 'end_acceleration')
 # plan() keywords the 'tool lines' construction understands (boundary values only at rest).
 LINES_KEYWORDS = {'max_velocity', 'max_acceleration', 'max_jerk', 'min_position', 'max_position',
-                  'waypoint_tolerance', 'inner_knots', *BOUNDARY_KEYWORDS}
+                  'waypoint_tolerance', 'inner_knots', 'max_torque', 'inverse_dynamics',
+                  *BOUNDARY_KEYWORDS}
 
 
 @dataclass(frozen=True)
@@ -641,6 +644,13 @@ def _tool_lines(edge_poses, joints, waypoint_knots, kept_index, kinematics, tole
     limits = JointLimits.from_user(joints.shape[1], plan_kwargs.get('max_velocity'),
                                    plan_kwargs.get('max_acceleration'),
                                    plan_kwargs.get('max_jerk'))
+    torque = None
+    if plan_kwargs.get('max_torque') is not None or \
+            plan_kwargs.get('inverse_dynamics') is not None:
+        if plan_kwargs.get('max_torque') is None or plan_kwargs.get('inverse_dynamics') is None:
+            raise ValueError('max_torque and inverse_dynamics must be given together')
+        torque = TorqueLimit(plan_kwargs['max_torque'], plan_kwargs['inverse_dynamics'],
+                             joints.shape[1])
     segment_edges = np.arange(len(edge_poses) - 1)
 
     def measure(traj, edges):
@@ -649,7 +659,7 @@ def _tool_lines(edge_poses, joints, waypoint_knots, kept_index, kinematics, tole
     windows = smoothing_windows(vibration) if vibration else ()
     try:
         found = plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, *speeds,
-                                windows=windows, max_inserted=max_inserted)
+                                windows=windows, max_inserted=max_inserted, torque=torque)
     except LineUnreachable as exc:
         if not any(speeds):
             return None
@@ -657,6 +667,8 @@ def _tool_lines(edge_poses, joints, waypoint_knots, kept_index, kinematics, tole
         raise ValueError(f'the straight line from tool waypoint {a} to {b} leaves the reach '
                          f'of the arm: its point at {_format_pose(exc.pose)} '
                          f'{exc.reason}') from None
+    except GravityOverload:
+        raise
     except ValueError:
         if any(speeds):
             raise

@@ -263,9 +263,8 @@ class PlannerConfig(ValidatedConfig):
         otherwise one value per joint, each >= 0 (0 = from the description
         for that joint, inf = no torque limit).  The payload: see
         :func:`check_payload`.  ``limit_torque`` needs kinematics "model"
-        (the torques come from the description's masses and inertias) and
-        no tool speed limit (tool requests with torque limits are refined,
-        a construction that holds no tool speed).  Without ``limit_torque``
+        (the torques come from the description's masses and inertias).
+        Without ``limit_torque``
         a max_effort or a payload would change nothing: refused.
         """
         check_payload(self.payload_mass, self.payload_center_of_mass, self.payload_inertia)
@@ -288,13 +287,6 @@ class PlannerConfig(ValidatedConfig):
                                      f'or leave {name} at its default)')
             return
         self._require_model_for_torque()
-        for name, unit in TOOL_SPEEDS:
-            if getattr(self, name):
-                raise ValueError(f'limit_torque cannot be combined with {name} yet: tool '
-                                 'requests with torque limits are planned by the refinement, '
-                                 "which holds no tool speed (the 'tool lines' construction "
-                                 f'takes no torque limits); set {name} to 0, or limit_torque '
-                                 'to false')
 
     def _require_model_for_torque(self):
         """Refuse limit_torque without kinematics "model" (checked first: it says why)."""
