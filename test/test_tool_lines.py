@@ -205,7 +205,7 @@ def test_corner_blends_pass_the_corner_smoothly_within_their_share(seed, spatial
           suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(seed=st.integers(0, 2**32 - 1), limited=st.booleans())
 def test_torque_limits_hold_along_tool_lines(arms, seed, limited):
-    """UR5 with 5 kg: the torque (ArmDynamics, checked in test_dynamics) within half the efforts."""
+    """UR5 with 5 kg: the torque (ArmDynamics, see test_dynamics) within half the efforts."""
     from splines445_ros.arm.dynamics import ArmDynamics, effort_limits
     arm = arms['ur5']
     robot, joints = arm[0], list(arm[3])

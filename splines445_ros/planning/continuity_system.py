@@ -20,6 +20,9 @@ once and every joint (and every right-hand side) is a column of the solve.
 Rows are equilibrated (scaled by their largest entry) before the solve.
 """
 
+from functools import lru_cache
+from types import SimpleNamespace
+
 import numpy as np
 from scipy.linalg import LinAlgError, solve_banded
 
@@ -103,29 +106,14 @@ class ContinuitySystem:
 
     def _assemble(self):
         n_q, n_b, n_int = self._coeff.shape[:3]
-        n_u = len(self._unknowns)
-        knot = np.tile(np.arange(1, n_int + 1), n_b)        # interior knot of each equation
-        first = np.repeat(np.arange(n_b) * n_int, n_int)    # its system's first unknown knot
-        rows, cols, vals = [], [], []
-        for q in range(n_q):
-            for offset in range(3):
-                other = knot - 1 + offset
-                interior = (other >= 1) & (other <= n_int)
-                for ui, comp in enumerate(self._unknowns):
-                    rows.append(((first + knot - 1) * n_q + q)[interior])
-                    cols.append(((first + other - 1) * n_u + ui)[interior])
-                    vals.append(self._coeff[q, :, :, offset, comp].reshape(-1)[interior])
-        rows = np.concatenate(rows)
-        cols = np.concatenate(cols)
-        vals = np.concatenate(vals)
-        size = n_b * n_int * n_q
-        row_scale = np.zeros(size)
-        np.maximum.at(row_scale, rows, np.abs(vals))
-        self._row_scale = 1.0 / row_scale
-        self._bandwidth = 2 * n_q - 1
-        band = np.zeros((2 * self._bandwidth + 1, size))
-        band[self._bandwidth + rows - cols, cols] = vals * self._row_scale[rows]
-        self._band = band
+        pattern = _band_pattern(n_q, n_b, n_int, tuple(self._unknowns))
+        vals = self._coeff.reshape(-1)[pattern.gather]
+        # The largest |entry| of every row (the padding points at a 0).
+        self._row_scale = 1.0 / np.append(np.abs(vals), 0.0)[pattern.row_entries].max(axis=1)
+        self._bandwidth = pattern.bandwidth
+        band = np.zeros((2 * pattern.bandwidth + 1) * pattern.size)
+        band[pattern.band_index] = vals * self._row_scale[pattern.rows]
+        self._band = band.reshape(2 * pattern.bandwidth + 1, pattern.size)
 
     def solve(self, dP, v_start, a_start, v_end, a_end):
         """
@@ -225,3 +213,52 @@ class ContinuitySystem:
         coeffs = self.maps @ self.segment_inputs(dP, vel, acc)
         coeffs[..., 0, :] = starts
         return coeffs
+
+
+# Index patterns of the banded matrix kept for reuse (see _band_pattern).
+PATTERN_CACHE = 16
+
+
+@lru_cache(maxsize=PATTERN_CACHE)
+def _band_pattern(n_q, n_b, n_int, unknowns):
+    """
+    Where the equations' coefficients go in the banded matrix: a function of the sizes only.
+
+    For ``n_q`` continuous derivatives, ``n_b`` stacked systems of ``n_int``
+    interior knots and the method's ``unknowns``: ``gather`` picks every
+    entry's coefficient from the flattened (n_q, B, K, 3, 2) coefficients,
+    ``rows`` is its equation, ``band_index`` its place in the flattened
+    (2 bandwidth + 1, size) band, and ``row_entries`` (size, most entries in
+    a row) lists the entries of every row, padded with the index one past
+    the last entry.  Inner knots (:mod:`inner_knots`) solve many systems of
+    the same size one after another, and the indices cost more to build than
+    the values; cached, the assembly is the same, bit for bit.
+    """
+    n_u = len(unknowns)
+    knot = np.tile(np.arange(1, n_int + 1), n_b)        # interior knot of each equation
+    first = np.repeat(np.arange(n_b) * n_int, n_int)    # its system's first unknown knot
+    flat = np.arange(n_q * n_b * n_int * 3 * 2).reshape(n_q, n_b, n_int, 3, 2)
+    rows, cols, gather = [], [], []
+    for q in range(n_q):
+        for offset in range(3):
+            other = knot - 1 + offset
+            interior = (other >= 1) & (other <= n_int)
+            for ui, comp in enumerate(unknowns):
+                rows.append(((first + knot - 1) * n_q + q)[interior])
+                cols.append(((first + other - 1) * n_u + ui)[interior])
+                gather.append(flat[q, :, :, offset, comp].reshape(-1)[interior])
+    rows = np.concatenate(rows)
+    cols = np.concatenate(cols)
+    size = n_b * n_int * n_q
+    bandwidth = 2 * n_q - 1
+    order = np.argsort(rows, kind='stable')
+    per_row = np.bincount(rows, minlength=size)
+    row_entries = np.full((size, int(per_row.max())), rows.size)
+    place = np.arange(rows.size) - np.repeat(np.cumsum(per_row) - per_row, per_row)
+    row_entries[rows[order], place] = order
+    pattern = SimpleNamespace(rows=rows, gather=np.concatenate(gather), row_entries=row_entries,
+                              band_index=(bandwidth + rows - cols) * size + cols)
+    for index in vars(pattern).values():
+        index.flags.writeable = False   # shared by every later system of these sizes
+    pattern.size, pattern.bandwidth = size, bandwidth
+    return pattern

@@ -9,6 +9,8 @@ nearly degenerate cubics), everything else is at most quadratic and solved
 in closed form for all segments and joints at once.  No sampling is involved.
 """
 
+from math import comb
+
 import numpy as np
 
 from .segments import falling_factors
@@ -18,6 +20,10 @@ from .segments import falling_factors
 _DEGENERATE = 1e-13
 # Scaled leading coefficient below which a cubic's roots come from eigenvalues.
 _SMALL_CUBIC = 1e-6
+# velocity_ratios_above: relative margin of its Bernstein bound against round-off.
+PRUNE_MARGIN = 1e-9
+# Power to Bernstein basis of a quartic on [0, 1]: b_k = sum_i C(k, i) / C(4, i) p_i.
+_BERNSTEIN = np.array([[comb(k, i) / comb(4, i) for i in range(5)] for k in range(5)])
 
 
 def derivative_coefficients(coeffs, derivative):
@@ -29,6 +35,19 @@ def derivative_coefficients(coeffs, derivative):
     for j in range(derivative):
         factor = factor * (powers - j)
     return c[:, derivative:] * factor[None, :, None]
+
+
+def _row_max(x):
+    """
+    Return the largest entry of every row of ``x`` (K, r): ``np.max(x, axis=1)``, the same values.
+
+    A reduction over a short last axis is several times slower in numpy
+    than ``r - 1`` element-wise maxima of its columns (NaN propagates in both).
+    """
+    out = x[:, 0].copy()
+    for k in range(1, x.shape[1]):
+        np.maximum(out, x[:, k], out=out)
+    return out
 
 
 def _horner(coeffs, x):
@@ -100,7 +119,7 @@ def _unit_interval_roots(q, out):
     end, which is a candidate anyway).
     """
     K, width = q.shape
-    scale = np.max(np.abs(q), axis=1)
+    scale = _row_max(np.abs(q))
     scale[scale == 0.0] = 1.0
     q = q / scale[:, None]
     cubic = (np.abs(q[:, 3]) > _DEGENERATE) if width == 4 else np.zeros(K, dtype=bool)
@@ -124,18 +143,28 @@ def _unit_interval_roots(q, out):
     out[:] = np.where(inside, roots, 0.0)
 
 
-def _candidates(coeffs, durations, derivative):
-    """Candidate points x in [0, 1] (S*m, 5) and the |d-th derivative| there."""
+def _normalised(coeffs, durations, derivative):
+    """
+    Return the d-th derivative and the next one in ``x = tau / T``, a row per segment and joint.
+
+    Returns ascending coefficients (S*m, 6-d) and (S*m, 5-d): coefficient
+    ``i`` of the derivative is multiplied by ``T**i``, so that every term is
+    comparable on ``x in [0, 1]``.
+    """
     T = np.asarray(durations, dtype=float)
     S, _, m = np.shape(coeffs)
     p = derivative_coefficients(coeffs, derivative)
-    # Normalise to x = tau / T in [0, 1]: coefficient i is multiplied by T^i.
     p = p * (T[:, None, None] ** np.arange(p.shape[1])[None, :, None])
     dp = p[:, 1:] * np.arange(1, p.shape[1])[None, :, None]
-    flat_p = p.transpose(0, 2, 1).reshape(S * m, -1)
-    candidates = np.zeros((S * m, 5))
+    return p.transpose(0, 2, 1).reshape(S * m, -1), dp.transpose(0, 2, 1).reshape(S * m, -1)
+
+
+def _candidates(coeffs, durations, derivative):
+    """Candidate points x in [0, 1] (S*m, 5) and the |d-th derivative| there."""
+    flat_p, flat_dp = _normalised(coeffs, durations, derivative)
+    candidates = np.zeros((flat_p.shape[0], 5))
     candidates[:, 1] = 1.0
-    _unit_interval_roots(dp.transpose(0, 2, 1).reshape(S * m, -1), candidates[:, 2:])
+    _unit_interval_roots(flat_dp, candidates[:, 2:])
     return candidates, np.abs(_horner(flat_p, candidates))
 
 
@@ -149,7 +178,77 @@ def segment_peaks(coeffs, durations, derivative):
     """
     S, _, m = np.shape(coeffs)
     _, values = _candidates(coeffs, durations, derivative)
-    return values.max(axis=1).reshape(S, m)
+    return _row_max(values).reshape(S, m)
+
+
+def segment_peaks_of(coeffs, durations, derivatives):
+    """
+    :func:`segment_peaks` of several ``derivatives`` at once: shape (len(derivatives), S, m).
+
+    One root finding and one evaluation for all of them instead of one per
+    derivative (the per-call cost dominates on the short splines of
+    :mod:`inner_knots`).  The polynomials of lower degree are padded with
+    zero terms, which leave every step of the root finding and of the
+    evaluation unchanged, so the peaks are those of :func:`segment_peaks`,
+    bit for bit.
+    """
+    S, _, m = np.shape(coeffs)
+    rows = S * m
+    width = 6 - min(derivatives)
+    flat_p = np.zeros((len(derivatives) * rows, width))
+    flat_dp = np.zeros((len(derivatives) * rows, width - 1))
+    for k, derivative in enumerate(derivatives):
+        p, dp = _normalised(coeffs, durations, derivative)
+        flat_p[k * rows:(k + 1) * rows, :p.shape[1]] = p
+        flat_dp[k * rows:(k + 1) * rows, :dp.shape[1]] = dp
+    candidates = np.zeros((flat_p.shape[0], 5))
+    candidates[:, 1] = 1.0
+    _unit_interval_roots(flat_dp, candidates[:, 2:])
+    return _row_max(np.abs(_horner(flat_p, candidates))).reshape(len(derivatives), S, m)
+
+
+def velocity_ratios_above(coeffs, durations, bounds, floor):
+    """
+    |velocity| peaks over ``bounds`` (m,): (S, m), exact where they can decide a segment's largest.
+
+    For callers that need, per segment, only the largest of these ratios and
+    of their own values, which are at least ``floor`` (S,): a segment's
+    largest of ``max(result, floor)`` over its joints is the same, bit for
+    bit, as with the exact ratios (``segment_peaks(..., 1) / bounds``).
+    The velocity of a quintic is a quartic, whose peak inside the segment
+    needs the roots of a cubic; its Bernstein coefficients on ``[0, 1]``
+    bound it (a polynomial lies within the convex hull of its Bernstein
+    coefficients).  The floor is first raised to the segment's largest
+    ratio at the segment ends (values the exact peaks include); where a
+    joint's bound, plus :data:`PRUNE_MARGIN` of the sum of its quartic's
+    |terms| (far above the round-off of evaluating it), stays below that
+    (times 1 - :data:`PRUNE_MARGIN`), its peak cannot exceed it, and the
+    ratio at the larger end is returned without root finding.  Everywhere
+    else the ratio is the exact one.
+    """
+    S, _, m = np.shape(coeffs)
+    flat_p, flat_dp = _normalised(coeffs, durations, 1)
+    candidates = np.zeros((S * m, 5))
+    candidates[:, 1] = 1.0
+    # The ends exactly as segment_peaks evaluates them (two of its candidates).
+    peaks = _row_max(np.abs(_horner(flat_p, candidates[:, :2])))
+    ratios = peaks.reshape(S, m) / bounds[None, :]
+    floor = np.maximum(np.asarray(floor, dtype=float), _row_max(ratios))
+    # Terms in rows (5, S*m), then the Bernstein coefficients row by row
+    # (element-wise: a matrix product would start BLAS threads for this).
+    terms = np.ascontiguousarray(flat_p.T)
+    upper = np.zeros(S * m)
+    for weights in _BERNSTEIN:
+        np.maximum(upper, np.abs(sum(w * t for w, t in zip(weights, terms) if w)), out=upper)
+    upper += PRUNE_MARGIN * np.sum(np.abs(terms), axis=0)
+    upper = upper.reshape(S, m) / bounds[None, :]
+    rows = np.flatnonzero(~(upper < (floor * (1.0 - PRUNE_MARGIN))[:, None]))
+    if rows.size:
+        candidates = candidates[rows]
+        _unit_interval_roots(flat_dp[rows], candidates[:, 2:])
+        peaks[rows] = _row_max(np.abs(_horner(flat_p[rows], candidates)))
+        ratios = peaks.reshape(S, m) / bounds[None, :]
+    return ratios
 
 
 def position_extrema(coeffs, durations, end_values=None):
