@@ -76,7 +76,11 @@ def test_replanning_from_a_moving_state_gets_inner_knots_and_keeps_the_state():
     velocity = np.array([0.3, -0.2, 0.1])
     moving = start_from_state(request(), WAYPOINTS[0], velocity, np.zeros(3))
     traj = plan_request(config(), moving)
-    assert traj.optimizer['inner_knots'] == 2
+    # Moving ends: the inner-knot plan only when it gains more than 5 %.
+    if traj.optimizer['inner_knots'] == 0:
+        assert traj.optimizer['inner_knots_duration'] * 1.05 >= traj.duration
+    else:
+        assert traj.optimizer['inner_knots'] == 2
     assert np.allclose(traj.evaluate([0.0], 1)[0], velocity, atol=1e-9)
     assert np.allclose(traj.evaluate(traj.waypoint_times), traj.waypoints, atol=1e-9)
     assert traj.within_limits()
