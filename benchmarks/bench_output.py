@@ -20,7 +20,6 @@ Run: ``python benchmarks/bench_output.py`` (``make bench`` runs it too).
 """
 
 import os
-import time
 
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 
@@ -35,19 +34,10 @@ from splines445_ros.nodes.ros_conversions import trajectory_to_msg  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
 from splines445_ros.tools.in_process import LocalRos  # noqa: E402
 from trajectory_msgs.msg import JointTrajectory  # noqa: E402
+from wall_time import best_of  # noqa: E402
 
 SEED = 445
 OUTPUTS = ('sampled', 'knots')
-
-
-def best_time(func, repeats):
-    """Best wall time of ``repeats`` calls [s] and the last result."""
-    best, result = np.inf, None
-    for _ in range(repeats):
-        started = time.perf_counter()
-        result = func()
-        best = min(best, time.perf_counter() - started)
-    return best, result
 
 
 def cases():
@@ -83,9 +73,9 @@ def main():
 
                 def convert():
                     return trajectory_to_msg(output_samples(config, traj), joint_names)
-                convert_s, msg = best_time(convert, repeats)
+                convert_s, msg = best_of(convert, repeats)
                 size = len(serialize_message(msg))
-                publish_s, _ = best_time(lambda: publisher.publish(msg), repeats)
+                publish_s, _ = best_of(lambda: publisher.publish(msg), repeats)
                 ros.spin_for(0.05)  # let the listener take it
                 print(f'| {name} | {traj.duration:.2f} | {output} | {len(msg.points)} '
                       f'| {size} | {1e3 * convert_s:.3f} | {1e3 * publish_s:.3f} |')

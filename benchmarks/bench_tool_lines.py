@@ -84,6 +84,7 @@ import toppra  # noqa: E402, I100
 import toppra.algorithm  # noqa: E402
 import toppra.constraint  # noqa: E402
 from toppra.interpolator import propose_gridpoints  # noqa: E402
+from wall_time import best_of  # noqa: E402
 
 ROBOTS = ('ur5', 'panda')
 SPEEDS = (None, 0.1, 0.25)          # tool speed limits [m/s]; None: no limit
@@ -102,16 +103,6 @@ def fresh_kinematics(robot, kin):
     spec = rsd.ROBOTS[robot]
     return ModelKinematics(kin.robot, spec['tool'], spec['base'], spec['joints'],
                            seed=spec['ready'])
-
-
-def best_of(func, repeats=REPEATS):
-    """Return (the shortest wall time [s] of ``repeats`` calls, the last result)."""
-    best, result = math.inf, None
-    for _ in range(repeats):
-        started = time.perf_counter()
-        result = func()
-        best = min(best, time.perf_counter() - started)
-    return best, result
 
 
 def dense_lines(poses, spacing=SPACING):

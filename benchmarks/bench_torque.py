@@ -44,7 +44,6 @@ Usage: ``python benchmarks/bench_torque.py``; SPLINES445_BENCH_FULL=1 for
 import logging
 import os
 import sys
-import time
 
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but the rule holds
 
@@ -54,6 +53,7 @@ from splines445_ros.arm.dynamics import ArmDynamics, effort_limits  # noqa: E402
 from splines445_ros.arm.robot_model import load_robot_model  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
 from splines445_ros.tools import vendor_robots as vr  # noqa: E402
+from wall_time import best_of  # noqa: E402
 
 SEED = 25
 CASES = 10
@@ -73,16 +73,6 @@ ROBOTS = (
     ('UR5', vr.ur5_urdf, vr.UR5_JOINTS, vr.UR5_READY, 'tool0', 5.0),
     ('Panda', vr.panda_urdf, vr.PANDA_ARM_JOINTS, vr.PANDA_READY, 'panda_hand_tcp', 3.0),
 )
-
-
-def best_of(func, repeats=REPEATS):
-    """Best wall time [s] of ``repeats`` calls and the last result."""
-    best, result = np.inf, None
-    for _ in range(repeats):
-        started = time.perf_counter()
-        result = func()
-        best = min(best, time.perf_counter() - started)
-    return best, result
 
 
 def random_path(rng, ready, lower, upper):

@@ -62,6 +62,7 @@ from . import rotations as rot
 from .model_drives import model_torque_limits
 from .mujoco_import import import_mujoco
 from .user_text import show
+from ..planning.validation import non_negative
 
 # Relative slack of the triangle inequality of a payload's principal moments.
 _TRIANGLE_SLACK = 1e-9
@@ -134,17 +135,6 @@ def _float_array(value, name):
     return array
 
 
-def _check_mass(mass):
-    """Return ``payload_mass`` as a float >= 0 (ValueError)."""
-    try:
-        value = float(mass)
-    except (TypeError, ValueError):
-        raise ValueError(f'payload_mass must be a number [kg], got {show(mass)}') from None
-    if not (math.isfinite(value) and value >= 0.0):
-        raise ValueError(f'payload_mass must be a finite number >= 0 [kg], got {show(mass)}')
-    return value
-
-
 def add_rigid_mass(model, body, mass, center, inertia):
     """
     Merge a rigid mass into ``body`` of a compiled MuJoCo ``model`` (changed in place).
@@ -207,7 +197,7 @@ class ArmDynamics:
         self.joint_names = tuple(j.name for j in self.joints)
         self.n = len(self.joints)
         self.tool_frame = tool_frame
-        self.payload_mass = _check_mass(payload_mass)
+        self.payload_mass = non_negative('payload_mass [kg]', payload_mass)
         center = _float_array(payload_center_of_mass, 'payload_center_of_mass')
         if center.shape != (3,):
             raise ValueError('payload_center_of_mass must be 3 numbers [m], got shape '

@@ -43,6 +43,7 @@ import math
 import numpy as np
 
 from . import rotations as rot
+from .golden_search import golden_maxima
 from ..planning.path_constraints import ToolSpeed
 from ..planning.path_timing import JointPathSamples, midpoint_fractions, plan_along_path, \
     rescaled
@@ -70,7 +71,6 @@ _GOLDEN_STEPS = 16
 REFINED_MAXIMA = 8
 # Samples per spline piece of the tool speed seen by the timing's iteration.
 PIECE_SAMPLES = 12
-_GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
 # Slack on the final slow-down against round-off.
 _ROUNDOFF = 1.0 + 1e-9
 # The profile aims at this share of a tool speed limit: the spline follows it
@@ -298,17 +298,7 @@ def tool_speeds(traj, kinematics, period=CHECK_PERIOD):
         linear, angular = _speeds(traj, kinematics, times)
         return np.where(kind == 0, linear, angular)
 
-    x1, x2 = hi - _GOLDEN * (hi - lo), lo + _GOLDEN * (hi - lo)
-    f1, f2 = value(x1), value(x2)
-    for _ in range(_GOLDEN_STEPS):
-        right = f2 > f1  # the maximum lies in [x1, hi]
-        lo, hi = np.where(right, x1, lo), np.where(right, hi, x2)
-        keep_x, keep_f = np.where(right, x2, x1), np.where(right, f2, f1)
-        x_new = np.where(right, lo + _GOLDEN * (hi - lo), hi - _GOLDEN * (hi - lo))
-        f_new = value(x_new)
-        x1, f1 = np.where(right, keep_x, x_new), np.where(right, keep_f, f_new)
-        x2, f2 = np.where(right, x_new, keep_x), np.where(right, f_new, keep_f)
-    best = np.maximum(f1, f2)
+    _, best = golden_maxima(value, lo, hi, _GOLDEN_STEPS)
     return (max(float(np.max(sampled[0])), float(np.max(best[kind == 0], initial=0.0))),
             max(float(np.max(sampled[1])), float(np.max(best[kind == 1], initial=0.0))),
             sampled[0])

@@ -90,6 +90,7 @@ import numbers
 import numpy as np
 
 from . import rotations as rot
+from .golden_search import golden_maxima
 from .tool_lines import LineUnreachable, plan_tool_lines
 from ..planning import check_position_limits, JointLimits, merge_duplicates, plan
 from ..planning.inner_knots import inner_knot_count, smoothing_windows, vibration_frequency_value
@@ -110,7 +111,6 @@ ALWAYS_REFINED = 8
 DEFAULT_MAX_INSERTED = 200
 # Edges shorter than this [m] are pure rotations: parameterised by time.
 MIN_EDGE_LENGTH = 1e-9
-_GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
 BOUNDARY_KEYWORDS = ('start_velocity', 'start_acceleration', 'end_velocity', 'end_acceleration')
 # plan() keywords the 'tool lines' construction understands (boundary values only at rest).
 LINES_KEYWORDS = {'max_velocity', 'max_acceleration', 'max_jerk', 'min_position', 'max_position',
@@ -439,20 +439,7 @@ class _PathMeasure:
                 p, o, _ = self(t, seg_c)
                 return np.where(kind == 0, p, o)
 
-            x1 = hi - _GOLDEN * (hi - lo)
-            x2 = lo + _GOLDEN * (hi - lo)
-            f1, f2 = value(x1), value(x2)
-            for _ in range(steps):
-                right = f2 > f1  # the maximum lies in [x1, hi]
-                lo = np.where(right, x1, lo)
-                hi = np.where(right, hi, x2)
-                keep_x, keep_f = np.where(right, x2, x1), np.where(right, f2, f1)
-                x_new = np.where(right, lo + _GOLDEN * (hi - lo), hi - _GOLDEN * (hi - lo))
-                f_new = value(x_new)
-                x1, f1 = np.where(right, keep_x, x_new), np.where(right, keep_f, f_new)
-                x2, f2 = np.where(right, x_new, keep_x), np.where(right, f_new, keep_f)
-            f_c = np.maximum(f1, f2)
-            t_c = np.where(f1 >= f2, x1, x2)
+            t_c, f_c = golden_maxima(value, lo, hi, steps)
             for k in (0, 1):
                 mine = kind == k
                 order = np.argsort(f_c[mine])  # larger values assigned last win

@@ -1,0 +1,35 @@
+"""
+Golden-section search for the maxima of a vectorised function, one bracket per row.
+
+Used to refine the largest tool deviations (:mod:`tool_paths`) and tool
+speeds (:mod:`tool_lines`) between the samples that bracket them: each step
+keeps the inner point with the larger value and evaluates one new point per
+bracket, so ``steps`` steps shrink every bracket to ``0.618**steps`` of its
+width with ``steps + 2`` calls of ``value``.
+"""
+
+import math
+
+import numpy as np
+
+GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
+
+
+def golden_maxima(value, lo, hi, steps):
+    """
+    Return (x, f): where in each bracket ``[lo, hi]`` (K,) ``value`` is largest, and that value.
+
+    ``value`` maps points (K,) to values (K,), one per bracket; it is
+    assumed unimodal in each bracket (a sampled local maximum).
+    """
+    x1, x2 = hi - GOLDEN * (hi - lo), lo + GOLDEN * (hi - lo)
+    f1, f2 = value(x1), value(x2)
+    for _ in range(steps):
+        right = f2 > f1  # the maximum lies in [x1, hi]
+        lo, hi = np.where(right, x1, lo), np.where(right, hi, x2)
+        keep_x, keep_f = np.where(right, x2, x1), np.where(right, f2, f1)
+        x_new = np.where(right, lo + GOLDEN * (hi - lo), hi - GOLDEN * (hi - lo))
+        f_new = value(x_new)
+        x1, f1 = np.where(right, keep_x, x_new), np.where(right, keep_f, f_new)
+        x2, f2 = np.where(right, x_new, keep_x), np.where(right, f_new, keep_f)
+    return np.where(f1 >= f2, x1, x2), np.maximum(f1, f2)
