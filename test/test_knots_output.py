@@ -227,9 +227,12 @@ def test_arm_sim_playback_of_the_knots_is_the_planned_trajectory(method, request
 def test_the_paper_example_as_knots(method, timing):
     traj = plan(pe.joint_waypoints(), method, timing, **pe.plan_kwargs())
     msg = knots_message(traj, pe.JOINT_NAMES)
-    # One point per knot: the 12 waypoints, and 555 optimal's inner knots.
+    # One point per knot: the 12 waypoints, and 555 optimal's inner knots when
+    # it keeps them (with these moving ends only if they gain 5 %: not here).
     assert len(msg.points) == traj.breakpoints.size
-    assert (len(msg.points) > 12) == ((method, timing) == ('555', 'optimal'))
+    inner = getattr(traj, 'optimizer', {}).get('inner_knots', 0)
+    assert (len(msg.points) > 12) == bool(inner)
+    assert not inner or (method, timing) == ('555', 'optimal')
     assert np.all(interpolation_errors(msg, traj) <= 1.0)
     # The end: within the nanosecond rounding of the last knot's time of the end state.
     end = msg.points[-1]
@@ -238,6 +241,18 @@ def test_the_paper_example_as_knots(method, timing):
     np.testing.assert_allclose(end.positions, pe.joint_waypoints()[-1],
                                atol=0.5e-9 * float(np.max(np.abs(pe.BOUNDARY_VELOCITY)))
                                + 1e-12)
+
+
+def test_inner_knots_as_knots_rest_to_rest():
+    """The paper's waypoints rest to rest with a vibration_frequency: inner knots, a point each."""
+    kwargs = {k: v for k, v in pe.plan_kwargs().items()
+              if not k.startswith(('start_', 'end_'))}
+    traj = plan(pe.joint_waypoints(), '555', 'optimal', vibration_frequency=4.0, **kwargs)
+    assert traj.optimizer['inner_knots'] > 0
+    msg = knots_message(traj, pe.JOINT_NAMES)
+    assert len(msg.points) == traj.breakpoints.size > 12
+    assert np.all(interpolation_errors(msg, traj) <= 1.0)
+    np.testing.assert_allclose(msg.points[-1].velocities, 0.0, atol=1e-12)
 
 
 def test_the_check_fails_on_a_wrong_knot():
