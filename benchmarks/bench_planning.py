@@ -15,7 +15,10 @@ rest-to-rest requests of 12x3, 100x7, 1000x7 and 10000x7 waypoints x joints
   limits along a spline through the same waypoints); skipped at 10000x7
   unless SPLINES445_BENCH_FULL=1 (it takes about half a minute there).
 
-Also the paper's example (12x3 with its non-zero boundary values).
+Then, on the same requests, every uniform timing's duration and oscillator
+shaking (4 and 8 Hz, peak while moving and residual after the end,
+``shaking.py``) over TOPP-RA's: a faster plan is only better if it is not
+rougher.  Also the paper's example (12x3 with its non-zero boundary values).
 """
 
 import logging
@@ -28,6 +31,7 @@ os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but th
 import numpy as np  # noqa: E402
 from scipy.interpolate import CubicSpline  # noqa: E402
 
+from shaking import of_toppra, shaking_figures, shaking_header, shaking_ratios  # noqa: E402
 from splines445_ros.arm import paper_example as pe  # noqa: E402
 from splines445_ros.planning import chord_durations, plan  # noqa: E402
 
@@ -88,6 +92,7 @@ def main():
           '| TOPP-RA | 555 / CubicSpline | TOPP-RA / 555 | 445 duration [s] '
           '| 434 duration [s] | 555 duration [s] | TOPP-RA duration [s] |')
     print('|' + '---|' * 12)
+    shaking_rows = []
     for n_points, n_joints in SIZES:
         waypoints, vmax, amax = random_request(n_points, n_joints, rng)
         repeats = 50 if n_points <= 100 else (10 if n_points <= 1000 else 3)
@@ -105,11 +110,26 @@ def main():
             top_duration = f'{dtop:.2f}'
         else:
             top, top_ratio, top_duration = 'skipped', '-', '-'
+        if n_points <= 1000 or full:
+            reference = toppra_trajectory(waypoints, vmax, amax)
+            figures = shaking_figures(of_toppra(reference), reference.duration, amax)
+            shaking_rows.append((n_points, n_joints, {
+                m: (trajs[m].duration / reference.duration,
+                    shaking_ratios(trajs[m], figures, amax)) for m in METHODS}))
         cells = ' | '.join(f'{1e3 * times[m]:.2f}' for m in METHODS)
         durations = ' | '.join(f'{trajs[m].duration:.2f}' for m in METHODS)
         print(f'| {n_points} x {n_joints} | {cells} | {1e3 * tfit:.2f} | {top} '
               f'| {times["555"] / tfit:.1f}x | {top_ratio} | {durations} | {top_duration} |')
         sys.stdout.flush()
+    print()
+    print('Speed and shaking on the same requests: uniform timing / TOPP-RA (duration; a '
+          'lightly damped mode on every joint, benchmarks/shaking.py)')
+    print('| waypoints x joints | method | duration / TOPP-RA | ' + shaking_header() + ' |')
+    print('|---|---|---|' + '---|' * 4)
+    for n_points, n_joints, by_method in shaking_rows:
+        for m, (ratio, shaking) in by_method.items():
+            print(f'| {n_points} x {n_joints} | {m} uniform | {ratio:.3f} | '
+                  + ' | '.join(f'{x:.2f}' for x in shaking) + ' |')
     kwargs = pe.plan_kwargs()
     waypoints = pe.joint_waypoints()
     print()
