@@ -226,3 +226,29 @@ def test_torque_limits_hold_along_tool_lines(arms, seed, limited):
     assert np.all(np.abs(tau) <= limit * 1.005)
     if limited:
         assert sampled_tool_speeds(traj, arm[7])[0].max() <= speed * (1 + SPEED_RTOL)
+
+
+@pytest.mark.parametrize('gap', [1e-9, 1e-6, 1e-5])
+def test_a_near_duplicate_tool_waypoint_costs_no_time(gap):
+    """A waypoint within a tenth of the tolerance of the one before is merged into it."""
+    from splines445_ros.arm.kinematics import PlanarArm
+    limits = {'max_velocity': [2.0] * 3, 'max_acceleration': [10.0] * 3, 'max_jerk': [100.0] * 3}
+    plain = np.array([[1.2, 0.3, 0.0], [1.0, 0.8, 0.0]])
+    doubled = np.array([[1.2, 0.3, 0.0], [1.2 + gap, 0.3, 0.0], [1.0, 0.8, 0.0]])
+    results = [plan_tool_path(p, PlanarArm(1.1, 0.9), MM, 0.02, method='555',
+                              timing='optimal', **limits) for p in (plain, doubled)]
+    assert results[1].construction == 'tool lines'
+    assert results[1].trajectory.duration <= 1.01 * results[0].trajectory.duration
+    # The merged waypoint maps to the knot it was merged into, within a tenth of 1 mm.
+    at = results[1].trajectory.waypoint_times[results[1].waypoint_knots]
+    tool = PlanarArm(1.1, 0.9).forward(results[1].trajectory.evaluate(at))
+    assert np.all(np.hypot(*(tool[:, :2] - doubled[:, :2]).T) <= 0.1 * MM)
+
+
+def test_a_plan_too_long_to_check_every_millisecond_is_refused():
+    from splines445_ros.planning import plan
+    from test_path_constraints import two_link_torques
+    with pytest.raises(ValueError, match='checked every 1 ms for at most'):
+        plan(np.array([[0.0, 0.0], [0.5, 0.3], [1.0, -0.2]]), '555', 'fixed',
+             durations=[1e9, 1e9], max_torque=[100.0, 100.0],
+             inverse_dynamics=two_link_torques)

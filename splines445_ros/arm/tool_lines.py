@@ -47,6 +47,7 @@ from .golden_search import golden_maxima
 from ..planning.path_constraints import ToolSpeed
 from ..planning.path_timing import JointPathSamples, midpoint_fractions, plan_along_path, \
     rescaled
+from ..planning.torque import check_times
 
 # Path length [m] that one radian of tool rotation counts for in s.
 ANGLE_LENGTH = 0.1
@@ -282,7 +283,7 @@ def tool_speeds(traj, kinematics, period=CHECK_PERIOD):
     Central differences of the forward kinematics at every ``period``, the
     largest local maxima refined by golden-section search (module docstring).
     """
-    t = np.linspace(0.0, traj.duration, max(3, int(math.ceil(traj.duration / period)) + 1))
+    t = check_times(traj.duration, period, 'the tool speed')
     sampled = _speeds(traj, kinematics, t)
     lo, hi, kind = [], [], []
     for k, values in enumerate(sampled):

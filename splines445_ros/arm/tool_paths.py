@@ -91,7 +91,7 @@ import numpy as np
 
 from . import rotations as rot
 from .golden_search import golden_maxima
-from .tool_lines import LineUnreachable, plan_tool_lines
+from .tool_lines import edge_geometry, LineUnreachable, plan_tool_lines
 from ..planning import check_position_limits, JointLimits, merge_duplicates, plan
 from ..planning.inner_knots import inner_knot_count, smoothing_windows, vibration_frequency_value
 from ..planning.methods import get_method
@@ -111,6 +111,9 @@ ALWAYS_REFINED = 8
 DEFAULT_MAX_INSERTED = 200
 # Edges shorter than this [m] are pure rotations: parameterised by time.
 MIN_EDGE_LENGTH = 1e-9
+# 'tool lines': a tool waypoint within this share of both tolerances of the one
+# before is merged into it (_close_waypoints).
+MERGE_SHARE = 0.1
 BOUNDARY_KEYWORDS = ('start_velocity', 'start_acceleration', 'end_velocity', 'end_acceleration')
 # plan() keywords the 'tool lines' construction understands (boundary values only at rest).
 LINES_KEYWORDS = {'max_velocity', 'max_acceleration', 'max_jerk', 'min_position', 'max_position',
@@ -157,7 +160,8 @@ class ToolPath:
         (x, y, z, qw, qx, qy, qz), quaternions sign-continuous.
     joints : (M, n) joint positions of its knots (the waypoints planned).
     waypoint_knots : (N,) the knot of every requested tool waypoint (a merged
-        duplicate maps to the knot it equals).
+        duplicate maps to the knot it equals; with 'tool lines', a waypoint
+        within a tenth of the tolerances of the one before maps to that one's).
     segment_edges : (M-1,) the requested edge (tool waypoints e, e+1 of the
         request) every trajectory segment lies on.
     inserted : number of knots inserted.
@@ -546,9 +550,11 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
     waypoint_knots = np.cumsum(keep) - 1
     edge_poses = request[keep]
     if lines:
-        found = _tool_lines(edge_poses, joints[keep], waypoint_knots, kept_index, kinematics,
-                            (tol_position, tol_orientation), speeds, vibration, max_inserted,
-                            plan_kwargs)
+        close = _close_waypoints(edge_poses, tol_position, tol_orientation)
+        found = _tool_lines(edge_poses[close], joints[keep][close],
+                            (np.cumsum(close) - 1)[waypoint_knots], kept_index[close],
+                            kinematics, (tol_position, tol_orientation), speeds, vibration,
+                            max_inserted, plan_kwargs)
         if found is not None:
             return found
     knots = edge_poses.copy()
@@ -606,6 +612,35 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
         knots, knot_joints = new_knots, new_joints
         inserted += bad.size
     raise AssertionError('unreachable: every iteration inserts at least one knot')
+
+
+def _close_waypoints(poses, tol_position, tol_orientation):
+    """
+    Return which tool waypoints (N,) the 'tool lines' keep: not those close to the one before.
+
+    A waypoint within :data:`MERGE_SHARE` of both tolerances of the last one
+    kept is passed within that share of them without being a waypoint of its
+    own: a line of a few micrometres between two waypoints would be a stop
+    that the whole rest-to-rest spline slows down for.  The first and the
+    last waypoint are kept (the goal replaces a kept one close to it).
+    Without tolerances (inf) nothing is merged.
+    """
+    limits = (MERGE_SHARE * tol_position, MERGE_SHARE * tol_orientation)
+    if not any(math.isfinite(v) for v in limits):
+        return np.ones(len(poses), dtype=bool)
+    keep = [0]
+    for i in range(1, len(poses)):
+        a, b = poses[keep[-1]], poses[i]
+        d, theta, _ = edge_geometry(np.stack([a, b]))
+        if not (d[0] < limits[0] and theta[0] < limits[1]):
+            keep.append(i)
+        elif i == len(poses) - 1 and len(keep) > 1:
+            keep[-1] = i
+    if len(keep) < 2:
+        keep.append(len(poses) - 1)
+    mask = np.zeros(len(poses), dtype=bool)
+    mask[keep] = True
+    return mask
 
 
 def _speed_limit(name, value):

@@ -45,6 +45,10 @@ ROBOT_FIELDS = ('kinematics', 'model_file', 'tool_frame', 'base_frame', 'joint_n
                 'max_velocity', 'max_acceleration', 'max_jerk', 'joint_limits_file',
                 'min_position', 'max_position', 'limit_torque', 'max_effort',
                 'payload_mass', 'payload_center_of_mass', 'payload_inertia')
+# The fields a torque setup is built from: planning with another one's would
+# hold the wrong limits or payload.
+TORQUE_FIELDS = ('limit_torque', 'max_effort', 'payload_mass', 'payload_center_of_mass',
+                 'payload_inertia', 'tool_frame')
 # Source of an acceleration limit that limit_torque stood in for (JointLimits.report).
 STAND_IN = 'limit_torque'
 
@@ -118,9 +122,12 @@ class RobotSetup:
         """
         if not config.limit_torque:
             return {}
-        if self.torque is None:
-            raise ValueError('limit_torque: the robot is still being set up for it (its '
-                             'description is compiling); send the request again')
+        stale = any(getattr(self.config, name) != getattr(config, name)
+                    for name in TORQUE_FIELDS)
+        if self.torque is None or stale:
+            raise ValueError('limit_torque: the robot is still being set up for the torque '
+                             'parameters in force (its description is compiling); send the '
+                             'request again')
         return self.torque.plan_kwargs()
 
     def effective(self, config):

@@ -325,6 +325,12 @@ class PlannerConfig(ValidatedConfig):
         return [v if v > 0.0 else math.inf for v in self.max_jerk]
 
 
+# Payloads beyond these are typing errors, not payloads [kg, m]: refused before
+# they reach the dynamics as overflowing torques.
+MAX_PAYLOAD_MASS = 1e4
+MAX_PAYLOAD_OFFSET = 100.0
+
+
 def check_payload(mass, center, inertia):
     """
     Raise ValueError unless the payload parameters describe a rigid body (or none).
@@ -338,9 +344,15 @@ def check_payload(mass, center, inertia):
     """
     if not (math.isfinite(mass) and mass >= 0.0):
         raise ValueError(f'payload_mass = {mass}: must be >= 0 and finite [kg] (0 = no payload)')
+    if mass > MAX_PAYLOAD_MASS:
+        raise ValueError(f'payload_mass = {mass:.4g} kg: above {MAX_PAYLOAD_MASS:g} kg, more '
+                         'than any arm carries')
     if len(center) != 3 or not all(math.isfinite(v) for v in center):
         raise ValueError('payload_center_of_mass must be 3 finite values [m] (x, y, z in the '
                          f'tool frame), got {show(list(center))}')
+    if any(abs(v) > MAX_PAYLOAD_OFFSET for v in center):
+        raise ValueError(f'payload_center_of_mass {show(list(center))}: a coordinate beyond '
+                         f'{MAX_PAYLOAD_OFFSET:g} m from the tool frame')
     if len(inertia) not in (0, 3, 6):
         raise ValueError('payload_inertia must be empty (a point mass), 3 principal moments or '
                          '6 values [ixx, iyy, izz, ixy, ixz, iyz] [kg m^2], got '

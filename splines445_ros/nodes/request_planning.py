@@ -146,9 +146,9 @@ def plan_tool_poses(config, poses, kinematics, torque=None):
     position limits, with ``inner_knots`` (555 optimal) and the tool speed
     limits ``max_tool_speed`` [m/s] and ``max_tool_angular_speed`` [rad/s]
     (0 = no limit; the config refuses them where they cannot apply), and
-    ``torque`` (the torque keywords of ``plan()``; None = none): with them
-    the tool path is always the refinement's (``'refined'``), whose every
-    plan holds the torque limits (the 'tool lines' construction takes none).
+    ``torque`` (the torque keywords of ``plan()``; None = none), which the
+    'tool lines' construction (555 optimal) holds together with the tool
+    speeds, and the refinement (other methods) by slowing each plan down.
     Raises ValueError for "fixed" timing (a PoseArray has no times), for
     replanning (tool requests start at rest at their first waypoint), and
     for anything the refinement or the limits reject.

@@ -83,7 +83,7 @@ class JointVelocity(SpeedConstraint):
     def squared_speed_limit(self, path):
         """Return ``min_j (v_j / |q'_j|)**2`` (inf where no joint moves)."""
         speed = np.abs(path.first)
-        with np.errstate(divide='ignore'):
+        with np.errstate(divide='ignore', over='ignore'):
             return np.min((self.max_velocity[None, :] / speed) ** 2, axis=1)
 
 
@@ -116,7 +116,7 @@ class ToolSpeed(SpeedConstraint):
     def squared_speed_limit(self, path):
         """Return ``(v / |dp/ds|)**2`` (inf where the tool does not move)."""
         rate = np.linalg.norm(self.tangent(path), axis=1)
-        with np.errstate(divide='ignore'):
+        with np.errstate(divide='ignore', over='ignore'):
             return (self.max_speed / rate) ** 2
 
 

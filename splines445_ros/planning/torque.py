@@ -31,6 +31,9 @@ import numpy as np
 from .path_constraints import GravityOverload, JointTorque
 
 CHECK_PERIOD = 1e-3
+# Most samples of one check (an hour at 1 kHz): a longer plan is refused
+# before anything is allocated for it.
+MAX_CHECK_SAMPLES = 3_600_000
 # Samples per spline piece of the inner-knot iteration's torque factor.
 PIECE_SAMPLES = 8
 
@@ -113,7 +116,7 @@ class TorqueLimit:
         estimated excess between samples (module docstring).  A factor at
         most 1 means the torque is within its limits.
         """
-        t = np.linspace(0.0, traj.duration, max(3, int(math.ceil(traj.duration / period)) + 1))
+        t = check_times(traj.duration, period, 'the torque')
         q, qd, qdd = (traj.evaluate(t, d) for d in range(3))
         tau = self._torques(q, qd, qdd)
         # Between samples: h**2 / 8 |tau''|, from second differences.
@@ -125,4 +128,17 @@ class TorqueLimit:
         return math.sqrt(float(np.max(need))), ratios
 
 
-__all__ = ['CHECK_PERIOD', 'GravityOverload', 'TorqueLimit']
+def check_times(duration, period, what):
+    """
+    Return the sample times of a check every ``period`` over ``duration``; ValueError if too many.
+
+    At most :data:`MAX_CHECK_SAMPLES`: ``what`` (e.g. "the torque") names
+    the check in the error.
+    """
+    if not math.isfinite(duration) or duration / period > MAX_CHECK_SAMPLES:
+        raise ValueError(f'the trajectory lasts {duration:.4g} s: {what} is checked every '
+                         f'{period * 1e3:g} ms for at most {MAX_CHECK_SAMPLES * period:g} s')
+    return np.linspace(0.0, duration, max(3, int(math.ceil(duration / period)) + 1))
+
+
+__all__ = ['check_times', 'CHECK_PERIOD', 'GravityOverload', 'TorqueLimit']
