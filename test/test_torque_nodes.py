@@ -320,3 +320,22 @@ def test_gravity_beyond_a_limit_names_the_joint_and_the_node_keeps_serving(plann
     assert status.level == DiagnosticStatus.OK, status.message
     assert np.all(torque_ratios(msg, {'payload_mass': 0.0, 'payload_center_of_mass': [0, 0, 0],
                                       'payload_inertia': []}) <= 1.005)
+
+
+def test_a_torque_setup_is_not_used_for_other_torque_parameters():
+    """A new payload while the description compiles: refused, not planned with the old one."""
+    from dataclasses import replace
+    from splines445_ros.nodes.model_planning import build_robot_setup
+    from splines445_ros.nodes.planner_config import PlannerConfig
+    config = PlannerConfig(kinematics='model', model_file=vr.ur5_urdf(), tool_frame='tool0',
+                           joint_names=tuple(vr.UR5_JOINTS), max_velocity=(0.0,),
+                           max_acceleration=(0.0,), max_jerk=(0.0,), max_effort=(0.0,) * 6,
+                           limit_torque=True,
+                           payload_mass=5.0)
+    setup = build_robot_setup(config, robot=load_robot_model(vr.ur5_urdf()))
+    assert set(setup.torque_kwargs(config)) == {'max_torque', 'inverse_dynamics'}
+    for changed in ({'payload_mass': 10.0}, {'max_effort': (100.0,) * 6},
+                    {'payload_center_of_mass': (0.0, 0.0, 0.1)}):
+        with pytest.raises(ValueError, match='still being set up'):
+            setup.torque_kwargs(replace(config, **changed))
+    assert setup.torque_kwargs(replace(config, limit_torque=False)) == {}
