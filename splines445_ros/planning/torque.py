@@ -71,17 +71,18 @@ class TorqueLimit:
                              f'for {q.shape} samples')
         return tau
 
-    def squared_factors(self, q, qd, qdd, bend=0.0):
+    def squared_factors(self, q, qd, qdd, bend=0.0, tau=None):
         """
         Return per sample and joint (N, n) the squared slow-down each needs, ``f**2`` above.
 
         ``bend`` (N, n) is added to the size of the dynamic torque (the
-        excess between samples).  Raises :class:`GravityOverload` where
+        excess between samples); ``tau``, when the caller has it, is the
+        torque at the samples.  Raises :class:`GravityOverload` where
         gravity alone exceeds a limit.
         """
         zero = np.zeros_like(q)
         gravity = self._torques(q, zero, zero)
-        dynamic = self._torques(q, qd, qdd) - gravity
+        dynamic = (self._torques(q, qd, qdd) if tau is None else tau) - gravity
         limit = np.broadcast_to(self.max_torque, gravity.shape)
         over = np.abs(gravity) > limit
         if np.any(over):
@@ -123,7 +124,7 @@ class TorqueLimit:
         bend = np.zeros_like(tau)
         bend[1:-1] = np.abs(tau[2:] - 2.0 * tau[1:-1] + tau[:-2]) / 8.0
         bend[:-1] = np.maximum(bend[:-1], bend[1:])
-        need = self.squared_factors(q, qd, qdd, bend)
+        need = self.squared_factors(q, qd, qdd, bend, tau)
         ratios = np.max((np.abs(tau) + bend) / self.max_torque, axis=0)
         return math.sqrt(float(np.max(need))), ratios
 
