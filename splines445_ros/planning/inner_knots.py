@@ -250,8 +250,10 @@ class _Timing:
         """
         if not self.widths:
             return np.interp(s, self.s, self.times)
+        s = np.asarray(s, float)
         out = np.interp(s, self._s, self._t)
-        out[0], out[-1] = 0.0, self.duration
+        out[s <= 0.0] = 0.0
+        out[s >= self.s[-1]] = self.duration
         return out
 
 

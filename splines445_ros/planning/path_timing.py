@@ -39,7 +39,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from .inner_knots import _iterate, _Timing, _trajectory, DEFAULT_SMOOTHING
-from .path_constraints import GriddedPath, JointAcceleration, JointVelocity, SpeedConstraint
+from .path_constraints import GriddedPath, JointAcceleration, JointVelocity
 from .path_velocity import PathLimits
 
 # Grid steps of the speed profile per interval between two path samples.
@@ -81,7 +81,7 @@ class JointPathSamples:
 
     def __init__(self, s, q, waypoint_index, limits, constraints=(),
                  windows=(DEFAULT_SMOOTHING,), piece_factors=None, most=None,
-                 min_piece=0.0, margin=1.0):
+                 min_piece=0.0):
         """Interpolate the samples and prepare the constraints on the grid."""
         s = np.asarray(s, float)
         q = np.asarray(q, float)
@@ -97,7 +97,7 @@ class JointPathSamples:
         self.points = q[index]
         self.gridded = GriddedPath.of_ppoly(self.ppoly, self.s)
         constraints = (JointVelocity(limits.velocity),
-                       JointAcceleration(limits.acceleration * margin)) + tuple(constraints)
+                       JointAcceleration(limits.acceleration)) + tuple(constraints)
         self.limits = PathLimits(self.gridded, constraints)
         self.start = self.end = 0.0
         self.most = START_KNOTS if most is None else int(most)
@@ -106,8 +106,7 @@ class JointPathSamples:
         self.windows = tuple(windows)
         self.piece_factors = piece_factors
         self.stops = self._stops(self.limits.profile(np.ones(self.s.size)))
-        if self.stops.size > 2:
-            self.limits = PathLimits(self.gridded, constraints + (_Stops(self.stops),))
+        self.limits.stop_at(self.stops)
 
     def _stops(self, x):
         """Grid indices (first, stops, last) where the profile ``x`` nearly stops."""
@@ -120,18 +119,6 @@ class JointPathSamples:
     def timing(self, times, x):
         """Return the averaged path position in time (step 2), span by span between stops."""
         return _SpanTiming(times, x, self.s, self.windows, self.stops)
-
-
-class _Stops(SpeedConstraint):
-    """Rest (x = 0) at the given grid points."""
-
-    def __init__(self, index):
-        self.index = index
-
-    def squared_speed_limit(self, path):
-        cap = np.full(path.s.size, np.inf)
-        cap[self.index] = 0.0
-        return cap
 
 
 class _SpanTiming:
@@ -161,12 +148,7 @@ class _SpanTiming:
             mine = k == j
             span = self.spans[j]
             local = np.clip(s[mine] - self.s_start[j], 0.0, span.s[-1])
-            found = (np.interp(local, span._s, span._t) if span.widths
-                     else np.interp(local, span.s, span.times))
-            out[mine] = self.offsets[j] + found
-        # Span ends exactly: the stops at their spans' ends.
-        at_start = np.isin(s, self.s_start)
-        out[at_start] = self.offsets[np.searchsorted(self.s_start, s[at_start])]
+            out[mine] = self.offsets[j] + span.time_at(local)
         return out
 
     def position_at(self, t):

@@ -108,6 +108,10 @@ class PathLimits:
         self._accelerating = _lower_envelopes(slope[:-1], up[:-1])
         self._two_ds = (2.0 * steps).tolist()
 
+    def stop_at(self, index):
+        """Make the profile rest (``x = 0``) at the grid points ``index`` (a bound of 0 on x)."""
+        self.x_max[index] = 0.0
+
     def profile(self, scale, start=0.0, end=0.0):
         """
         Squared path speed ``x`` (M + 1,) of the fastest traversal of the grid.
