@@ -47,6 +47,7 @@ from .golden_search import golden_maxima
 from ..planning.path_constraints import ToolSpeed
 from ..planning.path_timing import JointPathSamples, midpoint_fractions, plan_along_path, \
     rescaled
+from ..planning.segments import sample_segments
 from ..planning.torque import check_times
 
 # Path length [m] that one radian of tool rotation counts for in s.
@@ -416,13 +417,15 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
     linear, angular, sampled = tool_speeds(traj, kinematics)
     factor = max(linear / max_tool_speed if max_tool_speed else 0.0,
                  angular / max_tool_angular_speed if max_tool_angular_speed else 0.0)
-    if torque is not None:
-        factor = max(factor, torque.time_factor(traj)[0])
+    checked = None if torque is None else torque.time_factor(traj)
+    if checked is not None:
+        factor = max(factor, checked[0])
     if factor > 1.0:
         traj = rescaled(traj, factor * _ROUNDOFF)
         linear, angular, sampled = tool_speeds(traj, kinematics)
-    if torque is not None:
-        traj.torque_factor, traj.torque_ratios = torque.time_factor(traj)
+        checked = None if torque is None else torque.time_factor(traj)
+    if checked is not None:
+        traj.torque_factor, traj.torque_ratios = checked
     share = 0.0
     if max_tool_speed:
         # By length: every sample weighs the distance the tool covers there.
@@ -500,15 +503,10 @@ class _PieceSpeeds:
     def __init__(self, kinematics, linear, angular):
         self.kinematics = kinematics
         self.limits = [(k, v) for k, v in enumerate((linear, angular)) if v]
-        self.tau = np.linspace(0.0, 1.0, PIECE_SAMPLES)
 
     def __call__(self, coeffs, pieces):
         """Return (P, k): the largest sampled speed of each piece over each speed limit."""
-        tau = pieces[:, None] * self.tau[None, :]                     # (P, S)
-        powers = tau[..., None] ** np.arange(6)                       # (P, S, 6)
-        q = np.einsum('psk,pkn->psn', powers, coeffs)
-        rates = np.arange(1, 6) * powers[..., :5]
-        qd = np.einsum('psk,pkn->psn', rates, coeffs[:, 1:])
+        q, qd = sample_segments(coeffs, pieces, PIECE_SAMPLES, (0, 1))
         h = _DIFFERENCE_STEP
         speeds = _difference(self.kinematics, q - h * qd, q + h * qd, 2.0 * h)
         return np.stack([np.max(speeds[k], axis=1) / v for k, v in self.limits], axis=1)

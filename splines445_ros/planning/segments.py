@@ -160,6 +160,21 @@ def falling_factors(derivative):
     return _FALLING[derivative]
 
 
+def sample_segments(coeffs, durations, count, derivatives=(0,)):
+    """
+    Return the ``derivatives`` of each segment at ``count`` even times, (S, count, n) each.
+
+    ``coeffs`` (S, 6, n) are ascending in local time, ``durations`` (S,) the
+    segments' durations; both ends of every segment are among the times.
+    """
+    tau = durations[:, None] * np.linspace(0.0, 1.0, count)[None, :]
+    out = []
+    for derivative in derivatives:
+        falling, exponent = falling_factors(derivative)
+        out.append(np.einsum('psk,pkn->psn', falling * tau[..., None] ** exponent, coeffs))
+    return out
+
+
 def derivative_weights(durations, derivative, at_end):
     """Weights ``w`` (S, 6) so that ``w @ c`` is the derivative at tau = 0 or tau = T."""
     T = np.asarray(durations, dtype=float)

@@ -29,6 +29,7 @@ import math
 import numpy as np
 
 from .path_constraints import GravityOverload, JointTorque
+from .segments import sample_segments
 
 CHECK_PERIOD = 1e-3
 # Most samples of one check (an hour at 1 kHz): a longer plan is refused
@@ -99,12 +100,7 @@ class TorqueLimit:
 
     def piece_factors(self, coeffs, pieces):
         """Return per piece (P, 1) the slow-down its :data:`PIECE_SAMPLES` samples need."""
-        tau = pieces[:, None] * np.linspace(0.0, 1.0, PIECE_SAMPLES)[None, :]
-        powers = tau[..., None] ** np.arange(6)
-        q = np.einsum('psk,pkn->psn', powers, coeffs)
-        qd = np.einsum('psk,pkn->psn', np.arange(1, 6) * powers[..., :5], coeffs[:, 1:])
-        qdd = np.einsum('psk,pkn->psn', np.arange(1, 5) * np.arange(2, 6) * powers[..., :4],
-                        coeffs[:, 2:])
+        q, qd, qdd = sample_segments(coeffs, pieces, PIECE_SAMPLES, (0, 1, 2))
         n = coeffs.shape[2]
         need = self.squared_factors(q.reshape(-1, n), qd.reshape(-1, n), qdd.reshape(-1, n))
         return np.sqrt(np.max(need.reshape(pieces.size, -1), axis=1))[:, None]
