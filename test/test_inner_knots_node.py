@@ -58,7 +58,7 @@ def test_the_default_is_four_inner_knots_at_most():
 def test_vibration_frequency_reaches_plan_and_is_refused_where_it_would_be_ignored():
     traj = plan_request(config(vibration_frequency=5.0), request())
     assert traj.optimizer['smoothing_windows'] == [0.2, 0.2]
-    assert plan_request(config(), request()).optimizer['smoothing_windows'] == [0.25]
+    assert plan_request(config(), request()).optimizer['smoothing_windows'] == [0.3, 0.15]
     for overrides in ({'method': '445'}, {'timing': 'uniform'}, {'inner_knots': 0},
                       {'vibration_frequency': -1.0}, {'vibration_frequency': float('nan')},
                       {'vibration_frequency': 1e4}):

@@ -80,14 +80,15 @@ def test_the_default_shakes_much_less_than_without_its_smoothing():
         for f in (4.0, 8.0):
             ours, theirs = shaking(default, amax, f), shaking(rough, amax, f)
             row += [ours[0] / theirs[0], ours[1] / theirs[1]]
-        # Smooth does not mean slow: at most 5 % longer than the rough one.
-        row.append(default.duration / rough.duration)
+        # Smooth does not mean slow: it costs about its windows (0.3 s and
+        # 0.15 s), however long the motion.
+        row.append(default.duration - rough.duration)
         ratios.append(row)
     median = np.median(ratios, axis=0)
-    peak4, residual4, peak8, residual8, duration = median
+    peak4, residual4, peak8, residual8, extra = median
     assert peak4 <= 0.75 and residual4 <= 0.6, median
     assert peak8 <= 0.95 and residual8 <= 0.6, median
-    assert duration <= 1.05, median
+    assert extra <= 0.45, median
 
 
 def rough_plan(points, vmax, amax, inner_knots):
@@ -129,3 +130,4 @@ def test_bad_vibration_frequencies_are_refused(kwargs, message):
                  'max_acceleration': [5.0, 5.0]}, **kwargs)
     with pytest.raises(ValueError, match=message):
         plan(points, **args)
+

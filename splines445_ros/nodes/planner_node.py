@@ -129,8 +129,9 @@ PARAMETER_DESCRIPTIONS = {
     'vibration_frequency': "The arm's lowest structural mode [Hz] for method 555 with "
                            'timing "optimal" (inner_knots > 0): the speed profile is '
                            'averaged over two windows of 1/f so the plan does not excite '
-                           'it (about one period longer than the default). 0 (default) = '
-                           'not used: one window of 0.25 s. Rest-to-rest requests only.',
+                           'it (2/f longer; the default windows: 0.45 s). 0 (default) = '
+                           'not used: windows of 0.3 s and 0.15 s. Rest-to-rest requests '
+                           'only.',
     'model_file': 'kinematics "model": URDF or MJCF file of the robot; empty = the '
                   'robot_description topic.',
     'tool_frame': 'kinematics "model": the tool frame (URDF link, MJCF body or site) of '

@@ -10,10 +10,16 @@ quintic spline through all knots (waypoints and inner knots).
 
 Construction (:func:`plan_with_inner_knots`):
 
-1. Path.  The 555 spline through the waypoints with the request's boundary
-   values, on each segment's jerk-limited rest-to-rest time of its slowest
-   joint (:func:`timing.rest_to_rest_durations`): a well-scaled path ``q(s)``
-   in its own time ``s``.
+1. Path.  A spline through the waypoints on each segment's jerk-limited
+   rest-to-rest time of its slowest joint
+   (:func:`timing.rest_to_rest_durations`): a well-scaled path ``q(s)`` in
+   its own time ``s``.  Rest to rest, the natural cubic spline: with it the
+   plans of bench_inner_knots.py were 1.5 % shorter (median; the worst 2.8 %)
+   than on the 555 spline, which bends further from the chords between
+   waypoints, and shook less.  The final spline (step 4) is C4 whatever the
+   path: it passes only through knots on it.  With boundary values, the
+   555 spline with them (eqs. 13-23): the path's own time is then the
+   time scale of the boundary values.
 2. Speed along it.  The fastest path speed under the velocity and
    acceleration limits, each times a local factor ``lambda(s)``
    (:class:`path_velocity.PathLimits`, :data:`GRID_STEPS` grid steps per
@@ -71,6 +77,7 @@ spline is found.
 """
 
 import numpy as np
+from scipy.interpolate import CubicSpline
 
 from .continuity_system import spline_coefficients
 from .limits import limit_ratios
@@ -86,10 +93,15 @@ MAX_INNER_KNOTS = 8
 # default smoothing, 4 is as short as 6 and 8 on the benchmark's random paths
 # and shakes the arm least (bench_inner_knots.py, issue 23).
 DEFAULT_INNER_KNOTS = 4
-# Step 2's moving window [s] when no vibration frequency is given: a box of
-# 0.25 s has zeros at 4, 8, 12, ... Hz and passes at most 22 % of any
-# frequency above 4 Hz, the range where arms' first structural modes sit.
-DEFAULT_SMOOTHING = 0.25
+# Step 2's moving windows [s] when no vibration frequency is given: boxes of
+# 0.3 s and 0.15 s, which together pass at most 9 % of any frequency from
+# 3 Hz up (one box of 0.25 s, the default before: 30 %), the range where
+# arms' first structural modes sit; they make a plan 0.45 s longer.  With
+# the natural cubic path of step 1 they gave bench_inner_knots.py's
+# requests a shorter median duration than one box of 0.25 s on the 555
+# path (1.045 against 1.050 x TOPP-RA; 4 Hz residual 0.12 against 0.33 x
+# TOPP-RA's) and met bench_smoothness.py's 4 Hz arm (issue 23).
+DEFAULT_SMOOTHING = (0.3, 0.15)
 # A vibration frequency above this [Hz] is refused (its window would be
 # shorter than a servo cycle of 1 ms).
 MAX_VIBRATION_FREQUENCY = 1000.0
@@ -166,7 +178,7 @@ def smoothing_windows(vibration_frequency):
     """
     Return the moving windows [s] of step 2 for a ``vibration_frequency`` [Hz] (0: not given).
 
-    Not given: one box of :data:`DEFAULT_SMOOTHING`.  Given ``f``: two boxes
+    Not given: the boxes of :data:`DEFAULT_SMOOTHING`.  Given ``f``: two boxes
     of ``1 / f``, a double zero of the path acceleration's spectrum at ``f``
     (and at its multiples), so that the zero survives the small change of
     time scale of step 5 and the mode's damping; it costs about one more
@@ -174,7 +186,7 @@ def smoothing_windows(vibration_frequency):
     """
     if vibration_frequency:
         return (1.0 / vibration_frequency,) * 2
-    return (DEFAULT_SMOOTHING,)
+    return DEFAULT_SMOOTHING
 
 
 class _Timing:
@@ -362,9 +374,15 @@ class _Path:
             durations[0] *= end_share
         if self.end:
             durations[-1] *= end_share
-        traj = Trajectory.build('555', 'fixed', points, durations, boundary)
-        self.ppoly = traj.ppoly
-        knots = traj.breakpoints
+        if self.start or self.end:
+            # The boundary values hold in the path's own time: the 555 spline has them.
+            traj = Trajectory.build('555', 'fixed', points, durations, boundary)
+            self.ppoly = traj.ppoly
+            knots = traj.breakpoints
+        else:
+            # Rest to rest the path's end derivatives are free (its speed is 0 there).
+            knots = np.concatenate([[0.0], np.cumsum(durations)])
+            self.ppoly = CubicSpline(knots, points, bc_type='natural')
         fractions = np.arange(GRID_STEPS) / GRID_STEPS
         self.s = np.concatenate([(knots[:-1, None] + fractions * np.diff(knots)[:, None])
                                  .reshape(-1), knots[-1:]])
@@ -490,7 +508,7 @@ class _Candidate:
 
 
 def plan_with_inner_knots(points, boundary, limits, most, dropped_waypoints=(),
-                          windows=(DEFAULT_SMOOTHING,), torque=None):
+                          windows=DEFAULT_SMOOTHING, torque=None):
     """
     Return the 555 optimal Trajectory with up to ``most`` inner knots per segment, or None.
 

@@ -80,7 +80,7 @@ class JointPathSamples:
     """
 
     def __init__(self, s, q, waypoint_index, limits, constraints=(),
-                 windows=(DEFAULT_SMOOTHING,), piece_factors=None, most=None,
+                 windows=DEFAULT_SMOOTHING, piece_factors=None, most=None,
                  min_piece=0.0):
         """Interpolate the samples and prepare the constraints on the grid."""
         s = np.asarray(s, float)

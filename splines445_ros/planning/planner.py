@@ -35,7 +35,7 @@ ABSURD_UNIFORM = 2.0
 # and the shorter plan is returned (see _with_knots_only_rival).  Warm-started
 # and giving up once it cannot win, it adds 10-20 % to the planning time of
 # 12-30 waypoints (still below TOPP-RA's) and wins on short, fast moves,
-# where the 0.25 s smoothing window is a large share (issue 25's bench: UR5
+# where the smoothing windows are a large share (issue 25's bench: UR5
 # paths of 5-30 waypoints, median 1.15 -> 1.09 x TOPP-RA).
 SMALL_REQUEST = 30
 # The knots-only optimum of such a rival stops when its total gains less than
@@ -155,8 +155,8 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         The arm's lowest structural mode, for 555 optimal with inner knots:
         the speed profile is averaged over two windows of ``1 / f``, so the
         path acceleration has no content at ``f`` (:func:`inner_knots.
-        smoothing_windows`).  None or 0 (the default): one window of
-        :data:`inner_knots.DEFAULT_SMOOTHING`.  Rest-to-rest requests only:
+        smoothing_windows`).  None or 0 (the default): the windows of
+        :data:`inner_knots.DEFAULT_SMOOTHING` (0.3 s and 0.15 s).  Rest-to-rest requests only:
         with non-zero boundary values the profile is not averaged
         (``optimizer['smoothing_windows']`` is then empty).  Given, the
         inner-knot plan is returned even where the knots-only optimum is
