@@ -131,3 +131,18 @@ def test_bad_vibration_frequencies_are_refused(kwargs, message):
     with pytest.raises(ValueError, match=message):
         plan(points, **args)
 
+
+def test_vibration_frequency_changes_nothing_with_moving_ends():
+    """
+    With a moving start or end the profile is not averaged: the same plan as without it.
+
+    It used to skip the knots-only rival all the same, and on the paper's
+    example (moving ends) returned the unaveraged inner-knot plan, which
+    shook bench_smoothness.py's 4 Hz arm six times as much.
+    """
+    from splines445_ros.arm import paper_example as pe
+    kwargs = pe.plan_kwargs()
+    default = plan(pe.joint_waypoints(), '555', 'optimal', **kwargs)
+    shaped = plan(pe.joint_waypoints(), '555', 'optimal', vibration_frequency=4.0, **kwargs)
+    assert shaped.duration == default.duration
+    assert np.array_equal(shaped.breakpoints, default.breakpoints)

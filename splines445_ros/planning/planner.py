@@ -303,9 +303,11 @@ def _plan_limited(method, points, timing, durations, max_velocity, max_accelerat
     if inner_knots:
         refined = plan_with_inner_knots(points, boundary, limits, inner_knots, dropped,
                                         windows, torque)
-        if refined is not None and windows != smoothing_windows(0.0):
+        shaped = windows != smoothing_windows(0.0) and not any(np.any(b) for b in boundary)
+        if refined is not None and shaped:
             # A vibration_frequency asks for a profile without content at it,
-            # which only the inner-knot plan has: no rival then.
+            # which only the inner-knot plan has: no rival then.  With moving
+            # ends the profile is not averaged, so the rival stays.
             return refined
         if refined is not None:
             return _with_knots_only_rival(refined, method, points, start, boundary, limits,
