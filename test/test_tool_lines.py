@@ -252,3 +252,36 @@ def test_a_plan_too_long_to_check_every_millisecond_is_refused():
         plan(np.array([[0.0, 0.0], [0.5, 0.3], [1.0, -0.2]]), '555', 'fixed',
              durations=[1e9, 1e9], max_torque=[100.0, 100.0],
              inverse_dynamics=two_link_torques)
+
+
+def test_the_timing_leaves_rest_and_comes_to_rest_at_the_path_jerk():
+    """
+    From rest the profile's squared speed is at most the constant path jerk's, then the plain one.
+
+    A straight joint path: ``q' = (1, 0.5)`` per unit ``s``, so the path
+    jerk from rest is ``RAMP_SHARE * min_j j_j / |q'_j|``; in the middle the
+    ramps leave the profile alone.
+    """
+    from splines445_ros.planning import JointLimits
+    from splines445_ros.planning.path_timing import JointPathSamples, RAMP_SHARE
+    s = np.linspace(0.0, 2.0, 201)
+    q = np.column_stack([s, 0.5 * s])
+    limits = JointLimits.from_user(2, [1.0, 1.0], [4.0, 4.0], [40.0, 40.0])
+    ramped = JointPathSamples(s, q, [0, s.size - 1], limits, windows=())
+    plain = JointPathSamples(s, q, [0, s.size - 1], limits, windows=(), jerk_ramps=False)
+    x = ramped.limits.profile(np.ones(ramped.s.size))
+    x_plain = plain.limits.profile(np.ones(plain.s.size))
+    jerk = RAMP_SHARE * 40.0
+    d = np.minimum(ramped.s, ramped.s[-1] - ramped.s)
+    cap = 0.25 * jerk ** (2.0 / 3.0) * (6.0 * d) ** (4.0 / 3.0)
+    assert np.all(x <= cap * (1.0 + 1e-9) + 1e-15)
+    assert np.all(x <= x_plain * (1.0 + 1e-9) + 1e-15)
+    near = (d > 0.0) & (d < 1e-3)
+    assert np.all(x[near] < x_plain[near])
+    # Leaving rest the path acceleration u = x' / 2 grows from 0: no jump as in the plain one.
+    u = np.diff(x) / (2.0 * np.diff(ramped.s))
+    u_plain = np.diff(x_plain) / (2.0 * np.diff(plain.s))
+    assert u_plain[0] == pytest.approx(4.0)
+    assert u[0] < u[1] < u[2] < u_plain[0]
+    middle = np.abs(ramped.s - 1.0) < 0.1
+    np.testing.assert_allclose(x[middle], x_plain[middle])

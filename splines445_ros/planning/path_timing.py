@@ -16,6 +16,9 @@ waypoints that must be passed exactly.  The rest is the same construction
    the smoothing windows; rest to rest.
    A waypoint where that profile nearly stops (a sharp corner of the path)
    is made a stop, and each span between stops is averaged on its own.
+   From rest at the start and to rest at the end the profile's path jerk
+   is bounded (:meth:`JointPathSamples._ramps`), so the first and last
+   knots lie where a jerk-limited spline can reach them.
 3. Knots.  Per segment between waypoints, knots at given time fractions of
    the segment (``fractions``) or at equal ones, as many as the jerk ramp
    and the caller's shortest piece allow, up to the caller's count
@@ -24,7 +27,9 @@ waypoints that must be passed exactly.  The rest is the same construction
 4-6. The C4 quintic spline through them (eqs. 13-23, :mod:`continuity_system`),
    its exact v/a/j factors (and the caller's ``piece_factors`` for limits the
    polynomials do not show, a tool speed), scaled to its limits, and the
-   iteration on the local factors; the shortest spline is kept.
+   iteration on the local factors; the shortest spline is kept, then its
+   few pieces over their limits are slowed down harder (:func:`_polish`),
+   since one of them slows the whole rest-to-rest spline down.
 
 The caller decides where more knots are needed (:func:`midpoint_fractions`
 splits pieces at their time midpoints): the spline passes through its
@@ -38,7 +43,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from .inner_knots import _iterate, _Timing, _trajectory, DEFAULT_SMOOTHING
+from .inner_knots import (_Candidate, _iterate, _Timing, _trajectory, DEFAULT_SMOOTHING,
+                          MIN_LOCAL_FACTOR)
 from .path_constraints import GriddedPath, JointAcceleration, JointVelocity
 from .path_velocity import PathLimits
 
@@ -54,6 +60,25 @@ STOP_RATIO = 0.2
 # A piece lasts at least this many jerk ramp times a / j (inner_knots' step 3
 # keeps 1.5 on its coarser knots; along a sampled path 1 is shorter and as smooth).
 RAMP_PIECES = 1.0
+# Start and end ramps (JointPathSamples): from rest the profile's path jerk
+# is at most this share of the joints' (q' s''' alone; the spline's exact
+# factors hold the rest).  A profile that leaves rest at full acceleration
+# puts the first knots where only a jerk over the limit reaches them, and
+# the local factors then slow the whole first piece down: on the UR5 seam
+# of bench_tool_lines.py (no tool speed) the plan took 3.96 s without the
+# ramps, 3.85 s with them at a share of 1.0, 3.84 s at 0.7 and 0.85, 3.86 s
+# at 0.6.  At the inner stops (sharp corners) they made it longer (4.03 s):
+# there the coarse spline rounds the corner within the tolerance instead.
+RAMP_SHARE = 0.7
+# Iterations of the local factors and step 6's exponent per timing: on the
+# same seam 3.84 s with (15, 0.8), 3.80 s with (30, 1.0).
+PATH_ITERATIONS = 30
+PATH_RELAX = 1.0
+# Polish (_polish): rounds, and the exponent of the factors over 1 that slow
+# the binding pieces down; the UR5 seam at 0.25 m/s went from a largest
+# factor of 1.0046 (the whole spline slowed down by it) to 1.0002 in 4 rounds.
+POLISH_ROUNDS = 6
+POLISH_RELAX = 2.0
 
 
 class JointPathSamples:
@@ -81,7 +106,7 @@ class JointPathSamples:
 
     def __init__(self, s, q, waypoint_index, limits, constraints=(),
                  windows=DEFAULT_SMOOTHING, piece_factors=None, most=None,
-                 min_piece=0.0):
+                 min_piece=0.0, jerk_ramps=True):
         """Interpolate the samples and prepare the constraints on the grid."""
         s = np.asarray(s, float)
         q = np.asarray(q, float)
@@ -107,6 +132,29 @@ class JointPathSamples:
         self.piece_factors = piece_factors
         self.stops = self._stops(self.limits.profile(np.ones(self.s.size)))
         self.limits.stop_at(self.stops)
+        if jerk_ramps:
+            self.limits.x_max = np.minimum(self.limits.x_max,
+                                           self._ramps(self.gridded.first, limits.jerk))
+
+    def _ramps(self, first, jerk):
+        """
+        Return the squared speeds (M + 1,) of a constant path jerk from the start and to the end.
+
+        At path distance ``d`` from rest, a path jerk ``J`` held from rest
+        has reached ``sdot**2 = J**(2/3) (6 d)**(4/3) / 4`` (``s = J t**3 / 6``).
+        As a bound on ``x`` it makes the profile leave rest like that until
+        its path acceleration reaches the acceleration limit, where the
+        ordinary profile takes over (the bound's acceleration ``J t`` grows
+        past it).  ``J`` is :data:`RAMP_SHARE` of the slowest joint's
+        ``j_j / |q'_j|`` at each grid point; it scales with the local factor
+        as ``x`` does (``J**(2/3)``, a time scaling), so the factors keep it.
+        """
+        ends = self.s[[0, -1]]
+        d = np.min(np.abs(self.s[:, None] - ends[None, :]), axis=1)
+        with np.errstate(divide='ignore', over='ignore', invalid='ignore'):
+            path_jerk = RAMP_SHARE * np.min(jerk[None, :] / np.abs(first), axis=1)
+            cap = 0.25 * path_jerk ** (2.0 / 3.0) * (6.0 * d) ** (4.0 / 3.0)
+        return np.where(np.isnan(cap), np.inf, cap)
 
     def _stops(self, x):
         """Grid indices (first, stops, last) where the profile ``x`` nearly stops."""
@@ -191,10 +239,13 @@ def plan_along_path(path, limits, fractions=None, local=None, iterations=None):
     """
     boundary = [np.zeros(path.points.shape[1])] * 4
     start = np.ones(path.s.size) if local is None else local
-    kwargs = {} if iterations is None else {'iterations': iterations}
+    kwargs = {'iterations': PATH_ITERATIONS if iterations is None else iterations,
+              'relax': PATH_RELAX}
     best, count = _iterate(path, start, None, boundary, limits, True, None, fractions, **kwargs)
     if best is None:
         raise ValueError('no spline along the path meets the limits')
+    best, more = _polish(path, best, boundary, limits, fractions)
+    count += more
     traj = _trajectory(path.points, boundary, limits, True, best, (),
                        {'knots': int(best.pieces.size + 1), 'iterations': count,
                         'smoothing_windows': list(path.windows)})
@@ -205,6 +256,34 @@ def plan_along_path(path, limits, fractions=None, local=None, iterations=None):
     found = [(times[ends[k]:ends[k + 1]] - times[ends[k]]) / (times[ends[k + 1]] - times[ends[k]])
              for k in range(ends.size - 1)]
     return PathTiming(traj, best.knot_s, found, count, best.local)
+
+
+def _polish(path, best, boundary, limits, fractions):
+    """
+    Return (candidate, splines built): ``best`` with its few binding pieces slowed down harder.
+
+    A rest-to-rest spline is slowed down as a whole by its largest factor:
+    a piece by a stop that needs 0.5 % more time takes 0.5 % off every
+    line's tool speed.  The iteration stalls with a few such pieces, each
+    of its steps lowering every piece to its own factor; here only the
+    pieces over 1 are lowered, by their factor to :data:`POLISH_RELAX`
+    (beyond what they need: their neighbours pull them back), while the
+    spline gets shorter.
+    """
+    count = 0
+    for _ in range(POLISH_ROUNDS):
+        if float(np.max(best.factors)) <= 1.0:
+            break
+        piece_of = np.clip(np.searchsorted(best.knot_s, best.grid_s, side='right') - 1, 0,
+                           best.factors.size - 1)
+        over = np.maximum(best.factors[piece_of], 1.0)
+        local = np.clip(best.local / over ** POLISH_RELAX, MIN_LOCAL_FACTOR, 1.0)
+        candidate = _Candidate(path, local, None, boundary, limits, True, fractions)
+        count += 1
+        if not (candidate.valid and candidate.better_than(best)):
+            break
+        best = candidate
+    return best, count
 
 
 def midpoint_fractions(fractions, pieces):
