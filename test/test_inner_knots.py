@@ -367,3 +367,41 @@ def test_the_default_uses_inner_knots_for_555_optimal_only(method, timing):
 def test_bad_inner_knots_are_rejected(kwargs, message):
     with pytest.raises(ValueError, match=message):
         plan([[0.0], [1.0], [0.5]], max_velocity=[1.0], max_acceleration=[1.0], **kwargs)
+
+
+@settings(max_examples=15, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1),
+       windows=st.sampled_from([(0.3, 0.15), (0.25,), (0.02, 0.02)]))
+def test_the_averaged_profile_and_its_inverse(seed, windows):
+    """
+    The averaged path position of step 2 against a quadrature of the moving averages.
+
+    ``s_avg(t)`` is the mean of ``s(t - a - b ...)`` over the windows' box;
+    here it is a midpoint rule in every window variable on the plain
+    profile's positions.  ``time_at`` must invert ``position_at`` to 1e-5 of
+    the path, in order, with the ends pinned to 0 and the duration.
+    """
+    from splines445_ros.planning.inner_knots import _Timing
+    from splines445_ros.planning.path_velocity import path_position
+    rng = np.random.default_rng(seed)
+    s = np.concatenate([[0.0], np.cumsum(rng.uniform(0.01, 0.1, 60))])
+    x = np.concatenate([[0.0], rng.uniform(0.05, 2.0, 59), [0.0]])
+    times = traversal_times(x, np.diff(s))
+    timing = _Timing(times, x, s, windows)
+    assert timing.duration == pytest.approx(times[-1] + sum(windows))
+
+    def plain(t):
+        inside = np.clip(t, 0.0, times[-1])
+        return np.where(t <= 0.0, 0.0, path_position(times, x, s, inside))
+
+    nodes = [(np.arange(200) + 0.5) / 200 * w for w in windows]
+    shifts = sum(np.meshgrid(*nodes, indexing='ij')).ravel()
+    t = rng.uniform(0.0, timing.duration, 12)
+    expected = np.array([np.mean(plain(ti - shifts)) for ti in t])
+    np.testing.assert_allclose(timing.position_at(t), expected, rtol=0, atol=2e-4 * s[-1])
+    targets = np.sort(rng.uniform(0.0, s[-1], 30))
+    found = timing.time_at(np.concatenate([[0.0], targets, [s[-1]]]))
+    assert found[0] == 0.0 and found[-1] == timing.duration
+    assert np.all(np.diff(found) >= 0.0)
+    np.testing.assert_allclose(timing.position_at(found[1:-1]), targets, rtol=0,
+                               atol=1e-5 * s[-1])

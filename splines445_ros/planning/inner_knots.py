@@ -107,6 +107,13 @@ DEFAULT_SMOOTHING = (0.3, 0.15)
 MAX_VIBRATION_FREQUENCY = 1000.0
 # Grid steps per segment of the speed profile (step 2).
 GRID_STEPS = 24
+# Regula falsi steps (Illinois) of _Timing.time_at within a step of its
+# table: on the plans' profiles the positions at the times found were within
+# 3e-11 of the path's length of the targets, and within 1e-5 on rougher
+# random profiles (test_the_averaged_profile_and_its_inverse; 2-4 steps
+# missed that there).  The dense table of every breakpoint and midpoint it
+# replaced took a third of the planning time at 1000 x 7.
+INVERSE_STEPS = 5
 # A piece lasts at least this many jerk ramp times a / j (step 3).
 RAMP_PIECES = 1.5
 # Most iterations of steps 2-5, and the stop after STALL of them without a
@@ -223,11 +230,12 @@ class _Timing:
             ends = np.sum(poly[:-1] * h[:, None] ** powers, axis=1)
             poly[:, 0] = np.concatenate([[0.0], np.cumsum(ends)])
         self.poly = poly
-        samples = times[None, :]
-        for w in self.widths:
-            samples = np.concatenate([samples, samples + w])
-        mid = 0.5 * (samples[:, 1:] + samples[:, :-1])
-        self._t = np.unique(np.concatenate([samples.ravel(), mid.ravel()]))
+        # A table for time_at: the profile's grid times, moved by none, half
+        # and all of the windows (the average passes the grid points about
+        # half the windows later; the others keep the ramps at the ends,
+        # where it is most curved, within one grid step).
+        total = sum(self.widths)
+        self._t = np.unique(np.concatenate([times, times + 0.5 * total, times + total]))
         self._s = np.maximum.accumulate(self.position_at(self._t))
 
     def _antiderivative(self, t):
@@ -263,7 +271,27 @@ class _Timing:
         if not self.widths:
             return np.interp(s, self.s, self.times)
         s = np.asarray(s, float)
-        out = np.interp(s, self._s, self._t)
+        # The table brackets every s; regula falsi with the Illinois rule
+        # (a retained end's value halved) converges within the bracket,
+        # where the average is a smooth increasing function.
+        i = np.clip(np.searchsorted(self._s, s, side='right') - 1, 0, self._t.size - 2)
+        lo_t, hi_t = self._t[i], self._t[i + 1]
+        lo_f, hi_f = self._s[i] - s, self._s[i + 1] - s
+        side = np.zeros(s.shape)
+        out = lo_t
+        for _ in range(INVERSE_STEPS):
+            span = hi_f - lo_f
+            moving = span > 0.0
+            out = np.where(moving, (lo_t * hi_f - hi_t * lo_f) / np.where(moving, span, 1.0),
+                           lo_t)
+            f = self.position_at(out) - s
+            above = f > 0.0
+            hi_t, hi_f = np.where(above, out, hi_t), np.where(above, f, hi_f)
+            lo_t, lo_f = np.where(above, lo_t, out), np.where(above, lo_f, f)
+            lo_f = np.where(above & (side > 0.0), 0.5 * lo_f, lo_f)
+            hi_f = np.where(~above & (side < 0.0), 0.5 * hi_f, hi_f)
+            side = np.where(above, 1.0, -1.0)
+        out = np.array(out, float)
         out[s <= 0.0] = 0.0
         out[s >= self.s[-1]] = self.duration
         return out
