@@ -11,7 +11,9 @@ j = 20 a and j = 5 a, as ratios to TOPP-RA with planning times; then the
 median and worst ratios, planning time against TOPP-RA's, and whether every
 limit held (exact peaks).  Then the paper's example (its boundary values)
 and the planning time at 100 x 7 and 1000 x 7 against TOPP-RA's on the same
-request, each timed in turn in this run.
+request, each timed in turn in this run; last, the planning time of small
+requests (3 x 3 to 30 x 7) against TOPP-RA's, each the best of several
+calls made in turn.
 
 Smoothness next to speed (issue 23): for j = 20 a, every plan's shaking of
 a lightly damped mode at 4 and 8 Hz on every joint (``shaking.py``: peak
@@ -206,7 +208,48 @@ def main():
               f'| {traj.duration:.2f} | {t_top:.2f} | {elapsed:.2f} | {elapsed / t_top:.2f} | '
               + ' | '.join(f'{value:.2f}' for value in shaking) + ' |')
         sys.stdout.flush()
+    small_requests(inner)
     return 0
+
+
+# Planning time by size (issue 23: at most TOPP-RA's from 3 x 3 on): sizes,
+# requests per size and calls per timing (the best counts).
+SMALL_SIZES = ((3, 3), (5, 6), (8, 7), (12, 7), (30, 7))
+SMALL_CASES = 4
+SMALL_REPEATS = 5
+
+
+def small_requests(inner):
+    """Print 555 optimal's planning time / TOPP-RA's per size: each best of its calls, in turn."""
+    print()
+    print(f'Planning time by size (random walks, random v/a, j = 20 a; per request the best of '
+          f'{SMALL_REPEATS} calls of each planner, alternating; {SMALL_CASES} requests per size):')
+    print('| N x n | TOPP-RA [ms] | 555 optimal [ms] | ratio: median / worst | plans with inner '
+          'knots |')
+    print('|---|---|---|---|---|')
+    rng = np.random.default_rng(SEED + 1)
+    for n_points, n_joints in SMALL_SIZES:
+        rows = []
+        with_knots = 0
+        for _ in range(SMALL_CASES):
+            waypoints = np.cumsum(rng.uniform(-1.0, 1.0, (n_points, n_joints)), axis=0)
+            vmax, amax = rng.uniform(1.0, 3.0, n_joints), rng.uniform(5.0, 15.0, n_joints)
+            kwargs = {'max_velocity': vmax, 'max_acceleration': amax, 'max_jerk': 20.0 * amax}
+            best_top = best_ours = np.inf
+            for _ in range(SMALL_REPEATS):
+                elapsed, _ = timed(lambda: toppra_trajectory(waypoints, vmax, amax))
+                best_top = min(best_top, elapsed)
+                elapsed, traj = timed(lambda: plan(waypoints, '555', 'optimal',
+                                                   inner_knots=inner, **kwargs))
+                best_ours = min(best_ours, elapsed)
+            with_knots += traj.optimizer.get('inner_knots', 0) > 0
+            rows.append((best_top, best_ours))
+        rows = np.array(rows)
+        ratio = rows[:, 1] / rows[:, 0]
+        print(f'| {n_points} x {n_joints} | {1e3 * np.median(rows[:, 0]):.1f} '
+              f'| {1e3 * np.median(rows[:, 1]):.1f} | {np.median(ratio):.2f} / {ratio.max():.2f} '
+              f'| {with_knots}/{SMALL_CASES} |')
+        sys.stdout.flush()
 
 
 if __name__ == '__main__':
