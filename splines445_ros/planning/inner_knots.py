@@ -230,6 +230,10 @@ class _Timing:
             ends = np.sum(poly[:-1] * h[:, None] ** powers, axis=1)
             poly[:, 0] = np.concatenate([[0.0], np.cumsum(ends)])
         self.poly = poly
+        n = len(self.widths)
+        subsets = [[k for k in range(n) if subset >> k & 1] for subset in range(1 << n)]
+        self._shifts = np.array([sum(self.widths[k] for k in ks) for ks in subsets])
+        self._signs = np.array([(-1.0) ** len(ks) for ks in subsets])
         # A table for time_at: the profile's grid times, moved by none, half
         # and all of the windows (the average passes the grid points about
         # half the windows later; the others keep the ramps at the ends,
@@ -251,14 +255,10 @@ class _Timing:
         if not self.widths:
             return path_position(self.times, self.x, self.s, t)
         t = np.asarray(t, float)
-        # Repeated moving averages: differences of the k-th antiderivative.
-        total = np.zeros_like(t)
-        n = len(self.widths)
-        for subset in range(1 << n):
-            shift = sum(w for k, w in enumerate(self.widths) if subset >> k & 1)
-            sign = -1.0 if bin(subset).count('1') % 2 else 1.0
-            total += sign * self._antiderivative(t - shift)
-        return np.clip(total / np.prod(self.widths), 0.0, self.s[-1])
+        # Repeated moving averages: differences of the k-th antiderivative,
+        # at all 2**k shifts in one call.
+        values = self._antiderivative(t[..., None] - self._shifts)
+        return np.clip(values @ self._signs / np.prod(self.widths), 0.0, self.s[-1])
 
     def time_at(self, s):
         """
