@@ -33,7 +33,8 @@ limit (as above) and for j = 20 a (the issue's other benches): four plans,
 
 * ``inner_knots=0``: knots at the waypoints only, at its own duration;
 * ``default``: ``plan()``'s default, up to 4 free inner knots per segment
-  and the 0.25 s moving average of the speed profile, at its own duration
+  and the moving averages (0.3 s and 0.15 s) of the speed profile, at its
+  own duration
   (the 555 rows of the optimal tables above, when there is no jerk limit);
 * ``vibration_frequency=4``: the averaging aimed at a 4 Hz mode;
 * ``default slowed``: the default slowed uniformly to the knots-only
@@ -286,8 +287,8 @@ def ratio_lines(rows, arm_frequency):
 def inner_knots_section(found_cases, simulators):
     """Print the section on 555 optimal with and without inner knots; return the target lines."""
     print('\n555 optimal with and without inner knots (issue 23): inner_knots=0, the default '
-          f'(<= 4 inner knots, 0.25 s averaging), vibration_frequency=4, the default slowed '
-          f'to the knots-only duration; v <= {LIMITS["max_velocity"][0]:g} rad/s, '
+          '(<= 4 inner knots, 0.3 s + 0.15 s averaging), vibration_frequency=4, the default '
+          f'slowed to the knots-only duration; v <= {LIMITS["max_velocity"][0]:g} rad/s, '
           f'a <= {LIMITS["max_acceleration"][0]:g} rad/s^2')
     summary = []
     for jerk in JERK_RATIOS:
