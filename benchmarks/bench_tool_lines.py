@@ -33,8 +33,9 @@ Per row: durations; planning times (ours against IK + TOPP-RA); the largest
 deviation from the lines sampled at 1 kHz through the forward kinematics
 (``robot_seam_demo.sampled_deviation``; toppra's trajectory passes the tool
 waypoints at the times its path parameter reaches the waypoint samples);
-the largest tool speed (``tool_lines.tool_speeds``: central differences of
-the forward kinematics every millisecond, local maxima refined) and the
+the largest tool speed (``tool_lines.tool_speeds(..., differences=True)``:
+central differences of the forward kinematics every millisecond, not the
+planner's tool Jacobian; local maxima refined) and the
 share of the length run at >= 99 % of v; the duration bound; and the
 shaking of a lightly damped mode at 4 and 8 Hz on every joint
 (``shaking.py``: peak while moving and residual after the end), ours
@@ -205,7 +206,8 @@ class ToppraTrajectory:
 
 def speed_figures(trajectory, kin, tool_speed):
     """Return (largest tool speed [m/s], share of the length at >= 99 % of ``tool_speed``)."""
-    linear, _, sampled = tl.tool_speeds(trajectory, kin)
+    # Central differences of the forward kinematics, not the planner's tool Jacobian.
+    linear, _, sampled = tl.tool_speeds(trajectory, kin, differences=True)
     if not tool_speed:
         return linear, None
     # By length: every sample weighs the distance the tool covers there (as ToolPath's).

@@ -285,3 +285,51 @@ def test_the_timing_leaves_rest_and_comes_to_rest_at_the_path_jerk():
     assert u[0] < u[1] < u[2] < u_plain[0]
     middle = np.abs(ramped.s - 1.0) < 0.1
     np.testing.assert_allclose(x[middle], x_plain[middle])
+
+
+@pytest.mark.parametrize('robot', sorted(ROBOTS))
+def test_tool_rates_match_central_differences_of_the_tests_own_fk(arms, robot):
+    """The planner's one-pass tool Jacobian against the URDF chain written in the test."""
+    from splines445_ros.arm.tool_lines import ToolRates
+    arm = arms[robot]
+    fk = arm[7]
+    rng = np.random.default_rng(7)
+    q = np.asarray(arm[4]) + rng.uniform(-1.0, 1.0, (200, len(arm[3])))
+    qdot = rng.uniform(-1.0, 1.0, q.shape)
+    linear, angular = ToolRates(kinematics(arm))(q, qdot)
+    h = 1e-6
+    p0, m0 = fk(q - h * qdot)
+    p1, m1 = fk(q + h * qdot)
+    expected_linear = np.linalg.norm(p1 - p0, axis=1) / (2.0 * h)
+    expected_angular = (Rotation.from_matrix(m0).inv()
+                        * Rotation.from_matrix(m1)).magnitude() / (2.0 * h)
+    np.testing.assert_allclose(linear, expected_linear, rtol=1e-6, atol=1e-8)
+    np.testing.assert_allclose(angular, expected_angular, rtol=1e-6, atol=1e-8)
+    # A batch of any shape, and a joint at rest moves nothing.
+    lin2, ang2 = ToolRates(kinematics(arm))(q.reshape(10, 20, -1), qdot.reshape(10, 20, -1))
+    np.testing.assert_allclose(lin2.ravel(), linear, rtol=1e-12)
+    np.testing.assert_allclose(ang2.ravel(), angular, rtol=1e-12)
+    still = ToolRates(kinematics(arm))(q, np.zeros_like(q))
+    assert np.all(still[0] == 0.0) and np.all(still[1] == 0.0)
+
+
+@pytest.mark.parametrize('robot, speed', [('ur5', 0.0), ('panda', 0.2)])
+def test_the_reported_deviation_per_edge_is_the_final_splines(arms, robot, speed):
+    """The deviation per edge, from the last measure per piece, as a fresh measure finds it."""
+    from splines445_ros.arm.tool_paths import path_deviation
+    arm = arms[robot]
+    poses = random_lines(np.random.default_rng(3), arm, 4)
+    result = plan_tool_path(poses, kinematics(arm), MM, DEG, method='555', timing='optimal',
+                            max_tool_speed=speed, **arm[5])
+    assert result.construction == 'tool lines'
+    again = path_deviation(result, kinematics(arm))
+    reported = result.deviation
+    assert reported.position.shape == again.position.shape == (len(poses) - 1,)
+    np.testing.assert_allclose(reported.position, again.position, rtol=1e-3, atol=1e-7)
+    np.testing.assert_allclose(reported.orientation, again.orientation, rtol=1e-3, atol=1e-7)
+    # Where they occur: within each edge's time span of the final trajectory.
+    times = result.trajectory.waypoint_times[result.waypoint_knots]
+    edge = result.segment_edges
+    for name in ('position_time', 'orientation_time'):
+        at = getattr(reported, name)
+        assert np.all(at >= times[edge] - 1e-9) and np.all(at <= times[edge + 1] + 1e-9)
