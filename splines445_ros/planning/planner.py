@@ -355,23 +355,29 @@ def _with_knots_only_rival(refined, method, points, start, boundary, limits, dro
       (a knob: coarser is faster, and longer where the rival wins);
     * it gives up once its restored total is above ``refined``'s duration
       by more than a margin that halves at every step
-      (:data:`optimal.GIVE_UP_MARGIN`): it is not going to win.  Not with
-      torque limits, where both are compared after their own slow-down.
+      (:data:`optimal.GIVE_UP_MARGIN`): it is not going to win.  With
+      torque limits ``refined`` is slowed down for them first, and the
+      rival, which a slow-down only lengthens, is not checked (1 kHz of
+      inverse dynamics) when it is already longer.
     """
     rest = not any(np.any(b) for b in boundary)
     small = len(points) <= SMALL_REQUEST and not (rest and len(points) == 2)
     timing = 'optimal' if small else 'uniform'
     options = {}
+    if small and rest and points.shape[1] > 1 and start is None:
+        start = _unsmoothed_durations(refined)
+    if torque is not None:
+        # Compared as returned: the torque's slow-down only lengthens a plan,
+        # so the rival is beaten once it is longer than this before its own.
+        refined = _torque_limited(refined, torque)
     if small and rest and points.shape[1] > 1:
-        if start is None:
-            start = _unsmoothed_durations(refined)
-        options = {'stall_tolerance': RIVAL_STALL_TOLERANCE,
-                   'give_up': refined.duration if torque is None else None}
+        options = {'stall_tolerance': RIVAL_STALL_TOLERANCE, 'give_up': refined.duration}
     try:
         rival = _plan_knots_only(method, timing, points, start, boundary, limits, dropped,
                                  **options)
         if torque is not None:
-            refined = _torque_limited(refined, torque)
+            if rival.duration >= refined.duration:
+                return refined
             rival = _torque_limited(rival, torque)
     except ValueError:
         return refined
