@@ -536,7 +536,7 @@ class _Candidate:
 
 
 def plan_with_inner_knots(points, boundary, limits, most, dropped_waypoints=(),
-                          windows=DEFAULT_SMOOTHING, torque=None):
+                          windows=DEFAULT_SMOOTHING, torque=None, knots_only=True):
     """
     Return the 555 optimal Trajectory with up to ``most`` inner knots per segment, or None.
 
@@ -551,6 +551,8 @@ def plan_with_inner_knots(points, boundary, limits, most, dropped_waypoints=(),
     keeps knots at the waypoints.  ``torque`` (a :class:`torque.TorqueLimit`)
     adds the joint torque to step 2's constraints and to step 5's factors
     (sampled per piece; the caller checks the result at 1 kHz).
+    ``knots_only`` False leaves out step 7's knots-only candidates (the
+    caller computes the knots-only optimum).
     """
     if np.all(points == points[0]):
         return None
@@ -562,7 +564,7 @@ def plan_with_inner_knots(points, boundary, limits, most, dropped_waypoints=(),
             raise
         except ValueError:
             continue
-        best, iterations = _construct(path, boundary, limits, rest)
+        best, iterations = _construct(path, boundary, limits, rest, knots_only)
         if best is None:
             continue
         traj = _trajectory(points, boundary, limits, rest, best, dropped_waypoints,
@@ -575,8 +577,14 @@ def plan_with_inner_knots(points, boundary, limits, most, dropped_waypoints=(),
     return None
 
 
-def _construct(path, boundary, limits, rest):
-    """Run steps 2-7 on ``path``; return (a candidate within the limits or None, iterations)."""
+def _construct(path, boundary, limits, rest, knots_only=True):
+    """
+    Run steps 2-7 on ``path``; return (a candidate within the limits or None, iterations).
+
+    ``knots_only`` False leaves out the last candidates of step 7 (knots at
+    the waypoints only, on this timing): for a caller that compares with
+    the knots-only optimum anyway.
+    """
     budget = {'iterations': REST_ITERATIONS, 'relax': REST_RELAX} if rest else {}
     start = _Profile(path, np.ones(path.s.size), rest)
     best, iterations = _iterate(path, start.local, None, boundary, limits, rest, None,
@@ -599,11 +607,11 @@ def _construct(path, boundary, limits, rest):
     # The same timing with knots at the waypoints only, for the requests
     # (few segments, one joint reversing) where that is shorter: on the
     # profiles of the best factors and of the first ones, both built already.
-    for profile in (best.profile, start):
-        knots_only = _Candidate(path, profile.local, np.zeros_like(best.counts), boundary,
-                                limits, rest, profile=profile)
-        if knots_only.valid and knots_only.better_than(best):
-            best = knots_only
+    for profile in (best.profile, start) if knots_only else ():
+        candidate = _Candidate(path, profile.local, np.zeros_like(best.counts), boundary,
+                               limits, rest, profile=profile)
+        if candidate.valid and candidate.better_than(best):
+            best = candidate
     if not best.feasible:
         best = _with_margin(path, best, boundary, limits)
     return best, iterations

@@ -301,9 +301,12 @@ def _plan_limited(method, points, timing, durations, max_velocity, max_accelerat
         # A dropped waypoint's segment joins the one before it.
         start = np.diff(np.delete(np.concatenate([[0.0], np.cumsum(start)]), dropped))
     if inner_knots:
-        refined = plan_with_inner_knots(points, boundary, limits, inner_knots, dropped,
-                                        windows, torque)
         shaped = windows != smoothing_windows(0.0) and not any(np.any(b) for b in boundary)
+        # The knots-only optimum is the rival below: the construction's own
+        # knots-only candidates would only repeat it, less well.
+        optimum_rival = len(points) <= SMALL_REQUEST and not shaped
+        refined = plan_with_inner_knots(points, boundary, limits, inner_knots, dropped,
+                                        windows, torque, knots_only=not optimum_rival)
         if refined is not None and shaped:
             # A vibration_frequency asks for a profile without content at it,
             # which only the inner-knot plan has: no rival then.  With moving
