@@ -25,6 +25,7 @@ from types import SimpleNamespace
 
 import numpy as np
 from scipy.linalg import LinAlgError, solve_banded
+from scipy.linalg.lapack import dgbsv
 
 from .methods import ACC, get_method, VEL
 from .segments import (
@@ -67,9 +68,10 @@ class ContinuitySystem:
         batch = np.atleast_2d(self.durations)
         self.n_batch, n_seg = batch.shape
         self.n_knots = n_seg + 1
-        self.types = self.definition.segment_types(n_seg)
+        types, tiled = _segment_types(self.definition, n_seg, self.n_batch)
+        self.types = types.copy()
         flat = batch.reshape(-1)
-        maps = input_maps(np.tile(self.types, self.n_batch), flat)
+        maps = input_maps(tiled, flat)
         self._maps = maps.reshape(self.n_batch, n_seg, *maps.shape[1:])
         self.maps = self._maps if self.batched else self._maps[0]
         derivatives = self.definition.continuous
@@ -82,9 +84,12 @@ class ContinuitySystem:
         def forms(at_end):
             # Linear form of each continuous derivative in the segment inputs,
             # at the end or start of every segment: shape (n_q, B, S, 5).
-            return np.stack([
-                (derivative_weights(flat, d, at_end)[:, None, :] @ maps)
-                .reshape(self.n_batch, n_seg, -1) for d in derivatives])
+            out = np.empty((len(derivatives), self.n_batch, n_seg, maps.shape[2]))
+            for q, d in enumerate(derivatives):
+                weights = (derivative_weights(flat, d, True) if at_end else
+                           _start_weights(flat.size, d))
+                out[q] = (weights[:, None, :] @ maps).reshape(self.n_batch, n_seg, -1)
+            return out
 
         left = forms(True)[:, :, :-1]    # segment k-1, ending at interior knot k
         right = forms(False)[:, :, 1:]   # segment k, starting at interior knot k
@@ -108,8 +113,16 @@ class ContinuitySystem:
         n_q, n_b, n_int = self._coeff.shape[:3]
         pattern = _band_pattern(n_q, n_b, n_int, tuple(self._unknowns))
         vals = self._coeff.reshape(-1)[pattern.gather]
-        # The largest |entry| of every row (the padding points at a 0).
-        self._row_scale = 1.0 / np.append(np.abs(vals), 0.0)[pattern.row_entries].max(axis=1)
+        # The largest |entry| of every row (the padding points at a 0), as
+        # element-wise maxima of the columns: a reduction over the short
+        # rows costs several times more (the same values, NaN included).
+        padded = np.zeros(vals.size + 1)
+        np.abs(vals, out=padded[:-1])
+        entries = padded[pattern.row_entries]
+        largest = entries[:, 0].copy()
+        for k in range(1, entries.shape[1]):
+            np.maximum(largest, entries[:, k], out=largest)
+        self._row_scale = 1.0 / largest
         self._bandwidth = pattern.bandwidth
         band = np.zeros((2 * pattern.bandwidth + 1) * pattern.size)
         band[pattern.band_index] = vals * self._row_scale[pattern.rows]
@@ -138,12 +151,11 @@ class ContinuitySystem:
                 rhs[:, :, -1] -= self._coeff[:, :, -1, 2, comp][..., None] * end
             rhs = rhs.transpose(1, 2, 0, 3).reshape(-1, m) * self._row_scale[:, None]
             try:
-                x = solve_banded((self._bandwidth, self._bandwidth), self._band, rhs,
-                                 overwrite_b=True, check_finite=False)
+                x = banded_solve(self._bandwidth, self._band, rhs, overwrite_b=True)
             except LinAlgError:
                 raise ValueError(f'the {self.method} continuity system is singular for these '
                                  'segment durations; change the durations') from None
-            if not np.all(np.isfinite(x)):
+            if not np.isfinite(x).all():
                 raise ValueError(f'the {self.method} continuity system is numerically '
                                  'singular for these segment durations')
             x = x.reshape(self.n_batch, self._n_interior, len(self._unknowns), m)
@@ -194,8 +206,7 @@ class ContinuitySystem:
         d_right = self._right[:, 0, s - 1] * order[:, None, :] / T[s][None, :, None]
         rhs[:, s - 1, columns[starts]] -= np.einsum('qpi,pim->qpm', d_right, inputs[s])
         rhs = rhs.transpose(1, 0, 2, 3).reshape(-1, n_columns * m) * self._row_scale[:, None]
-        x = solve_banded((self._bandwidth, self._bandwidth), self._band, rhs,
-                         overwrite_b=True, check_finite=False)
+        x = banded_solve(self._bandwidth, self._band, rhs, overwrite_b=True)
         x = -x.reshape(K, len(self._unknowns), n_columns, m)
         for ui, comp in enumerate(self._unknowns):
             out[1:-1, comp] = x[:, ui]
@@ -204,15 +215,67 @@ class ContinuitySystem:
     @staticmethod
     def segment_inputs(dP, vel, acc):
         """Stack ``[dP, v_s, a_s, v_e, a_e]`` per segment: shape (..., S, 5, m)."""
-        dP = np.broadcast_to(dP, vel[..., 1:, :].shape)
-        return np.stack([dP, vel[..., :-1, :], acc[..., :-1, :], vel[..., 1:, :],
-                         acc[..., 1:, :]], axis=-2)
+        # Filled in place: np.stack's values and layout, without its overhead.
+        dP, vel, acc = np.asarray(dP), np.asarray(vel), np.asarray(acc)
+        shape = vel[..., 1:, :].shape
+        out = np.empty(shape[:-1] + (5,) + shape[-1:], dtype=np.result_type(dP, vel, acc))
+        out[..., 0, :] = dP
+        out[..., 1, :] = vel[..., :-1, :]
+        out[..., 2, :] = acc[..., :-1, :]
+        out[..., 3, :] = vel[..., 1:, :]
+        out[..., 4, :] = acc[..., 1:, :]
+        return out
 
     def coefficients(self, starts, dP, vel, acc):
         """Return every segment's ascending polynomial terms (S, 6, m) or (B, S, 6, m)."""
         coeffs = self.maps @ self.segment_inputs(dP, vel, acc)
         coeffs[..., 0, :] = starts
         return coeffs
+
+
+def banded_solve(bandwidth, band, rhs, overwrite_b=False):
+    """
+    Return ``solve_banded((bandwidth, bandwidth), band, rhs, check_finite=False)``, the same bits.
+
+    For float ``band`` (2 bandwidth + 1, M) and ``rhs`` (M,) or (M, K) with
+    ``bandwidth`` > 1, M > 1 and a non-empty ``rhs``, LAPACK's gbsv is called
+    directly with the arguments scipy gives it: scipy's validation and batch
+    wrapper cost more than the solve of the small systems of
+    :mod:`inner_knots` and optimal timing.  Everything else goes to scipy.
+    Raises LinAlgError for a singular matrix, as scipy does.
+    """
+    if (bandwidth < 2 or band.shape[1] < 2 or rhs.size == 0 or band.dtype != np.float64 or
+            rhs.dtype != np.float64 or band.shape[0] != 2 * bandwidth + 1 or
+            rhs.ndim > 2 or rhs.shape[0] != band.shape[1]):
+        return solve_banded((bandwidth, bandwidth), band, rhs, overwrite_b=overwrite_b,
+                            check_finite=False)
+    # gbsv needs room for the fill-in of its LU factors above the band.
+    work = np.zeros((3 * bandwidth + 1, band.shape[1]))
+    work[bandwidth:] = band
+    _, _, x, info = dgbsv(bandwidth, bandwidth, work, rhs, overwrite_ab=True,
+                          overwrite_b=overwrite_b)
+    if info > 0:
+        raise LinAlgError('singular matrix')
+    if info < 0:
+        raise ValueError(f'illegal value in {-info}-th argument of internal gbsv')
+    return x
+
+
+@lru_cache(maxsize=64)
+def _segment_types(definition, n_seg, n_batch):
+    """Return the types of ``n_seg`` segments of ``definition``, and tiled ``n_batch`` times."""
+    types = definition.segment_types(n_seg)
+    tiled = np.tile(types, n_batch)
+    types.flags.writeable = tiled.flags.writeable = False   # shared by later systems
+    return types, tiled
+
+
+@lru_cache(maxsize=64)
+def _start_weights(n_seg, derivative):
+    """Return ``derivative_weights`` at the start of ``n_seg`` segments (read-only)."""
+    weights = derivative_weights(np.ones(n_seg), derivative, False)
+    weights.flags.writeable = False
+    return weights
 
 
 # Index patterns of the banded matrix kept for reuse (see _band_pattern).

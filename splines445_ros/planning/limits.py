@@ -4,7 +4,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .peaks import segment_peaks
+from .peaks import segment_peaks_of
 from .validation import positive_array
 
 QUANTITIES = ('velocity', 'acceleration', 'jerk')
@@ -48,10 +48,10 @@ def limit_ratios(coeffs, durations, limits):
     """Peak / limit for every segment, joint and quantity: shape (S, n, 3)."""
     bounds = limits.as_array()
     ratios = np.zeros(np.shape(coeffs)[:1] + (bounds.shape[1], 3))
-    for q in range(3):
-        if q == 2 and np.all(np.isinf(bounds[2])):
-            continue
-        ratios[..., q] = segment_peaks(coeffs, durations, q + 1) / bounds[q][None, :]
+    derivatives = (1, 2) if np.isinf(bounds[2]).all() else (1, 2, 3)
+    # All peaks in one pass: segment_peaks_of gives segment_peaks' values.
+    for q, peaks in enumerate(segment_peaks_of(coeffs, durations, derivatives)):
+        ratios[..., q] = peaks / bounds[q][None, :]
     return ratios
 
 

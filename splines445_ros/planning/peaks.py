@@ -9,6 +9,7 @@ nearly degenerate cubics), everything else is at most quadratic and solved
 in closed form for all segments and joints at once.  No sampling is involved.
 """
 
+from functools import lru_cache
 from math import comb
 
 import numpy as np
@@ -24,16 +25,27 @@ _SMALL_CUBIC = 1e-6
 PRUNE_MARGIN = 1e-9
 # Power to Bernstein basis of a quartic on [0, 1]: b_k = sum_i C(k, i) / C(4, i) p_i.
 _BERNSTEIN = np.array([[comb(k, i) / comb(4, i) for i in range(5)] for k in range(5)])
+# The three angles of the trigonometric solution of a cubic.
+_THIRDS = 2.0 * np.pi / 3.0 * np.arange(3)[None, :]
+# Exponents of the polynomial terms.
+_POWERS = np.arange(16)
+
+
+@lru_cache(maxsize=None)
+def _derivative_factors(degree, derivative):
+    """Return ``i! / (i - d)!`` for i = d .. ``degree``, d = ``derivative`` (read-only)."""
+    powers = np.arange(derivative, degree + 1)
+    factor = np.ones(powers.size)
+    for j in range(derivative):
+        factor = factor * (powers - j)
+    factor.flags.writeable = False
+    return factor
 
 
 def derivative_coefficients(coeffs, derivative):
     """Ascending coefficients of the ``derivative``-th derivative, shape (S, 6-d, m)."""
     c = np.asarray(coeffs, dtype=float)
-    degree = c.shape[1] - 1
-    powers = np.arange(derivative, degree + 1)
-    factor = np.ones(powers.size)
-    for j in range(derivative):
-        factor = factor * (powers - j)
+    factor = _derivative_factors(c.shape[1] - 1, derivative)
     return c[:, derivative:] * factor[None, :, None]
 
 
@@ -54,7 +66,9 @@ def _horner(coeffs, x):
     """Evaluate ascending ``coeffs`` (K, n) at ``x`` (K, r): returns (K, r)."""
     out = np.zeros_like(x)
     for i in range(coeffs.shape[1] - 1, -1, -1):
-        out = out * x + coeffs[:, i:i + 1]
+        # In place: the same products and sums without new arrays.
+        out *= x
+        out += coeffs[:, i:i + 1]
     return out
 
 
@@ -78,35 +92,64 @@ def _cubic_roots(q):
     is small next to the others (scaled, below :data:`_SMALL_CUBIC`) use
     companion-matrix eigenvalues instead.
     """
-    roots = np.full((q.shape[0], 3), np.nan)
+    # Every step is element-wise, so rows go through it in any grouping; the
+    # selections are skipped where every row takes the same branch (the
+    # common case on the few rows of a small request).
+    K = q.shape[0]
     small = np.abs(q[:, 3]) < _SMALL_CUBIC
-    if np.any(small):
+    n_small = np.count_nonzero(small)
+    if n_small == K:
+        return _companion_roots(q)
+    if n_small:
+        roots = np.full((K, 3), np.nan)
         roots[small] = _companion_roots(q[small])
-    ok = ~small
-    a = q[ok, 3]
-    B, C, D = q[ok, 2] / a, q[ok, 1] / a, q[ok, 0] / a
+        ok = ~small
+        q = q[ok]
+    a = q[:, 3]
+    B, C, D = q[:, 2] / a, q[:, 1] / a, q[:, 0] / a
     # Depressed cubic t^3 + p t + r = 0 with x = t - B / 3.
     p = C - B * B / 3.0
     r = (2.0 * B * B - 9.0 * C) * B / 27.0 + D
     disc = 0.25 * r * r + p * p * p / 27.0
     three = disc <= 0.0
-    t = np.full((a.size, 3), np.nan)
+    n = a.size
+    n_three = np.count_nonzero(three)
     with np.errstate(invalid='ignore', divide='ignore'):
-        m = 2.0 * np.sqrt(np.maximum(-p[three], 0.0) / 3.0)
-        cos_arg = np.clip(np.where(m > 0.0, 3.0 * r[three] / (p[three] * m), 0.0), -1.0, 1.0)
-        theta = np.arccos(cos_arg) / 3.0
-        t[three] = m[:, None] * np.cos(theta[:, None] -
-                                       2.0 * np.pi / 3.0 * np.arange(3)[None, :])
-        one = ~three
-        u = np.cbrt(-0.5 * r[one] - np.copysign(np.sqrt(disc[one]), r[one]))
-        t[one, 0] = np.where(u != 0.0, u - p[one] / (3.0 * u), 0.0)
+        if n_three:
+            p3, r3 = (p, r) if n_three == n else (p[three], r[three])
+            m = 2.0 * np.sqrt(np.maximum(-p3, 0.0) / 3.0)
+            # np.clip's values, without its wrapper.
+            cos_arg = np.minimum(np.maximum(np.where(m > 0.0, 3.0 * r3 / (p3 * m), 0.0),
+                                            -1.0), 1.0)
+            theta = np.arccos(cos_arg) / 3.0
+            t_three = m[:, None] * np.cos(theta[:, None] - _THIRDS)
+        if n_three < n:
+            if n_three:
+                one = ~three
+                p1, r1, disc1 = p[one], r[one], disc[one]
+            else:
+                p1, r1, disc1 = p, r, disc
+            u = np.cbrt(-0.5 * r1 - np.copysign(np.sqrt(disc1), r1))
+            t_one = np.where(u != 0.0, u - p1 / (3.0 * u), 0.0)
+    if n_three == n:
+        t = t_three
+    else:
+        t = np.full((n, 3), np.nan)
+        if n_three:
+            t[three] = t_three
+            t[one, 0] = t_one
+        else:
+            t[:, 0] = t_one
     x = t - B[:, None] / 3.0
-    c0, c1, c2, c3 = (q[ok, i][:, None] for i in range(4))
-    for _ in range(2):
-        value = ((c3 * x + c2) * x + c1) * x + c0
-        slope = (3.0 * c3 * x + 2.0 * c2) * x + c1
-        with np.errstate(invalid='ignore', divide='ignore'):
+    c0, c1, c2, c3 = q[:, 0:1], q[:, 1:2], q[:, 2:3], q[:, 3:4]
+    c3_3, c2_2 = 3.0 * c3, 2.0 * c2
+    with np.errstate(invalid='ignore', divide='ignore'):
+        for _ in range(2):
+            value = ((c3 * x + c2) * x + c1) * x + c0
+            slope = (c3_3 * x + c2_2) * x + c1
             x = np.where(slope != 0.0, x - value / slope, x)
+    if not n_small:
+        return x
     roots[ok] = x
     return roots
 
@@ -122,25 +165,59 @@ def _unit_interval_roots(q, out):
     scale = _row_max(np.abs(q))
     scale[scale == 0.0] = 1.0
     q = q / scale[:, None]
-    cubic = (np.abs(q[:, 3]) > _DEGENERATE) if width == 4 else np.zeros(K, dtype=bool)
-    roots = np.full((K, 3), np.nan)
-    if np.any(cubic):
-        roots[cubic] = _cubic_roots(q[cubic])
-        rest = ~cubic
-        a, b, c = q[rest, 2], q[rest, 1], q[rest, 0]
+    n_cubic = 0
+    if width == 4:
+        cubic = np.abs(q[:, 3]) > _DEGENERATE
+        n_cubic = np.count_nonzero(cubic)
+    if n_cubic == K:
+        # Only cubics (no rows for the closed forms below).
+        roots = _cubic_roots(q)
     else:
-        rest = slice(None)
-        a = q[:, 2] if width > 2 else np.zeros(K)
-        b, c = q[:, 1], q[:, 0]
-    quad = np.abs(a) > _DEGENERATE
-    with np.errstate(invalid='ignore', divide='ignore'):
-        sq = np.sqrt(b * b - 4.0 * a * c)  # NaN when there is no real root
-        half = -0.5 * (b + np.copysign(sq, b))
-        roots[rest, 0] = np.where(quad, half / a,
-                                  np.where(np.abs(b) > _DEGENERATE, -c / b, np.nan))
-        roots[rest, 1] = np.where(quad & (half != 0.0), c / half, np.nan)
+        roots = np.full((K, 3), np.nan)
+        if n_cubic:
+            roots[cubic] = _cubic_roots(q[cubic])
+            rest = ~cubic
+            a, b, c = q[rest, 2], q[rest, 1], q[rest, 0]
+        else:
+            rest = slice(None)
+            a = q[:, 2] if width > 2 else np.zeros(K)
+            b, c = q[:, 1], q[:, 0]
+        quad = np.abs(a) > _DEGENERATE
+        with np.errstate(invalid='ignore', divide='ignore'):
+            sq = np.sqrt(b * b - 4.0 * a * c)  # NaN when there is no real root
+            half = -0.5 * (b + np.copysign(sq, b))
+            roots[rest, 0] = np.where(quad, half / a,
+                                      np.where(np.abs(b) > _DEGENERATE, -c / b, np.nan))
+            roots[rest, 1] = np.where(quad & (half != 0.0), c / half, np.nan)
     inside = (roots > 0.0) & (roots < 1.0)
     out[:] = np.where(inside, roots, 0.0)
+
+
+def _flat_polynomials(coeffs, durations, derivatives):
+    """
+    Return the ``derivatives`` and their next derivatives in ``x = tau / T``, a row each.
+
+    Ascending coefficients (k S m, w) and (k S m, w - 1), ``w`` the number
+    of terms of the lowest derivative, rows derivative by derivative, then
+    segment, then joint: coefficient ``i`` of a derivative is multiplied by
+    ``T**i``, so that every term is comparable on ``x in [0, 1]``, and
+    derivatives with fewer terms are padded with zeros.
+    """
+    c = np.asarray(coeffs, dtype=float)
+    T = np.asarray(durations, dtype=float)
+    S, n_terms, m = c.shape
+    width = n_terms - min(derivatives)
+    # The powers of T once for all derivatives: the same values as each
+    # derivative's own (a power depends only on its base and exponent).
+    scale = T[:, None, None] ** _POWERS[None, :width, None]
+    flat_p = np.zeros((len(derivatives), S, m, width))
+    for k, derivative in enumerate(derivatives):
+        p = derivative_coefficients(c, derivative)
+        p *= scale[:, :p.shape[1]]
+        flat_p[k, :, :, :p.shape[1]] = p.transpose(0, 2, 1)
+    flat_p = flat_p.reshape(-1, width)
+    # The padding's zeros stay zeros, as they would padded after this.
+    return flat_p, flat_p[:, 1:] * _POWERS[None, 1:width]
 
 
 def _normalised(coeffs, durations, derivative):
@@ -151,21 +228,21 @@ def _normalised(coeffs, durations, derivative):
     ``i`` of the derivative is multiplied by ``T**i``, so that every term is
     comparable on ``x in [0, 1]``.
     """
-    T = np.asarray(durations, dtype=float)
-    S, _, m = np.shape(coeffs)
-    p = derivative_coefficients(coeffs, derivative)
-    p = p * (T[:, None, None] ** np.arange(p.shape[1])[None, :, None])
-    dp = p[:, 1:] * np.arange(1, p.shape[1])[None, :, None]
-    return p.transpose(0, 2, 1).reshape(S * m, -1), dp.transpose(0, 2, 1).reshape(S * m, -1)
+    return _flat_polynomials(coeffs, durations, (derivative,))
+
+
+def _flat_candidates(flat_p, flat_dp):
+    """Candidate points x in [0, 1] (K, 5) of the rows and the |polynomial| there."""
+    candidates = np.zeros((flat_p.shape[0], 5))
+    candidates[:, 1] = 1.0
+    _unit_interval_roots(flat_dp, candidates[:, 2:])
+    values = _horner(flat_p, candidates)
+    return candidates, np.abs(values, out=values)
 
 
 def _candidates(coeffs, durations, derivative):
     """Candidate points x in [0, 1] (S*m, 5) and the |d-th derivative| there."""
-    flat_p, flat_dp = _normalised(coeffs, durations, derivative)
-    candidates = np.zeros((flat_p.shape[0], 5))
-    candidates[:, 1] = 1.0
-    _unit_interval_roots(flat_dp, candidates[:, 2:])
-    return candidates, np.abs(_horner(flat_p, candidates))
+    return _flat_candidates(*_flat_polynomials(coeffs, durations, (derivative,)))
 
 
 def segment_peaks(coeffs, durations, derivative):
@@ -193,18 +270,8 @@ def segment_peaks_of(coeffs, durations, derivatives):
     bit for bit.
     """
     S, _, m = np.shape(coeffs)
-    rows = S * m
-    width = 6 - min(derivatives)
-    flat_p = np.zeros((len(derivatives) * rows, width))
-    flat_dp = np.zeros((len(derivatives) * rows, width - 1))
-    for k, derivative in enumerate(derivatives):
-        p, dp = _normalised(coeffs, durations, derivative)
-        flat_p[k * rows:(k + 1) * rows, :p.shape[1]] = p
-        flat_dp[k * rows:(k + 1) * rows, :dp.shape[1]] = dp
-    candidates = np.zeros((flat_p.shape[0], 5))
-    candidates[:, 1] = 1.0
-    _unit_interval_roots(flat_dp, candidates[:, 2:])
-    return _row_max(np.abs(_horner(flat_p, candidates))).reshape(len(derivatives), S, m)
+    _, values = _flat_candidates(*_flat_polynomials(coeffs, durations, tuple(derivatives)))
+    return _row_max(values).reshape(len(derivatives), S, m)
 
 
 def velocity_ratios_above(coeffs, durations, bounds, floor):
@@ -321,20 +388,41 @@ def peak_sensitivities(coeffs, durations, derivative):
     the same segment and joint, and ``slope`` (S, m) for a change of that
     segment's own duration ``T`` (non-zero only for a peak at ``tau = T``).
     """
+    return peak_sensitivities_of(coeffs, durations, (derivative,))[0]
+
+
+def peak_sensitivities_of(coeffs, durations, derivatives):
+    """
+    :func:`peak_sensitivities` of several ``derivatives`` at once: a list of its results.
+
+    One root finding and one evaluation for all of them, as in
+    :func:`segment_peaks_of` (the padding leaves them unchanged), and the
+    powers of every peak's time once for a derivative and the next one:
+    the results are those of :func:`peak_sensitivities`, bit for bit.
+    """
     c = np.asarray(coeffs, dtype=float)
     T = np.asarray(durations, dtype=float)
-    S, _, m = c.shape
-    candidates, values = _candidates(c, T, derivative)
+    S, n_terms, m = c.shape
+    k = len(derivatives)
+    candidates, values = _flat_candidates(*_flat_polynomials(c, T, tuple(derivatives)))
     best = np.argmax(values, axis=1)
-    rows = np.arange(S * m)
-    x = candidates[rows, best].reshape(S, m)
-    peaks = values[rows, best].reshape(S, m)
+    rows = np.arange(k * S * m)
+    x = candidates[rows, best].reshape(k, S, m)
+    peaks = values[rows, best].reshape(k, S, m)
     tau = x * T[:, None]
-    falling, exponent = falling_factors(derivative)
-    weights = falling[None, None, :] * tau[..., None] ** exponent[None, None, :]
-    value = np.einsum('smi,sim->sm', weights, c)
-    next_falling, next_exponent = falling_factors(derivative + 1)
-    next_value = np.einsum('smi,sim->sm',
-                           next_falling[None, None, :] * tau[..., None] ** next_exponent, c)
-    sign = np.sign(value)
-    return peaks, sign[..., None] * weights, sign * next_value * x
+    # tau**i for every exponent i the weights use: the same values as
+    # computed for each weight (a power depends only on base and exponent).
+    # (np.take keeps them in C order, as einsum's summation order depends
+    # on the memory layout of its operands.)
+    powers = tau[..., None] ** _POWERS[None, None, None, :n_terms]
+    out = []
+    for i, derivative in enumerate(derivatives):
+        falling, exponent = falling_factors(derivative)
+        weights = falling[None, None, :] * np.take(powers[i], exponent, axis=2)
+        value = np.einsum('smi,sim->sm', weights, c)
+        next_falling, next_exponent = falling_factors(derivative + 1)
+        next_weights = next_falling[None, None, :] * np.take(powers[i], next_exponent, axis=2)
+        next_value = np.einsum('smi,sim->sm', next_weights, c)
+        sign = np.sign(value)
+        out.append((peaks[i], sign[..., None] * weights, sign * next_value * x[i]))
+    return out

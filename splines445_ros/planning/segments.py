@@ -110,6 +110,29 @@ _FILLERS = {
 }
 
 
+def _entries(fill):
+    """
+    Return the entries ``fill`` sets as (rows, inputs, constants, powers of T) arrays.
+
+    Each entry is ``constant / T**power`` (power 0: the constant itself).
+    Found by calling ``fill`` on the durations 2 and 3, whose ratios tell
+    the power (every entry is ``constant * T**-power`` with power 0 .. 5).
+    """
+    B = np.full((2, N_COEFFS, N_INPUTS), np.nan)
+    B[:, 1, V_START] = 1.0
+    B[:, 2, A_START] = 0.5
+    fill(np.array([2.0, 3.0]), B)
+    rows, inputs = np.nonzero(~np.isnan(B[0]))
+    ratio = B[0, rows, inputs] / np.where(B[1, rows, inputs] == 0.0, 1.0, B[1, rows, inputs])
+    powers = np.rint(np.log(np.where(ratio == 0.0, 1.0, ratio)) / np.log(1.5)).astype(int)
+    return rows, inputs, B[0, rows, inputs] * 2.0 ** powers, powers
+
+
+# Every type's entries, for input_maps: one division by a table of the
+# powers of T instead of an assignment per entry (the same quotients).
+_ENTRIES = {kind: _entries(fill) for kind, fill in _FILLERS.items()}
+
+
 def input_maps(types, durations):
     """
     Return ``B`` of shape (S, 6, 5): coefficients = ``B @ u`` for every segment.
@@ -118,16 +141,29 @@ def input_maps(types, durations):
     starts with a given acceleration, quadratic (c2) terms are eqs. (4)-(5) and
     (15)-(16): ``c1 = v_s``, ``c2 = a_s / 2``.
     """
-    T = np.asarray(durations, dtype=float)
-    B = np.zeros((T.size, N_COEFFS, N_INPUTS))
-    B[:, 1, V_START] = 1.0
-    B[:, 2, A_START] = 0.5
-    for kind, fill in _FILLERS.items():
-        mask = types == kind
-        if np.any(mask):
-            block = B[mask]
-            fill(T[mask], block)
-            B[mask] = block
+    T = np.ascontiguousarray(durations, dtype=float)
+    S = T.size
+    B = np.zeros((S, N_COEFFS, N_INPUTS))
+    if S == 0:
+        return B
+    # powers[:, k] = T**k, computed as the closed forms write them (1, T, T**2, ...).
+    powers = np.empty((S, N_COEFFS))
+    powers[:, 0] = 1.0
+    powers[:, 1] = T
+    powers[:, 2] = T**2
+    powers[:, 3] = T**3
+    powers[:, 4] = T**4
+    powers[:, 5] = T**5
+    types = np.asarray(types)
+    first = types.flat[0]
+    if np.all(types == first):
+        rows, inputs, constants, exponents = _ENTRIES[int(first)]
+        B[:, rows, inputs] = constants / powers[:, exponents]
+        return B
+    for kind, (rows, inputs, constants, exponents) in _ENTRIES.items():
+        segments = np.flatnonzero(types == kind)
+        if segments.size:
+            B[segments[:, None], rows, inputs] = constants / powers[segments][:, exponents]
     return B
 
 

@@ -16,7 +16,7 @@ states respond by one banded solve with that right-hand side
 (:meth:`ContinuitySystem.duration_derivatives`), the coefficients through
 the segment maps (eqs. 3-23) and their exact ``T`` derivatives, and a peak
 through the coefficients at its fixed relative position (envelope theorem,
-:func:`peaks.peak_sensitivities`).
+:func:`peaks.peak_sensitivities_of`).
 
 The response decays away from segment k by the method's ``reach``
 (:mod:`methods`), so the Jacobian is banded and responses of segments one
@@ -30,13 +30,12 @@ to compute and to use (:class:`PeakJacobian`).
 """
 
 import numpy as np
-from scipy.linalg import solve_banded
 from scipy.sparse import csr_matrix
 
-from .continuity_system import ContinuitySystem
+from .continuity_system import banded_solve, ContinuitySystem
 from .limits import QUANTITIES
 from .methods import get_method
-from .peaks import peak_sensitivities
+from .peaks import peak_sensitivities_of
 from .segments import input_map_derivatives
 
 # Jacobian entries (d log r / d log T) below this are dropped.
@@ -74,7 +73,7 @@ class PeakRatios:
         except ValueError:  # singular for these durations
             return None
         coeffs = system.coefficients(self.points[:-1], self.dP, vel, acc)
-        sens = [peak_sensitivities(coeffs, durations, q + 1) for q in self._quantities]
+        sens = peak_sensitivities_of(coeffs, durations, [q + 1 for q in self._quantities])
         peaks = np.stack([s[0] for s in sens], axis=-1)      # (S, n, n_q)
         if not np.all(np.isfinite(peaks)):
             return None
@@ -160,8 +159,7 @@ def _undamped_mode(system, n_knots):
     """Return the knot-state shape (N, 2) of a response far downstream of its cause."""
     rhs = np.zeros((system._band.shape[1], 1))
     rhs[0] = 1.0
-    x = solve_banded((system._bandwidth, system._bandwidth), system._band, rhs,
-                     check_finite=False)
+    x = banded_solve(system._bandwidth, system._band, rhs)
     psi = np.zeros((n_knots, 2))
     x = x.reshape(n_knots - 2, len(system._unknowns))
     for ui, comp in enumerate(system._unknowns):
