@@ -92,6 +92,23 @@ def test_gravity_alone_beyond_a_limit_is_refused_with_the_joint():
              max_torque=[5.0, 50.0], inverse_dynamics=two_link_torques)
 
 
+def test_gravity_beyond_a_limit_is_refused_even_where_the_motion_holds_the_torque():
+    """
+    A bump of gravity above the limit, crossed while accelerating against it.
+
+    The torque ``qdd + g(q)`` stays within 1 at these durations (peak about
+    0.93), but no slower timing would hold it at the bump: the request is
+    refused, whatever the timing (an optimisation once skipped the gravity
+    pass of a check that held).
+    """
+    def bump(q, qd, qdd):
+        return qdd + 1.5 * np.exp(-((q - 0.75) / 0.03) ** 2)
+
+    with pytest.raises(ValueError, match='gravity alone needs'):
+        plan(np.array([[0.0], [1.0]]), '445', 'fixed', durations=[2.6], max_torque=[1.0],
+             inverse_dynamics=bump)
+
+
 def test_fixed_timing_is_checked_not_slowed():
     points = np.array([[0.0, 0.0], [1.0, 0.5], [0.5, 1.0]])
     with pytest.raises(ValueError, match='torque limit with the given durations'):

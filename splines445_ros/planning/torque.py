@@ -109,12 +109,11 @@ class TorqueLimit:
         """
         Return (factor, ratios): the slow-down ``traj`` needs and its peak torque / limit (n,).
 
-        Sampled every ``period``, each sample's torque raised by the
+        Sampled every ``period``, each sample's dynamic torque raised by the
         estimated excess between samples (module docstring).  A factor at
-        most 1 means the torque is within its limits; when every sample is
-        (the usual case: a plan checked after its slow-down) it is 1 and the
-        gravity pass that the slow-down would need is skipped, a second
-        inverse dynamics at every sample.
+        most 1 means the torque is within its limits.  A pose where gravity
+        alone exceeds a limit raises :class:`GravityOverload` even when the
+        motion happens to hold the torque there: no slower timing would.
         """
         t = check_times(traj.duration, period, 'the torque')
         q, qd, qdd = (traj.evaluate(t, d) for d in range(3))
@@ -123,10 +122,8 @@ class TorqueLimit:
         bend = np.zeros_like(tau)
         bend[1:-1] = np.abs(tau[2:] - 2.0 * tau[1:-1] + tau[:-2]) / 8.0
         bend[:-1] = np.maximum(bend[:-1], bend[1:])
-        ratios = np.max((np.abs(tau) + bend) / self.max_torque, axis=0)
-        if np.all(ratios <= 1.0):
-            return 1.0, ratios
         need = self.squared_factors(q, qd, qdd, bend, tau)
+        ratios = np.max((np.abs(tau) + bend) / self.max_torque, axis=0)
         return math.sqrt(float(np.max(need))), ratios
 
 
