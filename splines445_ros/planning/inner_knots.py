@@ -512,6 +512,8 @@ class _Candidate:
         f = float(np.max(self.factors)) * _ROUNDOFF
         if not (np.isfinite(f) and f > 0.0):
             return
+        if rest and getattr(path, 'keep_time_scale', False):
+            f = max(f, _ROUNDOFF)
         self.valid = True
         self.score = float(pieces.sum()) * f
         # A rest-to-rest spline through the same positions on pieces * f is
@@ -536,7 +538,8 @@ class _Candidate:
 
 
 def plan_with_inner_knots(points, boundary, limits, most, dropped_waypoints=(),
-                          windows=DEFAULT_SMOOTHING, torque=None, knots_only=True):
+                          windows=DEFAULT_SMOOTHING, torque=None, knots_only=True,
+                          keep_time_scale=False):
     """
     Return the 555 optimal Trajectory with up to ``most`` inner knots per segment, or None.
 
@@ -552,7 +555,10 @@ def plan_with_inner_knots(points, boundary, limits, most, dropped_waypoints=(),
     adds the joint torque to step 2's constraints and to step 5's factors
     (sampled per piece; the caller checks the result at 1 kHz).
     ``knots_only`` False leaves out step 7's knots-only candidates (the
-    caller computes the knots-only optimum).
+    caller computes the knots-only optimum).  ``keep_time_scale``: step 5
+    never speeds the spline up (a factor below 1 would move the windows'
+    spectral zeros up by its inverse: on a short move, far from the
+    ``vibration_frequency`` they were chosen for).
     """
     if np.all(points == points[0]):
         return None
@@ -560,6 +566,7 @@ def plan_with_inner_knots(points, boundary, limits, most, dropped_waypoints=(),
     for share in (1.0,) if rest else (1.0,) + END_SEGMENT_SHARES:
         try:
             path = _Path(points, boundary, limits, most, windows, share, torque)
+            path.keep_time_scale = keep_time_scale
         except GravityOverload:
             raise
         except ValueError:

@@ -306,7 +306,8 @@ def _plan_limited(method, points, timing, durations, max_velocity, max_accelerat
         # knots-only candidates would only repeat it, less well.
         optimum_rival = len(points) <= SMALL_REQUEST and not shaped
         refined = plan_with_inner_knots(points, boundary, limits, inner_knots, dropped,
-                                        windows, torque, knots_only=not optimum_rival)
+                                        windows, torque, knots_only=not optimum_rival,
+                                        keep_time_scale=shaped)
         if refined is not None and shaped:
             # A vibration_frequency asks for a profile without content at it,
             # which only the inner-knot plan has: no rival then.  With moving
