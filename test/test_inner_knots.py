@@ -132,7 +132,7 @@ def check_inner_knot_plan(traj, points, kwargs):
 
 @settings(max_examples=25)
 @given(req=requests(max_points=SMALL_REQUEST))
-def test_small_plans_are_never_longer_than_the_knots_only_optimum(req):
+def test_small_plans_are_not_longer_than_the_knots_only_optimum_beyond_its_tolerance(req):
     """
     Up to SMALL_REQUEST waypoints plan() compares with the knots-only optimum itself.
 

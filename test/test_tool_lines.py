@@ -305,7 +305,7 @@ def test_tool_rates_match_central_differences_of_the_tests_own_fk(arms, robot):
                         * Rotation.from_matrix(m1)).magnitude() / (2.0 * h)
     np.testing.assert_allclose(linear, expected_linear, rtol=1e-6, atol=1e-8)
     np.testing.assert_allclose(angular, expected_angular, rtol=1e-6, atol=1e-8)
-    # A batch of any shape, and a joint at rest moves nothing.
+    # A batch of any shape; an arm at rest moves nothing.
     lin2, ang2 = ToolRates(kinematics(arm))(q.reshape(10, 20, -1), qdot.reshape(10, 20, -1))
     np.testing.assert_allclose(lin2.ravel(), linear, rtol=1e-12)
     np.testing.assert_allclose(ang2.ravel(), angular, rtol=1e-12)

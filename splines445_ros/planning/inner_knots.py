@@ -111,7 +111,10 @@ GRID_STEPS = 24
 # table: on the plans' profiles the positions at the times found were within
 # 3e-11 of the path's length of the targets, and within 1e-5 on rougher
 # random profiles (test_the_averaged_profile_and_its_inverse; 2-4 steps
-# missed that there).  The dense table of every breakpoint and midpoint it
+# missed that there); up to 5e-4 where windows of seconds average a profile
+# of a fraction of one (the review's case).  Only where the inner knots sit
+# depends on it: the waypoints are knots themselves and the limits are
+# exact.  The dense table of every breakpoint and midpoint it
 # replaced took a third of the planning time at 1000 x 7.
 INVERSE_STEPS = 5
 # A piece lasts at least this many jerk ramp times a / j (step 3).
