@@ -269,3 +269,21 @@ def test_optimal_555_next_to_close_waypoints_is_c4_to_round_off():
     for d in (3, 4):
         jumps = knot_jump_array(traj.ppoly, d)
         assert np.all(jumps <= 1e-12 * cancellation_scale(traj.ppoly, d)), d
+
+
+def test_uniform_timing_far_along_the_time_axis_is_stretched_back_to_its_limits():
+    """
+    A 1000-waypoint single-joint walk lasting about 4600 s, 555 uniform with a jerk limit.
+
+    Solved again on the widths the PPoly can represent, the spline exceeded
+    a limit by round-off; a stretch by that ratio (1 + 1e-15) moved no
+    breakpoint so far along the time axis, and planning failed.
+    """
+    rng = np.random.default_rng(445)
+    rng.uniform(-1.0, 1.0, (50, 1))
+    rng.uniform(-1.0, 1.0, (200, 1))
+    points = np.cumsum(rng.uniform(-1.0, 1.0, (1000, 1)), axis=0)
+    traj = plan(points, '555', 'uniform', max_velocity=[2.0], max_acceleration=[10.0],
+                max_jerk=[200.0])
+    assert traj.within_limits(rtol=0.0)
+    assert np.allclose(traj.evaluate(traj.breakpoints), points, rtol=0.0, atol=1e-6)
