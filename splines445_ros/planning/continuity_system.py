@@ -28,6 +28,7 @@ from scipy.linalg import LinAlgError, solve_banded
 from scipy.linalg.lapack import dgbsv
 
 from .methods import ACC, get_method, VEL
+from .peaks import row_max
 from .segments import (
     A_END, A_START, derivative_weights, DP, input_maps, INPUT_ORDER, V_END, V_START,
 )
@@ -113,16 +114,10 @@ class ContinuitySystem:
         n_q, n_b, n_int = self._coeff.shape[:3]
         pattern = _band_pattern(n_q, n_b, n_int, tuple(self._unknowns))
         vals = self._coeff.reshape(-1)[pattern.gather]
-        # The largest |entry| of every row (the padding points at a 0), as
-        # element-wise maxima of the columns: a reduction over the short
-        # rows costs several times more (the same values, NaN included).
+        # The largest |entry| of every row (the padding points at a 0).
         padded = np.zeros(vals.size + 1)
         np.abs(vals, out=padded[:-1])
-        entries = padded[pattern.row_entries]
-        largest = entries[:, 0].copy()
-        for k in range(1, entries.shape[1]):
-            np.maximum(largest, entries[:, k], out=largest)
-        self._row_scale = 1.0 / largest
+        self._row_scale = 1.0 / row_max(padded[pattern.row_entries])
         self._bandwidth = pattern.bandwidth
         band = np.zeros((2 * pattern.bandwidth + 1) * pattern.size)
         band[pattern.band_index] = vals * self._row_scale[pattern.rows]

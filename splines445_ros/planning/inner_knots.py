@@ -83,7 +83,7 @@ from .continuity_system import spline_coefficients
 from .limits import limit_ratios
 from .path_constraints import GravityOverload, GriddedPath, JointAcceleration, JointVelocity
 from .path_velocity import path_position, PathLimits, traversal_times
-from .peaks import segment_peaks_of, velocity_ratios_above
+from .peaks import row_max, segment_peaks_of, velocity_ratios_above
 from .timing import closed_form_scale, rest_to_rest_durations
 from .trajectory import _check_finite, representable_durations, Trajectory
 
@@ -368,17 +368,9 @@ def exact_factors(coeffs, pieces, limits):
     # Maxima over short axes, element-wise (numpy's reductions over them are slow).
     factors = np.maximum(np.maximum(powered[..., 0], powered[..., 1]), powered[..., 2])
     if prune:
-        velocity = velocity_ratios_above(coeffs, pieces, bounds[0], _joint_max(factors))
+        velocity = velocity_ratios_above(coeffs, pieces, bounds[0], row_max(factors))
         factors = np.maximum(factors, velocity)
-    return _joint_max(factors)
-
-
-def _joint_max(values):
-    """Return the largest of every row of ``values`` (P, n): ``np.max(values, axis=1)``."""
-    out = values[:, 0].copy()
-    for column in values.T[1:]:
-        np.maximum(out, column, out=out)
-    return out
+    return row_max(factors)
 
 
 class _Path:

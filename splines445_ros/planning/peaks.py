@@ -49,7 +49,7 @@ def derivative_coefficients(coeffs, derivative):
     return c[:, derivative:] * factor[None, :, None]
 
 
-def _row_max(x):
+def row_max(x):
     """
     Return the largest entry of every row of ``x`` (K, r): ``np.max(x, axis=1)``, the same values.
 
@@ -162,7 +162,7 @@ def _unit_interval_roots(q, out):
     end, which is a candidate anyway).
     """
     K, width = q.shape
-    scale = _row_max(np.abs(q))
+    scale = row_max(np.abs(q))
     scale[scale == 0.0] = 1.0
     q = q / scale[:, None]
     n_cubic = 0
@@ -255,7 +255,7 @@ def segment_peaks(coeffs, durations, derivative):
     """
     S, _, m = np.shape(coeffs)
     _, values = _candidates(coeffs, durations, derivative)
-    return _row_max(values).reshape(S, m)
+    return row_max(values).reshape(S, m)
 
 
 def segment_peaks_of(coeffs, durations, derivatives):
@@ -271,7 +271,7 @@ def segment_peaks_of(coeffs, durations, derivatives):
     """
     S, _, m = np.shape(coeffs)
     _, values = _flat_candidates(*_flat_polynomials(coeffs, durations, tuple(derivatives)))
-    return _row_max(values).reshape(len(derivatives), S, m)
+    return row_max(values).reshape(len(derivatives), S, m)
 
 
 def velocity_ratios_above(coeffs, durations, bounds, floor):
@@ -298,9 +298,9 @@ def velocity_ratios_above(coeffs, durations, bounds, floor):
     candidates = np.zeros((S * m, 5))
     candidates[:, 1] = 1.0
     # The ends exactly as segment_peaks evaluates them (two of its candidates).
-    peaks = _row_max(np.abs(_horner(flat_p, candidates[:, :2])))
+    peaks = row_max(np.abs(_horner(flat_p, candidates[:, :2])))
     ratios = peaks.reshape(S, m) / bounds[None, :]
-    floor = np.maximum(np.asarray(floor, dtype=float), _row_max(ratios))
+    floor = np.maximum(np.asarray(floor, dtype=float), row_max(ratios))
     # Terms in rows (5, S*m), then the Bernstein coefficients row by row
     # (element-wise: a matrix product would start BLAS threads for this).
     terms = np.ascontiguousarray(flat_p.T)
@@ -313,7 +313,7 @@ def velocity_ratios_above(coeffs, durations, bounds, floor):
     if rows.size:
         candidates = candidates[rows]
         _unit_interval_roots(flat_dp[rows], candidates[:, 2:])
-        peaks[rows] = _row_max(np.abs(_horner(flat_p[rows], candidates)))
+        peaks[rows] = row_max(np.abs(_horner(flat_p[rows], candidates)))
         ratios = peaks.reshape(S, m) / bounds[None, :]
     return ratios
 
