@@ -189,24 +189,26 @@ class _SpanTiming:
 
     def time_at(self, s):
         """Return the times at which the path positions ``s`` are passed."""
-        s = np.asarray(s, float)
-        k = np.clip(np.searchsorted(self.s_start, s, side='right') - 1, 0, len(self.spans) - 1)
-        out = np.empty_like(s)
-        for j in np.unique(k):
-            mine = k == j
-            span = self.spans[j]
-            local = np.clip(s[mine] - self.s_start[j], 0.0, span.s[-1])
-            out[mine] = self.offsets[j] + span.time_at(local)
-        return out
+        def of_span(j, span, mine):
+            return self.offsets[j] + span.time_at(np.clip(mine - self.s_start[j], 0.0, span.s[-1]))
+
+        return self._by_span(s, self.s_start, of_span)
 
     def position_at(self, t):
         """Return the path position at the times ``t``."""
-        t = np.asarray(t, float)
-        k = np.clip(np.searchsorted(self.offsets, t, side='right') - 1, 0, len(self.spans) - 1)
-        out = np.empty_like(t)
+        def of_span(j, span, mine):
+            return self.s_start[j] + span.position_at(mine - self.offsets[j])
+
+        return self._by_span(t, self.offsets, of_span)
+
+    def _by_span(self, values, starts, of_span):
+        """Map ``values`` by ``of_span(j, span, values in span j)``, span j from ``starts[j]``."""
+        values = np.asarray(values, float)
+        k = np.clip(np.searchsorted(starts, values, side='right') - 1, 0, len(self.spans) - 1)
+        out = np.empty_like(values)
         for j in np.unique(k):
             mine = k == j
-            out[mine] = self.s_start[j] + self.spans[j].position_at(t[mine] - self.offsets[j])
+            out[mine] = of_span(j, self.spans[j], values[mine])
         return out
 
 
