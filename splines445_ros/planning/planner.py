@@ -368,13 +368,14 @@ def _with_knots_only_rival(refined, method, points, start, boundary, limits, dro
     small = len(points) <= SMALL_REQUEST and not (rest and len(points) == 2)
     timing = 'optimal' if small else 'uniform'
     options = {}
-    if small and rest and points.shape[1] > 1 and start is None:
+    warm = small and rest and points.shape[1] > 1
+    if warm and start is None:
         start = _unsmoothed_durations(refined)
     if torque is not None:
         # Compared as returned: the torque's slow-down only lengthens a plan,
         # so the rival is beaten once it is longer than this before its own.
         refined = _torque_limited(refined, torque)
-    if small and rest and points.shape[1] > 1:
+    if warm:
         options = {'stall_tolerance': RIVAL_STALL_TOLERANCE, 'give_up': refined.duration}
     try:
         rival = _plan_knots_only(method, timing, points, start, boundary, limits, dropped,
