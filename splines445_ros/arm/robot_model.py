@@ -427,6 +427,7 @@ class FrameChain:
         # by poly(q[col] - ref) (poly None: the identity); extent bounds a slide's |move|,
         # name is the joint's.
         self.steps = []
+        self._rates = None      # the steps of speeds(), prepared on first use
         hinge = int(mj.mjtJoint.mjJNT_HINGE)
         slide = int(mj.mjtJoint.mjJNT_SLIDE)
         for b in reversed(chain):
@@ -606,6 +607,105 @@ class FrameChain:
         """Return positions (..., 3) and quaternions (..., 4) of the frame in the world."""
         pos, mat = self.transform(joints)
         return pos, rot.from_matrix(mat)
+
+    def speeds(self, joints, rates):
+        """
+        Return the frame's linear and angular speed (...,) at ``joints`` moving at ``rates``.
+
+        ``|J(q) qdot|`` in one pass along the chain: every hinge turns what
+        follows about its world axis ``a`` through its world point ``o``, so
+        the frame's angular velocity is ``w = sum(qdot_j a_j)`` and its linear
+        one ``sum(qdot_j a_j x (p - o_j)) = w x p - sum(qdot_j a_j x o_j)`` (a
+        slide adds ``qdot_j a_j``), with ``p`` the frame's position of the
+        same pass.  Each hinge's axis is turned onto z by constant rotations
+        folded into the chain's fixed steps (prepared once,
+        :meth:`_rate_steps`), so a hinge step mixes two columns of the
+        rotation and no 3 x 3 products.
+        """
+        q = np.asarray(joints, dtype=float)
+        if q.shape[-1] != self.n:
+            raise ValueError(f'need {self.n} joint positions, got {q.shape[-1]}')
+        shape = q.shape[:-1]
+        q = q.reshape(-1, self.n).T
+        qdot = np.asarray(rates, dtype=float).reshape(-1, self.n).T
+        k = q.shape[1]
+        position = np.zeros((3, 1))
+        # columns[c] is column c (3, K) of the rotation from the base to the current frame.
+        columns = np.eye(3)[:, :, None]
+        turning = np.zeros((3, k))
+        moment = np.zeros((3, k))
+        for step in self._rate_steps():
+            if step[0] == 'fixed':
+                flat = columns.reshape(3, -1)
+                position = position + (step[2] @ flat).reshape(columns.shape[1:])
+                columns = (step[1].T @ flat).reshape(columns.shape)
+                continue
+            col, ref, poly = step[1:4]
+            value, rate = q[col] - ref, qdot[col]
+            if poly is not None:
+                x = value
+                value = poly[0] + x * (poly[1] + x * (poly[2] + x * (poly[3] + x * poly[4])))
+                rate = rate * (poly[1] + x * (2.0 * poly[2] + x * (3.0 * poly[3]
+                                                                   + x * 4.0 * poly[4])))
+            if step[0] == 'slide':
+                axis = np.tensordot(step[4], columns, axes=(0, 0))
+                position = position + axis * value
+                moment = moment - axis * rate
+                continue
+            axis = np.broadcast_to(columns[2], (3, k))
+            turning = turning + axis * rate
+            moment = moment + _column_cross(axis, position) * rate
+            cosine, sine = np.cos(value), np.sin(value)
+            columns = np.stack([cosine * columns[0] + sine * columns[1],
+                                cosine * columns[1] - sine * columns[0], axis])
+        velocity = _column_cross(turning, position) - moment
+        return (np.sqrt(np.sum(velocity ** 2, axis=0)).reshape(shape),
+                np.sqrt(np.sum(turning ** 2, axis=0)).reshape(shape))
+
+    def _rate_steps(self):
+        """Return (once) the steps of :meth:`speeds`: each hinge's axis turned onto z."""
+        if self._rates is not None:
+            return self._rates
+        steps = []
+
+        def fixed(rotation, position):
+            # A constant transform, merged into a preceding constant one.
+            if steps and steps[-1][0] == 'fixed':
+                _, r0, p0 = steps[-1]
+                steps[-1] = ('fixed', r0 @ rotation, p0 + r0 @ position)
+            else:
+                steps.append(('fixed', np.array(rotation, float), np.array(position, float)))
+
+        for step in self.steps:
+            if step[0] == 'fixed':
+                fixed(step[1], step[2])
+                continue
+            kind, col, ref, poly, axis, anchor = step[:6]
+            if kind == 'slide':
+                steps.append(('slide', col, ref, poly, np.array(axis, float)))
+                continue
+            # Trans(o) Rot(a, q) Trans(-o) = [B, o] Rot(z, q) [B^T, -B^T o], B z = a.
+            turn = _z_onto(axis)
+            fixed(turn, anchor)
+            steps.append(('hinge', col, ref, poly))
+            fixed(turn.T, -turn.T @ anchor)
+        self._rates = steps
+        return steps
+
+
+def _z_onto(axis):
+    """Return a rotation (3, 3) that takes the z axis onto the unit vector ``axis``."""
+    z = np.asarray(axis, float) / np.linalg.norm(axis)
+    helper = np.array([1.0, 0.0, 0.0] if abs(z[0]) < 0.9 else [0.0, 1.0, 0.0])
+    x = _column_cross(helper[:, None], z[:, None])[:, 0]
+    x /= np.linalg.norm(x)
+    return np.column_stack([x, _column_cross(z[:, None], x[:, None])[:, 0], z])
+
+
+def _column_cross(a, b):
+    """Return the cross products (3, K) of the columns of ``a`` and ``b`` (3, K)."""
+    return np.stack([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                     a[0] * b[1] - a[1] * b[0]])
 
 
 def load_robot_model(model_file='', urdf_string=None, where=None):

@@ -354,111 +354,27 @@ class ToolRates:
     The tool's linear and angular speed at joints ``q`` moving at ``qdot``: ``|J(q) qdot|``.
 
     For a :class:`robot_model.FrameChain` tool (:class:`ModelKinematics`)
-    in one pass along the chain: every hinge turns what follows about its
-    world axis ``a`` through its world point ``o``, so the tool's angular
-    velocity is ``w = sum(qdot_j a_j)`` and its linear one
-    ``sum(qdot_j a_j x (p - o_j)) = w x p - sum(qdot_j a_j x o_j)`` (a slide
-    adds ``qdot_j a_j``), with ``p`` the tool's position of the same pass.
-    Each hinge's axis is turned onto z by constant rotations folded into the
-    chain's fixed steps, so a hinge step mixes two columns of the rotation
-    and no 3 x 3 products.  One such pass costs about a third of the two
-    forward kinematics and the relative rotation of central differences
-    (4000 configurations of the UR5 and the Panda: 1.7-2.1 ms against
-    5.4-6.1 ms), and it has no difference error.  Other kinematics (the
-    planar arm) fall back to central differences of their forward kinematics.
+    its one pass along the chain (:meth:`robot_model.FrameChain.speeds`):
+    about a third of the cost of the two forward kinematics and the relative
+    rotation of central differences (4000 configurations of the UR5 and the
+    Panda: 1.7-2.1 ms against 5.4-6.1 ms), and no difference error.  Other
+    kinematics (the planar arm) fall back to central differences of their
+    forward kinematics.
     """
 
     def __init__(self, kinematics):
-        """Prepare the chain of ``kinematics``: its hinges turned onto z."""
+        """Keep the chain of ``kinematics`` (None: central differences)."""
         self.kinematics = kinematics
         chain = getattr(kinematics, 'tool', None)
-        self.steps = None
-        if isinstance(chain, FrameChain):
-            self.n = chain.n
-            self.steps = []
-            for step in chain.steps:
-                if step[0] == 'fixed':
-                    self._fixed(step[1], step[2])
-                    continue
-                kind, col, ref, poly, axis, anchor = step[:6]
-                if kind == 'slide':
-                    self.steps.append(('slide', col, ref, poly, np.array(axis, float)))
-                    continue
-                # Trans(o) Rot(a, q) Trans(-o) = [B, o] Rot(z, q) [B^T, -B^T o], B z = a.
-                turn = _z_onto(axis)
-                self._fixed(turn, anchor)
-                self.steps.append(('hinge', col, ref, poly))
-                self._fixed(turn.T, -turn.T @ anchor)
-
-    def _fixed(self, rotation, position):
-        """Append a constant transform, merged into a preceding constant one."""
-        if self.steps and self.steps[-1][0] == 'fixed':
-            _, r0, p0 = self.steps[-1]
-            self.steps[-1] = ('fixed', r0 @ rotation, p0 + r0 @ position)
-        else:
-            self.steps.append(('fixed', np.array(rotation, float), np.array(position, float)))
+        self.chain = chain if isinstance(chain, FrameChain) else None
 
     def __call__(self, q, qdot):
         """Return the linear [m/s] and angular [rad/s] speed (...,) at ``q``, ``qdot`` (..., n)."""
-        q = np.asarray(q, float)
-        if self.steps is None:
-            h = _DIFFERENCE_STEP
-            qdot = np.asarray(qdot, float)
-            return _difference(self.kinematics, q - h * qdot, q + h * qdot, 2.0 * h)
-        shape = q.shape[:-1]
-        linear, angular = self._chain(q.reshape(-1, self.n).T,
-                                      np.asarray(qdot, float).reshape(-1, self.n).T)
-        return linear.reshape(shape), angular.reshape(shape)
-
-    def _chain(self, q, qdot):
-        """Return the speeds (K,) of joints (n, K) moving at (n, K): the pass of the docstring."""
-        k = q.shape[1]
-        position = np.zeros((3, 1))
-        # columns[c] is column c (3, K) of the rotation from the base to the current frame.
-        columns = np.eye(3)[:, :, None]
-        turning = np.zeros((3, k))
-        moment = np.zeros((3, k))
-        for step in self.steps:
-            if step[0] == 'fixed':
-                flat = columns.reshape(3, -1)
-                position = position + (step[2] @ flat).reshape(columns.shape[1:])
-                columns = (step[1].T @ flat).reshape(columns.shape)
-                continue
-            col, ref, poly = step[1:4]
-            value, rate = q[col] - ref, qdot[col]
-            if poly is not None:
-                x = value
-                value = poly[0] + x * (poly[1] + x * (poly[2] + x * (poly[3] + x * poly[4])))
-                rate = rate * (poly[1] + x * (2.0 * poly[2] + x * (3.0 * poly[3]
-                                                                   + x * 4.0 * poly[4])))
-            if step[0] == 'slide':
-                axis = np.tensordot(step[4], columns, axes=(0, 0))
-                position = position + axis * value
-                moment = moment - axis * rate
-                continue
-            axis = np.broadcast_to(columns[2], (3, k))
-            turning = turning + axis * rate
-            moment = moment + _cross(axis, position) * rate
-            cosine, sine = np.cos(value), np.sin(value)
-            columns = np.stack([cosine * columns[0] + sine * columns[1],
-                                cosine * columns[1] - sine * columns[0], axis])
-        velocity = _cross(turning, position) - moment
-        return np.sqrt(np.sum(velocity ** 2, axis=0)), np.sqrt(np.sum(turning ** 2, axis=0))
-
-
-def _z_onto(axis):
-    """Return a rotation (3, 3) that takes the z axis onto the unit vector ``axis``."""
-    z = np.asarray(axis, float) / np.linalg.norm(axis)
-    helper = np.array([1.0, 0.0, 0.0] if abs(z[0]) < 0.9 else [0.0, 1.0, 0.0])
-    x = _cross(helper[:, None], z[:, None])[:, 0]
-    x /= np.linalg.norm(x)
-    return np.column_stack([x, _cross(z[:, None], x[:, None])[:, 0], z])
-
-
-def _cross(a, b):
-    """Return the cross products (3, K) of the columns of ``a`` and ``b`` (3, K)."""
-    return np.stack([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
-                     a[0] * b[1] - a[1] * b[0]])
+        if self.chain is not None:
+            return self.chain.speeds(q, qdot)
+        h = _DIFFERENCE_STEP
+        q, qdot = np.asarray(q, float), np.asarray(qdot, float)
+        return _difference(self.kinematics, q - h * qdot, q + h * qdot, 2.0 * h)
 
 
 def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_tool_speed=0.0,
