@@ -339,3 +339,31 @@ def test_a_torque_setup_is_not_used_for_other_torque_parameters():
         with pytest.raises(ValueError, match='still being set up'):
             setup.torque_kwargs(replace(config, **changed))
     assert setup.torque_kwargs(replace(config, limit_torque=False)) == {}
+
+
+def test_a_tool_request_with_torque_limits_on_an_arm_whose_tool_frame_is_its_chain_tip():
+    """
+    The planner node's order on a Panda with ``tool_frame`` left empty and ``limit_torque``.
+
+    The node takes the torque keywords from the user's config, then plans
+    the tool request under ``effective(config)``, which names the chain tip
+    as the tool frame.  The tool request took them again from that one,
+    whose tool frame differs from the setup's: "still being set up", so
+    every tool request of such an arm was refused.
+    """
+    from splines445_ros.nodes.model_planning import build_robot_setup, plan_model_tool_request
+    from splines445_ros.nodes.planner_config import PlannerConfig
+    config = PlannerConfig.from_values({'kinematics': 'model', 'model_file': vr.panda_urdf(),
+                                        'joint_names': list(vr.PANDA_ARM_JOINTS),
+                                        'max_velocity': [0.0], 'max_acceleration': [0.0],
+                                        'max_jerk': [0.0], 'limit_torque': True})
+    setup = build_robot_setup(config)
+    assert config.tool_frame == '' and setup.tool_frame != ''
+    torque = setup.torque_kwargs(config)
+    kinematics = setup.kinematics
+    position, quaternion = kinematics.tool.pose(
+        kinematics.robot.default_seed(kinematics.joints))
+    start = np.concatenate([position, quaternion])
+    rows = np.array([start, start + [0.05, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]])
+    tool_path = plan_model_tool_request(setup, rows, None, setup.effective(config), torque)
+    assert np.all(tool_path.trajectory.torque_ratios <= 1.005)

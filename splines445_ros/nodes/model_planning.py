@@ -317,7 +317,7 @@ def tool_poses_from_message(msg, base_frame):
     return rows
 
 
-def plan_model_tool_request(setup, rows, seed=None, config=None):
+def plan_model_tool_request(setup, rows, seed=None, config=None, torque=None):
     """
     Plan tool poses ``rows`` (N, 7) with a RobotSetup; return a ToolPath (ValueError).
 
@@ -326,6 +326,11 @@ def plan_model_tool_request(setup, rows, seed=None, config=None):
     Rest to rest, refined to ``max_path_deviation`` and
     ``max_orientation_deviation`` (the angle from the slerp) of ``config``
     (the node's current PlannerConfig; default: the one the setup was built from).
+    ``torque``: the keywords of :meth:`RobotSetup.torque_kwargs` the caller
+    took already, from the user's config (None: taken here from
+    ``config``).  Not from ``effective(config)``: that one names the chain
+    tip as its tool frame where the user left it empty, and the setup
+    would call itself stale.
     """
     kinematics = setup.kinematics
     if kinematics is None:
@@ -333,5 +338,6 @@ def plan_model_tool_request(setup, rows, seed=None, config=None):
     kinematics.seed = (kinematics.robot.default_seed(kinematics.joints) if seed is None
                        else kinematics.check_seed(seed))
     config = config or setup.config
-    return plan_tool_poses(setup.effective(config), rows, kinematics,
-                           setup.torque_kwargs(config))
+    if torque is None:
+        torque = setup.torque_kwargs(config)
+    return plan_tool_poses(setup.effective(config), rows, kinematics, torque)

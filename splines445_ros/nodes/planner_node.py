@@ -390,7 +390,7 @@ class PlannerNode(Node):
             if isinstance(msg, PoseArray) and robot is not None:
                 tool_path = plan_model_tool_request(
                     robot, tool_poses_from_message(msg, config.base_frame),
-                    self._joint_state_seed(config), config)
+                    self._joint_state_seed(config), config, torque)
                 traj = tool_path.trajectory
                 tool_values.update(tool_summary_values(tool_path))
             elif isinstance(msg, PoseArray):
