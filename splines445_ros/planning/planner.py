@@ -393,13 +393,15 @@ def _with_knots_only_rival(refined, method, points, start, boundary, limits, dro
     if refined.duration * premium <= rival.duration:
         return refined
     if timing == 'uniform':
-        ratios = getattr(rival, 'torque_ratios', None)
+        checked = rival
         rival = Trajectory.build(rival.method, 'optimal', points, rival.durations, boundary,
                                  limits, rival.coefficients, rival.limit_ratios(),
                                  dropped_waypoints=dropped)
         rival.optimizer = {}
-        if ratios is not None:
-            rival.torque_ratios = ratios
+        # The same spline: its torque check stands (plan() would run it again).
+        for name in ('torque_ratios', 'torque_factor'):
+            if hasattr(checked, name):
+                setattr(rival, name, getattr(checked, name))
     rival.optimizer.update(inner_knots=0, inner_knots_duration=refined.duration)
     return rival
 
