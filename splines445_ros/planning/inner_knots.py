@@ -525,11 +525,17 @@ class _Candidate:
             return self.feasible
         return self.score < other.score
 
-    def relaxed(self, local, relax=RELAX):
-        """Step 6: ``local`` divided by each piece's factor to the ``relax`` on its grid points."""
+    def relaxed(self, local, relax=RELAX, floor=None):
+        """
+        Step 6: ``local`` divided by each piece's factor to the ``relax`` on its grid points.
+
+        With a ``floor``, factors below it count as it (1: only the pieces
+        over their limits are lowered, :func:`path_timing._polish`).
+        """
+        factors = self.factors if floor is None else np.maximum(self.factors, floor)
         piece_of = np.clip(np.searchsorted(self.knot_s, self.grid_s, side='right') - 1, 0,
-                           self.factors.size - 1)
-        return np.clip(local / self.factors[piece_of] ** relax, MIN_LOCAL_FACTOR, 1.0)
+                           factors.size - 1)
+        return np.clip(local / factors[piece_of] ** relax, MIN_LOCAL_FACTOR, 1.0)
 
 
 def plan_with_inner_knots(points, boundary, limits, most, dropped_waypoints=(),

@@ -43,8 +43,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from .inner_knots import (_Candidate, _iterate, _Timing, _trajectory, DEFAULT_SMOOTHING,
-                          MIN_LOCAL_FACTOR)
+from .inner_knots import _Candidate, _iterate, _Timing, _trajectory, DEFAULT_SMOOTHING
 from .path_constraints import GriddedPath, JointAcceleration, JointVelocity
 from .path_velocity import PathLimits
 
@@ -276,10 +275,7 @@ def _polish(path, best, boundary, limits, fractions):
     for _ in range(POLISH_ROUNDS):
         if float(np.max(best.factors)) <= 1.0:
             break
-        piece_of = np.clip(np.searchsorted(best.knot_s, best.grid_s, side='right') - 1, 0,
-                           best.factors.size - 1)
-        over = np.maximum(best.factors[piece_of], 1.0)
-        local = np.clip(best.local / over ** POLISH_RELAX, MIN_LOCAL_FACTOR, 1.0)
+        local = best.relaxed(best.local, POLISH_RELAX, floor=1.0)
         candidate = _Candidate(path, local, None, boundary, limits, True, fractions)
         count += 1
         if not (candidate.valid and candidate.better_than(best)):
