@@ -69,8 +69,7 @@ class ContinuitySystem:
         batch = np.atleast_2d(self.durations)
         self.n_batch, n_seg = batch.shape
         self.n_knots = n_seg + 1
-        types, tiled = _segment_types(self.definition, n_seg, self.n_batch)
-        self.types = types.copy()
+        tiled = _tiled_segment_types(self.definition, n_seg, self.n_batch)
         flat = batch.reshape(-1)
         maps = input_maps(tiled, flat)
         self._maps = maps.reshape(self.n_batch, n_seg, *maps.shape[1:])
@@ -257,12 +256,11 @@ def banded_solve(bandwidth, band, rhs, overwrite_b=False):
 
 
 @lru_cache(maxsize=64)
-def _segment_types(definition, n_seg, n_batch):
-    """Return the types of ``n_seg`` segments of ``definition``, and tiled ``n_batch`` times."""
-    types = definition.segment_types(n_seg)
-    tiled = np.tile(types, n_batch)
-    types.flags.writeable = tiled.flags.writeable = False   # shared by later systems
-    return types, tiled
+def _tiled_segment_types(definition, n_seg, n_batch):
+    """Return the types of ``n_seg`` segments of ``definition``, tiled ``n_batch`` times."""
+    tiled = np.tile(definition.segment_types(n_seg), n_batch)
+    tiled.flags.writeable = False   # shared by later systems
+    return tiled
 
 
 @lru_cache(maxsize=64)

@@ -55,7 +55,7 @@ class PathLimits:
 
     def __init__(self, path, constraints):
         """Prepare the bounds for factor 1."""
-        steps = np.diff(path.s)
+        steps = path.steps
         x_max = np.full(path.s.size, np.inf)
         a, b, lo, hi = [], [], [], []
         for constraint in constraints:

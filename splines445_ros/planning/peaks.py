@@ -220,17 +220,6 @@ def _flat_polynomials(coeffs, durations, derivatives):
     return flat_p, flat_p[:, 1:] * _POWERS[None, 1:width]
 
 
-def _normalised(coeffs, durations, derivative):
-    """
-    Return the d-th derivative and the next one in ``x = tau / T``, a row per segment and joint.
-
-    Returns ascending coefficients (S*m, 6-d) and (S*m, 5-d): coefficient
-    ``i`` of the derivative is multiplied by ``T**i``, so that every term is
-    comparable on ``x in [0, 1]``.
-    """
-    return _flat_polynomials(coeffs, durations, (derivative,))
-
-
 def _flat_candidates(flat_p, flat_dp):
     """Candidate points x in [0, 1] (K, 5) of the rows and the |polynomial| there."""
     candidates = np.zeros((flat_p.shape[0], 5))
@@ -294,7 +283,7 @@ def velocity_ratios_above(coeffs, durations, bounds, floor):
     else the ratio is the exact one.
     """
     S, _, m = np.shape(coeffs)
-    flat_p, flat_dp = _normalised(coeffs, durations, 1)
+    flat_p, flat_dp = _flat_polynomials(coeffs, durations, (1,))
     candidates = np.zeros((S * m, 5))
     candidates[:, 1] = 1.0
     # The ends exactly as segment_peaks evaluates them (two of its candidates).
