@@ -147,11 +147,7 @@ class JointTorque(AccelerationConstraint):
         a = self.inverse_dynamics(q, zero, first) - gravity
         b = self.inverse_dynamics(q, first, second) - gravity
         limit = np.broadcast_to(self.max_torque, gravity.shape)
-        over = np.abs(gravity) > limit
-        if np.any(over):
-            i, j = np.argwhere(over)[np.argmax((np.abs(gravity) / limit)[over])]
-            raise GravityOverload(int(i), int(j), q[i], float(gravity[i, j]),
-                                  float(limit[i, j]))
+        refuse_gravity_overload(q, gravity, limit)
         return a, b, -limit - gravity, limit - gravity
 
 
@@ -165,3 +161,18 @@ class GravityOverload(ValueError):
         super().__init__(f'joint {joint}: gravity alone needs {torque:.4g} N m at the pose '
                          f'{np.array2string(self.pose, precision=4)}, beyond its limit of '
                          f'{limit:.4g} N m: no speed along this path holds it')
+
+
+def refuse_gravity_overload(q, gravity, limit):
+    """
+    Raise :class:`GravityOverload` for the worst pose where gravity alone exceeds a limit.
+
+    ``q``, ``gravity`` and ``limit`` (N, n): the poses, their gravity
+    torques and the limits.  The worst is the largest ``|gravity| / limit``
+    (the first of equal ones, in sample then joint order).
+    """
+    over = np.abs(gravity) > limit
+    if np.any(over):
+        ratio = np.where(over, np.abs(gravity) / limit, 0.0)
+        i, j = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
+        raise GravityOverload(int(i), int(j), q[i], float(gravity[i, j]), float(limit[i, j]))

@@ -28,7 +28,7 @@ import math
 
 import numpy as np
 
-from .path_constraints import GravityOverload, JointTorque
+from .path_constraints import GravityOverload, JointTorque, refuse_gravity_overload
 from .segments import sample_segments
 
 CHECK_PERIOD = 1e-3
@@ -85,12 +85,7 @@ class TorqueLimit:
         gravity = self._torques(q, zero, zero)
         dynamic = (self._torques(q, qd, qdd) if tau is None else tau) - gravity
         limit = np.broadcast_to(self.max_torque, gravity.shape)
-        over = np.abs(gravity) > limit
-        if np.any(over):
-            ratio = np.where(over, np.abs(gravity) / limit, 0.0)
-            i, j = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
-            raise GravityOverload(int(i), int(j), q[i], float(gravity[i, j]),
-                                  float(limit[i, j]))
+        refuse_gravity_overload(q, gravity, limit)
         dynamic = dynamic + np.sign(dynamic) * bend
         room = np.where(dynamic >= 0.0, limit - gravity, -limit - gravity)
         with np.errstate(divide='ignore', invalid='ignore'):
