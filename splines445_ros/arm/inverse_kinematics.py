@@ -163,8 +163,7 @@ class ModelKinematics:
         value = np.array(value, dtype=float)
         if self._seed is None or value.shape != self._seed.shape or \
                 np.any(value != self._seed):
-            self._cache.clear()
-            self._reached.clear()
+            self.forget_walks()
         self._seed = value
 
     def forget_walks(self):
