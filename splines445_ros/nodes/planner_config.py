@@ -285,8 +285,6 @@ class PlannerConfig(ValidatedConfig):
                     raise ValueError(f'{name} is set but limit_torque is false: it only '
                                      'matters to the torque limits (set limit_torque:=true, '
                                      f'or leave {name} at its default)')
-            return
-        self._require_model_for_torque()
 
     def _require_model_for_torque(self):
         """Refuse limit_torque without kinematics "model" (checked first: it says why)."""
