@@ -11,7 +11,7 @@ import numpy as np
 
 from .diagnostics import format_vector
 from .ros_conversions import WaypointRequest
-from ..arm.tool_paths import plan_tool_path
+from ..arm.tool_paths import BOUNDARY_KEYWORDS, plan_tool_path
 from ..planning import check_position_limits, plan
 from ..planning.path_constraints import GravityOverload
 
@@ -38,7 +38,6 @@ TIME_RESOLUTION = 1e-9
 # The torque limits bind a plan whose peak torque reaches this share of a limit
 # (and more than any velocity, acceleration or jerk limit's share).
 TORQUE_BINDING = 0.999
-_BOUNDARY = ('start_velocity', 'start_acceleration', 'end_velocity', 'end_acceleration')
 
 
 def plan_request(config, request, torque=None):
@@ -101,7 +100,7 @@ def _named_joint(exc, joint_names):
 
 def _require_rest(config, request):
     """Refuse a request with non-zero boundary values under torque limits (ValueError)."""
-    moving = [(name, value) for name, value in zip(_BOUNDARY, (
+    moving = [(name, value) for name, value in zip(BOUNDARY_KEYWORDS, (
         request.start_velocity, request.start_acceleration, request.end_velocity,
         request.end_acceleration)) if value is not None and np.any(np.asarray(value) != 0.0)]
     if not moving:
