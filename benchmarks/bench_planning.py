@@ -24,7 +24,6 @@ rougher.  Also the paper's example (12x3 with its non-zero boundary values).
 import logging
 import os
 import sys
-import time
 
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but the rule holds
 
@@ -34,21 +33,11 @@ from scipy.interpolate import CubicSpline  # noqa: E402
 from shaking import of_toppra, shaking_figures, shaking_header, shaking_ratios  # noqa: E402
 from splines445_ros.arm import paper_example as pe  # noqa: E402
 from splines445_ros.planning import chord_durations, plan  # noqa: E402
+from wall_time import best_of  # noqa: E402
 
 SIZES = ((12, 3), (100, 7), (1000, 7), (10000, 7))
 METHODS = ('445', '434', '555')
 SEED = 445
-
-
-def best_time(func, repeats):
-    """Best wall time of ``repeats`` calls [s] and the last result."""
-    best = np.inf
-    result = None
-    for _ in range(repeats):
-        started = time.perf_counter()
-        result = func()
-        best = min(best, time.perf_counter() - started)
-    return best, result
 
 
 def random_request(n_points, n_joints, rng):
@@ -98,24 +87,22 @@ def main():
         repeats = 50 if n_points <= 100 else (10 if n_points <= 1000 else 3)
         times, trajs = {}, {}
         for method in METHODS:
-            times[method], trajs[method] = best_time(
+            times[method], trajs[method] = best_of(
                 lambda: plan(waypoints, method, max_velocity=vmax, max_acceleration=amax),
                 repeats)
-        tfit, _ = best_time(lambda: cubic_fit(waypoints), repeats)
+        tfit, _ = best_of(lambda: cubic_fit(waypoints), repeats)
         if n_points <= 1000 or full:
-            ttop, dtop = best_time(lambda: toppra_plan(waypoints, vmax, amax),
-                                   3 if n_points <= 100 else 1)
+            ttop, reference = best_of(lambda: toppra_trajectory(waypoints, vmax, amax),
+                                      3 if n_points <= 100 else 1)
             top = f'{1e3 * ttop:.1f}'
             top_ratio = f'{ttop / times["555"]:.0f}x'
-            top_duration = f'{dtop:.2f}'
-        else:
-            top, top_ratio, top_duration = 'skipped', '-', '-'
-        if n_points <= 1000 or full:
-            reference = toppra_trajectory(waypoints, vmax, amax)
+            top_duration = f'{reference.duration:.2f}'
             figures = shaking_figures(of_toppra(reference), reference.duration, amax)
             shaking_rows.append((n_points, n_joints, {
                 m: (trajs[m].duration / reference.duration,
                     shaking_ratios(trajs[m], figures, amax)) for m in METHODS}))
+        else:
+            top, top_ratio, top_duration = 'skipped', '-', '-'
         cells = ' | '.join(f'{1e3 * times[m]:.2f}' for m in METHODS)
         durations = ' | '.join(f'{trajs[m].duration:.2f}' for m in METHODS)
         print(f'| {n_points} x {n_joints} | {cells} | {1e3 * tfit:.2f} | {top} '
@@ -135,7 +122,7 @@ def main():
     print()
     print("Paper's example (12 x 3, non-zero boundary values, factor searched):")
     for method in METHODS:
-        elapsed, traj = best_time(lambda: plan(waypoints, method, **kwargs), 50)
+        elapsed, traj = best_of(lambda: plan(waypoints, method, **kwargs), 50)
         print(f'  {method} uniform: {1e3 * elapsed:.2f} ms, duration {traj.duration:.4f} s')
     return 0
 
