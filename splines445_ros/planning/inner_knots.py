@@ -83,7 +83,7 @@ from .continuity_system import spline_coefficients
 from .limits import limit_ratios
 from .path_constraints import GravityOverload, GriddedPath, JointAcceleration, JointVelocity
 from .path_velocity import path_position, PathLimits, traversal_times
-from .peaks import row_max, segment_peaks_of, velocity_ratios_above
+from .peaks import row_max, velocity_ratios_above
 from .timing import closed_form_scale, rest_to_rest_durations
 from .trajectory import _check_finite, representable_durations, Trajectory
 
@@ -358,12 +358,7 @@ def exact_factors(coeffs, pieces, limits):
     """
     bounds = limits.as_array()
     prune = np.shape(coeffs)[0] * bounds.shape[1] >= PRUNE_ROWS
-    derivatives = (2, 3) if prune else (1, 2, 3)
-    if np.all(np.isinf(bounds[2])):
-        derivatives = derivatives[:-1]
-    ratios = np.zeros(np.shape(coeffs)[:1] + (bounds.shape[1], 3))
-    for peaks, derivative in zip(segment_peaks_of(coeffs, pieces, derivatives), derivatives):
-        ratios[..., derivative - 1] = peaks / bounds[derivative - 1][None, :]
+    ratios = limit_ratios(coeffs, pieces, limits, velocity=not prune)
     powered = ratios ** (1.0 / np.arange(1, 4))[None, None, :]
     # Maxima over short axes, element-wise (numpy's reductions over them are slow).
     factors = np.maximum(np.maximum(powered[..., 0], powered[..., 1]), powered[..., 2])

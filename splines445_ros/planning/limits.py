@@ -44,14 +44,21 @@ class BindingLimit:
     ratio: float
 
 
-def limit_ratios(coeffs, durations, limits):
-    """Peak / limit for every segment, joint and quantity: shape (S, n, 3)."""
+def limit_ratios(coeffs, durations, limits, velocity=True):
+    """
+    Peak / limit for every segment, joint and quantity: shape (S, n, 3).
+
+    ``velocity`` False leaves the velocity ratios at 0 (a caller that bounds
+    them otherwise: :func:`inner_knots.exact_factors`).
+    """
     bounds = limits.as_array()
     ratios = np.zeros(np.shape(coeffs)[:1] + (bounds.shape[1], 3))
-    derivatives = (1, 2) if np.isinf(bounds[2]).all() else (1, 2, 3)
+    derivatives = (1, 2, 3) if velocity else (2, 3)
+    if np.isinf(bounds[2]).all():
+        derivatives = derivatives[:-1]
     # All peaks in one pass: segment_peaks_of gives segment_peaks' values.
-    for q, peaks in enumerate(segment_peaks_of(coeffs, durations, derivatives)):
-        ratios[..., q] = peaks / bounds[q][None, :]
+    for peaks, derivative in zip(segment_peaks_of(coeffs, durations, derivatives), derivatives):
+        ratios[..., derivative - 1] = peaks / bounds[derivative - 1][None, :]
     return ratios
 
 
