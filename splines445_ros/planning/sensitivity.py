@@ -137,6 +137,17 @@ class PeakJacobian:
             out += np.abs(self._tail(np.cumsum(np.abs(self.weight), axis=0)))
         return out
 
+    def dense_rows(self, rows):
+        """Return the rows ``rows`` of the Jacobian as a dense (len(rows), S) array."""
+        rows = np.asarray(rows, int)
+        out = self.band[rows].toarray()
+        if self.has_tail:
+            k = np.arange(self.shape[1])
+            below = k[None, :] <= self.row_segment[rows, None] - self.lag
+            out += np.where(below, self.beta[rows, None] * self.weight[:, self.row_joint[rows]].T,
+                            0.0)
+        return out
+
     def tail_columns(self, rows):
         """Return (positions in ``rows``, running-sum indices m * n + j) of their tail entries."""
         rows = np.asarray(rows)
