@@ -237,6 +237,7 @@ class _Timing:
         subsets = [[k for k in range(n) if subset >> k & 1] for subset in range(1 << n)]
         self._shifts = np.array([sum(self.widths[k] for k in ks) for ks in subsets])
         self._signs = np.array([(-1.0) ** len(ks) for ks in subsets])
+        self._product = np.prod(self.widths)
         # A table for time_at: the profile's grid times, moved by none, half
         # and all of the windows (the average passes the grid points about
         # half the windows later; the others keep the ramps at the ends,
@@ -246,12 +247,16 @@ class _Timing:
         self._s = np.maximum.accumulate(self.position_at(self._t))
 
     def _antiderivative(self, t):
-        i = np.clip(np.searchsorted(self.times, t, side='right') - 1, 0, self.s.size - 1)
+        # Few numpy calls: small requests call this thousands of times.
+        i = self.times.searchsorted(t, side='right') - 1
+        np.maximum(i, 0, out=i)
         tau = t - self.times[i]
-        value = self.poly[i, -1]
+        rows = self.poly[i]
+        value = rows[..., -1]
         for k in range(self.poly.shape[1] - 2, -1, -1):
-            value = value * tau + self.poly[i, k]
-        return np.where(t > 0.0, value, 0.0)
+            value = value * tau + rows[..., k]
+        value[t <= 0.0] = 0.0
+        return value
 
     def position_at(self, t):
         """Return the path position at the times ``t``."""
@@ -261,7 +266,7 @@ class _Timing:
         # Repeated moving averages: differences of the k-th antiderivative,
         # at all 2**k shifts in one call.
         values = self._antiderivative(t[..., None] - self._shifts)
-        return np.clip(values @ self._signs / np.prod(self.widths), 0.0, self.s[-1])
+        return np.minimum(np.maximum(values @ self._signs / self._product, 0.0), self.s[-1])
 
     def time_at(self, s):
         """
