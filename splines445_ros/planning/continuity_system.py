@@ -42,7 +42,8 @@ def spline_coefficients(method, points, durations, boundary):
     (B, S, 6, n).  ``boundary`` is (v_start, a_start, v_end, a_end).
     """
     system = ContinuitySystem(method, durations)
-    dP = np.diff(points, axis=0)
+    points = np.asarray(points)
+    dP = points[1:] - points[:-1]   # np.diff's values, without its wrapper
     vel, acc = system.solve(dP, *boundary)
     return system.coefficients(points[:-1], dP, vel, acc)
 

