@@ -212,3 +212,43 @@ def test_optimal_timing_has_no_segment_cap(method):
     assert feasible(optimal, kwargs['max_velocity'], kwargs['max_acceleration'], None)
     assert optimal.duration < 0.9 * uniform.duration
     np.testing.assert_allclose(optimal.evaluate(optimal.breakpoints), points, atol=1e-9)
+
+
+@settings(max_examples=25)
+@given(seed=st.integers(0, 2**32 - 1), n_points=st.integers(3, 8),
+       share=st.sampled_from([0.8, 0.95, 1.0, 1.05, 1.3]))
+def test_a_rival_that_gives_up_is_none_only_when_it_cannot_win(seed, n_points, share):
+    # With a total to beat, optimal_durations skips the rest of a rival
+    # (its scaled start, its restoring and building) only when it cannot
+    # beat that total; otherwise its plan is the one without those shortcuts.
+    from splines445_ros.planning import optimal
+    from splines445_ros.planning.limits import JointLimits
+    from splines445_ros.planning.timing import (chord_durations, rest_to_rest_lower_bound,
+                                                rest_to_rest_scale, scaled_spline)
+    from splines445_ros.planning.trajectory import Trajectory
+    rng = np.random.default_rng(seed)
+    n = 3
+    points = np.cumsum(rng.uniform(-1.0, 1.0, (n_points, n)), axis=0)
+    limits = JointLimits.from_user(n, rng.uniform(1.0, 3.0, n), rng.uniform(5.0, 15.0, n),
+                                   20.0 * rng.uniform(5.0, 15.0, n))
+    boundary = (np.zeros(n),) * 4
+    spline, scale, ratios = scaled_spline('555', points, chord_durations(points), boundary,
+                                          limits)
+    assert rest_to_rest_lower_bound(spline, limits) <= rest_to_rest_scale(spline, limits)
+    uniform = Trajectory.build('555', 'uniform', points, spline.durations(scale), boundary,
+                               limits, spline.coefficients(scale), ratios, scale=scale)
+    start = spline.durations(scale) * rng.uniform(0.6, 1.0, n_points - 1)
+    give_up = share * plan(points, '555', 'optimal', inner_knots=0, max_velocity=limits.velocity,
+                           max_acceleration=limits.acceleration,
+                           max_jerk=limits.jerk).duration
+    args = ('555', points, start, boundary, limits, (), uniform, 1e-4, give_up)
+    fast = optimal_durations(*args)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(optimal, '_beyond_give_up', lambda state, total: False)
+        patch.setattr(optimal, 'CANNOT_WIN_RTOL', np.inf)
+        full = optimal_durations(*args)
+    if fast is None:
+        assert full.duration > give_up
+    else:
+        np.testing.assert_array_equal(fast.breakpoints, full.breakpoints)
+        np.testing.assert_array_equal(fast.coefficients, full.coefficients)

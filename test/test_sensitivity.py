@@ -57,3 +57,30 @@ def test_445_tail_is_accurate_with_unequal_durations():
         central = (ratios.evaluate(x + step)['log_ratios'].ravel()
                    - ratios.evaluate(x - step)['log_ratios'].ravel()) / (2 * h)
         np.testing.assert_allclose(jac @ (step / h), central, atol=1e-4)
+
+
+@settings(max_examples=30)
+@given(seed=st.integers(0, 2**32 - 1), n_points=st.sampled_from([2, 3, 5, 12]),
+       jerk=st.booleans())
+def test_a_state_is_only_skipped_when_its_restored_total_is_above(seed, n_points, jerk):
+    # evaluate(above=...) returns None for a state only when a lower bound
+    # of its restored total already exceeds ``above``: never a state that
+    # the caller (optimal's warm start and trust region) would have kept.
+    rng = np.random.default_rng(seed)
+    n = 3
+    points = np.cumsum(rng.uniform(-1.0, 1.0, (n_points, n)), axis=0)
+    limits = JointLimits.from_user(n, rng.uniform(1.0, 3.0, n), rng.uniform(5.0, 15.0, n),
+                                   rng.uniform(20.0, 200.0, n) if jerk else None)
+    zeros = np.zeros(n)
+    ratios = PeakRatios('555', points, (zeros,) * 4, limits)
+    x = np.log(rng.uniform(0.3, 1.5, n_points - 1))
+    state = ratios.evaluate(x)
+    restored = state['durations'].sum() * np.exp(max(0.0, np.max(state['log_ratios'])))
+    for above in restored * np.array([0.5, 0.9, 0.99, 0.999999, 1.0, 1.01, 2.0]):
+        skipped = ratios.evaluate(x, above)
+        if skipped is None:
+            assert restored > above
+        else:
+            np.testing.assert_array_equal(skipped['log_ratios'], state['log_ratios'])
+    # A bound from sampled values that is far below decides nothing.
+    assert ratios.evaluate(x, 2.0 * restored) is not None

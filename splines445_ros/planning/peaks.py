@@ -29,6 +29,8 @@ _BERNSTEIN = np.array([[comb(k, i) / comb(4, i) for i in range(5)] for k in rang
 _THIRDS = 2.0 * np.pi / 3.0 * np.arange(3)[None, :]
 # Exponents of the polynomial terms.
 _POWERS = np.arange(16)
+# Points x = tau / T at which sampled_peaks evaluates: the ends and the eighths.
+_SAMPLES = np.linspace(0.0, 1.0, 9)
 
 
 @lru_cache(maxsize=None)
@@ -173,27 +175,28 @@ def _unit_interval_roots(q, out):
         # Only cubics (no rows for the closed forms below).
         roots = _cubic_roots(q)
     else:
-        roots = np.full((K, 3), np.nan)
-        if n_cubic:
-            roots[cubic] = _cubic_roots(q[cubic])
-            rest = ~cubic
-            a, b, c = q[rest, 2], q[rest, 1], q[rest, 0]
-        else:
-            rest = slice(None)
-            a = q[:, 2] if width > 2 else np.zeros(K)
-            b, c = q[:, 1], q[:, 0]
+        # The closed forms on every row (element-wise, so the rows that are
+        # not cubics get the values they would get alone), then the cubics'
+        # roots over theirs: fewer numpy calls than selecting the other rows
+        # (102 -> 91 us on the 18 rows of a 3 x 3 rival's evaluation).
+        a = q[:, 2] if width > 2 else np.zeros(K)
+        b, c = q[:, 1], q[:, 0]
         quad = np.abs(a) > _DEGENERATE
+        roots = np.empty((K, 3))
         with np.errstate(invalid='ignore', divide='ignore'):
             sq = np.sqrt(b * b - 4.0 * a * c)  # NaN when there is no real root
             half = -0.5 * (b + np.copysign(sq, b))
-            roots[rest, 0] = np.where(quad, half / a,
-                                      np.where(np.abs(b) > _DEGENERATE, -c / b, np.nan))
-            roots[rest, 1] = np.where(quad & (half != 0.0), c / half, np.nan)
+            roots[:, 0] = np.where(quad, half / a,
+                                   np.where(np.abs(b) > _DEGENERATE, -c / b, np.nan))
+            roots[:, 1] = np.where(quad & (half != 0.0), c / half, np.nan)
+        roots[:, 2] = np.nan
+        if n_cubic:
+            roots[cubic] = _cubic_roots(q[cubic])
     inside = (roots > 0.0) & (roots < 1.0)
     out[:] = np.where(inside, roots, 0.0)
 
 
-def _flat_polynomials(coeffs, durations, derivatives):
+def flat_polynomials(coeffs, durations, derivatives):
     """
     Return the ``derivatives`` and their next derivatives in ``x = tau / T``, a row each.
 
@@ -229,9 +232,23 @@ def _flat_candidates(flat_p, flat_dp):
     return candidates, np.abs(values, out=values)
 
 
+def sampled_peaks(flat_p):
+    """
+    Lower bounds of the rows' peaks (K,): the largest ``|p|`` at the points :data:`_SAMPLES`.
+
+    ``flat_p`` as from :func:`flat_polynomials`.  Evaluated like the
+    candidates of the exact peaks, without their root finding (a third of
+    the cost of :func:`peak_sensitivities_of` on a small spline): within
+    round-off of the polynomial's values below the exact peaks, so a bound
+    that shows a state to be too long spares its exact peaks.
+    """
+    x = np.broadcast_to(_SAMPLES, (flat_p.shape[0], _SAMPLES.size))
+    return row_max(np.abs(_horner(flat_p, x)))
+
+
 def _candidates(coeffs, durations, derivative):
     """Candidate points x in [0, 1] (S*m, 5) and the |d-th derivative| there."""
-    return _flat_candidates(*_flat_polynomials(coeffs, durations, (derivative,)))
+    return _flat_candidates(*flat_polynomials(coeffs, durations, (derivative,)))
 
 
 def segment_peaks(coeffs, durations, derivative):
@@ -259,7 +276,7 @@ def segment_peaks_of(coeffs, durations, derivatives):
     bit for bit.
     """
     S, _, m = np.shape(coeffs)
-    _, values = _flat_candidates(*_flat_polynomials(coeffs, durations, tuple(derivatives)))
+    _, values = _flat_candidates(*flat_polynomials(coeffs, durations, tuple(derivatives)))
     return row_max(values).reshape(len(derivatives), S, m)
 
 
@@ -283,7 +300,7 @@ def velocity_ratios_above(coeffs, durations, bounds, floor):
     else the ratio is the exact one.
     """
     S, _, m = np.shape(coeffs)
-    flat_p, flat_dp = _flat_polynomials(coeffs, durations, (1,))
+    flat_p, flat_dp = flat_polynomials(coeffs, durations, (1,))
     candidates = np.zeros((S * m, 5))
     candidates[:, 1] = 1.0
     # The ends exactly as segment_peaks evaluates them (two of its candidates).
@@ -380,7 +397,7 @@ def peak_sensitivities(coeffs, durations, derivative):
     return peak_sensitivities_of(coeffs, durations, (derivative,))[0]
 
 
-def peak_sensitivities_of(coeffs, durations, derivatives):
+def peak_sensitivities_of(coeffs, durations, derivatives, flat=None):
     """
     :func:`peak_sensitivities` of several ``derivatives`` at once: a list of its results.
 
@@ -388,12 +405,16 @@ def peak_sensitivities_of(coeffs, durations, derivatives):
     :func:`segment_peaks_of` (the padding leaves them unchanged), and the
     powers of every peak's time once for a derivative and the next one:
     the results are those of :func:`peak_sensitivities`, bit for bit.
+    ``flat``, when given, is ``flat_polynomials(coeffs, durations,
+    derivatives)``, computed already.
     """
     c = np.asarray(coeffs, dtype=float)
     T = np.asarray(durations, dtype=float)
     S, n_terms, m = c.shape
     k = len(derivatives)
-    candidates, values = _flat_candidates(*_flat_polynomials(c, T, tuple(derivatives)))
+    if flat is None:
+        flat = flat_polynomials(c, T, tuple(derivatives))
+    candidates, values = _flat_candidates(*flat)
     best = np.argmax(values, axis=1)
     rows = np.arange(k * S * m)
     x = candidates[rows, best].reshape(k, S, m)

