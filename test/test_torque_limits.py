@@ -19,6 +19,8 @@ EXAMPLES = int(os.environ.get('SPLINES445_PROPERTY_EXAMPLES', '12'))
 # The 1 kHz check holds the torque within 0.5 % between its samples (issue 25).
 TORQUE_RTOL = 5e-3
 ROUTES = [('555', 'optimal'), ('555', 'uniform'), ('445', 'uniform'), ('434', 'optimal')]
+# Two knots-only optima of one request, from different starts (test_inner_knots).
+RIVAL_GAP = 5e-3
 
 
 def dense_torques(traj, dynamics, rate=10000.0):
@@ -152,3 +154,29 @@ def test_ur5_with_a_payload_holds_its_effort_limits():
     peak = np.max(np.abs(dense_torques(traj, dynamics.torques, 5000.0)), axis=0) / limit
     assert np.all(peak <= 1.0 + TORQUE_RTOL)
     assert max(peak.max(), np.max(traj.limit_ratios())) >= 0.98
+
+
+@settings(max_examples=EXAMPLES, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1))
+def test_with_torque_limits_a_plan_is_not_longer_than_its_knots_only_plan(seed):
+    """
+    The knots-only rival is compared as returned, slowed down for the torque.
+
+    A rival whose slow-down makes it longer than the inner-knot plan is
+    dropped without a second check; one that stays shorter must win.  Both
+    knots-only plans are local optima of the same problem, the rival's
+    warm-started, so they may differ by the optimiser's tolerance.
+    """
+    rng = np.random.default_rng(seed)
+    points, limit = random_request(rng)
+    kwargs = {'max_velocity': [4.0, 4.0], 'max_acceleration': [200.0, 200.0],
+              'max_jerk': [4000.0, 4000.0], 'max_torque': limit,
+              'inverse_dynamics': two_link_torques}
+    try:
+        knots_only = plan(points, '555', 'optimal', inner_knots=0, **kwargs)
+        traj = plan(points, '555', 'optimal', **kwargs)
+    except ValueError as exc:
+        assert 'gravity alone' in str(exc)
+        return
+    assert traj.duration <= knots_only.duration * (1.0 + RIVAL_GAP)
+    assert traj.torque_factor <= 1.0
