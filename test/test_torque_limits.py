@@ -180,3 +180,24 @@ def test_with_torque_limits_a_plan_is_not_longer_than_its_knots_only_plan(seed):
         return
     assert traj.duration <= knots_only.duration * (1.0 + RIVAL_GAP)
     assert traj.torque_factor <= 1.0
+
+
+@settings(max_examples=EXAMPLES, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1))
+def test_the_coarse_torque_factor_is_a_lower_bound_of_the_dense_one(seed):
+    """factor_at_least (10 ms samples) against the slow-down 10 kHz samples need, computed here."""
+    from splines445_ros.planning.torque import TorqueLimit
+    rng = np.random.default_rng(seed)
+    points, limit = random_request(rng)
+    traj = plan(points, '555', 'fixed', durations=rng.uniform(0.2, 1.0, len(points) - 1))
+    t = np.linspace(0.0, traj.duration, int(traj.duration * 1e4) + 2)
+    q, qd, qdd = (traj.evaluate(t, d) for d in range(3))
+    gravity = two_link_torques(q, 0 * q, 0 * q)
+    dynamic = two_link_torques(q, qd, qdd) - gravity
+    room = np.where(dynamic >= 0.0, limit - gravity, -limit - gravity)
+    dense = np.sqrt(np.max(np.where(dynamic == 0.0, 0.0, dynamic / room)))
+    torque = TorqueLimit(limit, two_link_torques, 2)
+    assert torque.factor_at_least(traj) <= dense * (1.0 + 1e-9)
+    assert torque.factor_at_least(traj) <= torque.time_factor(traj)[0] * (1.0 + 1e-9)
+    # Not a vacuous bound: within 5 % of the dense factor on these smooth splines.
+    assert torque.factor_at_least(traj) >= 0.95 * dense
