@@ -201,3 +201,31 @@ def test_the_coarse_torque_factor_is_a_lower_bound_of_the_dense_one(seed):
     assert torque.factor_at_least(traj) <= torque.time_factor(traj)[0] * (1.0 + 1e-9)
     # Not a vacuous bound: within 5 % of the dense factor on these smooth splines.
     assert torque.factor_at_least(traj) >= 0.95 * dense
+
+
+@settings(max_examples=EXAMPLES, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1))
+def test_an_acceleration_limit_the_torque_keeps_below_does_not_change_the_plan(seed):
+    """
+    With torque limits a joint needs no acceleration limit: the node's stand-in must not matter.
+
+    The inner knots' jerk ramp took its acceleration from the limits, so
+    the plan depended on the stand-in although no acceleration reached it:
+    with 1e5 rad/s^2 (and jerk 1e5) every segment got one inner knot, with
+    1e3 four.  The smoothing windows of vibration_frequency keep the
+    knots-only rival out.
+    """
+    rng = np.random.default_rng(seed)
+    points, limit = random_request(rng)
+    kwargs = {'max_velocity': [4.0, 4.0], 'max_jerk': [1e5, 1e5], 'max_torque': limit,
+              'inverse_dynamics': two_link_torques}
+    try:
+        plans = [plan(points, '555', 'optimal', max_acceleration=[a, a], inner_knots=4,
+                      vibration_frequency=20.0, **kwargs) for a in (1e3, 1e5)]
+    except ValueError as exc:
+        assert 'gravity alone' in str(exc)
+        return
+    reached = np.max(np.abs(plans[0].evaluate(np.linspace(0, plans[0].duration, 2000), 2)))
+    assert reached < 1e3
+    assert plans[0].duration == plans[1].duration
+    np.testing.assert_array_equal(plans[0].breakpoints, plans[1].breakpoints)

@@ -84,7 +84,8 @@ from scipy.interpolate import CubicSpline
 from .continuity_system import spline_coefficients
 from .limits import limit_ratios
 from .path_constraints import GravityOverload, GriddedPath, JointAcceleration, JointVelocity
-from .path_velocity import path_position, PathLimits, traversal_times
+from .path_velocity import (joint_acceleration_peaks, path_position, PathLimits,
+                            traversal_times)
 from .peaks import row_max, velocity_ratios_above
 from .timing import closed_form_scale, rest_to_rest_durations
 from .trajectory import _check_finite, representable_durations, Trajectory
@@ -355,7 +356,8 @@ def inner_knot_count(value, method, timing):
     return value
 
 
-def knots_per_segment(segment_times, limits, most, min_piece=0.0, ramp_pieces=RAMP_PIECES):
+def knots_per_segment(segment_times, limits, most, min_piece=0.0, ramp_pieces=RAMP_PIECES,
+                      acceleration=None):
     """
     Inner knots of every segment (S,): ``most``, fewer where pieces would be short (step 3).
 
@@ -363,8 +365,13 @@ def knots_per_segment(segment_times, limits, most, min_piece=0.0, ramp_pieces=RA
     and at least one, ``piece`` the larger of ``min_piece`` and
     ``ramp_pieces`` times the longest jerk ramp ``a_j / j_j`` of the joints
     (0 without jerk limits; then ``most`` when ``min_piece`` is 0 too).
+    ``acceleration`` (n,) replaces the limits' in that ramp: the joints'
+    accelerations when the torque limits them
+    (:func:`ramp_accelerations`).
     """
-    piece = max(ramp_pieces * float(np.max(limits.acceleration / limits.jerk)), min_piece)
+    if acceleration is None:
+        acceleration = limits.acceleration
+    piece = max(ramp_pieces * float(np.max(acceleration / limits.jerk)), min_piece)
     counts = np.full(segment_times.size, most)
     if piece > 0.0:
         fit = np.floor(segment_times / piece) - 1
@@ -411,8 +418,9 @@ class _Path:
     The grid ``s`` and its ``steps``, the path's velocity and acceleration
     limits along it (``limits``, a :class:`PathLimits`), the ``ppoly``, the
     ``points``, the squared path speeds at the ends (``start``, ``end``: 0
-    at rest, 1 with boundary values, which the path has in its own time) and
-    the ``most`` inner knots per segment.
+    at rest, 1 with boundary values, which the path has in its own time),
+    the ``most`` inner knots per segment and the accelerations of step 3's
+    jerk ramp (``ramp_acceleration``, :func:`ramp_accelerations`).
     """
 
     def __init__(self, points, boundary, limits, most, windows, end_share=1.0, torque=None):
@@ -445,9 +453,31 @@ class _Path:
         constraints = (JointVelocity(limits.velocity), JointAcceleration(limits.acceleration))
         if torque is not None:
             constraints += (torque.constraint(),)
-        self.limits = PathLimits(GriddedPath.of_ppoly(self.ppoly, self.s), constraints)
+        gridded = GriddedPath.of_ppoly(self.ppoly, self.s)
+        self.limits = PathLimits(gridded, constraints)
         # The torque of each piece (step 5): a factor like the exact v/a/j ones.
         self.piece_factors = None if torque is None else torque.piece_factors
+        self.ramp_acceleration = ramp_accelerations(self.limits, gridded, limits,
+                                                    torque is not None)
+
+
+def ramp_accelerations(path_limits, gridded, limits, torque_limited):
+    """
+    Return the accelerations (n,) of step 3's jerk ramp, or None for the limits' own.
+
+    With torque limits the acceleration limits are a stand-in (a URDF has
+    none; the node puts 1000 rad/s^2) and the torque sets the accelerations:
+    then each joint's largest acceleration on the fastest profile
+    (:func:`path_velocity.joint_acceleration_peaks`), at most its limit.
+    With the stand-in's a / j the pieces had to last seconds, a segment got
+    one inner knot, and bench_torque's plans (no smoothing windows, jerk 50
+    times TOPP-RA's peak accelerations) were 1.01-1.40 times TOPP-RA's
+    duration; with these, 0.98-1.25.
+    """
+    if not torque_limited:
+        return None
+    x = path_limits.profile(np.ones(gridded.s.size))
+    return np.minimum(limits.acceleration, joint_acceleration_peaks(gridded, x))
 
 
 class _Profile:
@@ -511,7 +541,8 @@ class _Candidate:
             if counts is None:
                 counts = knots_per_segment(passed[1:] - passed[:-1], limits, path.most,
                                            getattr(path, 'min_piece', 0.0),
-                                           getattr(path, 'ramp_pieces', RAMP_PIECES))
+                                           getattr(path, 'ramp_pieces', RAMP_PIECES),
+                                           path.ramp_acceleration)
             fractions = [np.arange(c + 1) / (c + 1) for c in counts]
         else:
             counts = np.array([f.size - 1 for f in fractions])

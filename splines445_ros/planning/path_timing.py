@@ -43,8 +43,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from .inner_knots import _Candidate, _iterate, _Timing, _trajectory, DEFAULT_SMOOTHING
-from .path_constraints import GriddedPath, JointAcceleration, JointVelocity
+from .inner_knots import (_Candidate, _iterate, _Timing, _trajectory, DEFAULT_SMOOTHING,
+                          ramp_accelerations)
+from .path_constraints import GriddedPath, JointAcceleration, JointTorque, JointVelocity
 from .path_velocity import PathLimits
 
 # Grid steps of the speed profile per interval between two path samples.
@@ -100,7 +101,8 @@ class JointPathSamples:
 
     What :class:`inner_knots._Candidate` reads: ``s``, ``steps``,
     ``waypoint_s``, ``points``, ``ppoly``, ``limits`` (a :class:`PathLimits`),
-    ``start``, ``end``, ``most``, :meth:`timing` and ``piece_factors``.
+    ``start``, ``end``, ``most``, :meth:`timing`, ``piece_factors`` and
+    ``ramp_acceleration`` (:func:`inner_knots.ramp_accelerations`).
     """
 
     def __init__(self, s, q, waypoint_index, limits, constraints=(),
@@ -131,6 +133,9 @@ class JointPathSamples:
         self.piece_factors = piece_factors
         self.stops = self._stops(self.limits.profile(np.ones(self.s.size)))
         self.limits.stop_at(self.stops)
+        self.ramp_acceleration = ramp_accelerations(
+            self.limits, self.gridded, limits,
+            any(isinstance(c, JointTorque) for c in constraints))
         if jerk_ramps:
             self.limits.x_max = np.minimum(self.limits.x_max,
                                            self._ramps(self.gridded.first, limits.jerk))

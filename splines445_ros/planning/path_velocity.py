@@ -186,6 +186,21 @@ def _forward(accelerating, square, two_ds, beta, start):
     return np.array(x)
 
 
+def joint_acceleration_peaks(path, x):
+    """
+    Return each joint's largest ``|q''|`` in time (n,) along the profile ``x`` of ``path``.
+
+    ``path`` a :class:`path_constraints.GriddedPath`.  The path acceleration
+    ``u`` is constant on a step, so at both ends of step i the joint
+    acceleration is ``q' u_i + q'' x`` (the velocity-dependent part at the
+    grid point's speed).
+    """
+    u = (x[1:] - x[:-1]) / (2.0 * path.steps)
+    ends = [path.first[:-1] * u[:, None] + path.second[:-1] * x[:-1, None],
+            path.first[1:] * u[:, None] + path.second[1:] * x[1:, None]]
+    return np.max(np.abs(np.concatenate(ends)), axis=0, initial=0.0)
+
+
 def traversal_times(x, steps):
     """Time at every grid point (M + 1,) of the profile ``x`` (``u`` constant per step)."""
     root = np.sqrt(np.maximum(x, 0.0))
