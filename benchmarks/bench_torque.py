@@ -9,20 +9,25 @@ rated payload (UR5 5 kg, Panda 3 kg; a point mass 0.1 m from the flange
 along the tool frame's z).  Limits: velocity and torque from the URDF
 (``<limit velocity>``, ``<limit effort>``); no acceleration limit in
 effect (plan() needs one: :data:`NO_ACCELERATION_LIMIT` rad/s^2 on every
-joint); jerk :data:`JERK_RATIO` times the path's typical acceleration
-``a``.  The inverse dynamics is :class:`splines445_ros.arm.dynamics.
+joint); jerk :data:`JERK_RATIO` times a typical acceleration (below).
+The inverse dynamics is :class:`splines445_ros.arm.dynamics.
 ArmDynamics` (MuJoCo RNE, payload included), the same function for both
 planners.
 
-* Today's practice, and the typical acceleration ``a``: one constant
-  acceleration limit common to all joints (jerk :data:`JERK_RATIO` times
-  it), the largest (bisection over :data:`BISECTION_RANGE`) for which 555
-  optimal without torque limits keeps every 1 kHz torque sample within its
-  limit on that path.
+* Today's practice: one constant acceleration limit ``a`` common to all
+  joints (jerk :data:`JERK_RATIO` times it), the largest (bisection over
+  :data:`BISECTION_RANGE`) for which 555 optimal without torque limits
+  keeps every 1 kHz torque sample within its limit on that path.
 * Ours: ``plan(points, '555', 'optimal', max_velocity, max_acceleration,
-  max_jerk, max_torque, inverse_dynamics)``, max_jerk :data:`JERK_RATIO`
-  ``* a``; and the same with ``inner_knots=0`` (knots at the waypoints
-  only, slowed down uniformly for the torque), for comparison.
+  max_jerk, max_torque, inverse_dynamics)``; and the same with
+  ``inner_knots=0`` (knots at the waypoints only, slowed down uniformly for
+  the torque), for comparison.  The typical acceleration of each joint is
+  the largest its motors give it on that path: its peak in TOPP-RA's
+  torque-limited plan (:func:`typical_accelerations`); max_jerk is
+  :data:`JERK_RATIO` times that, a ramp of 20 ms to it.  (Until issue 25's
+  second stop it was today's ``a``, the cautious worst case: ramps of
+  0.1-0.5 s to the accelerations the torque allows, and the jerk bound most
+  plans.)
 * TOPP-RA: toppra's ``JointVelocityConstraint`` and ``JointTorqueConstraint``
   (the same inverse dynamics, one sample per call, no dry friction) on its
   own cubic spline through the waypoints over normalised chord length,
@@ -64,6 +69,7 @@ RANGE_MARGIN = 0.05             # [rad] kept from each end of a joint's range
 PAYLOAD_OFFSET = (0.0, 0.0, 0.1)    # [m] payload centre of mass in the tool frame
 NO_ACCELERATION_LIMIT = 1e3     # [rad/s^2] plan() needs one; never binds
 JERK_RATIO = 50.0               # jerk limit = JERK_RATIO * typical acceleration
+MIN_TYPICAL = 1e-3              # [rad/s^2] floor of a joint's typical acceleration
 BINDS = 0.99                    # a limit this close is reported as reached
 REPEATS = 3
 CHECK_PERIOD = 1e-3             # [s] torque check
@@ -162,6 +168,12 @@ def bisected_acceleration(points, vmax, torques, tau_max):
     return np.exp(low), best
 
 
+def typical_accelerations(top):
+    """Each joint's largest |acceleration| (n,) in the toppra trajectory ``top``, 1 kHz samples."""
+    t = np.arange(0.0, top.duration, CHECK_PERIOD)
+    return np.maximum(np.max(np.abs(top.evaldd(t)), axis=0), MIN_TYPICAL)
+
+
 def binding(traj, ours_peak):
     """Which limits the plan reaches (ratio >= :data:`BINDS`): 'v', 'j', 'tau' or '-'."""
     vaj = np.max(traj.limit_ratios(), axis=(0, 1))
@@ -179,16 +191,15 @@ def run_row(name, robot, joints, tool, payload, paths, vmax, tau_max):
     rows = []
     for case, points in enumerate(paths):
         typical, slow = bisected_acceleration(points, vmax, torques, tau_max)
+        t_top, top = best_of(lambda: toppra_torque(points, vmax, tau_max, torques))
+        jerk = JERK_RATIO * typical_accelerations(top)
         t_ours, traj = best_of(lambda: plan(
             points, '555', 'optimal', max_velocity=vmax,
-            max_acceleration=np.full(n, NO_ACCELERATION_LIMIT),
-            max_jerk=np.full(n, JERK_RATIO * typical), max_torque=tau_max,
-            inverse_dynamics=torques))
+            max_acceleration=np.full(n, NO_ACCELERATION_LIMIT), max_jerk=jerk,
+            max_torque=tau_max, inverse_dynamics=torques))
         knots_only = plan(points, '555', 'optimal', inner_knots=0, max_velocity=vmax,
-                          max_acceleration=np.full(n, NO_ACCELERATION_LIMIT),
-                          max_jerk=np.full(n, JERK_RATIO * typical), max_torque=tau_max,
-                          inverse_dynamics=torques)
-        t_top, top = best_of(lambda: toppra_torque(points, vmax, tau_max, torques))
+                          max_acceleration=np.full(n, NO_ACCELERATION_LIMIT), max_jerk=jerk,
+                          max_torque=tau_max, inverse_dynamics=torques)
         fine = toppra_torque(points, vmax, tau_max, torques, interpolation=True)
         ours_peak = np.max(peak_torque(ours_samples(traj), torques, tau_max))
         knots_peak = np.max(peak_torque(ours_samples(knots_only), torques, tau_max))
@@ -227,17 +238,18 @@ def main():
           f'and rated, a point mass at {PAYLOAD_OFFSET} m in the tool frame; velocity and '
           'torque limits from the URDF; max_acceleration '
           f'{NO_ACCELERATION_LIMIT:g} rad/s^2 on every joint (plan() needs one: no '
-          'acceleration limit in effect); typical acceleration a = the largest constant '
-          'acceleration (common to all joints) whose torque-free plan holds the torque on the '
-          f'path (bisection: {BISECTION_STEPS} log-halvings of {BISECTION_RANGE} rad/s^2, '
-          f'jerk {JERK_RATIO:g} a while bisecting); max_jerk = {JERK_RATIO:g} a on every '
-          'joint (TOPP-RA: no jerk limit); torque checked every '
+          'acceleration limit in effect); max_jerk = '
+          f"{JERK_RATIO:g} times each joint's typical acceleration, its peak in TOPP-RA's "
+          "torque-limited plan (TOPP-RA: no jerk limit); today's practice a = the largest "
+          'constant acceleration (common to all joints) whose torque-free plan holds the '
+          f'torque on the path (bisection: {BISECTION_STEPS} log-halvings of '
+          f'{BISECTION_RANGE} rad/s^2, jerk {JERK_RATIO:g} a); torque checked every '
           f'{1e3 * CHECK_PERIOD:g} ms; planning times best of {REPEATS}; TOPP-RA: default '
           'grid, ParametrizeConstAccel, Collocation (its default; Interpolation shown too); '
           "ours: plan(..., '555', 'optimal', max_torque=..., inverse_dynamics=...), default "
           'inner knots (inner_knots=0 shown too).')
     print()
-    print('| robot | payload [kg] | case | N | a [rad/s^2] | TOPP-RA [s] '
+    print('| robot | payload [kg] | case | N | constant a [rad/s^2] | TOPP-RA [s] '
           '| TOPP-RA Interpolation [s] | ours [s] | ours / TOPP-RA | constant a [s] '
           '| TOPP-RA planning [ms] | ours planning [ms] | ours inner_knots=0 [s] '
           '| ours peak torque (default / inner_knots=0) '
