@@ -50,10 +50,11 @@ RIVAL_STALL_TOLERANCE = 1e-4
 MOVING_END_GAIN = 0.05
 # A plan slowed down for its torque limits gets this much more: the 1 kHz
 # check of the slowed-down plan samples other points of the path, and found
-# up to 3.6e-6 more than the first check's factor promised (bench_torque's
-# UR5 and Panda paths).  With 1e-6 about half the slowed-down plans still
-# came out a few 1e-6 over, and plan() checked them twice more (a third of
-# its planning time).  At most TORQUE_ROUNDS slow-downs.
+# up to 2.3e-5 more than the first check's factor promised (bench_torque's
+# UR5 and Panda paths).  With 1e-6 about half the slowed-down plans came out
+# over, and plan() checked and slowed them twice more (a third of its
+# planning time); with 1e-5, 1 of the first 10.  A plan still over is slowed
+# down again, at most TORQUE_ROUNDS times.
 TORQUE_MARGIN = 1e-5
 TORQUE_ROUNDS = 3
 
