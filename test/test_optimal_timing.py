@@ -252,3 +252,17 @@ def test_a_rival_that_gives_up_is_none_only_when_it_cannot_win(seed, n_points, s
     else:
         np.testing.assert_array_equal(fast.breakpoints, full.breakpoints)
         np.testing.assert_array_equal(fast.coefficients, full.coefficients)
+
+
+def test_small_lps_fall_back_to_highs_when_the_dense_simplex_gives_up(monkeypatch):
+    """The dense simplex's LPs (up to 12 segments) and HiGHS's give the same plan."""
+    from splines445_ros.planning import optimal
+    rng = np.random.default_rng(7)
+    points = np.cumsum(rng.uniform(-1.0, 1.0, (6, 3)), axis=0)
+    kwargs = {'max_velocity': [2.0] * 3, 'max_acceleration': [10.0] * 3,
+              'max_jerk': [200.0] * 3}
+    dense = plan(points, '555', 'optimal', inner_knots=0, **kwargs)
+    monkeypatch.setattr(optimal, 'solve_elastic_lp', lambda *args: None)
+    highs = plan(points, '555', 'optimal', inner_knots=0, **kwargs)
+    assert highs.optimizer['message'] != 'LP failed'
+    assert highs.duration == pytest.approx(dense.duration, rel=1e-3)

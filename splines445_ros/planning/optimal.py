@@ -147,9 +147,9 @@ def _lp_step(state, jac, radius, lower, upper, penalty, merit_penalty=None, marg
     if T.size <= DENSE_LP_SEGMENTS:
         step = solve_elastic_lp(T, jac.dense_rows(active), b_ub, np.maximum(-radius, lower),
                                 np.minimum(radius, upper), penalty)
-        if step is None:
-            return None, 0.0
-        return step, _predicted(state, jac, step, merit_penalty)
+        if step is not None:
+            return step, _predicted(state, jac, step, merit_penalty)
+        # Out of pivots (never seen): HiGHS below.
     A = jac.band[active]
     n_rows, n_seg = A.shape
     n_run = n_seg * jac.n_joints if jac.has_tail else 0
