@@ -419,15 +419,23 @@ class _Path:
     limits along it (``limits``, a :class:`PathLimits`), the ``ppoly``, the
     ``points``, the squared path speeds at the ends (``start``, ``end``: 0
     at rest, 1 with boundary values, which the path has in its own time),
-    the ``most`` inner knots per segment and the accelerations of step 3's
-    jerk ramp (``ramp_acceleration``, :func:`ramp_accelerations`).
+    the ``most`` inner knots per segment, step 3's shortest piece
+    (``min_piece``, ``ramp_pieces`` and ``ramp_acceleration``:
+    :func:`knots_per_segment`, :func:`ramp_accelerations`), the torque's
+    ``piece_factors`` (or None), ``keep_time_scale`` (:func:`plan_with_inner_knots`)
+    and step 2's averaged :meth:`timing`.  :class:`path_timing.JointPathSamples`
+    has the same, for a path the caller gives.
     """
 
-    def __init__(self, points, boundary, limits, most, windows, end_share=1.0, torque=None):
+    def __init__(self, points, boundary, limits, most, windows, end_share=1.0, torque=None,
+                 keep_time_scale=False):
         """Build the path through ``points`` with ``boundary`` values (and torque limits)."""
         self.points = points
         self.most = most
         self.windows = windows
+        self.min_piece = 0.0
+        self.ramp_pieces = RAMP_PIECES
+        self.keep_time_scale = keep_time_scale
         self.start = 1.0 if np.any(boundary[0]) or np.any(boundary[1]) else 0.0
         self.end = 1.0 if np.any(boundary[2]) or np.any(boundary[3]) else 0.0
         durations = rest_to_rest_durations(points, limits)
@@ -460,6 +468,11 @@ class _Path:
         self.ramp_acceleration = ramp_accelerations(self.limits, gridded, limits,
                                                     torque is not None)
 
+    def timing(self, times, x):
+        """Return the path position in time of the profile ``x`` (step 2's average, at rest)."""
+        rest = not (self.start or self.end)
+        return _Timing(times, x, self.s, self.windows if rest else ())
+
 
 def ramp_accelerations(path_limits, gridded, limits, torque_limited):
     """
@@ -485,24 +498,23 @@ class _Profile:
     Step 2 for the local limit factors ``local``: the speed profile and its timing.
 
     The squared path speed ``x`` on the grid, its (averaged) path position
-    in time ``timing`` (a :class:`_Timing`, or the path's own
-    :meth:`timing`) and the times ``passed`` at the waypoints; ``valid`` is
-    False when the profile does not get to the end.  None of it depends on
+    in time ``timing`` (the path's :meth:`timing`) and the times ``passed``
+    at the waypoints; ``valid`` is False when the profile does not get to
+    the end.  None of it depends on
     the knots, so candidates with other knots on the same factors share it
     (:func:`_construct`: the two profiles the knots-only candidates need
     are computed already).
     """
 
-    def __init__(self, path, local, rest):
-        """Build the profile of ``path`` under ``local`` (``rest``: a rest-to-rest request)."""
+    def __init__(self, path, local):
+        """Build the profile of ``path`` under ``local``."""
         self.local = local
         self.x = path.limits.profile(local, path.start, path.end)
         times = traversal_times(self.x, path.steps)
         self.valid = bool(np.all(np.isfinite(times)) and times[-1] > 0.0)
         if not self.valid:
             return
-        self.timing = (path.timing(times, self.x) if hasattr(path, 'timing')
-                       else _Timing(times, self.x, path.s, path.windows if rest else ()))
+        self.timing = path.timing(times, self.x)
         self.passed = self.timing.time_at(path.waypoint_s)
 
 
@@ -527,21 +539,20 @@ class _Candidate:
         ``fractions``, when given, replaces ``counts``: per segment, the
         increasing time fractions in [0, 1) of its knots (the first 0, its
         waypoint), for knots not at equal fractions (:mod:`path_timing`).
-        ``profile``, when given, is the :class:`_Profile` of ``local`` (and
-        ``rest``), computed already.
+        ``profile``, when given, is the :class:`_Profile` of ``local``,
+        computed already.
         """
         self.valid = False
         self.local = local
         self.grid_s = path.s
-        self.profile = _Profile(path, local, rest) if profile is None else profile
+        self.profile = _Profile(path, local) if profile is None else profile
         if not self.profile.valid:
             return
         timing, passed = self.profile.timing, self.profile.passed
         if fractions is None:
             if counts is None:
                 counts = knots_per_segment(passed[1:] - passed[:-1], limits, path.most,
-                                           getattr(path, 'min_piece', 0.0),
-                                           getattr(path, 'ramp_pieces', RAMP_PIECES),
+                                           path.min_piece, path.ramp_pieces,
                                            path.ramp_acceleration)
             fractions = [np.arange(c + 1) / (c + 1) for c in counts]
         else:
@@ -564,14 +575,14 @@ class _Candidate:
         except ValueError:
             return
         self.factors = exact_factors(coeffs, pieces, limits)
-        if getattr(path, 'piece_factors', None) is not None:
+        if path.piece_factors is not None:
             # The path's own limits beyond v/a/j (a tool speed): first order.
             self.factors = np.maximum(self.factors, np.max(
                 path.piece_factors(coeffs, pieces), axis=1, initial=-np.inf))
         f = float(np.max(self.factors)) * _ROUNDOFF
         if not (np.isfinite(f) and f > 0.0):
             return
-        if rest and getattr(path, 'keep_time_scale', False):
+        if rest and path.keep_time_scale:
             f = max(f, _ROUNDOFF)
         self.valid = True
         self.score = float(pieces.sum()) * f
@@ -630,8 +641,8 @@ def plan_with_inner_knots(points, boundary, limits, most, dropped_waypoints=(),
     rest = not any(np.any(b) for b in boundary)
     for share in (1.0,) if rest else (1.0,) + END_SEGMENT_SHARES:
         try:
-            path = _Path(points, boundary, limits, most, windows, share, torque)
-            path.keep_time_scale = keep_time_scale
+            path = _Path(points, boundary, limits, most, windows, share, torque,
+                         keep_time_scale)
         except GravityOverload:
             raise
         except ValueError:
@@ -658,7 +669,7 @@ def _construct(path, boundary, limits, rest, knots_only=True):
     the knots-only optimum anyway.
     """
     budget = {'iterations': REST_ITERATIONS, 'relax': REST_RELAX} if rest else {}
-    start = _Profile(path, np.ones(path.s.size), rest)
+    start = _Profile(path, np.ones(path.s.size))
     best, iterations = _iterate(path, start.local, None, boundary, limits, rest, None,
                                 profile=start, **budget)
     for _ in range(RECOUNTS):

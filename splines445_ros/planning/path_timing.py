@@ -101,8 +101,9 @@ class JointPathSamples:
 
     What :class:`inner_knots._Candidate` reads: ``s``, ``steps``,
     ``waypoint_s``, ``points``, ``ppoly``, ``limits`` (a :class:`PathLimits`),
-    ``start``, ``end``, ``most``, :meth:`timing`, ``piece_factors`` and
-    ``ramp_acceleration`` (:func:`inner_knots.ramp_accelerations`).
+    ``start``, ``end``, ``most``, ``min_piece``, ``ramp_pieces``,
+    ``ramp_acceleration`` (:func:`inner_knots.ramp_accelerations`),
+    ``piece_factors``, ``keep_time_scale`` (False) and :meth:`timing`.
     """
 
     def __init__(self, s, q, waypoint_index, limits, constraints=(),
@@ -129,6 +130,7 @@ class JointPathSamples:
         self.most = START_KNOTS if most is None else int(most)
         self.min_piece = float(min_piece)
         self.ramp_pieces = RAMP_PIECES
+        self.keep_time_scale = False
         self.windows = tuple(windows)
         self.piece_factors = piece_factors
         self.stops = self._stops(self.limits.profile(np.ones(self.s.size)))
