@@ -57,12 +57,14 @@ class BindingLimit:
     ratio: float
 
 
-def limit_ratios(coeffs, durations, limits, velocity=True):
+def limit_ratios(coeffs, durations, limits, velocity=True, peaks_of=segment_peaks_of):
     """
     Peak / limit for every segment, joint and quantity: shape (S, n, 3).
 
     ``velocity`` False leaves the velocity ratios at 0 (a caller that bounds
-    them otherwise: :func:`inner_knots.exact_factors`).
+    them otherwise: :func:`inner_knots.exact_factors`).  ``peaks_of``
+    :func:`peaks.sampled_segment_peaks_of` gives lower bounds of the ratios
+    without root finding (:func:`timing.rest_to_rest_lower_bound`).
     """
     bounds = limits.bounds
     ratios = np.zeros(np.shape(coeffs)[:1] + (bounds.shape[1], 3))
@@ -70,7 +72,7 @@ def limit_ratios(coeffs, durations, limits, velocity=True):
     if np.isinf(bounds[2]).all():
         derivatives = derivatives[:-1]
     # All peaks in one pass: segment_peaks_of gives segment_peaks' values.
-    for peaks, derivative in zip(segment_peaks_of(coeffs, durations, derivatives), derivatives):
+    for peaks, derivative in zip(peaks_of(coeffs, durations, derivatives), derivatives):
         ratios[..., derivative - 1] = peaks / bounds[derivative - 1][None, :]
     return ratios
 

@@ -246,6 +246,17 @@ def sampled_peaks(flat_p):
     return row_max(np.abs(_horner(flat_p, x)))
 
 
+def sampled_segment_peaks_of(coeffs, durations, derivatives):
+    """
+    Lower bounds of :func:`segment_peaks_of` (len(derivatives), S, m): :func:`sampled_peaks`.
+
+    Within round-off of the polynomials' values below the exact peaks.
+    """
+    S, _, m = np.shape(coeffs)
+    flat_p, _ = flat_polynomials(coeffs, durations, tuple(derivatives))
+    return sampled_peaks(flat_p).reshape(len(derivatives), S, m)
+
+
 def _candidates(coeffs, durations, derivative):
     """Candidate points x in [0, 1] (S*m, 5) and the |d-th derivative| there."""
     return _flat_candidates(*flat_polynomials(coeffs, durations, (derivative,)))

@@ -20,7 +20,7 @@ from scipy.optimize import minimize_scalar
 
 from .continuity_system import ContinuitySystem
 from .limits import limit_ratios
-from .peaks import flat_polynomials, sampled_peaks
+from .peaks import sampled_segment_peaks_of
 
 # Factors (relative to the rest-to-rest factor) scanned for a feasible one.
 SCAN_GRID = np.geomspace(1.0 / 30.0, 1000.0, 32)
@@ -219,18 +219,14 @@ def rest_to_rest_lower_bound(spline, limits):
 
     The peaks at fixed points (:func:`peaks.sampled_peaks`) are within
     round-off below the exact ones, and the closed-form factor grows with
-    them; :data:`LOWER_BOUND_RTOL` below it for that round-off.  A caller
+    them (:func:`_rest_to_rest_guess` on sampled peaks);
+    :data:`LOWER_BOUND_RTOL` below it for that round-off.  A caller
     that only needs to know that uniform timing is longer than a plan in
     hand spares its exact peaks (0.2 ms of a 3 x 3 request's rival).
     """
-    bounds = limits.bounds
-    derivatives = (1, 2) if np.isinf(bounds[2]).all() else (1, 2, 3)
-    S, _, n = spline.waypoint_part.shape
-    flat_p, _ = flat_polynomials(spline.waypoint_part, spline.base_durations, derivatives)
-    peaks = sampled_peaks(flat_p).reshape(len(derivatives), S, n)
-    per_quantity = np.max(peaks / bounds[:len(derivatives), None, :], axis=(1, 2))
-    factor = float(np.max(per_quantity ** (1.0 / np.arange(1, len(derivatives) + 1))))
-    return factor * (1.0 - LOWER_BOUND_RTOL)
+    lower = limit_ratios(spline.waypoint_part, spline.base_durations, limits,
+                         peaks_of=sampled_segment_peaks_of)
+    return closed_form_scale(lower) * (1.0 - LOWER_BOUND_RTOL)
 
 
 def rest_to_rest_scale(spline, limits):
