@@ -112,8 +112,7 @@ class TorqueLimit:
         alone exceeds a limit raises :class:`GravityOverload` even when the
         motion happens to hold the torque there: no slower timing would.
         """
-        t = check_times(traj.duration, period, 'the torque')
-        q, qd, qdd = (traj.evaluate(t, d) for d in range(3))
+        q, qd, qdd = _samples(traj, period)
         tau = self._torques(q, qd, qdd)
         # Between samples: h**2 / 8 |tau''|, from second differences.
         bend = np.zeros_like(tau)
@@ -133,9 +132,13 @@ class TorqueLimit:
         A caller that only wants to know whether a slowed-down plan is
         longer than another spares the check (10 ms samples: a tenth of it).
         """
-        t = check_times(traj.duration, period, 'the torque')
-        q, qd, qdd = (traj.evaluate(t, d) for d in range(3))
-        return math.sqrt(float(np.max(self.squared_factors(q, qd, qdd))))
+        return math.sqrt(float(np.max(self.squared_factors(*_samples(traj, period)))))
+
+
+def _samples(traj, period):
+    """Return the positions, velocities and accelerations of ``traj`` every ``period``."""
+    t = check_times(traj.duration, period, 'the torque')
+    return tuple(traj.evaluate(t, d) for d in range(3))
 
 
 def check_times(duration, period, what):
