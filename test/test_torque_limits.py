@@ -13,6 +13,7 @@ from hypothesis import given, settings, strategies as st
 import numpy as np
 import pytest
 from splines445_ros.planning import plan
+from splines445_ros.planning.torque import GravityOverload, TorqueLimit
 from test_path_constraints import two_link_torques
 
 EXAMPLES = int(os.environ.get('SPLINES445_PROPERTY_EXAMPLES', '12'))
@@ -229,3 +230,26 @@ def test_an_acceleration_limit_the_torque_keeps_below_does_not_change_the_plan(s
     assert reached < 1e3
     assert plans[0].duration == plans[1].duration
     np.testing.assert_array_equal(plans[0].breakpoints, plans[1].breakpoints)
+
+
+def test_a_spline_straying_into_a_gravity_overload_needs_an_infinite_factor_per_piece():
+    """
+    The construction's candidates may leave the path; where gravity overloads, none is taken.
+
+    The piece factors of such a candidate are infinite where it crosses the
+    overload (the candidate is dropped), finite elsewhere, and raise
+    nothing: only the path (its constraints) and the final check refuse a
+    request.  The hill of gravity is 1.5 > 1 for ``|q - 0.75| < 0.127``.
+    """
+    def hill(q, qd, qdd):
+        return qdd + 1.5 * np.exp(-((q - 0.75) / 0.2) ** 2)
+
+    torque = TorqueLimit([1.0], hill, 1)
+    traj = plan(np.array([[0.0], [0.3], [1.0]]), '555', 'fixed', durations=[1.0, 1.0])
+    q = traj.evaluate(np.linspace(0.0, 1.0, 50))
+    assert np.max(np.abs(hill(q, 0 * q, 0 * q))) < 0.5      # the first piece: far from it
+    factors = torque.piece_factors(traj.coefficients, traj.durations)
+    assert factors.shape == (2, 1)
+    assert np.isfinite(factors[0, 0]) and factors[1, 0] == np.inf
+    with pytest.raises(GravityOverload, match='joint 0: gravity alone needs'):
+        torque.time_factor(traj)

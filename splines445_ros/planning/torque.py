@@ -74,32 +74,44 @@ class TorqueLimit:
                              f'for {q.shape} samples')
         return tau
 
-    def squared_factors(self, q, qd, qdd, bend=0.0, tau=None):
+    def squared_factors(self, q, qd, qdd, bend=0.0, tau=None, refuse=True):
         """
         Return per sample and joint (N, n) the squared slow-down each needs, ``f**2`` above.
 
         ``bend`` (N, n) is added to the size of the dynamic torque (the
         excess between samples); ``tau``, when the caller has it, is the
         torque at the samples.  Raises :class:`GravityOverload` where
-        gravity alone exceeds a limit.
+        gravity alone exceeds a limit; with ``refuse`` False the need is
+        infinite there instead (no slow-down holds the torque).
         """
         zero = np.zeros_like(q)
         gravity = self._torques(q, zero, zero)
         dynamic = (self._torques(q, qd, qdd) if tau is None else tau) - gravity
         limit = np.broadcast_to(self.max_torque, gravity.shape)
-        refuse_gravity_overload(q, gravity, limit)
+        if refuse:
+            refuse_gravity_overload(q, gravity, limit)
         dynamic = dynamic + np.sign(dynamic) * bend
         room = np.where(dynamic >= 0.0, limit - gravity, -limit - gravity)
         with np.errstate(divide='ignore', invalid='ignore'):
             need = np.where(dynamic == 0.0, 0.0, dynamic / room)
-        # No room at all (gravity exactly at the limit) and motion: infinite.
-        return np.where(np.isnan(need), np.inf, np.maximum(need, 0.0))
+        # No room at all (gravity exactly at the limit) and motion: infinite;
+        # so is gravity beyond the limit (a room of the wrong sign).
+        need = np.where(np.isnan(need), np.inf, np.maximum(need, 0.0))
+        return np.where(np.abs(gravity) > limit, np.inf, need)
 
     def piece_factors(self, coeffs, pieces):
-        """Return per piece (P, 1) the slow-down its :data:`PIECE_SAMPLES` samples need."""
+        """
+        Return per piece (P, 1) the slow-down its :data:`PIECE_SAMPLES` samples need.
+
+        A candidate spline of the construction (not the path) that strays
+        into a pose where gravity alone exceeds a limit needs an infinite
+        factor there: that candidate is not taken, and the path itself,
+        checked when its constraints are built, is not refused for it.
+        """
         q, qd, qdd = sample_segments(coeffs, pieces, PIECE_SAMPLES, (0, 1, 2))
         n = coeffs.shape[2]
-        need = self.squared_factors(q.reshape(-1, n), qd.reshape(-1, n), qdd.reshape(-1, n))
+        need = self.squared_factors(q.reshape(-1, n), qd.reshape(-1, n), qdd.reshape(-1, n),
+                                    refuse=False)
         return np.sqrt(np.max(need.reshape(pieces.size, -1), axis=1))[:, None]
 
     def time_factor(self, traj, period=CHECK_PERIOD):
