@@ -122,6 +122,28 @@ GRID_STEPS = 24
 INVERSE_STEPS = 5
 # A piece lasts at least this many jerk ramp times a / j (step 3).
 RAMP_PIECES = 1.5
+# With torque limits (issue 25): the same for step 3, whose ramp
+# accelerations are then the fastest profile's peaks (ramp_accelerations),
+# up to twice a joint's typical one; the share of the joints' jerk with which
+# step 2's profile leaves rest and comes to rest (end_ramps; at full
+# acceleration from rest the first piece needed up to 1.4 times its jerk
+# limit and kept its local factor at 0.6); and the power of a piece's torque
+# factor that also divides its two neighbours' local factors in step 6 (the
+# profile brakes for a slowed piece in its neighbours, and the spline
+# carries that braking into the piece: near a joint whose gravity torque is
+# at 95-99 % of its limit the piece's factor did not come down, and the
+# iteration oscillated between factors of 1.7 and 5.3).  On bench_torque.py
+# without smoothing windows (TOPP-RA's duration, medians of UR5 0 / 5 kg,
+# Panda 0 / 3 kg) with step 2's torque rows interpolated (_Path):
+# 1.053 / 1.067 / 1.033 / 1.108 with none of the three,
+# 1.026 / 1.028 / 1.007 / 1.055 with all; ramp pieces 1.5 instead of 0.5:
+# 1.062 / 1.046 / 1.024 / 1.051; no end ramps: 1.036 / 1.033 / 1.012 /
+# 1.057; no neighbours: 1.030 / 1.050 / 1.007 / 1.115; their power 0.3 or
+# 0.7: Panda 3 kg 1.047 and 1.056 (on 40 paths per robot 0.3 and 1.0 gave
+# 1.078 and 1.079, 0.5 1.070).
+TORQUE_RAMP_PIECES = 0.5
+TORQUE_END_RAMPS = 0.5
+TORQUE_NEIGHBOURS = 0.5
 # Most iterations of steps 2-5, and the stop after STALL of them without a
 # relative gain of MIN_GAIN.
 ITERATIONS = 15
@@ -422,7 +444,8 @@ class _Path:
     the ``most`` inner knots per segment, step 3's shortest piece
     (``min_piece``, ``ramp_pieces`` and ``ramp_acceleration``:
     :func:`knots_per_segment`, :func:`ramp_accelerations`), the torque's
-    ``piece_factors`` (or None), ``keep_time_scale`` (:func:`plan_with_inner_knots`)
+    ``piece_factors`` (or None) and ``torque_neighbours`` (step 6's power of
+    them for the neighbours, 0: none), ``keep_time_scale`` (:func:`plan_with_inner_knots`)
     and step 2's averaged :meth:`timing`.  :class:`path_timing.JointPathSamples`
     has the same, for a path the caller gives.
     """
@@ -434,7 +457,8 @@ class _Path:
         self.most = most
         self.windows = windows
         self.min_piece = 0.0
-        self.ramp_pieces = RAMP_PIECES
+        self.ramp_pieces = RAMP_PIECES if torque is None else TORQUE_RAMP_PIECES
+        self.torque_neighbours = 0.0 if torque is None else TORQUE_NEIGHBOURS
         self.keep_time_scale = keep_time_scale
         self.start = 1.0 if np.any(boundary[0]) or np.any(boundary[1]) else 0.0
         self.end = 1.0 if np.any(boundary[2]) or np.any(boundary[3]) else 0.0
@@ -460,9 +484,19 @@ class _Path:
         self.waypoint_s = self.s[::GRID_STEPS]
         constraints = (JointVelocity(limits.velocity), JointAcceleration(limits.acceleration))
         if torque is not None:
-            constraints += (torque.constraint(),)
+            # Held between the grid points too (path_velocity): at the grid
+            # points alone the profile passed the torque limit between them
+            # by up to 3 times (bench_torque.py's Panda with 3 kg), and the
+            # spline inherited it.  Without windows that cost the plans
+            # 1.028 / 1.031 / 1.008 / 1.067 times TOPP-RA's duration
+            # (medians of UR5 0 / 5 kg, Panda 0 / 3 kg) instead of 1.026 /
+            # 1.028 / 1.007 / 1.055, the Panda's worst 1.164 instead of 1.109.
+            constraints += (torque.constraint(interpolated=True),)
         gridded = GriddedPath.of_ppoly(self.ppoly, self.s)
         self.limits = PathLimits(gridded, constraints)
+        if torque is not None and TORQUE_END_RAMPS and not (self.start or self.end):
+            self.limits.x_max = np.minimum(self.limits.x_max, end_ramps(
+                self.s, gridded.first, limits.jerk, TORQUE_END_RAMPS))
         # The torque of each piece (step 5): a factor like the exact v/a/j ones.
         self.piece_factors = None if torque is None else torque.piece_factors
         self.ramp_acceleration = ramp_accelerations(self.limits, gridded, limits,
@@ -472,6 +506,27 @@ class _Path:
         """Return the path position in time of the profile ``x`` (step 2's average, at rest)."""
         rest = not (self.start or self.end)
         return _Timing(times, x, self.s, self.windows if rest else ())
+
+
+def end_ramps(s, first, jerk, share):
+    """
+    Return the squared speeds (M + 1,) of a constant path jerk from the start and to the end.
+
+    On the grid ``s`` (M + 1,): at path distance ``d`` from rest, a path
+    jerk ``J`` held from rest has reached ``sdot**2 = J**(2/3) (6 d)**(4/3)
+    / 4`` (``s = J t**3 / 6``).  ``J`` is ``share`` of the slowest joint's
+    ``j_j / |q'_j|`` at each grid point (``first`` (M + 1, n) is ``q'``); it
+    scales with the local factor as ``x`` does (``J**(2/3)``, a time
+    scaling), so the factors keep it.  As a bound on ``x`` it makes a
+    profile leave rest like that until its path acceleration reaches what
+    the other limits allow.
+    """
+    ends = s[[0, -1]]
+    d = np.min(np.abs(s[:, None] - ends[None, :]), axis=1)
+    with np.errstate(divide='ignore', over='ignore', invalid='ignore'):
+        path_jerk = share * np.min(jerk[None, :] / np.abs(first), axis=1)
+        cap = 0.25 * path_jerk ** (2.0 / 3.0) * (6.0 * d) ** (4.0 / 3.0)
+    return np.where(np.isnan(cap), np.inf, cap)
 
 
 def ramp_accelerations(path_limits, gridded, limits, torque_limited):
@@ -575,10 +630,15 @@ class _Candidate:
         except ValueError:
             return
         self.factors = exact_factors(coeffs, pieces, limits)
+        self.neighbours = None
         if path.piece_factors is not None:
-            # The path's own limits beyond v/a/j (a tool speed): first order.
-            self.factors = np.maximum(self.factors, np.max(
-                path.piece_factors(coeffs, pieces), axis=1, initial=-np.inf))
+            # The path's own limits beyond v/a/j (a tool speed, the torque): first order.
+            own = np.max(path.piece_factors(coeffs, pieces), axis=1, initial=-np.inf)
+            if path.torque_neighbours:
+                # What a piece held back by its torque asks of its neighbours (relaxed).
+                self.neighbours = (np.where(own >= self.factors, own, 1.0)
+                                   ** path.torque_neighbours)
+            self.factors = np.maximum(self.factors, own)
         f = float(np.max(self.factors)) * _ROUNDOFF
         if not (np.isfinite(f) and f > 0.0):
             return
@@ -605,9 +665,15 @@ class _Candidate:
         Step 6: ``local`` divided by each piece's factor to the ``relax`` on its grid points.
 
         With a ``floor``, factors below it count as it (1: only the pieces
-        over their limits are lowered, :func:`path_timing._polish`).
+        over their limits are lowered, :func:`path_timing._polish`).  With
+        torque limits a piece's factor is at least its neighbours'
+        :attr:`neighbours` (:data:`TORQUE_NEIGHBOURS`).
         """
         factors = self.factors if floor is None else np.maximum(self.factors, floor)
+        if self.neighbours is not None and factors.size > 1:
+            factors = factors.copy()
+            factors[1:] = np.maximum(factors[1:], self.neighbours[:-1])
+            factors[:-1] = np.maximum(factors[:-1], self.neighbours[1:])
         piece_of = np.searchsorted(self.knot_s, self.grid_s, side='right') - 1
         np.minimum(np.maximum(piece_of, 0, out=piece_of), factors.size - 1, out=piece_of)
         return np.minimum(np.maximum(local / factors[piece_of] ** relax, MIN_LOCAL_FACTOR), 1.0)

@@ -67,6 +67,9 @@ class AccelerationConstraint:
     """A second-order constraint: rows ``lo <= a u + b x <= hi`` at every grid point."""
 
     order = 2
+    # Whether the rows also hold at the end of each grid step with its path
+    # acceleration (path_velocity._interpolated), not only at the grid points.
+    interpolated = False
 
     def rows(self, path):
         """Return ``(a, b, lo, hi)``, each (M + 1, k), with ``lo <= 0 <= hi``."""
@@ -131,13 +134,16 @@ class JointTorque(AccelerationConstraint):
         tau = a u + b x + g,  a = ID(q, 0, q') - g,  b = ID(q, q', q'') - g,  g = ID(q, 0, 0)
 
     (``c`` is quadratic in ``qd``, so ``c(q, q') = c(q, q' sdot) / x``).
-    Only the torques of the planned joints are limited.
+    Only the torques of the planned joints are limited.  ``interpolated``:
+    the rows also hold at the end of every grid step
+    (:attr:`AccelerationConstraint.interpolated`).
     """
 
-    def __init__(self, max_torque, inverse_dynamics):
+    def __init__(self, max_torque, inverse_dynamics, interpolated=False):
         """Take the torque limit per joint (n,) and the vectorised inverse dynamics."""
         self.max_torque = np.asarray(max_torque, float)
         self.inverse_dynamics = inverse_dynamics
+        self.interpolated = bool(interpolated)
 
     def rows(self, path):
         """Return ``(a, b, -tau_max - g, tau_max - g)``; refuse a pose gravity alone overloads."""

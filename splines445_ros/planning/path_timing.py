@@ -44,7 +44,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from .inner_knots import (_Candidate, _iterate, _Timing, _trajectory, DEFAULT_SMOOTHING,
-                          ramp_accelerations)
+                          end_ramps, ramp_accelerations)
 from .path_constraints import GriddedPath, JointAcceleration, JointTorque, JointVelocity
 from .path_velocity import PathLimits
 
@@ -103,7 +103,8 @@ class JointPathSamples:
     ``waypoint_s``, ``points``, ``ppoly``, ``limits`` (a :class:`PathLimits`),
     ``start``, ``end``, ``most``, ``min_piece``, ``ramp_pieces``,
     ``ramp_acceleration`` (:func:`inner_knots.ramp_accelerations`),
-    ``piece_factors``, ``keep_time_scale`` (False) and :meth:`timing`.
+    ``piece_factors``, ``torque_neighbours`` (0), ``keep_time_scale`` (False)
+    and :meth:`timing`.
     """
 
     def __init__(self, s, q, waypoint_index, limits, constraints=(),
@@ -130,6 +131,7 @@ class JointPathSamples:
         self.most = START_KNOTS if most is None else int(most)
         self.min_piece = float(min_piece)
         self.ramp_pieces = RAMP_PIECES
+        self.torque_neighbours = 0.0
         self.keep_time_scale = False
         self.windows = tuple(windows)
         self.piece_factors = piece_factors
@@ -146,21 +148,12 @@ class JointPathSamples:
         """
         Return the squared speeds (M + 1,) of a constant path jerk from the start and to the end.
 
-        At path distance ``d`` from rest, a path jerk ``J`` held from rest
-        has reached ``sdot**2 = J**(2/3) (6 d)**(4/3) / 4`` (``s = J t**3 / 6``).
-        As a bound on ``x`` it makes the profile leave rest like that until
-        its path acceleration reaches the acceleration limit, where the
-        ordinary profile takes over (the bound's acceleration ``J t`` grows
-        past it).  ``J`` is :data:`RAMP_SHARE` of the slowest joint's
-        ``j_j / |q'_j|`` at each grid point; it scales with the local factor
-        as ``x`` does (``J**(2/3)``, a time scaling), so the factors keep it.
+        :func:`inner_knots.end_ramps` with :data:`RAMP_SHARE`.  As a bound
+        on ``x`` it makes the profile leave rest like that until its path
+        acceleration reaches the acceleration limit, where the ordinary
+        profile takes over (the bound's acceleration ``J t`` grows past it).
         """
-        ends = self.s[[0, -1]]
-        d = np.min(np.abs(self.s[:, None] - ends[None, :]), axis=1)
-        with np.errstate(divide='ignore', over='ignore', invalid='ignore'):
-            path_jerk = RAMP_SHARE * np.min(jerk[None, :] / np.abs(first), axis=1)
-            cap = 0.25 * path_jerk ** (2.0 / 3.0) * (6.0 * d) ** (4.0 / 3.0)
-        return np.where(np.isnan(cap), np.inf, cap)
+        return end_ramps(self.s, first, jerk, RAMP_SHARE)
 
     def _stops(self, x):
         """Grid indices (first, stops, last) where the profile ``x`` nearly stops."""

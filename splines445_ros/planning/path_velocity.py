@@ -18,7 +18,10 @@ fastest profile that stays within it (forward pass).
 The limits come as constraint objects (:mod:`path_constraints`): joint
 velocity and tool speed bound ``x``; joint acceleration and joint torque
 are rows ``lo <= a u + b x <= hi``, each giving ``u`` an interval whose ends
-are linear in ``x``.
+are linear in ``x``.  A constraint that asks for it (``interpolated``, the
+joint torque of :mod:`inner_knots`) holds at both ends of every step with
+that step's ``u``, not only at its grid points (TOPP-RA's "interpolation"
+discretisation).
 
 Only the ideas are used here: the spline later built from this profile
 (:mod:`inner_knots`) is what is checked exactly against the limits, jerk
@@ -62,8 +65,12 @@ class PathLimits:
             if constraint.order == 1:
                 x_max = np.minimum(x_max, constraint.squared_speed_limit(path))
             else:
-                for rows, part in zip((a, b, lo, hi), constraint.rows(path)):
-                    rows.append(np.asarray(part, float))
+                parts = [np.asarray(part, float) for part in constraint.rows(path)]
+                if constraint.interpolated:
+                    parts = [np.concatenate([part, shifted], axis=1)
+                             for part, shifted in zip(parts, _interpolated(parts, steps))]
+                for rows, part in zip((a, b, lo, hi), parts):
+                    rows.append(part)
         if a:
             a, b, lo, hi = (np.concatenate(rows, axis=1) for rows in (a, b, lo, hi))
         else:
@@ -125,6 +132,26 @@ class PathLimits:
         square = square.tolist()
         beta = _backward(self._braking, square, x_max.tolist(), min(end, x_max[-1]))
         return _forward(self._accelerating, square, self._two_ds, beta, start)
+
+
+def _interpolated(parts, steps):
+    """
+    Return rows ``(a, b, lo, hi)`` that hold the rows ``parts`` at the end of each step too.
+
+    Within step ``i`` the path acceleration ``u_i`` is constant and
+    ``x_{i+1} = x_i + 2 ds_i u_i``, so a row ``lo <= a u + b x <= hi`` of
+    grid point ``i + 1`` with step ``i``'s ``u`` is the row ``(a_{i+1} +
+    2 ds_i b_{i+1}) u + b_{i+1} x_i`` of grid point ``i`` (TOPP-RA's
+    "interpolation" discretisation; the last point gets an empty row).
+    """
+    a, b, lo, hi = parts
+    shifted_a = np.zeros_like(a)
+    shifted_b = np.zeros_like(b)
+    shifted_a[:-1] = a[1:] + 2.0 * steps[:, None] * b[1:]
+    shifted_b[:-1] = b[1:]
+    shifted_lo = np.concatenate([lo[1:], lo[-1:]])
+    shifted_hi = np.concatenate([hi[1:], hi[-1:]])
+    return shifted_a, shifted_b, shifted_lo, shifted_hi
 
 
 def _lower_envelopes(slope, offset):

@@ -63,9 +63,13 @@ class TorqueLimit:
         self.inverse_dynamics = inverse_dynamics
         self.n_joints = n_joints
 
-    def constraint(self):
-        """Return the path-velocity constraint object (:class:`path_constraints.JointTorque`)."""
-        return JointTorque(self.max_torque, self._torques)
+    def constraint(self, interpolated=False):
+        """
+        Return the path-velocity constraint object (:class:`path_constraints.JointTorque`).
+
+        ``interpolated``: its rows also hold at the end of every grid step.
+        """
+        return JointTorque(self.max_torque, self._torques, interpolated)
 
     def _torques(self, q, qd, qdd):
         tau = np.asarray(self.inverse_dynamics(q, qd, qdd), dtype=float)
