@@ -121,6 +121,34 @@ def test_torque_limits_hold_at_every_grid_point(seed):
 
 @settings(max_examples=EXAMPLES, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1))
+def test_interpolated_torque_rows_hold_at_both_ends_of_every_step(seed):
+    """
+    ``JointTorque(..., interpolated=True)``: each step's path acceleration holds at its end too.
+
+    Collocated rows hold the torque at grid point i with step i's ``u``
+    only; at grid point i + 1 the same ``u`` (with x_{i + 1}) may pass the
+    limit, which the interpolated rows forbid.  The torques are computed
+    here from the test's own dynamics at both ends of every step.
+    """
+    rng = np.random.default_rng(seed)
+    path = random_path(rng)
+    zero = np.zeros_like(path.positions)
+    gravity = np.max(np.abs(two_link_torques(path.positions, zero, zero)), axis=0)
+    limit = gravity * rng.uniform(1.2, 3.0, 2) + rng.uniform(1.0, 5.0, 2)
+    constraints = (JointVelocity([3.0, 3.0]),
+                   JointTorque(limit, two_link_torques, interpolated=True))
+    x = PathLimits(path, constraints).profile(np.ones(path.s.size))
+    assert x[0] == 0.0 and x[-1] == 0.0 and np.all(np.isfinite(x)) and np.all(x >= 0.0)
+    assert np.isfinite(traversal_times(x, np.diff(path.s))[-1])
+    u = np.diff(x) / (2.0 * np.diff(path.s))
+    for at in (slice(None, -1), slice(1, None)):     # each step's start, then its end
+        qd = path.first[at] * np.sqrt(x[at])[:, None]
+        qdd = path.first[at] * u[:, None] + path.second[at] * x[at][:, None]
+        assert np.all(np.abs(two_link_torques(path.positions[at], qd, qdd)) <= limit * (1 + 1e-9))
+
+
+@settings(max_examples=EXAMPLES, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1))
 def test_tool_speed_holds_at_every_grid_point_and_binds(seed):
     rng = np.random.default_rng(seed)
     path = random_path(rng)
