@@ -333,3 +333,31 @@ def test_the_reported_deviation_per_edge_is_the_final_splines(arms, robot, speed
     for name in ('position_time', 'orientation_time'):
         at = getattr(reported, name)
         assert np.all(at >= times[edge] - 1e-9) and np.all(at <= times[edge + 1] + 1e-9)
+
+
+def test_a_profile_that_rested_one_grid_point_before_a_sharp_corner_is_planned(arms):
+    """
+    A Panda line set at 0.212 m/s that was refused ("no spline ... meets the limits").
+
+    Near its second corner the fastest path acceleration took the profile
+    to rest one grid point before the corner's stop, leaving a step at rest
+    at both ends (an infinite time).  It is planned now, within its
+    tolerance and its tool speed (checked with the test's own FK).
+    """
+    arm = arms['panda']
+    poses = np.array([
+        [0.4997645327709901, -0.0028345995215276754, 0.25, 1.5709937377870982e-16,
+         0.9999999801832387, 0.00019908169740894463, 1.3874660521765915e-16],
+        [0.5454031434240701, -0.11246896337161943, 0.25, 1.4932288377234062e-16,
+         0.9985098413334481, 0.05457194114425713, 1.4708334400264294e-16],
+        [0.5405369733365387, 0.00027590160998092195, 0.25, 1.2384734654188129e-16,
+         0.9768911916615366, 0.21373722103111362, 1.6909366769818117e-16],
+        [0.4466776390035445, 0.10472720443892733, 0.25, 1.3465541652924477e-16,
+         0.98879167543439, 0.14930178361845517, 1.606199006985851e-16]])
+    speed = 0.21220852557381764
+    result = plan_tool_path(poses, kinematics(arm), MM, DEG, method='555', timing='optimal',
+                            max_tool_speed=speed, **arm[5])
+    check_1khz(result, poses, arm[7], MM, DEG)
+    assert result.trajectory.within_limits(rtol=1e-9)
+    linear, _ = sampled_tool_speeds(result.trajectory, arm[7])
+    assert linear.max() <= speed * (1 + SPEED_RTOL)

@@ -36,6 +36,8 @@ import numpy as np
 # A row's |a| below this (relative to the largest of its column, at least 1)
 # counts as a joint at rest on the path: only its b x term is limited.
 _AT_REST = 1e-12
+# Share of the falls bound (PathLimits._before_rest) two points before a rest point.
+FALLS_SHARE = 0.5
 
 
 class PathLimits:
@@ -108,16 +110,36 @@ class PathLimits:
             # And the largest acceleration must not take x below 0:
             # x + 2 ds (alpha_k x + beta_k) >= 0, a bound where 1 + 2 ds alpha_k < 0.
             falls = moving[:-1] & (denominator < 0.0)
-            self.x_max[:-1] = np.minimum(self.x_max[:-1], np.min(
+            self._falls = np.full(path.s.size, np.inf)
+            self._falls[:-1] = np.min(
                 np.where(falls, two_ds * up[:-1] / np.where(falls, -denominator, 1.0), np.inf),
-                axis=1, initial=np.inf))
+                axis=1, initial=np.inf)
+            self.x_max = np.minimum(self.x_max, self._falls)
         self._braking = _lower_envelopes(braking, offset)
         self._accelerating = _lower_envelopes(slope[:-1], up[:-1])
         self._two_ds = (2.0 * steps).tolist()
+        self._before_rest(np.array([path.s.size - 1]))
 
     def stop_at(self, index):
         """Make the profile rest (``x = 0``) at the grid points ``index`` (a bound of 0 on x)."""
         self.x_max[index] = 0.0
+        self._before_rest(np.atleast_1d(index))
+
+    def _before_rest(self, index):
+        """
+        Keep the point before each rest point ``index`` moving: a step at rest at both ends.
+
+        Where ``1 + 2 ds alpha < 0`` a lower ``x_i`` gives a higher
+        ``x_{i+1}``, and at the bound above ``x_{i+1}`` is 0: followed by a
+        rest point, a step then has rest at both ends and takes forever (a
+        Panda tool line at 0.21 m/s was refused, "no spline meets the
+        limits", its profile stuck one grid point before a sharp corner).
+        Two points before a rest point the bound is :data:`FALLS_SHARE` of
+        it, which leaves ``x_{i+1} >= (1 - FALLS_SHARE) 2 ds beta``.
+        """
+        before = np.asarray(index, int) - 2
+        before = before[before >= 0]
+        self.x_max[before] = np.minimum(self.x_max[before], FALLS_SHARE * self._falls[before])
 
     def profile(self, scale, start=0.0, end=0.0):
         """
