@@ -433,7 +433,7 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
         constraints.append(torque.constraint())
         factors.append(torque.piece_factors)
     path = JointPathSamples(s, joints, waypoint_index, limits, constraints, windows,
-                            _joined(factors), START_KNOTS, MIN_PIECE)
+                            _joined(factors), START_KNOTS, MIN_PIECE, rounding=speeds)
     timing = plan_along_path(path, limits)
     initial = None
     inserted, rounds = 0, 0
