@@ -15,6 +15,7 @@ import pytest
 from splines445_ros.planning import plan
 from splines445_ros.planning.path_constraints import (
     GravityOverload, GriddedPath, JointAcceleration, JointTorque, JointVelocity, ToolSpeed)
+from splines445_ros.planning.path_timing import _RoundedTiming
 from splines445_ros.planning.path_velocity import PathLimits, traversal_times
 
 EXAMPLES = int(os.environ.get('SPLINES445_PROPERTY_EXAMPLES', '25'))
@@ -198,3 +199,41 @@ def test_a_pose_gravity_alone_overloads_is_refused_with_the_joint():
     assert error.value.joint == 1
     assert abs(error.value.torque) > limit[1]
     assert 'joint 1' in str(error.value)
+
+
+@settings(max_examples=EXAMPLES, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1))
+def test_a_rounded_span_keeps_its_ends_and_turns_acceleration_jumps_into_ramps(seed):
+    """
+    Tool lines' corner rounding (path_timing._RoundedTiming) on a ramp-cap-ramp span.
+
+    The plain profile accelerates at ``a`` to a cap and brakes at ``a`` to
+    rest, its acceleration jumping by ``a`` at both corners of the cap.
+    The rounded position keeps the span's ends (time and rest), is
+    increasing, is inverted by time_at (in position), and away from the stops its
+    acceleration (second differences here) moves by at most about
+    ``a dt / W`` per sample of ``dt`` instead of jumping by ``a``.
+    """
+    rng = np.random.default_rng(seed)
+    a, v = rng.uniform(1.0, 5.0), rng.uniform(0.2, 1.0)
+    length = v * v / a + rng.uniform(0.5, 2.0) * v       # reaches the cap
+    s = np.linspace(0.0, length, 801)
+    x = np.minimum(np.minimum(2.0 * a * s, 2.0 * a * (length - s)), v * v)
+    times = traversal_times(x, np.diff(s))
+    width = rng.uniform(0.05, 0.2)
+    rounded = _RoundedTiming(times, x, s, width)
+    assert rounded.duration == times[-1]
+    assert rounded.position_at(np.array([0.0]))[0] == 0.0
+    assert rounded.position_at(np.array([times[-1]]))[0] == pytest.approx(length, abs=1e-12)
+    dt = 1e-4
+    t = np.arange(0.0, times[-1], dt)
+    p = rounded.position_at(t)
+    assert np.all(np.diff(p) >= -1e-12)
+    inner = (p > 1e-3 * length) & (p < (1 - 1e-3) * length)
+    np.testing.assert_allclose(rounded.position_at(rounded.time_at(p[inner])), p[inner],
+                               atol=1e-7 * length)
+    # Away from the stops (beyond one window) the rounded acceleration is a ramp.
+    acc = np.diff(p, 2) / dt ** 2
+    away = (t[1:-1] > width) & (t[1:-1] < times[-1] - width)
+    jumps = np.abs(np.diff(acc))[away[1:] & away[:-1]]
+    assert np.max(jumps) <= 1.2 * a * dt / width + 1e-6 * a

@@ -96,18 +96,22 @@ POLISH_RELAX = 2.0
 # 2.3 m/s^2, window 0.1 s).  Not within SPLIT_CLEARANCE windows of a stop
 # (the profile's turn there is not rounded: shorter pieces follow it with
 # more jerk), and not below two shortest pieces.  On bench_tool_lines.py's
-# UR5 seam at 0.25 m/s the share went 0.68 -> 0.80 (windows of 1.0, 1.2,
-# 1.3, 1.4 pieces: 0.78, 0.79, 0.80, 0.79).
-CORNER_ROUNDING = 1.3
+# UR5 seam at 0.25 m/s the share went 0.68 -> 0.79 (windows of 1.1, 1.2,
+# 1.3, 1.4, 1.5 pieces: 0.78, 0.79, 0.79, 0.79, 0.79; with a C1 blend at
+# the stops, 1.3 gave 0.80); on 60 random line sets (test_tool_lines'
+# kind, 0.05-0.3 m/s) 1.2 gave median shares of 0.72 / 0.70 / 0.66 per
+# 20, and 0.2 % shorter plans than 1.3.
+CORNER_ROUNDING = 1.2
 CAP_SHARE = 0.98
 SPLIT_CLEARANCE = 0.5
 # Samples per piece of the first profile's state (at its cap or not).
 TRANSITION_SAMPLES = 8
 # Samples of the bracket of _RoundedTiming.time_at, and its regula falsi steps
-# between the two around the target: within 1e-10 of the path's length on the
-# Panda seam's waypoints, 2e-9 at 50 positions along it (one step: 6e-8).
+# (Illinois) between the two around the target: within 6e-9 of the length at
+# every position of 40 ramp-cap-ramp spans (test_path_constraints; two steps
+# left 2e-7 near the stops, three plain regula falsi steps as much).
 INVERSE_SAMPLES = 17
-INVERSE_REFINEMENTS = 2
+INVERSE_REFINEMENTS = 3
 
 
 class JointPathSamples:
@@ -268,10 +272,14 @@ class _RoundedTiming(_Timing):
     ``position_at(t)`` is ``p + w(t) (a(t) - p)``: ``p`` the plain
     profile's position, ``a`` its average over ``[t - W / 2, t + W / 2]``
     (the one-window :class:`inner_knots._Timing` at ``t + W / 2``, the
-    span's ends held beyond it) and ``w`` a smoothstep from 0 at each end
-    of the span (a stop, where the profile rests) to 1 one window ``W``
-    inside it, so the stops keep their times and their rest.  The span
-    keeps its duration (a centred window).
+    span's ends held beyond it) and ``w`` a blend from 0 at each end of the
+    span (a stop, where the profile rests) to 1 one window ``W`` inside it,
+    so the stops keep their times and their rest.  The blend
+    ``d**3 (10 - 15 d + 6 d**2)`` (``d`` the distance in windows) has no
+    first or second derivative at either end, so it adds no jump to the
+    acceleration (a smoothstep ``d**2 (3 - 2 d)`` jumped it by ``6 (a - p)
+    / W**2`` one window from every stop).  The span keeps its duration (a
+    centred window).
     """
 
     def __init__(self, times, x, s, width):
@@ -311,6 +319,7 @@ class _RoundedTiming(_Timing):
         rows = np.arange(target.size)
         t0, t1 = grid[rows, j], grid[rows, j + 1]
         f0, f1 = values[rows, j], values[rows, j + 1]
+        was_above = None
         for step in range(INVERSE_REFINEMENTS + 1):
             # Regula falsi within the bracket (t0, f0 <= 0), (t1, f1 > 0).
             span = f1 - f0
@@ -321,6 +330,13 @@ class _RoundedTiming(_Timing):
             above = f > 0.0
             t1, f1 = np.where(above, t, t1), np.where(above, f, f1)
             t0, f0 = np.where(above, t0, t), np.where(above, f0, f)
+            if was_above is not None:
+                # Illinois: the end kept twice in a row has its value halved
+                # (plain regula falsi crept from one side near the stops:
+                # 2e-7 of the length after three steps, 1e-9 with this).
+                f0 = np.where(above & was_above, 0.5 * f0, f0)
+                f1 = np.where(~above & ~was_above, 0.5 * f1, f1)
+            was_above = above
         out[inner] = t
         return out
 
@@ -330,7 +346,8 @@ class _RoundedTiming(_Timing):
         plain = path_position(self.times, self.x, self.s, t)
         mean = _Timing.position_at(self, t + 0.5 * self.width)
         d = np.clip(np.minimum(t, self.duration - t) / self.width, 0.0, 1.0)
-        return np.clip(plain + d * d * (3.0 - 2.0 * d) * (mean - plain), 0.0, self.s[-1])
+        blend = d * d * d * (10.0 + d * (6.0 * d - 15.0))
+        return np.clip(plain + blend * (mean - plain), 0.0, self.s[-1])
 
 
 @dataclass
