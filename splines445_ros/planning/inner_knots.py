@@ -690,7 +690,10 @@ class _Candidate:
         With a ``floor``, factors below it count as it (1: only the pieces
         over their limits are lowered, :func:`path_timing._polish`).  With
         torque limits a piece's factor is at least its neighbours'
-        :attr:`neighbours` (:data:`TORQUE_NEIGHBOURS`).
+        :attr:`neighbours` (:data:`TORQUE_NEIGHBOURS`).  With corner
+        rounding (tool lines with a tool speed) a grid point takes the
+        largest factor within reach of its rounding window
+        (:meth:`_rounded_factors`).
         """
         factors = self.factors if floor is None else np.maximum(self.factors, floor)
         if self.neighbours is not None and factors.size > 1:
