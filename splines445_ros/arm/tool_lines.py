@@ -440,7 +440,7 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
         constraints.append(torque.constraint())
         factors.append(torque.piece_factors)
     path = JointPathSamples(s, joints, waypoint_index, limits, constraints, windows,
-                            _joined(factors), START_KNOTS, MIN_PIECE, rounding=speeds)
+                            _joined(factors), START_KNOTS, MIN_PIECE, round_corners=speeds)
     timing = plan_along_path(path, limits)
     initial = None
     inserted, rounds = 0, 0

@@ -143,17 +143,18 @@ class JointPathSamples:
     ``piece_factors``, ``torque_neighbours`` (0), ``keep_time_scale``
     (False), ``rounding`` and :meth:`timing`.
 
-    ``rounding`` (tool lines with a speed limit, no smoothing windows): the
-    profile's corners are rounded over a centred window ``rounding`` [s]
-    long (:class:`_RoundedTiming`), the first knots are split where the
-    profile meets its first-order bounds ``speed_caps``
-    (:func:`_transition_fractions`), and step 6 lowers the local factors
-    over the window's reach (:meth:`inner_knots._Candidate.relaxed`).
+    ``round_corners`` (tool lines with a speed limit, no smoothing
+    windows): the profile's corners are rounded over a centred window
+    ``rounding`` [s] long (0 without; :class:`_RoundedTiming`), the first
+    knots are split where the profile meets its first-order bounds
+    ``speed_caps`` (:func:`_transition_fractions`), and step 6 lowers the
+    local factors over the window's reach
+    (:meth:`inner_knots._Candidate.relaxed`).
     """
 
     def __init__(self, s, q, waypoint_index, limits, constraints=(),
                  windows=DEFAULT_SMOOTHING, piece_factors=None, most=None,
-                 min_piece=0.0, jerk_ramps=True, rounding=False):
+                 min_piece=0.0, jerk_ramps=True, round_corners=False):
         """Interpolate the samples and prepare the constraints on the grid."""
         s = np.asarray(s, float)
         q = np.asarray(q, float)
@@ -190,7 +191,7 @@ class JointPathSamples:
         # The centred window of the corner rounding [s] (0: none).
         self.rounding = 0.0
         self.speed_caps = None
-        if rounding and not self.windows:
+        if round_corners and not self.windows:
             # The first-order bounds alone (no stops, no ramps from rest, no
             # acceleration's speed bounds): the caps whose corners are rounded.
             self.speed_caps = np.min([c.squared_speed_limit(self.gridded) for c in constraints
