@@ -1,0 +1,107 @@
+"""
+Torque limits with and without the smoothing windows (issue 25 against issue 23), one run.
+
+A measurement for a product decision, not a product option: plan() always
+averages a rest-to-rest profile over the windows of
+``inner_knots.smoothing_windows`` (0.3 s and 0.15 s by default, issue 23's
+smoothness), which cost about 0.45 s a move; on bench_torque's 0.5-3 s
+torque-limited moves that is most of the distance to issue 25's duration
+target.  Here the windows are switched off for the second column by
+replacing ``planner.smoothing_windows`` for the duration of those calls
+(the planner then also runs its knots-only rival, as it does with windows).
+
+On bench_torque.py's paths, limits and jerk (its functions, its seed, the
+same paths for both payloads), every path is planned three ways: plan()'s
+default, the same without windows, and ``inner_knots=0`` (knots at the
+waypoints only, slowed down uniformly for the torque).  Per robot and
+payload the medians of the duration and of the shaking of a lightly
+damped 4 and 8 Hz mode (``shaking.py``: peak while moving, residual after
+the end), each divided by TOPP-RA's (torque and velocity limits, its own
+path), and how often the knots-only rival decided the plan.
+
+Usage: ``python benchmarks/bench_torque_windows.py`` (about 4 minutes).
+"""
+
+import logging
+import os
+import sys
+
+os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but the rule holds
+
+import bench_torque as bt  # noqa: E402, I100
+import numpy as np  # noqa: E402, I100
+from shaking import of_toppra, shaking_figures, shaking_ratios  # noqa: E402
+from splines445_ros.arm.dynamics import ArmDynamics, effort_limits  # noqa: E402
+from splines445_ros.arm.robot_model import load_robot_model  # noqa: E402
+from splines445_ros.planning import plan, planner  # noqa: E402
+
+PLANS = ('default', 'no windows', 'inner_knots=0')
+
+
+def planned(points, kwargs, how):
+    """Return the plan of ``points`` the way ``how`` names (one of :data:`PLANS`)."""
+    if how == 'inner_knots=0':
+        return plan(points, '555', 'optimal', inner_knots=0, **kwargs)
+    if how == 'default':
+        return plan(points, '555', 'optimal', **kwargs)
+    windows = planner.smoothing_windows
+    planner.smoothing_windows = lambda vibration_frequency: ()
+    try:
+        return plan(points, '555', 'optimal', **kwargs)
+    finally:
+        planner.smoothing_windows = windows
+
+
+def main():
+    """Plan every path three ways and print the medians per robot and payload."""
+    logging.getLogger('toppra').setLevel(logging.ERROR)
+    print('Command: python benchmarks/bench_torque_windows.py')
+    print(f"Settings: bench_torque.py's (seed {bt.SEED}, {bt.CASES} paths per robot, jerk "
+          f"{bt.JERK_RATIO:g} times each joint's peak acceleration in TOPP-RA's plan); "
+          'ratios ours / TOPP-RA, medians; rival: paths where the knots-only plan was '
+          'returned.')
+    print()
+    print('| robot | payload [kg] | plan | duration | 4 Hz peak | 4 Hz residual | 8 Hz peak '
+          '| 8 Hz residual | rival decided |')
+    print('|' + '---|' * 9)
+    rng = np.random.default_rng(bt.SEED)
+    for name, urdf, joints, ready, tool, rated in bt.ROBOTS:
+        robot = load_robot_model(urdf())
+        infos = [robot.joint(j) for j in joints]
+        lower = np.array([j.lower for j in infos]) + bt.RANGE_MARGIN
+        upper = np.array([j.upper for j in infos]) - bt.RANGE_MARGIN
+        vmax = np.array([j.velocity for j in infos])
+        tau_max = effort_limits(robot, joints)
+        paths = [bt.random_path(rng, ready, lower, upper) for _ in range(bt.CASES)]
+        n = len(joints)
+        for payload in (0.0, rated):
+            dynamics = ArmDynamics(robot, joints, tool, payload_mass=payload,
+                                   payload_center_of_mass=bt.PAYLOAD_OFFSET)
+            rows = {how: [] for how in PLANS}
+            for points in paths:
+                top = bt.toppra_torque(points, vmax, tau_max, dynamics.torques)
+                kwargs = {'max_velocity': vmax,
+                          'max_acceleration': np.full(n, bt.NO_ACCELERATION_LIMIT),
+                          'max_jerk': bt.JERK_RATIO * bt.typical_accelerations(top),
+                          'max_torque': tau_max, 'inverse_dynamics': dynamics.torques}
+                # The ratios do not depend on the common scale of the accelerations.
+                reference = shaking_figures(of_toppra(top), top.duration, np.ones(n))
+                for how in PLANS:
+                    traj = planned(points, kwargs, how)
+                    rival = traj.optimizer.get('inner_knots', 0) == 0
+                    rows[how].append([traj.duration / top.duration]
+                                     + shaking_ratios(traj, reference, np.ones(n))
+                                     + [rival])
+            for how in PLANS:
+                figures = np.array(rows[how], float)
+                median = np.median(figures[:, :5], axis=0)
+                decided = '-' if how == 'inner_knots=0' else f'{int(figures[:, 5].sum())}'
+                print(f'| {name} | {payload:g} | {how} | {median[0]:.3f} | '
+                      + ' | '.join(f'{value:.2f}' for value in median[1:])
+                      + f' | {decided} |')
+                sys.stdout.flush()
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
