@@ -18,12 +18,15 @@ waypoints that must be passed exactly.  The rest is the same construction
    is made a stop, and each span between stops is averaged on its own.
    From rest at the start and to rest at the end the profile's path jerk
    is bounded (:meth:`JointPathSamples._ramps`), so the first and last
-   knots lie where a jerk-limited spline can reach them.
+   knots lie where a jerk-limited spline can reach them.  Without windows
+   and with ``round_corners`` (a tool speed) the corners where the profile
+   meets its speed caps are rounded instead (:class:`_RoundedTiming`).
 3. Knots.  Per segment between waypoints, knots at given time fractions of
    the segment (``fractions``) or at equal ones, as many as the jerk ramp
    and the caller's shortest piece allow, up to the caller's count
    (:func:`inner_knots.knots_per_segment`), each at the path's position at
-   its time; the waypoints exactly.
+   its time; the waypoints exactly.  With rounded corners the pieces
+   around them are split from the start (:func:`_transition_fractions`).
 4-6. The C4 quintic spline through them (eqs. 13-23, :mod:`continuity_system`),
    its exact v/a/j factors (and the caller's ``piece_factors`` for limits the
    polynomials do not show, a tool speed), scaled to its limits, and the
