@@ -409,9 +409,7 @@ def knots_per_segment(segment_times, limits, most, min_piece=0.0, ramp_pieces=RA
     accelerations when the torque limits them
     (:func:`ramp_accelerations`).
     """
-    if acceleration is None:
-        acceleration = limits.acceleration
-    piece = max(ramp_pieces * float(np.max(acceleration / limits.jerk)), min_piece)
+    piece = shortest_piece(limits, min_piece, ramp_pieces, acceleration)
     counts = np.full(segment_times.size, most)
     if piece > 0.0:
         fit = np.floor(segment_times / piece) - 1
@@ -420,6 +418,29 @@ def knots_per_segment(segment_times, limits, most, min_piece=0.0, ramp_pieces=RA
         fit = np.where(np.isnan(fit), 1.0, fit)
         counts = np.minimum(np.maximum(fit, 1), most).astype(int)
     return counts
+
+
+def shortest_piece(limits, min_piece=0.0, ramp_pieces=RAMP_PIECES, acceleration=None):
+    """
+    Return step 3's shortest piece [s]: ``min_piece`` or ``ramp_pieces`` longest jerk ramps.
+
+    The jerk ramp of a joint is ``a_j / j_j`` (0 without a jerk limit);
+    ``acceleration`` (n,) replaces the limits' (:func:`ramp_accelerations`).
+    """
+    if acceleration is None:
+        acceleration = limits.acceleration
+    return max(ramp_pieces * float(np.max(acceleration / limits.jerk)), min_piece)
+
+
+def equal_fractions(counts):
+    """Return per segment the time fractions of its waypoint and ``counts`` inner knots."""
+    return [np.arange(c + 1) / (c + 1) for c in counts]
+
+
+def knot_times(passed, fractions):
+    """Return the knot times: per segment its ``fractions`` of the way between ``passed``."""
+    return np.concatenate([passed[k] + f * (passed[k + 1] - passed[k])
+                           for k, f in enumerate(fractions)] + [passed[-1:]])
 
 
 def exact_factors(coeffs, pieces, limits):
@@ -632,14 +653,12 @@ class _Candidate:
                 counts = knots_per_segment(passed[1:] - passed[:-1], limits, path.most,
                                            path.min_piece, path.ramp_pieces,
                                            path.ramp_acceleration)
-            fractions = [np.arange(c + 1) / (c + 1) for c in counts]
+            fractions = equal_fractions(counts)
         else:
             counts = np.array([f.size - 1 for f in fractions])
         self.counts = counts
         self.waypoint_knots = np.concatenate([[0], np.cumsum(counts + 1)])
-        self.knot_times = np.concatenate(
-            [passed[k] + f * (passed[k + 1] - passed[k]) for k, f in enumerate(fractions)]
-            + [passed[-1:]])
+        self.knot_times = knot_times(passed, fractions)
         # (Differences and clips here without numpy's wrappers: the same
         # values; a candidate is a few dozen numpy calls on small arrays.)
         pieces = self.knot_times[1:] - self.knot_times[:-1]

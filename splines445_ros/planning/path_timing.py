@@ -47,7 +47,8 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from .inner_knots import (_Candidate, _iterate, _Profile, _Timing, _trajectory, DEFAULT_SMOOTHING,
-                          end_ramps, knots_per_segment, ramp_accelerations)
+                          end_ramps, equal_fractions, knot_times, knots_per_segment,
+                          ramp_accelerations, shortest_piece)
 from .path_constraints import GriddedPath, JointAcceleration, JointTorque, JointVelocity
 from .path_velocity import path_position, PathLimits
 
@@ -199,11 +200,8 @@ class JointPathSamples:
             # acceleration's speed bounds): the caps whose corners are rounded.
             self.speed_caps = np.min([c.squared_speed_limit(self.gridded) for c in constraints
                                       if c.order == 1], axis=0)
-            acceleration = limits.acceleration if self.ramp_acceleration is None \
-                else self.ramp_acceleration
-            with np.errstate(divide='ignore', invalid='ignore'):
-                ramp = float(np.max(np.where(limits.jerk > 0.0, acceleration / limits.jerk, 0.0)))
-            self.rounding = CORNER_ROUNDING * max(self.ramp_pieces * ramp, self.min_piece)
+            self.rounding = CORNER_ROUNDING * shortest_piece(
+                limits, self.min_piece, self.ramp_pieces, self.ramp_acceleration)
 
     def _ramps(self, first, jerk):
         """
@@ -434,9 +432,8 @@ def _transition_fractions(path, limits, local):
     passed = profile.passed
     counts = knots_per_segment(passed[1:] - passed[:-1], limits, path.most, path.min_piece,
                                path.ramp_pieces, path.ramp_acceleration)
-    fractions = [np.arange(c + 1) / (c + 1) for c in counts]
-    times = np.concatenate([passed[k] + f * (passed[k + 1] - passed[k])
-                            for k, f in enumerate(fractions)] + [passed[-1:]])
+    fractions = equal_fractions(counts)
+    times = knot_times(passed, fractions)
     pieces = np.diff(times)
     at = times[:-1, None] + pieces[:, None] * np.linspace(0.0, 1.0, TRANSITION_SAMPLES)
     s = profile.timing.position_at(at.ravel())
