@@ -841,14 +841,15 @@ def _construct(path, boundary, limits, rest, knots_only=True):
 
 
 def _iterate(path, local, counts, boundary, limits, rest, best, fractions=None,
-             iterations=ITERATIONS, profile=None, relax=RELAX):
+             iterations=ITERATIONS, profile=None, relax=RELAX, min_gain=MIN_GAIN):
     """
     Run steps 2-6 from the local factors ``local``; return (best candidate or None, iterations).
 
     Stops after ``iterations``, or :data:`STALL` iterations in a row
-    without a relative gain of :data:`MIN_GAIN` over ``best`` (the best so
-    far); ``relax`` is step 6's exponent (:data:`REST_RELAX` and
-    :data:`REST_ITERATIONS` for rest-to-rest requests of plan()).
+    without a relative gain of ``min_gain`` (:data:`MIN_GAIN`) over
+    ``best`` (the best so far); ``relax`` is step 6's exponent
+    (:data:`REST_RELAX` and :data:`REST_ITERATIONS` for rest-to-rest
+    requests of plan()).
     ``fractions`` as for :class:`_Candidate`; ``profile``, when given, is
     the :class:`_Profile` of ``local`` (the first candidate's).
     """
@@ -859,7 +860,7 @@ def _iterate(path, local, counts, boundary, limits, rest, best, fractions=None,
         if not candidate.valid:
             break
         counts = candidate.counts
-        gain = best is None or candidate.score < best.score * (1.0 - MIN_GAIN)
+        gain = best is None or candidate.score < best.score * (1.0 - min_gain)
         stall = 0 if gain else stall + 1
         if candidate.better_than(best):
             best = candidate

@@ -78,6 +78,11 @@ RAMP_SHARE = 0.7
 # same seam 3.84 s with (15, 0.8), 3.80 s with (30, 1.0).
 PATH_ITERATIONS = 30
 PATH_RELAX = 1.0
+# The iteration along a path stops after two candidates in a row that gain
+# less than this share (inner_knots.MIN_GAIN is 1e-3): on bench_tool_lines'
+# Panda seam at 0.1 m/s the four candidates that 1e-3 let through gained
+# 0.005 % together.
+PATH_MIN_GAIN = 2e-3
 # Polish (_polish): rounds, and the exponent of the factors over 1 that slow
 # the binding pieces down; the UR5 seam at 0.25 m/s went from a largest
 # factor of 1.0046 (the whole spline slowed down by it) to 1.0002 in 4 rounds.
@@ -87,6 +92,10 @@ POLISH_RELAX = 2.0
 # total: on bench_tool_lines' Panda seam at 0.1 m/s its last five rounds
 # gained 1e-5 together (10.1838 -> 10.1837 s), a quarter of the planning.
 POLISH_GAIN = 1e-4
+# ... and is not started when the spline's largest factor is within this of
+# 1: on the UR5 seam at 0.1 m/s four rounds (a quarter of the timing's
+# planning) took the last 0.15 % off a factor of 1.0016.
+POLISH_NEED = 2e-3
 # Corner rounding (JointPathSamples' ``rounding``, tool lines with a speed
 # limit): inside each span between stops the profile's path position is
 # averaged over a centred window of CORNER_ROUNDING shortest pieces (the
@@ -386,7 +395,7 @@ def plan_along_path(path, limits, fractions=None, local=None, iterations=None):
     boundary = [np.zeros(path.points.shape[1])] * 4
     start = np.ones(path.s.size) if local is None else local
     kwargs = {'iterations': PATH_ITERATIONS if iterations is None else iterations,
-              'relax': PATH_RELAX}
+              'relax': PATH_RELAX, 'min_gain': PATH_MIN_GAIN}
     if fractions is None and path.rounding:
         fractions, kwargs['profile'] = _transition_fractions(path, limits, start)
     best, count = _iterate(path, start, None, boundary, limits, True, None, fractions, **kwargs)
@@ -461,11 +470,12 @@ def _polish(path, best, boundary, limits, fractions):
     of its steps lowering every piece to its own factor; here only the
     pieces over 1 are lowered, by their factor to :data:`POLISH_RELAX`
     (beyond what they need: their neighbours pull them back), while the
-    spline gets shorter by at least :data:`POLISH_GAIN` a round.
+    spline gets shorter by at least :data:`POLISH_GAIN` a round; not at all
+    when ``best`` is within :data:`POLISH_NEED` of its limits.
     """
     count = 0
     for _ in range(POLISH_ROUNDS):
-        if float(np.max(best.factors)) <= 1.0:
+        if float(np.max(best.factors)) <= (1.0 + POLISH_NEED if count == 0 else 1.0):
             break
         local = best.relaxed(best.local, POLISH_RELAX, floor=1.0)
         candidate = _Candidate(path, local, None, boundary, limits, True, fractions)
