@@ -533,8 +533,32 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
     if any(speeds) and not lines:
         raise ValueError('max_tool_speed and max_tool_angular_speed need method "555" with '
                          'timing "optimal" (inner_knots > 0), rest to rest')
-    joints = _inverse(kinematics, request, lambda k: f'tool waypoint {k}')
     n_req = len(request)
+    if lines:
+        # The tool lines walk the inverse kinematics along the lines
+        # themselves, through every waypoint: the waypoints' own walk would be
+        # a second one (5 ms of bench_tool_lines' 90 on the Panda seam).
+        # Duplicates are merged by pose, which gives them the same joints.
+        keep = np.ones(n_req, dtype=bool)
+        keep[list(merge_duplicates(request)[1])] = False
+        kept_index = np.flatnonzero(keep)
+        waypoint_knots = np.cumsum(keep) - 1
+        edge_poses = request[keep]
+        close = _close_waypoints(edge_poses, tol_position, tol_orientation)
+        try:
+            found = _tool_lines(edge_poses[close], (np.cumsum(close) - 1)[waypoint_knots],
+                                kinematics, (tol_position, tol_orientation), speeds, vibration,
+                                max_inserted, plan_kwargs)
+        except LineUnreachable as exc:
+            # A tool waypoint out of reach is named as such (as the refinement does).
+            _inverse(kinematics, request, lambda k: f'tool waypoint {k}')
+            a, b = kept_index[close][exc.edge], kept_index[close][exc.edge + 1]
+            raise ValueError(f'the straight line from tool waypoint {a} to {b} leaves the '
+                             f'reach of the arm: its point at {_format_pose(exc.pose)} '
+                             f'{exc.reason}') from None
+        if found is not None:
+            return found
+    joints = _inverse(kinematics, request, lambda k: f'tool waypoint {k}')
     if timing == 'fixed':
         if durations is None:
             raise ValueError('timing "fixed" needs durations, one per pair of tool waypoints')
@@ -550,14 +574,6 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
     kept_index = np.flatnonzero(keep)
     waypoint_knots = np.cumsum(keep) - 1
     edge_poses = request[keep]
-    if lines:
-        close = _close_waypoints(edge_poses, tol_position, tol_orientation)
-        found = _tool_lines(edge_poses[close], joints[keep][close],
-                            (np.cumsum(close) - 1)[waypoint_knots], kept_index[close],
-                            kinematics, (tol_position, tol_orientation), speeds, vibration,
-                            max_inserted, plan_kwargs)
-        if found is not None:
-            return found
     knots = edge_poses.copy()
     knot_joints = joints[keep]
     segment_edges = np.arange(len(knots) - 1)
@@ -644,6 +660,14 @@ def _close_waypoints(poses, tol_position, tol_orientation):
     return mask
 
 
+def _joint_count(kinematics, poses):
+    """Return the joints of ``kinematics``: its ``n_joints``, else those of the first pose's IK."""
+    count = getattr(kinematics, 'n_joints', None)
+    if isinstance(count, numbers.Integral) and not isinstance(count, bool):
+        return int(count)
+    return _inverse(kinematics, poses[:1], lambda k: 'tool waypoint 0').shape[1]
+
+
 def _speed_limit(name, value):
     """Return a tool speed limit: None or 0 -> 0 (no limit); ValueError unless finite, >= 0."""
     if value is None:
@@ -656,15 +680,17 @@ def _speed_limit(name, value):
     return value
 
 
-def _tool_lines(edge_poses, joints, waypoint_knots, kept_index, kinematics, tolerances, speeds,
-                vibration, max_inserted, plan_kwargs):
+def _tool_lines(edge_poses, waypoint_knots, kinematics, tolerances, speeds, vibration,
+                max_inserted, plan_kwargs):
     """
     Return the :class:`ToolPath` of :func:`tool_lines.plan_tool_lines`, or None to refine instead.
 
     None when that construction fails without a tool speed limit (the
-    refinement then names the problem); with one its error is raised.
+    refinement then names the problem); with one its error is raised, a
+    line out of reach as the :class:`tool_lines.LineUnreachable`.
     """
-    limits = JointLimits.from_user(joints.shape[1], plan_kwargs.get('max_velocity'),
+    n_joints = _joint_count(kinematics, edge_poses)
+    limits = JointLimits.from_user(n_joints, plan_kwargs.get('max_velocity'),
                                    plan_kwargs.get('max_acceleration'),
                                    plan_kwargs.get('max_jerk'))
     torque = None
@@ -673,7 +699,7 @@ def _tool_lines(edge_poses, joints, waypoint_knots, kept_index, kinematics, tole
         if plan_kwargs.get('max_torque') is None or plan_kwargs.get('inverse_dynamics') is None:
             raise ValueError('max_torque and inverse_dynamics must be given together')
         torque = TorqueLimit(plan_kwargs['max_torque'], plan_kwargs['inverse_dynamics'],
-                             joints.shape[1])
+                             n_joints)
     segment_edges = np.arange(len(edge_poses) - 1)
 
     def measure(traj, edges):
@@ -683,13 +709,10 @@ def _tool_lines(edge_poses, joints, waypoint_knots, kept_index, kinematics, tole
     try:
         found = plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, *speeds,
                                 windows=windows, max_inserted=max_inserted, torque=torque)
-    except LineUnreachable as exc:
+    except LineUnreachable:
         if not any(speeds):
             return None
-        a, b = kept_index[exc.edge], kept_index[exc.edge + 1]
-        raise ValueError(f'the straight line from tool waypoint {a} to {b} leaves the reach '
-                         f'of the arm: its point at {_format_pose(exc.pose)} '
-                         f'{exc.reason}') from None
+        raise
     except GravityOverload:
         raise
     except ValueError:
