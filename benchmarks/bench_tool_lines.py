@@ -27,7 +27,10 @@ limits v = none, 0.1 and 0.25 m/s, each planned two ways in this run:
   plus the tool speed limit at the grid points (between them, where
   ``|dp/ds|`` changes fast near a corner, the tool may run a little faster:
   toppra checks its constraints at the grid points only).  IK and TOPP-RA
-  are timed separately (best of 3 each).
+  are timed separately (best of 3 each), in turn with ours: for every row
+  the IK, TOPP-RA and ours once a round, three rounds, so that each best
+  comes from the same seconds of this shared machine (the Panda's IK alone
+  gave 61-85 ms in three runs of the same code, while ours held 82-85).
 
 Per row: durations; planning times (ours against IK + TOPP-RA); the largest
 deviation from the lines sampled at 1 kHz through the forward kinematics
@@ -55,12 +58,25 @@ printed next to it, and the share of the length where that profile runs at
 speed (the rest is speeding up and slowing down at the corners).  The
 no-limit rows show the same profile without the tool speed.
 
+The issue asks for ">= 90 % of each edge's length at >= 99 % of the limit
+where the joints allow", and the joints have jerk limits too.  Per edge
+(ours: between the trajectory's waypoint times; the bound: between the
+waypoints' ``s``) the share is therefore divided by that of two bounds:
+the jerk-free profile above, and that profile with its path position
+averaged over a centred window of one jerk ramp (the longest ``a_j / j_j``
+of the joints, 0.1 s on the UR5): a joint that speeds up alone at its
+acceleration limit does so, with its jerk limit, on exactly that moving
+average (the S-curve of the trapezoid), so it is what v/a/j allow there.
+Elsewhere it is an estimate (the joints' ramps overlap), not a proof.
+
 Targets (met / not met, after the tables): duration <= 1.05 x TOPP-RA's
 (no-limit rows); planning <= 200 ms and <= dense IK + TOPP-RA; tool speed
-<= v everywhere, share >= 0.9 (of the whole length, and of the length the
-joints allow: our share over the bound's) and duration <= 1.05 x the bound
-(speed rows).  A report: exits 0 whatever the targets, but 1 when one of our plans
-deviates more than 1 mm or 1 degree at 1 kHz (as ``bench_robot_seam.py``).
+<= v everywhere, on every edge >= 0.9 of the share that v/a/j allow (the
+jerk-rounded bound), and duration <= 1.05 x the bound (speed rows).  Also
+printed, not targets: the share of the whole length (absolute, and over the
+jerk-free bound's) and the per-edge worst against the jerk-free bound.  A
+report: exits 0 whatever the targets, but 1 when one of our plans deviates
+more than 1 mm or 1 degree at 1 kHz (as ``bench_robot_seam.py``).
 
 Usage: ``python benchmarks/bench_tool_lines.py`` (about 10 s).
 """
@@ -89,7 +105,7 @@ import toppra  # noqa: E402, I100
 import toppra.algorithm  # noqa: E402
 import toppra.constraint  # noqa: E402
 from toppra.interpolator import propose_gridpoints  # noqa: E402
-from wall_time import best_of  # noqa: E402
+from wall_time import interleaved_best_of  # noqa: E402
 
 ROBOTS = ('ur5', 'panda')
 SPEEDS = (None, 0.1, 0.25)          # tool speed limits [m/s]; None: no limit
@@ -205,13 +221,24 @@ class ToppraTrajectory:
 
 
 def speed_figures(trajectory, kin, tool_speed):
-    """Return (largest tool speed [m/s], share of the length at >= 99 % of ``tool_speed``)."""
+    """
+    Return (largest tool speed [m/s], share of the length at >= 99 % of ``tool_speed``, per edge).
+
+    The shares (None without ``tool_speed``): of the whole length, and per
+    edge (between the trajectory's waypoint times) as an array.
+    """
     # Central differences of the forward kinematics, not the planner's tool Jacobian.
     linear, _, sampled = tl.tool_speeds(trajectory, kin, differences=True)
     if not tool_speed:
-        return linear, None
+        return linear, None, None
     # By length: every sample weighs the distance the tool covers there (as ToolPath's).
-    return linear, float(np.sum(sampled[sampled >= 0.99 * tool_speed]) / np.sum(sampled))
+    fast = sampled >= 0.99 * tool_speed
+    t = tl.check_times(trajectory.duration, tl.CHECK_PERIOD, 'the tool speed')
+    edge = np.clip(np.searchsorted(trajectory.waypoint_times, t, side='right') - 1,
+                   0, trajectory.waypoint_times.size - 2)
+    per_edge = (np.bincount(edge, sampled * fast, trajectory.waypoint_times.size - 1)
+                / np.bincount(edge, sampled, trajectory.waypoint_times.size - 1))
+    return linear, float(np.sum(sampled[fast]) / np.sum(sampled)), per_edge
 
 
 def profile_bound(path_samples, limits, tool_speed):
@@ -229,14 +256,43 @@ def profile_bound(path_samples, limits, tool_speed):
     path = JointPathSamples(s, joints, waypoints, limits, constraints, windows=(),
                             jerk_ramps=False)
     x = path.limits.profile(np.ones(path.s.size))
-    duration = float(traversal_times(x, path.steps)[-1])
+    times = traversal_times(x, path.steps)
+    duration = float(times[-1])
     if not tool_speed:
-        return duration, None
+        return duration, None, None, None
     rate = rates.linear_tangent(path.gridded)[:, 0]
     speed = np.sqrt(x) * rate
     length = path.steps * 0.5 * (rate[:-1] + rate[1:])
     fast = np.minimum(speed[:-1], speed[1:]) >= 0.99 * tool_speed
-    return duration, float(np.sum(length[fast]) / np.sum(length))
+    ends = s[waypoints]
+    edge = np.clip(np.searchsorted(ends, 0.5 * (path.s[:-1] + path.s[1:]), side='right') - 1,
+                   0, ends.size - 2)
+    plain = np.bincount(edge, length * fast, ends.size - 1) / np.bincount(edge, length,
+                                                                          ends.size - 1)
+    return (duration, float(np.sum(length[fast]) / np.sum(length)), plain,
+            jerk_rounded_shares(times, path.s, rate, ends, tool_speed,
+                                float(np.max(limits.acceleration / limits.jerk))))
+
+
+def jerk_rounded_shares(times, s, rate, ends, tool_speed, ramp, step=1e-4):
+    """
+    Return per edge the share of the length at >= 99 % of ``tool_speed`` once rounded by ``ramp``.
+
+    The profile's path position ``s(times)`` (rate: the tool's |dp/ds| on
+    ``s``) averaged over a centred window of ``ramp`` [s] on a ``step``
+    clock (held at its ends beyond them); ``ends`` the waypoints' ``s``.
+    """
+    clock = np.arange(-ramp, times[-1] + ramp, step)
+    position = np.interp(clock, times, s)
+    width = max(1, int(round(ramp / step)))
+    total = np.concatenate([[0.0], np.cumsum(position)])
+    mean = (total[width:] - total[:-width]) / width
+    middle = 0.5 * (mean[:-1] + mean[1:])
+    length = np.diff(mean) * np.interp(middle, s, rate)
+    fast = length >= 0.99 * tool_speed * step
+    edge = np.clip(np.searchsorted(ends, middle, side='right') - 1, 0, ends.size - 2)
+    return (np.bincount(edge, length * fast, ends.size - 1)
+            / np.bincount(edge, length, ends.size - 1))
 
 
 def bound_path(poses, kin):
@@ -254,21 +310,25 @@ def robot_rows(robot):
     limits = JointLimits.from_user(kin.n_joints, kwargs['max_velocity'],
                                    kwargs['max_acceleration'], kwargs['max_jerk'])
     s, samples, waypoints = dense_lines(poses)
-    ik_time, joints = best_of(lambda: np.asarray(
-        fresh_kinematics(robot, kin).inverse(samples), float))
+
+    def dense_ik():
+        return np.asarray(fresh_kinematics(robot, kin).inverse(samples), float)
+
+    joints = dense_ik()
     bound_samples = bound_path(poses, fresh_kinematics(robot, kin))
     edge_sum = float(np.sum(np.linalg.norm(np.diff(poses[:, :3], axis=0), axis=1)))
     rows = []
     for v in SPEEDS:
-        top_time, (top, grid, sdot) = best_of(
-            lambda: toppra_plan(s, joints, kin, vmax, amax, v))
+        # IK, TOPP-RA and ours in turn, best of REPEATS each (interleaved_best_of).
+        (ik_time, _), (top_time, (top, grid, sdot)), (ours_time, ours) = interleaved_best_of([
+            dense_ik, lambda: toppra_plan(s, joints, kin, vmax, amax, v),
+            lambda: plan_tool_path(
+                poses, fresh_kinematics(robot, kin), rsd.TOLERANCE, rsd.ANGLE_TOLERANCE,
+                max_inserted=rsd.MAX_INSERTED, method='555', timing='optimal',
+                max_tool_speed=v, **kwargs)], REPEATS)
         rival = SimpleNamespace(
             trajectory=ToppraTrajectory(top, passing_times(grid, sdot, s[waypoints])),
             waypoint_knots=np.arange(len(poses)))
-        ours_time, ours = best_of(lambda: plan_tool_path(
-            poses, fresh_kinematics(robot, kin), rsd.TOLERANCE, rsd.ANGLE_TOLERANCE,
-            max_inserted=rsd.MAX_INSERTED, method='555', timing='optimal', max_tool_speed=v,
-            **kwargs))
         reference = shaking_figures(of_toppra(top), top.duration, amax)
         bound = profile_bound(bound_samples, limits, v)
         rows.append({
@@ -279,7 +339,8 @@ def robot_rows(robot):
             'top_dev': rsd.sampled_deviation(rival, poses, kin),
             'ours_speed': speed_figures(ours.trajectory, kin, v),
             'top_speed': speed_figures(rival.trajectory, kin, v),
-            'bound': bound[0], 'allowed': bound[1],
+            'bound': bound[0], 'allowed': bound[1], 'edge_plain': bound[2],
+            'edge_jerk': bound[3],
             'edges_over_v': edge_sum / v if v else None,
             'shaking': shaking_ratios(ours.trajectory, reference, amax)})
     return rows
@@ -292,8 +353,21 @@ def speed_label(v):
 
 def speed_cell(figures):
     """'speed / share' of :func:`speed_figures`."""
-    speed, share = figures
+    speed, share, _ = figures
     return f'{speed:.4f}' + ('' if share is None else f' / {share:.2f}')
+
+
+def edge_ratios(row, bound):
+    """Our share per edge over the ``bound`` ('edge_plain' or 'edge_jerk') row's, (E,)."""
+    return row['ours_speed'][2] / row[bound]
+
+
+def edge_cell(row):
+    """'worst edge: over the jerk-free bound / over the v/a/j one', or '-' without a speed."""
+    if row['v'] is None:
+        return '-'
+    return (f"{np.min(edge_ratios(row, 'edge_plain')):.2f} / "
+            f"{np.min(edge_ratios(row, 'edge_jerk')):.2f}")
 
 
 def dev_cell(deviation):
@@ -307,8 +381,9 @@ def markdown_table(rows):
              '| TOPP-RA planning (IK + TOPP) [ms] | ratio | ours dev [mm / deg] '
              '| TOPP-RA dev [mm / deg] | ours max tool speed [m/s] / share '
              '| TOPP-RA max tool speed [m/s] / share | bound (profile) / sum L/v [s] / share '
-             '| ours / bound | shaking 4 Hz peak / res, 8 Hz peak / res (ours / TOPP-RA) |',
-             '|' + '---|' * 14]
+             '| ours / bound | worst edge share / the bound share: jerk-free / v/a/j '
+             '| shaking 4 Hz peak / res, 8 Hz peak / res (ours / TOPP-RA) |',
+             '|' + '---|' * 15]
     for r in rows:
         rival = r['ik_time'] + r['top_time']
         bound = f"{r['bound']:.3f}" + ('' if r['v'] is None else
@@ -322,6 +397,7 @@ def markdown_table(rows):
             f"| {r['ours_time'] / rival:.2f} | {dev_cell(r['ours_dev'])} "
             f"| {dev_cell(r['top_dev'])} | {speed_cell(r['ours_speed'])} "
             f"| {speed_cell(r['top_speed'])} | {bound} | {r['ours'] / r['bound']:.3f} "
+            f'| {edge_cell(r)} '
             f'| {shake[0]:.2f} / {shake[1]:.2f}, {shake[2]:.2f} / {shake[3]:.2f} |')
     return '\n'.join(lines)
 
@@ -344,15 +420,34 @@ TARGETS = (
      '{:.2f} x'),
     ('tool speed <= v at every sample', lambda r: r['v'] is not None,
      lambda r: r['ours_speed'][0] / r['v'], lambda x: x <= SPEED_SLACK, '{:.4f} v'),
-    ('share at >= 99 % of v >= 0.9', lambda r: r['v'] is not None,
-     lambda r: r['ours_speed'][1], lambda x: x >= SHARE_TARGET, '{:.2f}'),
-    ('share of the length the joints allow >= 0.9', lambda r: r['v'] is not None,
-     lambda r: r['ours_speed'][1] / r['allowed'], lambda x: x >= SHARE_TARGET, '{:.2f}'),
+    ('share at >= 99 % of v >= 0.9 of what v/a/j allow, every edge',
+     lambda r: r['v'] is not None, lambda r: float(np.min(edge_ratios(r, 'edge_jerk'))),
+     lambda x: x >= SHARE_TARGET, '{:.2f}'),
     ('duration <= 1.05 x bound', lambda r: r['v'] is not None,
      lambda r: r['ours'] / r['bound'], lambda x: x <= DURATION_SLACK, '{:.3f} x'),
     ('deviation <= 1 mm / 1 deg at 1 kHz', lambda r: True,
      lambda r: r, within_tolerance, None),
 )
+
+
+def share_table(rows):
+    """Return the Markdown table of the shares at >= 99 % of v, whole and per edge (speed rows)."""
+    lines = ['Shares of the length at >= 99 % of v (not targets): ours, and those of the '
+             'bounds (jerk-free; v/a/j: its position averaged over one jerk ramp), per edge.',
+             '| row | ours whole | ours / jerk-free whole | ours per edge | jerk-free per edge '
+             '| v/a/j per edge |', '|' + '---|' * 6]
+
+    def listed(values):
+        return ' '.join(f'{x:.2f}' for x in values)
+
+    for r in rows:
+        if r['v'] is None:
+            continue
+        lines.append(f"| {r['robot']} {speed_label(r['v'])} | {r['ours_speed'][1]:.2f} "
+                     f"| {r['ours_speed'][1] / r['allowed']:.2f} "
+                     f"| {listed(r['ours_speed'][2])} | {listed(r['edge_plain'])} "
+                     f"| {listed(r['edge_jerk'])} |")
+    return '\n'.join(lines)
 
 
 def targets_table(rows):
@@ -395,6 +490,8 @@ def main():
     print("Issue 24's targets (ours):")
     print(table)
     print(f'{met} of {checked} met; run time {time.perf_counter() - started:.1f} s.')
+    print()
+    print(share_table(every))
     failed = [r for r in every if not within_tolerance(r)]
     for r in failed:
         print(f"NOT WITHIN TOLERANCE: {r['robot']} v = {r['v']}")
