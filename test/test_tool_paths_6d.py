@@ -151,3 +151,14 @@ def test_bad_spatial_poses_are_named(ur5):
     far[0] = 2.0
     with pytest.raises(ValueError, match=r'tool waypoint 2 at \(x, y, z\) = \(2, .*out of reach'):
         plan_tool_path([good, good + [0.05, 0, 0, 0, 0, 0, 0], far], kin, MM, **UR5_LIMITS)
+
+
+def test_a_tool_waypoint_out_of_reach_is_named_by_the_tool_lines_too(ur5):
+    """With a tool speed the lines are walked without the waypoints' own IK: still named."""
+    kin, _ = ur5
+    good = kin.forward(np.array(vr.UR5_READY))
+    far = good.copy()
+    far[0] = 2.0
+    with pytest.raises(ValueError, match=r'tool waypoint 2 at \(x, y, z\) = \(2, .*out of reach'):
+        plan_tool_path([good, good + [0.05, 0, 0, 0, 0, 0, 0], far], kin, MM, method='555',
+                       timing='optimal', max_tool_speed=0.1, **UR5_LIMITS)
