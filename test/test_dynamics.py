@@ -546,6 +546,136 @@ def test_one_sample_and_an_empty_batch(vendor):
     assert dynamics.torques(np.zeros((0, 6)), np.zeros((0, 6)), np.zeros((0, 6))).shape == (0, 6)
 
 
+# Against MuJoCo's own Newton-Euler, sample by sample (the small batches' path): the
+# vectorised one must give the same numbers, up to round-off, on every sample.
+
+TREE_MJCF = """<mujoco><option gravity="0.3 -1.2 -9.6"/><worldbody>
+  <body name="b1" pos="0.1 0.2 0.3" quat="0.9 0.1 0.2 0.3">
+    <inertial pos="0.05 0.02 0.1" quat="0.8 0.3 -0.1 0.2" mass="2" diaginertia="0.03 0.02 0.015"/>
+    <joint name="j1" axis="0.3 0.4 1" pos="0.02 -0.03 0.01" ref="0.4" range="-2 2"/>
+    <body name="b2" pos="0.3 0 0.1" euler="0.3 0.2 -0.5">
+      <inertial pos="0.1 0.0 0.02" mass="1.5" diaginertia="0.01 0.02 0.02"/>
+      <joint name="j2a" axis="0 1 0.2" pos="0.01 0.02 0.03" range="-2 2"/>
+      <joint name="j2b" type="slide" axis="1 0.1 0" pos="0.05 0 0" ref="0.05" range="-0.2 0.3"/>
+      <body name="b3" pos="0.2 0.05 0" euler="0.1 -0.4 0.2">
+        <inertial pos="0.03 0.01 0.02" mass="0.7" diaginertia="0.003 0.002 0.004"/>
+        <joint name="j3" axis="1 0 0" pos="0 0.01 0" range="-3 3"/>
+        <body name="b4" pos="0.1 0 0.05" quat="0.7 0.7 0 0">
+          <inertial pos="0.02 0 0" mass="0.4" diaginertia="0.001 0.001 0.002"/>
+          <site name="grip" pos="0.01 0.02 0.03" quat="0.9 0.1 0.3 0.2"/>
+        </body>
+      </body>
+      <body name="side" pos="0 0.15 0">
+        <inertial pos="0.0 0.05 0.0" mass="0.9" diaginertia="0.002 0.003 0.002"/>
+        <joint name="j4" type="slide" axis="0 0 1" range="-0.1 0.1"/>
+        <joint name="j5" axis="0 1 0" pos="0 0.02 0" ref="-0.3" range="-2 2"/>
+      </body>
+    </body>
+  </body>
+</worldbody>
+<equality><joint joint1="j5" joint2="j1" polycoef="0.1 -0.5 0.2 0.05 0.01"/></equality>
+</mujoco>"""
+
+
+def tree_model(text=TREE_MJCF):
+    """
+    Return a RobotModel of ``text``, by default a tree with what the URDF arms lack.
+
+    Two joints on a body, slides, reference positions (``ref``), joint
+    anchors off the body's origin, a branch, a joint driven by a
+    polynomial, gravity off the vertical.
+    """
+    return RobotModel(mujoco.MjSpec.from_string(text).compile(), 'mjcf', 'a test tree')
+
+
+def against_mujoco(dynamics, q, qd, qdd):
+    """Return (the torques of a large batch, MuJoCo's sample by sample) for the same states."""
+    assert len(q) >= dynamics.vectorised_from
+    batch = dynamics.torques(q, qd, qdd)
+    dynamics.vectorised_from = math.inf
+    try:
+        by_sample = dynamics.torques(q, qd, qdd)
+    finally:
+        del dynamics.vectorised_from    # back to the class's
+    return batch, by_sample
+
+
+@pytest.mark.parametrize('robot_name', sorted(ROBOTS))
+@pytest.mark.parametrize('case', ['bare', 'payload', 'damping', 'some joints'])
+def test_large_batches_match_mujoco_sample_by_sample(vendor, robot_name, case):
+    robot, _ = vendor[robot_name]
+    _, names, tool, _ = ROBOTS[robot_name]
+    names = list(names)
+    kwargs = {}
+    if case != 'bare':
+        kwargs = {'payload_mass': PAYLOAD_MASS, 'payload_center_of_mass': PAYLOAD_COM,
+                  'payload_inertia': PAYLOAD_INERTIA}
+    if case == 'damping':
+        kwargs['include_damping'] = True
+    if case == 'some joints':      # the others held, in another order
+        names = [names[3], names[0], names[1]]
+    dynamics = ArmDynamics(robot, names, tool, **kwargs)
+    assert dynamics.vectorised
+    rng = np.random.default_rng(len(robot_name) + len(case))
+    q, qd, qdd = random_states(rng, 2000, *bounds(robot, names))
+    batch, by_sample = against_mujoco(dynamics, q, qd, qdd)
+    check_close(batch, by_sample)
+
+
+@pytest.mark.parametrize('case', ['tree', 'tree held', 'no gravity', 'site damping',
+                                  'mimic quadratic'])
+def test_large_batches_match_mujoco_on_other_models(case):
+    names, tool, kwargs = None, '', {}
+    if case == 'tree':
+        robot, tool = tree_model(), 'grip'
+        kwargs = {'payload_mass': 1.0, 'payload_center_of_mass': (0.1, 0.0, 0.02),
+                  'payload_inertia': (0.01, 0.02, 0.015)}
+    elif case == 'tree held':      # j1 held: j5, driven by it, at a constant displacement
+        robot, names = tree_model(), ['j3', 'j2b', 'j4']
+    elif case == 'no gravity':
+        robot = tree_model(TREE_MJCF.replace('<option ', '<option><flag gravity="disable"/>'
+                                             '</option><option '))
+    elif case == 'site damping':
+        robot, tool = ur5_with_site(), 'grip'
+        kwargs = {'payload_mass': 2.0, 'include_damping': True}
+    else:
+        robot, names, tool = mimic_quadratic(), MIMIC_PLANNED, 'tool'
+        kwargs = {'payload_mass': 1.2, 'payload_center_of_mass': PAYLOAD_COM}
+    names = list(names or robot.joint_names)
+    dynamics = ArmDynamics(robot, names, tool, **kwargs)
+    assert dynamics.vectorised
+    rng = np.random.default_rng(len(case))
+    q, qd, qdd = random_states(rng, 1000, *bounds(robot, names))
+    batch, by_sample = against_mujoco(dynamics, q, qd, qdd)
+    check_close(batch, by_sample)
+    if case == 'no gravity':
+        zeros = np.zeros_like(q)
+        np.testing.assert_array_equal(dynamics.torques(q, zeros, zeros), 0.0)
+
+
+def test_small_batches_and_unsupported_models_take_mujoco(vendor):
+    robot, _ = vendor['ur5']
+    names = list(vr.UR5_JOINTS)
+    dynamics = ArmDynamics(robot, names, 'tool0', PAYLOAD_MASS, PAYLOAD_COM)
+    rng = np.random.default_rng(23)
+    q, qd, qdd = random_states(rng, dynamics.vectorised_from - 1, *bounds(robot, names))
+    small = dynamics.torques(q, qd, qdd)
+    dynamics.vectorised_from = 1
+    check_close(small, dynamics.torques(q, qd, qdd))
+    # A ball joint: MuJoCo's Newton-Euler at every batch size.
+    ball = tree_model(TREE_MJCF.replace('<joint name="j1" axis="0.3 0.4 1" pos="0.02 -0.03 0.01" '
+                                        'ref="0.4" range="-2 2"/>', '<joint type="ball"/>')
+                      .replace('<joint joint1="j5" joint2="j1" polycoef="0.1 -0.5 0.2 0.05 '
+                               '0.01"/>', ''))
+    names = ['j2a', 'j3', 'j5']
+    dynamics = ArmDynamics(ball, names, 'grip', 1.0)
+    assert not dynamics.vectorised
+    q, qd, qdd = random_states(rng, 2 * dynamics.vectorised_from, *bounds(ball, names))
+    batch = dynamics.torques(q, qd, qdd)
+    one_by_one = np.array([dynamics.torques(*sample) for sample in zip(q, qd, qdd)])
+    np.testing.assert_array_equal(batch, one_by_one)
+
+
 def test_effort_limits_as_the_urdf_says(vendor):
     for name, (path, names, *_) in ROBOTS.items():
         robot, tree = vendor[name]
