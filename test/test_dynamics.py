@@ -676,6 +676,20 @@ def test_small_batches_and_unsupported_models_take_mujoco(vendor):
     np.testing.assert_array_equal(batch, one_by_one)
 
 
+def test_a_batch_taken_in_chunks_is_the_batch_taken_whole(vendor):
+    """A 1 kHz check of a long plan goes through in chunks: the same torques, bit for bit."""
+    robot, _ = vendor['panda']
+    names = list(vr.PANDA_ARM_JOINTS)
+    dynamics = ArmDynamics(robot, names, 'panda_hand_tcp', PAYLOAD_MASS, PAYLOAD_COM)
+    rng = np.random.default_rng(5)
+    q, qd, qdd = random_states(rng, 1000, *bounds(robot, names))
+    whole = dynamics.torques(q, qd, qdd)
+    dynamics.vectorised_chunk = 97     # the last chunk shorter than the others
+    chunked = dynamics.torques(q, qd, qdd)
+    np.testing.assert_array_equal(chunked, whole)
+    check_close(chunked, against_mujoco(dynamics, q, qd, qdd)[1])
+
+
 def test_effort_limits_as_the_urdf_says(vendor):
     for name, (path, names, *_) in ROBOTS.items():
         robot, tree = vendor[name]

@@ -483,6 +483,9 @@ class ArmDynamics:
     #: :attr:`vectorised`): below, its fixed cost (about 100 us for a 6- or 7-joint arm)
     #: outweighs MuJoCo's few microseconds a sample.
     vectorised_from = 50
+    #: ... taken this many samples at a time: the pass keeps some 1 kB a sample for a
+    #: 7-joint arm, and a 1 kHz check of a long plan has millions of samples.
+    vectorised_chunk = 16384
 
     def __init__(self, robot, joint_names=(), tool_frame='', payload_mass=0.0,
                  payload_center_of_mass=(0.0, 0.0, 0.0), payload_inertia=None,
@@ -663,7 +666,9 @@ class ArmDynamics:
         if vectorised:
             # Only the moving joints' columns are filled: the held ones' are not read.
             force = np.zeros((count, m.nv), order=layout)
-            self._vectorised.forces(qpos, qvel, qacc, force)
+            for start in range(0, count, self.vectorised_chunk):
+                rows = slice(start, min(start + self.vectorised_chunk, count))
+                self._vectorised.forces(qpos[rows], qvel[rows], qacc[rows], force[rows])
         else:
             force = np.empty((count, m.nv))
             qpos_now, qvel_now, qacc_now = d.qpos, d.qvel, d.qacc
