@@ -88,18 +88,15 @@ PATH_MIN_GAIN = 2e-3
 # factor of 1.0046 (the whole spline slowed down by it) to 1.0002 in 4 rounds.
 # A binding piece's excess over 1 shrank by about half a round with 2 (its
 # neighbours pull it back); with 4 the UR5 seam at 0.1 m/s takes 11 splines
-# instead of 15 to the same duration, and 100 random line sets keep their
-# summed durations (+0.03 %) and median shares (-0.01 to +0.00).
+# instead of 15 to the same duration, and on three sets of 20 random line
+# sets the summed durations moved by -0.02 % to +0.04 % and the median
+# shares by at most 0.002.
 POLISH_ROUNDS = 6
 POLISH_RELAX = 4.0
 # The polish stops after a round that gains less than this share of the
 # total: on bench_tool_lines' Panda seam at 0.1 m/s its last five rounds
 # gained 1e-5 together (10.1838 -> 10.1837 s), a quarter of the planning.
 POLISH_GAIN = 1e-4
-# ... and is not started when the spline's largest factor is within this of
-# 1: on the UR5 seam at 0.1 m/s four rounds (a quarter of the timing's
-# planning) took the last 0.15 % off a factor of 1.0016.
-POLISH_NEED = 2e-3
 # Corner rounding (JointPathSamples' ``rounding``, tool lines with a speed
 # limit): inside each span between stops the profile's path position is
 # averaged over a centred window of CORNER_ROUNDING shortest pieces (the
@@ -474,12 +471,11 @@ def _polish(path, best, boundary, limits, fractions):
     of its steps lowering every piece to its own factor; here only the
     pieces over 1 are lowered, by their factor to :data:`POLISH_RELAX`
     (beyond what they need: their neighbours pull them back), while the
-    spline gets shorter by at least :data:`POLISH_GAIN` a round; not at all
-    when ``best`` is within :data:`POLISH_NEED` of its limits.
+    spline gets shorter by at least :data:`POLISH_GAIN` a round.
     """
     count = 0
     for _ in range(POLISH_ROUNDS):
-        if float(np.max(best.factors)) <= (1.0 + POLISH_NEED if count == 0 else 1.0):
+        if float(np.max(best.factors)) <= 1.0:
             break
         local = best.relaxed(best.local, POLISH_RELAX, floor=1.0)
         candidate = _Candidate(path, local, None, boundary, limits, True, fractions)
