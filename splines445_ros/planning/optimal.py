@@ -81,15 +81,20 @@ STALL_TOLERANCE = 1e-4
 STALL_ITERATIONS = 2
 # With a total to beat (``give_up``): the iterations stop once the best
 # restored total is above it by more than GIVE_UP_MARGIN, a margin halved
-# after every LP (the total falls fastest in the first steps).  On 360 small
-# random requests, knots-only rivals that ended shorter than the inner-knot
-# plan were never above it by more than 8.4 % before their first LP, 3 %
-# before the second, 1.5 % before the third; a margin of 0.08 would have
-# lost 2 of their 120 wins, 0.1 none.  0.15 saved 3 LPs in 5; 0.1 (issue 23)
-# planned 5 x 6 requests 7 % faster still, and of 360 random requests of
-# 3-12 waypoints (j = 5, 20 and 100 a) and 170 of 2-25 none changed by a
-# bit (0.03 lengthened 2 of the 170, by 0.5 and 3.3 %).
-GIVE_UP_MARGIN = 0.1
+# after every LP (the total falls fastest in the first steps).  A rival
+# that gives up must be one that would lose: the caller keeps the other
+# plan, so a rival given up too early makes plan() longer than the
+# knots-only optimum.  On 1200 random requests of 3-30 waypoints (j = 5,
+# 20, 100 a) run without giving up, the 295 rivals that won were above the
+# total before their first LP by up to 12.4 %, before the second by up to
+# 5.4 %; 0.1 (the setting before) lost 5 of those wins, by up to 2.5 % (and
+# a 3 x 3 request elsewhere by 4.3 %), 0.15 loses 2, by 1.1 and 1.4 %: two
+# rivals that crept down, 2-4 % above for 20 LPs.  A floor of 0.05 under
+# the halving kept those too, but planned bench_inner_knots' 5 x 6 requests
+# 20 % slower (its rivals that lose ran on); 0.25 planned its 3 x 3 ones
+# 10 % slower; with 0.15 their medians moved by -2 % to +8 % (two runs,
+# 3 x 3 to 30 x 7; the worst 3 x 3 request 10-15 % slower).
+GIVE_UP_MARGIN = 0.15
 # With a total to beat: a rival whose restored total (or uniform duration) is
 # above it by more than this, far above round-off (1e-15), is not going to
 # win, and :func:`optimal_durations` returns None without restoring and
