@@ -539,11 +539,8 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
         # themselves, through every waypoint: the waypoints' own walk would be
         # a second one (5 ms of bench_tool_lines' 90 on the Panda seam).
         # Duplicates are merged by pose, which gives them the same joints.
-        keep = np.ones(n_req, dtype=bool)
-        keep[list(merge_duplicates(request)[1])] = False
-        kept_index = np.flatnonzero(keep)
-        waypoint_knots = np.cumsum(keep) - 1
-        edge_poses = request[keep]
+        kept_index, waypoint_knots = _kept(n_req, merge_duplicates(request)[1])
+        edge_poses = request[kept_index]
         close = _close_waypoints(edge_poses, tol_position, tol_orientation)
         try:
             found = _tool_lines(edge_poses[close], (np.cumsum(close) - 1)[waypoint_knots],
@@ -566,16 +563,14 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
         if seg_durations.shape != (n_req - 1,):
             raise ValueError(f'durations must have shape ({n_req - 1},), '
                              f'got {seg_durations.shape}')
-        keep = np.ones(n_req, dtype=bool)
+        dropped = ()
     else:
         seg_durations = None
-        keep = np.ones(n_req, dtype=bool)
-        keep[list(merge_duplicates(joints)[1])] = False
-    kept_index = np.flatnonzero(keep)
-    waypoint_knots = np.cumsum(keep) - 1
-    edge_poses = request[keep]
+        dropped = merge_duplicates(joints)[1]
+    kept_index, waypoint_knots = _kept(n_req, dropped)
+    edge_poses = request[kept_index]
     knots = edge_poses.copy()
-    knot_joints = joints[keep]
+    knot_joints = joints[kept_index]
     segment_edges = np.arange(len(knots) - 1)
     inserted = 0
     initial = None
@@ -658,6 +653,18 @@ def _close_waypoints(poses, tol_position, tol_orientation):
     mask = np.zeros(len(poses), dtype=bool)
     mask[keep] = True
     return mask
+
+
+def _kept(count, dropped):
+    """
+    Return (the kept tool waypoints' indices, each waypoint's (N,) index among them).
+
+    Of ``count`` waypoints all but ``dropped`` are kept; a dropped one's
+    index is that of the kept one before it.
+    """
+    keep = np.ones(count, dtype=bool)
+    keep[list(dropped)] = False
+    return np.flatnonzero(keep), np.cumsum(keep) - 1
 
 
 def _joint_count(kinematics, poses):
