@@ -342,36 +342,46 @@ class _Timing:
             return np.interp(s, self.s, self.times)
         s = np.asarray(s, float)
         # The table brackets every s; regula falsi with the Illinois rule
-        # (a retained end's value halved) converges within the bracket,
-        # where the average is a smooth increasing function.  The brackets
-        # are updated in place (np.copyto, masked ufuncs): the same values
-        # in 18 numpy calls a step instead of 24 (a profile calls this
-        # once, 5 steps, on a handful of targets; 0.19 -> 0.15 ms on 3 x 3).
+        # converges within the bracket, where the average is a smooth
+        # increasing function.
         if s.ndim == 0:
             return self.time_at(s.reshape(1)).reshape(())
-        lo_t, hi_t, lo_f, hi_f = self._bracket(s)
-        was_above = was_below = None
-        out = lo_t
-        for _ in range(INVERSE_STEPS):
-            span = hi_f - lo_f
-            out = lo_t.copy()
-            np.divide(lo_t * hi_f - hi_t * lo_f, span, out=out, where=span > 0.0)
-            f = self.position_at(out) - s
-            above = f > 0.0
-            below = ~above
-            np.copyto(hi_t, out, where=above)
-            np.copyto(hi_f, f, where=above)
-            np.copyto(lo_t, out, where=below)
-            np.copyto(lo_f, f, where=below)
-            if was_above is not None:
-                # Illinois: the end kept twice in a row has its value halved.
-                np.multiply(lo_f, 0.5, out=lo_f, where=above & was_above)
-                np.multiply(hi_f, 0.5, out=hi_f, where=below & was_below)
-            was_above, was_below = above, below
-        out = np.array(out, float)
+        out = regula_falsi(self.position_at, s, *self._bracket(s), INVERSE_STEPS)
         out[s <= 0.0] = 0.0
         out[s >= self.s[-1]] = self.duration
         return out
+
+
+def regula_falsi(position_at, s, lo_t, hi_t, lo_f, hi_f, steps):
+    """
+    Return the times (K,) at which the increasing ``position_at`` passes ``s`` (K,).
+
+    Regula falsi with the Illinois rule (an end kept twice in a row has its
+    value halved), ``steps`` evaluations, from brackets ``lo_t`` < ``hi_t``
+    with ``lo_f`` <= 0 < ``hi_f`` (the positions there less ``s``; updated
+    in place); the last estimate.  The brackets are updated with np.copyto
+    and masked ufuncs: the same values in 18 numpy calls a step instead of
+    24 (a profile calls this once, 5 steps, on a handful of targets; 0.19
+    -> 0.15 ms on 3 x 3).
+    """
+    was_above = was_below = None
+    out = lo_t
+    for _ in range(steps):
+        span = hi_f - lo_f
+        out = lo_t.copy()
+        np.divide(lo_t * hi_f - hi_t * lo_f, span, out=out, where=span > 0.0)
+        f = position_at(out) - s
+        above = f > 0.0
+        below = ~above
+        np.copyto(hi_t, out, where=above)
+        np.copyto(hi_f, f, where=above)
+        np.copyto(lo_t, out, where=below)
+        np.copyto(lo_f, f, where=below)
+        if was_above is not None:
+            np.multiply(lo_f, 0.5, out=lo_f, where=above & was_above)
+            np.multiply(hi_f, 0.5, out=hi_f, where=below & was_below)
+        was_above, was_below = above, below
+    return np.array(out, float)
 
 
 def inner_knot_count(value, method, timing):

@@ -48,7 +48,7 @@ from scipy.interpolate import CubicSpline
 
 from .inner_knots import (_Candidate, _iterate, _Profile, _Timing, _trajectory, DEFAULT_SMOOTHING,
                           end_ramps, equal_fractions, knot_times, knots_per_segment,
-                          ramp_accelerations, shortest_piece)
+                          ramp_accelerations, regula_falsi, shortest_piece)
 from .path_constraints import GriddedPath, JointAcceleration, JointTorque, JointVelocity
 from .path_velocity import path_position, PathLimits
 
@@ -125,11 +125,12 @@ SPLIT_CLEARANCE = 0.5
 # Samples per piece of the first profile's state (at its cap or not).
 TRANSITION_SAMPLES = 8
 # Samples of the bracket of _RoundedTiming.time_at, and its regula falsi steps
-# (Illinois) between the two around the target: within 6e-9 of the length at
-# every position of 40 ramp-cap-ramp spans (test_path_constraints; two steps
-# left 2e-7 near the stops, three plain regula falsi steps as much).
+# (inner_knots.regula_falsi, Illinois) between the two around the target:
+# with 4 within 6e-9 of the length at every position of 40 ramp-cap-ramp
+# spans (test_path_constraints, which fails with 3: about 2e-7 near the
+# stops).
 INVERSE_SAMPLES = 17
-INVERSE_REFINEMENTS = 3
+INVERSE_REFINEMENTS = 4
 
 
 class JointPathSamples:
@@ -313,10 +314,10 @@ class _RoundedTiming(_Timing):
         ``s(t)`` itself: the rounded profile passes ``s`` within half a window
         of the plain one.  That bracket is sampled at
         :data:`INVERSE_SAMPLES` times in one call and the crossing found by
-        regula falsi between the two samples around it,
-        :data:`INVERSE_REFINEMENTS` steps (three calls of :meth:`position_at`
+        :func:`inner_knots.regula_falsi` between the two samples around it,
+        :data:`INVERSE_REFINEMENTS` steps (five calls of :meth:`position_at`
         where :class:`inner_knots._Timing`'s table and regula falsi make
-        seven).
+        six, on a longer table).
         """
         s = np.asarray(s, float)
         out = np.where(s >= self.s[-1], self.duration, 0.0)
@@ -333,27 +334,8 @@ class _RoundedTiming(_Timing):
                                        axis=1) - target[:, None]
         j = np.clip(np.sum(values < 0.0, axis=1) - 1, 0, INVERSE_SAMPLES - 2)
         rows = np.arange(target.size)
-        t0, t1 = grid[rows, j], grid[rows, j + 1]
-        f0, f1 = values[rows, j], values[rows, j + 1]
-        was_above = None
-        for step in range(INVERSE_REFINEMENTS + 1):
-            # Regula falsi within the bracket (t0, f0 <= 0), (t1, f1 > 0).
-            span = f1 - f0
-            t = np.where(span > 0.0, t0 - f0 * (t1 - t0) / np.where(span > 0.0, span, 1.0), t0)
-            if step == INVERSE_REFINEMENTS:
-                break
-            f = self.position_at(t) - target
-            above = f > 0.0
-            t1, f1 = np.where(above, t, t1), np.where(above, f, f1)
-            t0, f0 = np.where(above, t0, t), np.where(above, f0, f)
-            if was_above is not None:
-                # Illinois: the end kept twice in a row has its value halved
-                # (plain regula falsi crept from one side near the stops:
-                # 2e-7 of the length after three steps, 1e-9 with this).
-                f0 = np.where(above & was_above, 0.5 * f0, f0)
-                f1 = np.where(~above & ~was_above, 0.5 * f1, f1)
-            was_above = above
-        out[inner] = t
+        out[inner] = regula_falsi(self.position_at, target, grid[rows, j], grid[rows, j + 1],
+                                  values[rows, j], values[rows, j + 1], INVERSE_REFINEMENTS)
         return out
 
     def position_at(self, t):
