@@ -99,9 +99,10 @@ class TorqueLimit:
         with np.errstate(divide='ignore', invalid='ignore'):
             need = np.where(dynamic == 0.0, 0.0, dynamic / room)
         # No room at all (gravity exactly at the limit) and motion: infinite;
-        # so is gravity beyond the limit (a room of the wrong sign).
+        # so is gravity beyond the limit (a room of the wrong sign), which a
+        # refusal has ruled out already.
         need = np.where(np.isnan(need), np.inf, np.maximum(need, 0.0))
-        return np.where(np.abs(gravity) > limit, np.inf, need)
+        return need if refuse else np.where(np.abs(gravity) > limit, np.inf, need)
 
     def piece_factors(self, coeffs, pieces):
         """
