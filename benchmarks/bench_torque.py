@@ -81,6 +81,18 @@ ROBOTS = (
 )
 
 
+def joint_limits(robot, joints, margin=RANGE_MARGIN):
+    """
+    Return the URDF limits of ``joints``: (lower, upper) less ``margin``, velocity, effort.
+
+    Each (n,); the ranges are those of the random walks (:func:`random_path`).
+    """
+    infos = [robot.joint(j) for j in joints]
+    lower = np.array([j.lower for j in infos]) + margin
+    upper = np.array([j.upper for j in infos]) - margin
+    return lower, upper, np.array([j.velocity for j in infos]), effort_limits(robot, joints)
+
+
 def random_path(rng, ready, lower, upper):
     """Return a random walk (N, n) from ``ready`` within [lower, upper]."""
     n_points = int(rng.integers(POINTS[0], POINTS[1] + 1))
@@ -260,11 +272,7 @@ def main():
     summary = []
     for name, urdf, joints, ready, tool, rated in ROBOTS:
         robot = load_robot_model(urdf())
-        infos = [robot.joint(j) for j in joints]
-        lower = np.array([j.lower for j in infos]) + RANGE_MARGIN
-        upper = np.array([j.upper for j in infos]) - RANGE_MARGIN
-        vmax = np.array([j.velocity for j in infos])
-        tau_max = effort_limits(robot, joints)
+        lower, upper, vmax, tau_max = joint_limits(robot, joints)
         paths = [random_path(rng, ready, lower, upper) for _ in range(cases)]
         for payload in (0.0, rated):
             summary.append((name, payload,

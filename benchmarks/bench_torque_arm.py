@@ -59,7 +59,7 @@ import bench_torque  # noqa: E402
 import numpy as np  # noqa: E402, I100
 from scipy.spatial import cKDTree  # noqa: E402
 from splines445_ros.arm.dynamic_sim import DynamicArm  # noqa: E402
-from splines445_ros.arm.dynamics import ArmDynamics, effort_limits  # noqa: E402
+from splines445_ros.arm.dynamics import ArmDynamics  # noqa: E402
 from splines445_ros.arm.mujoco_model import load_arm_model  # noqa: E402
 from splines445_ros.nodes.arm_sim_config import ArmSimConfig  # noqa: E402
 from splines445_ros.nodes.arm_sim_model import add_payload, resolve_model_config  # noqa: E402
@@ -252,11 +252,7 @@ def main(argv=None):
     kin, config_limits, _ = seam.setup('ur5')
     robot = kin.robot
     joints = vr.UR5_JOINTS
-    infos = [robot.joint(j) for j in joints]
-    lower = np.array([j.lower for j in infos]) + RANGE_MARGIN
-    upper = np.array([j.upper for j in infos]) - RANGE_MARGIN
-    vmax = np.array([j.velocity for j in infos])
-    tau_max = effort_limits(robot, joints)
+    lower, upper, vmax, tau_max = bench_torque.joint_limits(robot, joints, RANGE_MARGIN)
     dynamics = ArmDynamics(robot, joints, TOOL, payload_mass=PAYLOAD,
                            payload_center_of_mass=PAYLOAD_OFFSET)
     sim = ArmSimulator(kin)

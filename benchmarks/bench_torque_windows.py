@@ -31,7 +31,7 @@ os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but th
 import bench_torque as bt  # noqa: E402, I100
 import numpy as np  # noqa: E402, I100
 from shaking import of_toppra, shaking_figures, shaking_ratios  # noqa: E402
-from splines445_ros.arm.dynamics import ArmDynamics, effort_limits  # noqa: E402
+from splines445_ros.arm.dynamics import ArmDynamics  # noqa: E402
 from splines445_ros.arm.robot_model import load_robot_model  # noqa: E402
 from splines445_ros.planning import plan, planner  # noqa: E402
 
@@ -67,11 +67,7 @@ def main():
     rng = np.random.default_rng(bt.SEED)
     for name, urdf, joints, ready, tool, rated in bt.ROBOTS:
         robot = load_robot_model(urdf())
-        infos = [robot.joint(j) for j in joints]
-        lower = np.array([j.lower for j in infos]) + bt.RANGE_MARGIN
-        upper = np.array([j.upper for j in infos]) - bt.RANGE_MARGIN
-        vmax = np.array([j.velocity for j in infos])
-        tau_max = effort_limits(robot, joints)
+        lower, upper, vmax, tau_max = bt.joint_limits(robot, joints)
         paths = [bt.random_path(rng, ready, lower, upper) for _ in range(bt.CASES)]
         n = len(joints)
         for payload in (0.0, rated):
