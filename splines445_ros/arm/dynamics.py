@@ -71,6 +71,7 @@ import numpy as np
 from . import rotations as rot
 from .model_drives import model_torque_limits
 from .mujoco_import import import_mujoco
+from .robot_model import z_onto
 from .user_text import show
 from ..planning.validation import non_negative
 
@@ -188,15 +189,6 @@ def _skew(v):
     return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
 
 
-def _aligned(axis):
-    """Return a rotation (3, 3) whose third column is the unit ``axis`` (3,)."""
-    z = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
-    helper = np.eye(3)[int(np.argmin(np.abs(z)))]
-    x = np.cross(helper, z)
-    x /= np.linalg.norm(x)
-    return np.column_stack([x, np.cross(z, x), z])
-
-
 # The products of an angular velocity's components that a Newton-Euler step needs.
 _PRODUCTS = ((0, 0), (1, 1), (2, 2), (0, 1), (1, 2), (2, 0))
 
@@ -301,7 +293,7 @@ class _NewtonEuler:
                         shift = shift + turn @ (anchor - turning @ anchor)
                         turn = turn @ turning
                     continue
-                align = _aligned(axis)
+                align = z_onto(axis)
                 self.parent.append(node)
                 frames.append((turn @ align, shift + turn @ anchor))
                 self.slides.append(is_slide)

@@ -685,7 +685,7 @@ class FrameChain:
                 steps.append(('slide', col, ref, poly, np.array(axis, float)))
                 continue
             # Trans(o) Rot(a, q) Trans(-o) = [B, o] Rot(z, q) [B^T, -B^T o], B z = a.
-            turn = _z_onto(axis)
+            turn = z_onto(axis)
             fixed(turn, anchor)
             steps.append(('hinge', col, ref, poly))
             fixed(turn.T, -turn.T @ anchor)
@@ -693,7 +693,7 @@ class FrameChain:
         return steps
 
 
-def _z_onto(axis):
+def z_onto(axis):
     """Return a rotation (3, 3) that takes the z axis onto the unit vector ``axis``."""
     z = np.asarray(axis, float) / np.linalg.norm(axis)
     helper = np.array([1.0, 0.0, 0.0] if abs(z[0]) < 0.9 else [0.0, 1.0, 0.0])
