@@ -132,6 +132,40 @@ def test_bad_vibration_frequencies_are_refused(kwargs, message):
         plan(points, **args)
 
 
+@pytest.mark.parametrize('kwargs, message', [
+    ({'smoothing': 'fast'}, 'must be one of'),
+    ({'smoothing': 3}, 'must be one of'),
+    ({'smoothing': 'x' * 10000}, 'must be one of'),
+    ({'smoothing': 'none', 'inner_knots': 0}, 'needs method'),
+    ({'smoothing': 'windows', 'method': '445'}, 'needs method'),
+    ({'smoothing': 'none', 'vibration_frequency': 4.0}, 'sets the windows itself'),
+])
+def test_bad_smoothings_are_refused(kwargs, message):
+    points = np.array([[0.0, 0.0], [1.0, 0.5], [2.0, -0.5]])
+    args = dict({'method': '555', 'timing': 'optimal', 'max_velocity': [1.0, 1.0],
+                 'max_acceleration': [5.0, 5.0]}, **kwargs)
+    with pytest.raises(ValueError, match=message) as refused:
+        plan(points, **args)
+    assert len(str(refused.value)) < 300
+
+
+def test_smoothing_none_is_the_construction_without_windows_and_keeps_its_rival():
+    """'none' shakes as the rough plan does, and is never longer than the knots-only optimum."""
+    for points, vmax, amax in requests(7, 4):
+        kwargs = {'max_velocity': vmax, 'max_acceleration': amax, 'max_jerk': 20.0 * amax}
+        bare = plan(points, '555', 'optimal', smoothing='none', **kwargs)
+        knots_only = plan(points, '555', 'optimal', inner_knots=0, **kwargs)
+        assert bare.duration <= knots_only.duration * (1.0 + 1e-9)
+        assert bare.within_limits(rtol=1e-9)
+        if bare.optimizer['inner_knots']:
+            assert bare.optimizer['smoothing_windows'] == []
+            rough = rough_plan(points, vmax, amax, bare.optimizer['inner_knots'])
+            assert bare.duration == pytest.approx(rough.duration, rel=1e-9)
+        windows = plan(points, '555', 'optimal', smoothing='windows', **kwargs)
+        default = plan(points, '555', 'optimal', **kwargs)
+        assert windows.duration == default.duration
+
+
 def test_vibration_frequency_changes_nothing_with_moving_ends():
     """
     With a moving start or end the profile is not averaged: the same plan as without it.

@@ -184,6 +184,38 @@ def test_with_torque_limits_a_plan_is_not_longer_than_its_knots_only_plan(seed):
 
 
 @settings(max_examples=EXAMPLES, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), factor=st.floats(1.0, 4.0))
+def test_a_check_rescaled_is_the_check_of_the_slowed_down_trajectory(seed, factor):
+    """
+    TorqueCheck.needs(f) and slow_down() against 10 kHz torques of the slowed-down spline.
+
+    The spline with every duration times f is built here from the
+    waypoints (not by rescaling the checked one) and its torque computed
+    by the two-link arm's closed-form dynamics.
+    """
+    rng = np.random.default_rng(seed)
+    points, limit = random_request(rng)
+    durations = rng.uniform(0.1, 0.6, len(points) - 1)
+    fast = plan(points, '555', 'fixed', durations=durations)
+    check = TorqueLimit(limit, two_link_torques, 2).check(fast)
+    slow = plan(points, '555', 'fixed', durations=durations * factor)
+    peak = np.max(np.abs(dense_torques(slow, two_link_torques)), axis=0) / limit
+    need, ratios = check.needs(factor)
+    # An upper bound of the peaks (the excess between samples), and a close one.
+    assert np.all(ratios >= peak * (1.0 - 1e-9)), (ratios, peak)
+    assert np.all(ratios <= peak + 2e-3 * np.max(peak)), (ratios, peak)
+    assert (need <= 1.0) == np.all(ratios <= 1.0 + 1e-12)
+    # slow_down() is where the limits are just held.
+    least = check.slow_down()
+    held = plan(points, '555', 'fixed', durations=durations * least * (1.0 + 1e-9))
+    peak = np.max(np.abs(dense_torques(held, two_link_torques)), axis=0) / limit
+    assert np.all(peak <= 1.0 + 1e-9)
+    if least > 1.0:
+        assert np.max(peak) >= 0.99
+        assert check.needs(least * (1.0 + 1e-9))[0] <= 1.0
+
+
+@settings(max_examples=EXAMPLES, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1))
 def test_the_coarse_torque_factor_is_a_lower_bound_of_the_dense_one(seed):
     """factor_at_least (10 ms samples) against the slow-down 10 kHz samples need, computed here."""

@@ -475,18 +475,28 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
     linear, angular, sampled = tool_speeds(traj, kinematics)
     factor = max(linear / max_tool_speed if max_tool_speed else 0.0,
                  angular / max_tool_angular_speed if max_tool_angular_speed else 0.0)
-    checked = None if torque is None else torque.time_factor(traj)
-    if checked is not None:
-        factor = max(factor, checked[0])
+    torque_check = None if torque is None else torque.check(traj)
+    checked = None if torque_check is None else torque_check.needs()
+    rescaled_check = True
+    if torque_check is not None and (factor > 1.0 or checked[0] > 1.0):
+        # Slowed down, the torque is bounded with the gravity's and the
+        # dynamic part's excesses between samples apart (TorqueCheck); where
+        # gravity with its excess leaves no room, by a second check.
+        slow = torque_check.slow_down()
+        rescaled_check = math.isfinite(slow)
+        factor = max(factor, slow if rescaled_check else checked[0])
     if factor > 1.0:
         traj = rescaled(traj, factor * _ROUNDOFF)
         # Rest to rest, the spline through the same knots on pieces f times
         # longer is this one slowed down by f: every tool speed divided by
-        # f, so no second check (it cost 14 ms on the Panda seam).  Its
-        # samples are those of a period f times CHECK_PERIOD.
+        # f, so no second check (it cost 14 ms on the Panda seam); nor of
+        # the torque, g + d / f**2 at the same path points.  Its samples are
+        # those of a period f times CHECK_PERIOD.
         linear, angular, sampled = (value / (factor * _ROUNDOFF)
                                     for value in (linear, angular, sampled))
-        checked = None if torque is None else torque.time_factor(traj)
+        if torque_check is not None:
+            checked = torque_check.needs(factor * _ROUNDOFF) if rescaled_check \
+                else torque.time_factor(traj)
     if checked is not None:
         traj.torque_factor, traj.torque_ratios = checked
     share = 0.0

@@ -105,6 +105,15 @@ DEFAULT_INNER_KNOTS = 4
 # path (1.045 against 1.050 x TOPP-RA; 4 Hz residual 0.12 against 0.33 x
 # TOPP-RA's) and met bench_smoothness.py's 4 Hz arm (issue 23).
 DEFAULT_SMOOTHING = (0.3, 0.15)
+# plan()'s ``smoothing`` (issue 25): "windows" averages a rest-to-rest
+# profile over DEFAULT_SMOOTHING, "none" does not; "auto" (the default) is
+# "windows" except with torque limits.  A torque-limited move is short (0.5-3
+# s on bench_torque.py's paths) and the windows' 0.45 s made it 1.23-1.30
+# times TOPP-RA's duration, shaking a 4 Hz mode half as much as TOPP-RA;
+# without them 1.01-1.06 times, shaking about as much as TOPP-RA
+# (bench_torque_windows.py).  A user who limits the torque asks for what
+# the motors can do; vibration_frequency or "windows" smooths it again.
+SMOOTHINGS = ('auto', 'windows', 'none')
 # A vibration frequency above this [Hz] is refused (its window would be
 # shorter than a servo cycle of 1 ms).
 MAX_VIBRATION_FREQUENCY = 1000.0
@@ -218,18 +227,46 @@ def vibration_frequency_value(value, inner_knots):
     return value
 
 
-def smoothing_windows(vibration_frequency):
+def smoothing_value(value, vibration_frequency, inner_knots):
+    """
+    Validate the ``smoothing`` argument of plan(); return one of :data:`SMOOTHINGS`.
+
+    None means "auto".  "windows" and "none" need inner knots (555 optimal:
+    the other timings have no profile to average), and a
+    ``vibration_frequency`` sets its own windows, so it needs "auto": either
+    would otherwise be silently ignored.
+    """
+    if value is None:
+        return 'auto'
+    if not isinstance(value, str) or value not in SMOOTHINGS:
+        shown = repr(value)[:40] if isinstance(value, str) else type(value).__name__
+        raise ValueError(f'smoothing must be one of {list(SMOOTHINGS)}, got {shown}')
+    if value != 'auto' and not inner_knots:
+        raise ValueError(f'smoothing {value!r} needs method "555" with timing "optimal" and '
+                         'inner_knots > 0: the other timings have no speed profile to average')
+    if value != 'auto' and vibration_frequency:
+        raise ValueError(f'smoothing {value!r} with vibration_frequency '
+                         f'{vibration_frequency:g} Hz: the frequency sets the windows itself '
+                         '(two of 1 / f); use smoothing "auto" with it')
+    return value
+
+
+def smoothing_windows(vibration_frequency, smoothing='windows', torque_limited=False):
     """
     Return the moving windows [s] of step 2 for a ``vibration_frequency`` [Hz] (0: not given).
 
-    Not given: the boxes of :data:`DEFAULT_SMOOTHING`.  Given ``f``: two boxes
-    of ``1 / f``, a double zero of the path acceleration's spectrum at ``f``
-    (and at its multiples), so that the zero survives the small change of
-    time scale of step 5 and the mode's damping; it costs about one more
-    period ``1 / f`` than a single box.
+    Given ``f``: two boxes of ``1 / f``, a double zero of the path
+    acceleration's spectrum at ``f`` (and at its multiples), so that the zero
+    survives the small change of time scale of step 5 and the mode's
+    damping; it costs about one more period ``1 / f`` than a single box.
+    Not given: the boxes of :data:`DEFAULT_SMOOTHING` for ``smoothing``
+    "windows", and for "auto" unless ``torque_limited``; none otherwise
+    (:data:`SMOOTHINGS`).
     """
     if vibration_frequency:
         return (1.0 / vibration_frequency,) * 2
+    if smoothing == 'none' or (smoothing == 'auto' and torque_limited):
+        return ()
     return DEFAULT_SMOOTHING
 
 

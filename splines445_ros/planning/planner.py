@@ -1,9 +1,11 @@
 """``plan()``: the one entry point of the planning core."""
 
+import math
+
 import numpy as np
 
-from .inner_knots import (inner_knot_count, plan_with_inner_knots, smoothing_windows,
-                          vibration_frequency_value)
+from .inner_knots import (DEFAULT_SMOOTHING, inner_knot_count, plan_with_inner_knots,
+                          smoothing_value, smoothing_windows, vibration_frequency_value)
 from .limits import check_boundary_feasible, JointLimits
 from .methods import get_method
 from .optimal import optimal_durations
@@ -48,13 +50,17 @@ RIVAL_STALL_TOLERANCE = 1e-4
 # is not averaged then, and on the paper's example it is 2.8 % shorter for
 # 6 times the jerk's total variation per second (issue 23).
 MOVING_END_GAIN = 0.05
-# A plan slowed down for its torque limits gets this much more: the 1 kHz
-# check of the slowed-down plan samples other points of the path, and found
-# up to 2.3e-5 more than the first check's factor promised (bench_torque's
-# UR5 and Panda paths).  With 1e-6 about half the slowed-down plans came out
-# over, and plan() checked and slowed them twice more (a third of its
-# planning time); with 1e-5, 1 of the first 10.  A plan still over is slowed
-# down again, at most TORQUE_ROUNDS times.
+# A plan slowed down for its torque limits gets this much more than the
+# factor its check says (round-off): the slowed-down plan's check is the
+# same samples rescaled (torque.TorqueCheck; a second 1 kHz check was a
+# seventh of the planning time of bench_torque.py's plans).
+TORQUE_ROUNDOFF = 1e-9
+# Where gravity plus its excess between samples leaves no room, that
+# rescaled check has no answer: the plan is slowed down by the factor of the
+# check with this much more (a new 1 kHz check of the slowed-down plan
+# samples other points of the path, and found up to 2.3e-5 more than the
+# first check's factor promised on bench_torque's UR5 and Panda paths) and
+# checked again, at most TORQUE_ROUNDS times.
 TORQUE_MARGIN = 1e-5
 TORQUE_ROUNDS = 3
 
@@ -101,7 +107,8 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
          start_velocity=None, start_acceleration=None,
          end_velocity=None, end_acceleration=None,
          waypoint_tolerance=DEFAULT_WAYPOINT_TOLERANCE, min_position=None, max_position=None,
-         inner_knots=None, vibration_frequency=None, max_torque=None, inverse_dynamics=None):
+         inner_knots=None, vibration_frequency=None, max_torque=None, inverse_dynamics=None,
+         smoothing=None):
     """
     Plan a trajectory through ``waypoints`` (N, n_joints).
 
@@ -161,8 +168,8 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         The arm's lowest structural mode, for 555 optimal with inner knots:
         the speed profile is averaged over two windows of ``1 / f``, so the
         path acceleration has no content at ``f`` (:func:`inner_knots.
-        smoothing_windows`).  None or 0 (the default): the windows of
-        :data:`inner_knots.DEFAULT_SMOOTHING` (0.3 s and 0.15 s).  Rest-to-rest requests only:
+        smoothing_windows`).  None or 0 (the default): as ``smoothing``
+        says.  Rest-to-rest requests only:
         with non-zero boundary values the profile is not averaged
         (``optimizer['smoothing_windows']`` is then empty).  Given, the
         inner-knot plan is returned even where the knots-only optimum is
@@ -176,14 +183,24 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         (checked at 1 kHz); "fixed" is only checked.  A pose where gravity
         alone exceeds a limit is refused.  The result's ``torque_ratios``
         (n,) are the peak torques over their limits.
+    smoothing : "auto" (None, the default), "windows" or "none"
+        Without a ``vibration_frequency``, for 555 optimal with inner knots:
+        "windows" averages a rest-to-rest speed profile over the windows of
+        :data:`inner_knots.DEFAULT_SMOOTHING` (0.3 s and 0.15 s, 0.45 s
+        longer: the arm's low modes shake about half as much as with
+        TOPP-RA), "none" does not (about TOPP-RA's duration and shaking);
+        "auto" is "windows" without torque limits and "none" with them
+        (:data:`inner_knots.SMOOTHINGS` says why).
 
     """
     if not isinstance(timing, str) or timing not in TIMINGS:
         raise ValueError(f'unknown timing {timing!r}: expected one of {TIMINGS}')
     inner_knots = inner_knot_count(inner_knots, get_method(method).name, timing)
-    windows = smoothing_windows(vibration_frequency_value(vibration_frequency, inner_knots))
+    vibration = vibration_frequency_value(vibration_frequency, inner_knots)
     if (max_torque is None) != (inverse_dynamics is None):
         raise ValueError('max_torque and inverse_dynamics must be given together')
+    windows = smoothing_windows(vibration, smoothing_value(smoothing, vibration, inner_knots),
+                                max_torque is not None)
     with np.errstate(over='ignore', invalid='ignore', divide='ignore', under='ignore'):
         traj = _plan(waypoints, method, timing, durations, max_velocity, max_acceleration,
                      max_jerk, (start_velocity, start_acceleration, end_velocity,
@@ -261,7 +278,8 @@ def _torque_limited(traj, torque, to_beat=None):
         return traj     # checked already
     if to_beat is not None and traj.duration * torque.factor_at_least(traj) >= to_beat:
         return None
-    factor, ratios = torque.time_factor(traj)
+    check = torque.check(traj)
+    factor, ratios = check.needs()
     for _ in range(TORQUE_ROUNDS):
         if factor <= 1.0:
             break
@@ -269,10 +287,20 @@ def _torque_limited(traj, torque, to_beat=None):
             j = int(np.argmax(ratios))
             raise ValueError(f'joint {j} needs {ratios[j]:.4g} times its torque limit with '
                              f'the given durations: slow them down by {factor:.4g}')
-        if to_beat is not None and traj.duration * factor >= to_beat:
+        # The slowed-down plan's check is this one's, rescaled (TorqueCheck).
+        slow = check.slow_down()
+        rescaled_check = math.isfinite(slow)
+        slow *= 1.0 + TORQUE_ROUNDOFF
+        if not rescaled_check:
+            slow = factor * (1.0 + TORQUE_MARGIN)
+        if to_beat is not None and traj.duration * slow >= to_beat:
             return None
-        traj = slowed_down(traj, factor * (1.0 + TORQUE_MARGIN))
-        factor, ratios = torque.time_factor(traj)
+        traj = slowed_down(traj, slow)
+        if rescaled_check:
+            factor, ratios = check.needs(slow)
+        else:
+            check = torque.check(traj)
+            factor, ratios = check.needs()
     traj.torque_ratios = ratios
     traj.torque_factor = factor
     return traj
@@ -319,10 +347,11 @@ def _plan_limited(method, points, timing, durations, max_velocity, max_accelerat
         # A dropped waypoint's segment joins the one before it.
         start = np.diff(np.delete(np.concatenate([[0.0], np.cumsum(start)]), dropped))
     if inner_knots:
-        shaped = windows != smoothing_windows(0.0) and not any(np.any(b) for b in boundary)
+        shaped = windows not in ((), DEFAULT_SMOOTHING) and \
+            not any(np.any(b) for b in boundary)
         # The knots-only optimum is the rival below: the construction's own
         # knots-only candidates would only repeat it, less well.
-        optimum_rival = _optimum_rival(points) and not shaped
+        optimum_rival = _optimum_rival(points, windows, torque) and not shaped
         refined = plan_with_inner_knots(points, boundary, limits, inner_knots, dropped,
                                         windows, torque, knots_only=not optimum_rival,
                                         keep_time_scale=shaped)
@@ -333,7 +362,7 @@ def _plan_limited(method, points, timing, durations, max_velocity, max_accelerat
             return refined
         if refined is not None:
             return _with_knots_only_rival(refined, method, points, start, boundary, limits,
-                                          dropped, torque)
+                                          dropped, torque, optimum_rival)
     knots_only = _plan_knots_only(method, timing, points, start, boundary, limits, dropped)
     if timing == 'optimal':
         knots_only.optimizer['inner_knots'] = 0
@@ -343,11 +372,11 @@ def _plan_limited(method, points, timing, durations, max_velocity, max_accelerat
 
 
 def _with_knots_only_rival(refined, method, points, start, boundary, limits, dropped,
-                           torque=None):
+                           torque=None, optimum=True):
     """
     Return ``refined`` (inner knots), or a knots-only plan of the request when it is shorter.
 
-    The rival is the knots-only optimum for requests of at most
+    The rival is the knots-only optimum (``optimum``) for requests of at most
     :data:`SMALL_REQUEST` waypoints and of one joint (:func:`_optimum_rival`),
     where it costs tens of milliseconds
     and wins now and then (one segment, a joint reversing at every
@@ -390,7 +419,7 @@ def _with_knots_only_rival(refined, method, points, start, boundary, limits, dro
       instead of 4.0 ms, the same plans bit for bit).
     """
     rest = not any(np.any(b) for b in boundary)
-    small = _optimum_rival(points) and not (rest and len(points) == 2)
+    small = optimum and not (rest and len(points) == 2)
     timing = 'optimal' if small else 'uniform'
     options = {}
     warm = small and rest and points.shape[1] > 1
@@ -438,7 +467,7 @@ def _with_knots_only_rival(refined, method, points, start, boundary, limits, dro
     return rival
 
 
-def _optimum_rival(points):
+def _optimum_rival(points, windows=DEFAULT_SMOOTHING, torque=None):
     """
     Whether the knots-only optimum is the rival of the inner-knot plan of ``points``.
 
@@ -450,7 +479,15 @@ def _optimum_rival(points):
     to its end (a cold start that gives up loses that one): on those 6 it
     took 3 to 9 times the planning time (76 waypoints: 65 -> 490 ms, where
     TOPP-RA takes 140 ms; 1000: 0.7 -> 1.4 s, TOPP-RA 1.5 s).
+
+    Not with torque limits and no smoothing ``windows`` (issue 25): the
+    optimum of the velocity, acceleration (a stand-in) and jerk limits,
+    slowed down for the torque, did not decide one of bench_torque.py's 40
+    plans (bench_torque_windows.py) and took 45 % of their planning time.
+    Uniform timing, slowed down for the torque, is the rival then.
     """
+    if torque is not None and not windows:
+        return False
     return len(points) <= SMALL_REQUEST or points.shape[1] == 1
 
 

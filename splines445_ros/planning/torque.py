@@ -94,14 +94,7 @@ class TorqueLimit:
         limit = np.broadcast_to(self.max_torque, gravity.shape)
         if refuse:
             refuse_gravity_overload(q, gravity, limit)
-        dynamic = dynamic + np.sign(dynamic) * bend
-        room = np.where(dynamic >= 0.0, limit - gravity, -limit - gravity)
-        with np.errstate(divide='ignore', invalid='ignore'):
-            need = np.where(dynamic == 0.0, 0.0, dynamic / room)
-        # No room at all (gravity exactly at the limit) and motion: infinite;
-        # so is gravity beyond the limit (a room of the wrong sign), which a
-        # refusal has ruled out already.
-        need = np.where(np.isnan(need), np.inf, np.maximum(need, 0.0))
+        need = _squared_needs(gravity, dynamic + np.sign(dynamic) * bend, limit)
         return need if refuse else np.where(np.abs(gravity) > limit, np.inf, need)
 
     def piece_factors(self, coeffs, pieces):
@@ -129,15 +122,19 @@ class TorqueLimit:
         alone exceeds a limit raises :class:`GravityOverload` even when the
         motion happens to hold the torque there: no slower timing would.
         """
+        return self.check(traj, period).needs()
+
+    def check(self, traj, period=CHECK_PERIOD):
+        """
+        Return the :class:`TorqueCheck` of the rest-to-rest ``traj``, sampled every ``period``.
+
+        Raises :class:`GravityOverload` as :meth:`time_factor` does.
+        """
         q, qd, qdd = _samples(traj, period)
-        tau = self._torques(q, qd, qdd)
-        # Between samples: h**2 / 8 |tau''|, from second differences.
-        bend = np.zeros_like(tau)
-        bend[1:-1] = np.abs(tau[2:] - 2.0 * tau[1:-1] + tau[:-2]) / 8.0
-        bend[:-1] = np.maximum(bend[:-1], bend[1:])
-        need = self.squared_factors(q, qd, qdd, bend, tau)
-        ratios = np.max((np.abs(tau) + bend) / self.max_torque, axis=0)
-        return math.sqrt(float(np.max(need))), ratios
+        zero = np.zeros_like(q)
+        gravity = self._torques(q, zero, zero)
+        refuse_gravity_overload(q, gravity, np.broadcast_to(self.max_torque, gravity.shape))
+        return TorqueCheck(gravity, self._torques(q, qd, qdd), self.max_torque)
 
     def factor_at_least(self, traj, period=COARSE_PERIOD):
         """
@@ -150,6 +147,86 @@ class TorqueLimit:
         longer than another spares the check (10 ms samples: a tenth of it).
         """
         return math.sqrt(float(np.max(self.squared_factors(*_samples(traj, period)))))
+
+
+def _bend(tau):
+    """Return the excess of ``tau`` (N, n) between samples: h**2 / 8 |tau''| (module docstring)."""
+    bend = np.zeros_like(tau)
+    bend[1:-1] = np.abs(tau[2:] - 2.0 * tau[1:-1] + tau[:-2]) / 8.0
+    bend[:-1] = np.maximum(bend[:-1], bend[1:])
+    return bend
+
+
+def _squared_needs(gravity, dynamic, limit):
+    """
+    Return per sample and joint the squared slow-down ``|g + d / f**2| <= limit`` needs.
+
+    No room (gravity at the limit, or beyond a ``limit`` lowered by an
+    excess between samples) and motion: no slow-down holds the torque there
+    (infinite need).
+    """
+    room = np.where(dynamic >= 0.0, limit - gravity, -limit - gravity)
+    some = np.where(dynamic >= 0.0, room > 0.0, room < 0.0)
+    with np.errstate(divide='ignore', invalid='ignore'):
+        need = np.where(some, dynamic / room, np.inf)
+    return np.where(dynamic == 0.0, 0.0, need)
+
+
+class TorqueCheck:
+    """
+    The 1 kHz torque check of a rest-to-rest trajectory, and of the same slowed down uniformly.
+
+    Slowed down by ``f``, the trajectory passes the same path points at the
+    samples' times times ``f``, with the torque ``g + d / f**2`` there (module
+    docstring): its check is this one's samples, rescaled, with no inverse
+    dynamics.  Their spacing is then ``f`` times the period, and the excess
+    between them ``h**2 / 8`` times the second time derivative of ``g`` and
+    of ``d / f**2``, each of which is this check's divided by ``f**2``: at most
+    the gravity's excess plus the dynamic part's over ``f**2``.
+    """
+
+    def __init__(self, gravity, tau, limit):
+        """Keep the samples' gravity and whole torques (N, n) and the limits (n,)."""
+        self.gravity, self.tau, self.limit = gravity, tau, limit
+        self.dynamic = tau - gravity
+        self._bends = None
+
+    def needs(self, factor=1.0):
+        """
+        Return (factor, ratios) of the trajectory slowed down by ``factor``: as ``time_factor``.
+
+        At ``factor`` 1 the excess between samples is that of the torque
+        itself; slowed down, the two parts' excesses bound it (class docstring).
+        """
+        if factor == 1.0:
+            bend = _bend(self.tau)
+            dynamic = self.dynamic + np.sign(self.dynamic) * bend
+            need = _squared_needs(self.gravity, dynamic, self.limit)
+            ratios = np.max((np.abs(self.tau) + bend) / self.limit, axis=0)
+            return math.sqrt(float(np.max(need))), ratios
+        bend_gravity, bend_dynamic = self._split_bends()
+        scale = 1.0 / (factor * factor)
+        dynamic = (self.dynamic + np.sign(self.dynamic) * bend_dynamic) * scale
+        need = _squared_needs(self.gravity, dynamic, self.limit - bend_gravity)
+        ratios = np.max((np.abs(self.gravity + self.dynamic * scale) + bend_gravity
+                         + bend_dynamic * scale) / self.limit, axis=0)
+        return math.sqrt(float(np.max(need))), ratios
+
+    def slow_down(self):
+        """
+        Return the smallest ``f`` for which :meth:`needs` ``(f)`` holds the limits (inf: none).
+
+        Infinite where gravity plus its excess between samples leaves no room.
+        """
+        bend_gravity, bend_dynamic = self._split_bends()
+        dynamic = self.dynamic + np.sign(self.dynamic) * bend_dynamic
+        return math.sqrt(float(np.max(_squared_needs(self.gravity, dynamic,
+                                                     self.limit - bend_gravity))))
+
+    def _split_bends(self):
+        if self._bends is None:
+            self._bends = (_bend(self.gravity), _bend(self.dynamic))
+        return self._bends
 
 
 def _samples(traj, period):
@@ -171,4 +248,4 @@ def check_times(duration, period, what):
     return np.linspace(0.0, duration, max(3, int(math.ceil(duration / period)) + 1))
 
 
-__all__ = ['check_times', 'CHECK_PERIOD', 'GravityOverload', 'TorqueLimit']
+__all__ = ['check_times', 'CHECK_PERIOD', 'GravityOverload', 'TorqueCheck', 'TorqueLimit']
