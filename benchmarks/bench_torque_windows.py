@@ -1,23 +1,19 @@
 """
 Torque limits with and without the smoothing windows (issue 25 against issue 23), one run.
 
-A measurement for a product decision, not a product option: plan() always
-averages a rest-to-rest profile over the windows of
-``inner_knots.smoothing_windows`` (0.3 s and 0.15 s by default, issue 23's
-smoothness), which cost about 0.45 s a move; on bench_torque's 0.5-3 s
-torque-limited moves that is most of the distance to issue 25's duration
-target.  Here the windows are switched off for the second column by
-replacing ``planner.smoothing_windows`` for the duration of those calls
-(the planner then also runs its knots-only rival, as it does with windows).
-
-On bench_torque.py's paths, limits and jerk (its functions, its seed, the
-same paths for both payloads), every path is planned three ways: plan()'s
-default, the same without windows, and ``inner_knots=0`` (knots at the
-waypoints only, slowed down uniformly for the torque).  Per robot and
-payload the medians of the duration and of the shaking of a lightly
-damped 4 and 8 Hz mode (``shaking.py``: peak while moving, residual after
-the end), each divided by TOPP-RA's (torque and velocity limits, its own
-path), and how often the knots-only rival decided the plan.
+plan()'s ``smoothing`` "auto" (the default) leaves a torque-limited
+rest-to-rest profile without the windows of ``inner_knots.DEFAULT_SMOOTHING``
+(0.3 s and 0.15 s, issue 23's smoothness, about 0.45 s a move); "windows"
+keeps them.  On bench_torque.py's 0.5-3 s moves that is most of the
+distance to issue 25's duration target, and this bench measures what the
+windows buy: on bench_torque.py's paths, limits and jerk (its functions,
+its seed, the same paths for both payloads), every path is planned three
+ways: plan()'s default, ``smoothing="windows"``, and ``inner_knots=0``
+(knots at the waypoints only, slowed down uniformly for the torque).  Per
+robot and payload the medians of the duration and of the shaking of a
+lightly damped 4 and 8 Hz mode (``shaking.py``: peak while moving, residual
+after the end), each divided by TOPP-RA's (torque and velocity limits, its
+own path), and how often a knots-only rival decided the plan.
 
 Usage: ``python benchmarks/bench_torque_windows.py`` (about 4 minutes).
 """
@@ -33,9 +29,9 @@ import numpy as np  # noqa: E402, I100
 from shaking import of_toppra, shaking_figures, shaking_ratios  # noqa: E402
 from splines445_ros.arm.dynamics import ArmDynamics  # noqa: E402
 from splines445_ros.arm.robot_model import load_robot_model  # noqa: E402
-from splines445_ros.planning import plan, planner  # noqa: E402
+from splines445_ros.planning import plan  # noqa: E402
 
-PLANS = ('default', 'no windows', 'inner_knots=0')
+PLANS = ('default', 'smoothing=windows', 'inner_knots=0')
 
 
 def planned(points, kwargs, how):
@@ -44,12 +40,7 @@ def planned(points, kwargs, how):
         return plan(points, '555', 'optimal', inner_knots=0, **kwargs)
     if how == 'default':
         return plan(points, '555', 'optimal', **kwargs)
-    windows = planner.smoothing_windows
-    planner.smoothing_windows = lambda vibration_frequency: ()
-    try:
-        return plan(points, '555', 'optimal', **kwargs)
-    finally:
-        planner.smoothing_windows = windows
+    return plan(points, '555', 'optimal', smoothing='windows', **kwargs)
 
 
 def main():

@@ -66,6 +66,36 @@ def test_vibration_frequency_reaches_plan_and_is_refused_where_it_would_be_ignor
             config(**dict({'vibration_frequency': 4.0}, **overrides)).validate()
 
 
+def test_smoothing_reaches_plan_and_is_refused_where_it_would_be_ignored():
+    assert PlannerConfig().smoothing == 'auto'
+    assert plan_request(config(smoothing='none'), request()).optimizer['smoothing_windows'] == []
+    windows = plan_request(config(smoothing='windows'), request()).optimizer['smoothing_windows']
+    assert windows == [0.3, 0.15]
+    config(smoothing='none').with_defaults().validate()
+    for overrides, message in (({'method': '445'}, 'needs method'),
+                               ({'inner_knots': 0}, 'needs method'),
+                               ({'vibration_frequency': 4.0}, 'sets the windows itself'),
+                               ({'smoothing': 'smooth'}, 'must be one of'),
+                               ({'smoothing': 'n' * 5000}, 'must be one of')):
+        with pytest.raises(ValueError, match=message) as refused:
+            config(**dict({'smoothing': 'none'}, **overrides)).validate()
+        assert len(str(refused.value)) < 300
+    # The default needs nothing of the method.
+    config(method='445', smoothing='auto').with_defaults().validate()
+
+
+def test_a_bad_smoothing_is_rejected_by_set_parameters_with_the_reason():
+    with LocalRos() as ros:
+        node = ros.add(PlannerNode(context=ros.context, cli_args=[
+            '--ros-args', '-p', 'method:=555', '-p', 'timing:=optimal']))
+        assert 'limit_torque' in node.describe_parameter('smoothing').description
+        result = node.set_parameters([Parameter('smoothing', value='soft')])[0]
+        assert not result.successful and 'smoothing' in result.reason
+        assert node.parameters.config.smoothing == 'auto'
+        assert node.set_parameters([Parameter('smoothing', value='none')])[0].successful
+        assert node.parameters.config.smoothing == 'none'
+
+
 @pytest.mark.parametrize('overrides', [{'method': '445'}, {'timing': 'uniform'}])
 def test_other_methods_and_timings_ignore_inner_knots(overrides):
     traj = plan_request(config(**overrides), request())

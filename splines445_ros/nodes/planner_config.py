@@ -18,7 +18,7 @@ from ..arm.kinematics import PlanarArm
 from ..arm.user_text import show
 from ..planning import DEFAULT_WAYPOINT_TOLERANCE, METHODS, TIMINGS
 from ..planning.inner_knots import (DEFAULT_INNER_KNOTS, MAX_INNER_KNOTS,
-                                    MAX_VIBRATION_FREQUENCY)
+                                    MAX_VIBRATION_FREQUENCY, smoothing_value)
 
 DEFAULT_JOINTS = ('joint1', 'joint2', 'joint3')
 # The planar arm's (and a joint-space planner's) limits when none are set.
@@ -74,6 +74,7 @@ class PlannerConfig(ValidatedConfig):
     output: str = 'sampled'
     inner_knots: int = DEFAULT_INNER_KNOTS
     vibration_frequency: float = 0.0
+    smoothing: str = 'auto'
     # kinematics "model": a robot description (see nodes/robot_description.py).
     model_file: str = ''
     tool_frame: str = ''
@@ -179,6 +180,9 @@ class PlannerConfig(ValidatedConfig):
                              'method "555" with timing "optimal" and inner_knots > 0 (got '
                              f'method {show(self.method)}, timing {show(self.timing)}, '
                              f'inner_knots {self.inner_knots}); 0 = not used')
+        # The library's own check: one of auto, windows, none; not with a
+        # vibration_frequency, and not where no speed profile is averaged.
+        smoothing_value(self.smoothing, self.vibration_frequency, self.plan_inner_knots())
         if self.max_trajectory_points < 2:
             raise ValueError(f'max_trajectory_points = {self.max_trajectory_points}: must be '
                              'at least 2')

@@ -130,8 +130,13 @@ PARAMETER_DESCRIPTIONS = {
                            'timing "optimal" (inner_knots > 0): the speed profile is '
                            'averaged over two windows of 1/f so the plan does not excite '
                            'it (2/f longer; the default windows: 0.45 s). 0 (default) = '
-                           'not used: windows of 0.3 s and 0.15 s. Rest-to-rest requests '
-                           'only.',
+                           'not used: as smoothing says. Rest-to-rest requests only.',
+    'smoothing': '"auto" (default), "windows" or "none", for method 555 with timing "optimal" '
+                 '(inner_knots > 0) and no vibration_frequency: "windows" averages the speed '
+                 'profile over 0.3 s and 0.15 s (0.45 s longer, low arm modes shake about '
+                 'half as much as with TOPP-RA), "none" does not (about TOPP-RA\'s duration '
+                 'and shaking); "auto" = "windows", or "none" with limit_torque. Joint-space '
+                 'rest-to-rest requests; tool requests are not averaged.',
     'model_file': 'kinematics "model": URDF or MJCF file of the robot; empty = the '
                   'robot_description topic.',
     'tool_frame': 'kinematics "model": the tool frame (URDF link, MJCF body or site) of '

@@ -85,7 +85,8 @@ def _plan(request, config, durations, torque):
                 end_velocity=request.end_velocity, end_acceleration=request.end_acceleration,
                 waypoint_tolerance=config.waypoint_tolerance,
                 inner_knots=config.plan_inner_knots(),
-                vibration_frequency=config.vibration_frequency, **torque)
+                vibration_frequency=config.vibration_frequency,
+                smoothing=config.smoothing, **torque)
 
 
 def _named_joint(exc, joint_names):
