@@ -35,6 +35,8 @@ from trajectory_msgs.msg import JointTrajectory
 from urdf_reference import BatchedUrdfChain
 
 EFFORT = np.array([150.0] * 3 + [28.0] * 3)  # the UR5 URDF's <limit effort>
+# The share of it a plan uses by default (torque_headroom 0.1, doc/nodes.md).
+SHARE = 0.9
 READY = np.array(vr.UR5_READY)
 GOAL = READY + [2.0, 0.3, -0.3, 0.0, 0.0, 0.0]
 PAYLOAD = {'payload_mass': 10.0, 'payload_center_of_mass': [0.0, 0.0, 0.05],
@@ -60,11 +62,11 @@ def duration(msg):
 
 
 def torque_ratios(msg, payload):
-    """Return per joint the peak |torque| / URDF effort of a 1 kHz trajectory message."""
+    """Return per joint the peak |torque| / planned limit of a 1 kHz trajectory message."""
     dynamics = ArmDynamics(load_robot_model(vr.ur5_urdf()), vr.UR5_JOINTS, 'tool0',
                            payload['payload_mass'], payload['payload_center_of_mass'],
                            payload['payload_inertia'] or None)
-    return np.max(np.abs(dynamics.torques(*points(msg))), axis=0) / EFFORT
+    return np.max(np.abs(dynamics.torques(*points(msg))), axis=0) / (SHARE * EFFORT)
 
 
 def numbers(text):
@@ -160,7 +162,9 @@ def test_the_plan_holds_the_urdf_efforts_with_the_payload(system):
     np.testing.assert_allclose(numbers(values['peak_torque_ratio']), ratios, atol=5e-3)
     joint = vr.UR5_JOINTS[int(np.argmax(ratios))]
     assert values['binding'].startswith(f'{joint} torque ratio '), values['binding']
-    np.testing.assert_allclose(numbers(values['limit_torque']), EFFORT)
+    # Planned to the efforts less the default headroom.
+    np.testing.assert_allclose(numbers(values['limit_torque']), SHARE * EFFORT)
+    assert values['torque_headroom'] == '0.1'
     system.wait_until_played(n_arm, duration(msg))
     # A tool request: timed along the line with the torque as a constraint, held;
     # then with a tool speed too.
@@ -182,9 +186,7 @@ def test_the_plan_holds_the_urdf_efforts_with_the_payload(system):
 
 
 def test_the_dynamic_arm_carries_the_payload_without_saturating(system):
-    # Planned to 80 % of the efforts: the PD loop has the rest for its corrections.
-    result, = system.set_planner_parameters({'max_effort': list(0.8 * EFFORT)})
-    assert result.successful, result.reason
+    # Planned to the default share of the efforts: the PD loop has the rest.
     system.spin_for(0.6)   # the last trajectory's settling report
     start = np.array(system.joint_states[-1].position)
     n_arm = len(system.arm_status)
@@ -267,6 +269,11 @@ def test_a_heavier_payload_plans_slower(planner):
     ({'kinematics': ''}, r'limit_torque needs kinematics "model"'),
     ({'limit_torque': False, 'payload_mass': 1.0},
      r'payload_mass is set but limit_torque is false'),
+    ({'torque_headroom': 0.5}, r'torque_headroom = 0.5: must be in \[0, 0.5\)'),
+    ({'torque_headroom': -0.1}, r'torque_headroom = -0.1: must be in'),
+    ({'torque_headroom': math.nan}, r'torque_headroom = nan: must be in'),
+    ({'limit_torque': False, 'torque_headroom': 0.2},
+     r'torque_headroom is set but limit_torque is false'),
     ({'payload_mass': 1.0, 'tool_frame': ''},
      r'payload_mass = 1 kg needs the tool frame that holds the payload: tool_frame is not '
      r'set and the chain ends in 2 links: ee_link, tool0'),
@@ -307,8 +314,11 @@ def test_gravity_beyond_a_limit_names_the_joint_and_the_node_keeps_serving(plann
         assert status.level == DiagnosticStatus.ERROR
         values = status_values(status)
         assert values['overloaded_joint'] == 'shoulder_lift_joint'
-        assert float(values['torque_limit']) == 1.0 and abs(float(values['gravity_torque'])) > 1
+        # The limit planned to: max_effort less the headroom.
+        assert float(values['torque_limit']) == pytest.approx(SHARE)
+        assert abs(float(values['gravity_torque'])) > 1
         assert "joint 'shoulder_lift_joint': gravity alone needs" in status.message
+        assert 'max_effort less torque_headroom 0.1' in status.message
         assert 'at the pose [' in status.message
     finally:
         assert planner.configure({'max_effort': [0.0]}).successful
@@ -334,6 +344,12 @@ def test_a_torque_setup_is_not_used_for_other_torque_parameters():
                            payload_mass=5.0)
     setup = build_robot_setup(config, robot=load_robot_model(vr.ur5_urdf()))
     assert set(setup.torque_kwargs(config)) == {'max_torque', 'inverse_dynamics'}
+    # The headroom scales the limits planned to, with no new setup.
+    for headroom in (config.torque_headroom, 0.0, 0.3):
+        np.testing.assert_allclose(
+            setup.torque_kwargs(replace(config, torque_headroom=headroom))['max_torque'],
+            EFFORT * (1.0 - headroom), rtol=1e-12)
+    assert config.torque_headroom == 0.1    # the default doc/nodes.md states
     for changed in ({'payload_mass': 10.0}, {'max_effort': (100.0,) * 6},
                     {'payload_center_of_mass': (0.0, 0.0, 0.1)}):
         with pytest.raises(ValueError, match='still being set up'):

@@ -66,9 +66,14 @@ class TorqueSetup:
     sources: Tuple[str, ...]     # per joint: 'max_effort', or where the description has it
     dynamics: ArmDynamics        # with the payload; not thread-safe: the planning worker's
 
-    def plan_kwargs(self):
-        """Return the torque keywords of ``plan()`` and ``plan_tool_path()``."""
-        return {'max_torque': self.max_torque.copy(),
+    def plan_kwargs(self, headroom=0.0):
+        """
+        Return the torque keywords of ``plan()`` and ``plan_tool_path()``.
+
+        The limits less the share ``headroom`` (``torque_headroom``) left to
+        the controller's corrections.
+        """
+        return {'max_torque': self.max_torque * (1.0 - headroom),
                 'inverse_dynamics': self.dynamics.torques}
 
     def report(self, joint_names):
@@ -128,7 +133,7 @@ class RobotSetup:
             raise ValueError('limit_torque: the robot is still being set up for the torque '
                              'parameters in force (its description is compiling); send the '
                              'request again')
-        return self.torque.plan_kwargs()
+        return self.torque.plan_kwargs(config.torque_headroom)
 
     def effective(self, config):
         """

@@ -44,6 +44,12 @@ TOOL_SPEEDS = (('max_tool_speed', 'm/s'), ('max_tool_angular_speed', 'rad/s'))
 # (neither max_acceleration nor the joint_limits_file): high enough that the torque
 # limits the arm, within the range the planner works in (LIMIT_RANGES).
 TORQUE_STAND_IN_ACCELERATION = 1000.0
+# limit_torque: the share of every torque limit a plan leaves to the controller's
+# feedback (torque_headroom), by default and at most.  A plan that uses all of a
+# joint's torque leaves the PD loop nothing for its corrections, and the motor
+# saturates (benchmarks/bench_torque_arm.py).
+DEFAULT_TORQUE_HEADROOM = 0.1
+MAX_TORQUE_HEADROOM = 0.5
 
 
 @dataclass(frozen=True)
@@ -86,6 +92,7 @@ class PlannerConfig(ValidatedConfig):
     payload_mass: float = 0.0
     payload_center_of_mass: Tuple[float, ...] = (0.0, 0.0, 0.0)
     payload_inertia: Tuple[float, ...] = ()
+    torque_headroom: float = DEFAULT_TORQUE_HEADROOM
 
     PARAMETER_DEFAULTS = {'joint_names': NOT_SET_NAMES, 'max_velocity': NOT_SET_LIMITS,
                           'max_acceleration': NOT_SET_LIMITS, 'max_jerk': NOT_SET_LIMITS,
@@ -272,6 +279,10 @@ class PlannerConfig(ValidatedConfig):
         a max_effort or a payload would change nothing: refused.
         """
         check_payload(self.payload_mass, self.payload_center_of_mass, self.payload_inertia)
+        if not (0.0 <= self.torque_headroom < MAX_TORQUE_HEADROOM):
+            raise ValueError(f'torque_headroom = {self.torque_headroom}: must be in [0, '
+                             f'{MAX_TORQUE_HEADROOM:g}) (the share of every torque limit left '
+                             "to the controller's corrections)")
         for i, v in enumerate(self.max_effort):
             if math.isnan(v) or v < 0.0:
                 raise ValueError(f'max_effort[{i}] = {v}: must be >= 0 [N m or N] (0 = from '
@@ -284,7 +295,9 @@ class PlannerConfig(ValidatedConfig):
                              '-p max_effort:=[0.0] to take every one from the description')
         if not self.limit_torque:
             for name, used in (('max_effort', any(self.max_effort)),
-                               ('payload_mass', self.payload_mass > 0.0)):
+                               ('payload_mass', self.payload_mass > 0.0),
+                               ('torque_headroom',
+                                self.torque_headroom != DEFAULT_TORQUE_HEADROOM)):
                 if used:
                     raise ValueError(f'{name} is set but limit_torque is false: it only '
                                      'matters to the torque limits (set limit_torque:=true, '

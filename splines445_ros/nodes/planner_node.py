@@ -158,6 +158,10 @@ PARAMETER_DESCRIPTIONS = {
                   'effort>, MJCF actuator forcerange or ctrlrange x gear), inf = no limit. '
                   'Not set ([0.0], the default): all from the description.',
     'payload_mass': 'limit_torque: mass [kg] held by the tool frame, >= 0; 0 (default) = none.',
+    'torque_headroom': 'limit_torque: the share of every torque limit the plan leaves to the '
+                       "controller's corrections, in [0, 0.5): the plan holds (1 - "
+                       'torque_headroom) x max_effort. Default 0.1: a plan that uses all of a '
+                       "joint's torque leaves the feedback nothing, and the motor saturates.",
     'payload_center_of_mass': "limit_torque: the payload's centre of mass [m], x, y, z in the "
                               'tool frame.',
     'payload_inertia': "limit_torque: the payload's inertia [kg m^2] about its centre of mass "
@@ -391,7 +395,9 @@ class PlannerNode(Node):
                 config = robot.effective(config)  # joint names and limits of the robot
                 tool_values = robot.limits.report()
                 if torque:
+                    # The limits planned to: max_effort less the headroom.
                     tool_values['limit_torque'] = format_vector(torque['max_torque'])
+                    tool_values['torque_headroom'] = f'{config.torque_headroom:g}'
             if isinstance(msg, PoseArray) and robot is not None:
                 tool_path = plan_model_tool_request(
                     robot, tool_poses_from_message(msg, config.base_frame),
@@ -417,7 +423,8 @@ class PlannerNode(Node):
             values = {'request': request_id}
             overload = gravity_overload(exc)
             if overload is not None:
-                text, details = gravity_overload_report(overload, config.joint_names)
+                text, details = gravity_overload_report(overload, config.joint_names,
+                                                        config.torque_headroom)
                 values.update(details)
                 exc = text
             self._report(False, f'request {request_id} rejected: {exc}', values)

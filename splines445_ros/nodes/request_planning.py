@@ -385,20 +385,23 @@ def gravity_overload(exc):
     return None
 
 
-def gravity_overload_report(overload, joint_names):
+def gravity_overload_report(overload, joint_names, headroom=0.0):
     """
     Return (message, status values) of a :class:`GravityOverload`, the joint named.
 
     The library names the joint by its column; the planned ``joint_names``
-    give its name.
+    give its name.  ``headroom``: the ``torque_headroom`` the limit was
+    lowered by, said in the message.
     """
     j = overload.joint
     name = joint_names[j] if 0 <= j < len(joint_names) else f'column {j}'
     pose = ', '.join(f'{v:.4g}' for v in overload.pose)
+    planned = (f' (max_effort less torque_headroom {headroom:g})' if headroom else '')
     message = (f'joint {name!r}: gravity alone needs {overload.torque:.4g} N m at the pose '
                f'[{pose}] (joint_names order), beyond its torque limit of '
-               f'{overload.limit:.4g} N m: no speed along this path holds it (lower the '
-               'payload, raise max_effort, or choose waypoints where the arm can hold it)')
+               f'{overload.limit:.4g} N m{planned}: no speed along this path holds it (lower '
+               'the payload, raise max_effort, or choose waypoints where the arm can hold '
+               'it)')
     values = {'overloaded_joint': name, 'gravity_torque': f'{overload.torque:.6g}',
               'torque_limit': f'{overload.limit:.6g}', 'pose': pose}
     return message, values
