@@ -16,14 +16,15 @@ Paths (fixed seed): random walks from the ready pose, 5 to 15 waypoints,
 steps uniform in +-0.3 rad per joint, clipped to the joint ranges less
 0.05 rad.  Plans:
 
-* (A) ours: ``plan(points, '555', 'optimal', max_torque=<URDF effort>,
-  inverse_dynamics=...)``, velocity from the URDF, acceleration 1000 rad/s^2
-  (a stand-in: plan() needs one), jerk 50 ``a`` with ``a`` the path's
-  typical acceleration of ``bench_torque.py`` (the largest constant
-  acceleration, common to all joints, whose torque-free plan holds the
-  torque on the path);
-* (A95) the same with 5 % headroom: ``max_torque`` 0.95 times the effort,
-  room for the feedback's corrections;
+* (A) ours: ``plan(points, '555', 'optimal', max_torque=0.9 <URDF effort>,
+  inverse_dynamics=...)``, the limits less ``planner_node``'s default
+  ``torque_headroom`` (0.1, room for the feedback's corrections; smoothing
+  "auto": no windows with torque limits), velocity from the URDF,
+  acceleration 1000 rad/s^2 (a stand-in: plan() needs one), jerk 50 ``a``
+  with ``a`` the path's typical acceleration of ``bench_torque.py`` (the
+  largest constant acceleration, common to all joints, whose torque-free
+  plan holds the torque on the path);
+* (A100) the same at the full efforts (``torque_headroom: 0``);
 * (B) the kinematic plan: 555 optimal with ``config/ur5_joint_limits.yaml``
   (velocity from the URDF, acceleration 4 / 8 rad/s^2, jerk 40 / 80
   rad/s^3), no torque limit;
@@ -63,6 +64,7 @@ from splines445_ros.arm.dynamics import ArmDynamics  # noqa: E402
 from splines445_ros.arm.mujoco_model import load_arm_model  # noqa: E402
 from splines445_ros.nodes.arm_sim_config import ArmSimConfig  # noqa: E402
 from splines445_ros.nodes.arm_sim_model import add_payload, resolve_model_config  # noqa: E402
+from splines445_ros.nodes.planner_config import DEFAULT_TORQUE_HEADROOM  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
 from splines445_ros.tools import robot_seam_demo as seam  # noqa: E402
 from splines445_ros.tools import vendor_robots as vr  # noqa: E402
@@ -77,11 +79,11 @@ PAYLOAD = 5.0                   # [kg] the UR5's rated payload
 PAYLOAD_OFFSET = bench_torque.PAYLOAD_OFFSET    # [m] its centre of mass in tool0
 NO_ACCELERATION_LIMIT = bench_torque.NO_ACCELERATION_LIMIT
 JERK_RATIO = bench_torque.JERK_RATIO
-HEADROOM = 0.95                 # A95: max_torque = HEADROOM * effort
+SHARE = 1.0 - DEFAULT_TORQUE_HEADROOM     # A: max_torque = SHARE * effort
 PATH_PERIOD = 1e-4              # [s] sampling of the planned tool path (off-path distance)
 METHODS = ('434', '445', '555')
-PLANS = {'A': 'torque-limited 555 optimal',
-         'A95': f'torque-limited 555 optimal at {HEADROOM:g} x the limits',
+PLANS = {'A': f"torque-limited 555 optimal at {SHARE:g} x the limits (the node's default)",
+         'A100': 'torque-limited 555 optimal at the limits',
          'B': "config's acceleration limits, no torque limit"}
 MODES = ('own duration', 'same duration')
 COLUMNS = (('sat', 'saturated steps', 1.0, '.0f'),
@@ -208,10 +210,10 @@ class Case:
                   'max_jerk': np.full(n, JERK_RATIO * self.typical),
                   'max_torque': tau_max, 'inverse_dynamics': torques}
         started = time.perf_counter()
-        self.plans = {'A': plan(points, '555', 'optimal', **limits)}
+        self.plans = {'A': plan(points, '555', 'optimal',
+                                **dict(limits, max_torque=SHARE * tau_max))}
         self.planning_a = time.perf_counter() - started
-        self.plans['A95'] = plan(points, '555', 'optimal',
-                                 **dict(limits, max_torque=HEADROOM * tau_max))
+        self.plans['A100'] = plan(points, '555', 'optimal', **limits)
         self.plans['B'] = plan(points, '555', 'optimal', **config_limits)
         own = {m: plan(points, m, 'uniform', **limits) for m in METHODS}
         slowest = max(own.values(), key=lambda t: t.duration)
@@ -275,9 +277,9 @@ def main(argv=None):
     planning = time.perf_counter() - planning_started
     sys.stdout.flush()
 
-    print('\nA (555 optimal, torque-limited), A95 (the same at 0.95 x the torque limits) and B '
-          "(555 optimal, the config's a and j, no torque limit) on the dynamic UR5 with the "
-          'payload, per path')
+    print(f'\nA (555 optimal, torque-limited at {SHARE:g} x the limits), A100 (the same at '
+          "the limits) and B (555 optimal, the config's a and j, no torque limit) on the "
+          'dynamic UR5 with the payload, per path')
     print(header(('case', 'N', 'plan', 'a typ [rad/s^2]', 'duration [s]')))
     rows = {name: [] for name in PLANS}
     for k, case in enumerate(cases):
@@ -303,7 +305,7 @@ def main(argv=None):
                      f'{1e3 * max(r["tool_fk"] for r in saturating):.3g} mm, off path max '
                      f'{1e3 * max(r["off_path"] for r in saturating):.3g} mm')
         print(f'* {name} ({what}): {text}')
-    for a, b in (('A', 'B'), ('A95', 'A')):
+    for a, b in (('A', 'B'), ('A', 'A100')):
         ratios = np.array([c.plans[a].duration / c.plans[b].duration for c in cases])
         print(f'* duration {a} / {b}: median {np.median(ratios):.3f}, range '
               f'{np.min(ratios):.3f} to {np.max(ratios):.3f}')
