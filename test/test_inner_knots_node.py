@@ -48,11 +48,14 @@ def test_555_optimal_request_uses_inner_knots_and_reports_knots():
     assert summary_values(knots_only, config().joint_names)['knots'] == len(WAYPOINTS)
 
 
-def test_the_default_is_four_inner_knots_at_most():
-    # The documented default (doc/nodes.md, issue 23), the same as plan()'s.
-    assert PlannerConfig().inner_knots == 4
+def test_the_default_is_auto_four_inner_knots_at_most_without_torque_limits():
+    # The documented default (doc/nodes.md, issues 23 and 25): plan()'s.
+    assert PlannerConfig().inner_knots == -1
+    assert config(inner_knots=-1).plan_inner_knots() is None
+    assert config(inner_knots=-1, method='445').plan_inner_knots() == 0
     traj = plan_request(config(inner_knots=PlannerConfig().inner_knots), request())
     assert traj.optimizer['inner_knots'] == 4
+    assert max(traj.optimizer['inner_knots_per_segment']) == 4
 
 
 def test_vibration_frequency_reaches_plan_and_is_refused_where_it_would_be_ignored():
@@ -116,7 +119,7 @@ def test_replanning_from_a_moving_state_gets_inner_knots_and_keeps_the_state():
     assert traj.within_limits()
 
 
-@pytest.mark.parametrize('bad', [-1, 9])
+@pytest.mark.parametrize('bad', [-2, 9])
 def test_config_rejects_out_of_range_inner_knots(bad):
     with pytest.raises(ValueError, match='inner_knots'):
         config(inner_knots=bad).validate()

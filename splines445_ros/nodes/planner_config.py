@@ -17,8 +17,7 @@ from ..arm.joint_limits_file import check_limit_value
 from ..arm.kinematics import PlanarArm
 from ..arm.user_text import show
 from ..planning import DEFAULT_WAYPOINT_TOLERANCE, METHODS, TIMINGS
-from ..planning.inner_knots import (DEFAULT_INNER_KNOTS, MAX_INNER_KNOTS,
-                                    MAX_VIBRATION_FREQUENCY, smoothing_value)
+from ..planning.inner_knots import MAX_INNER_KNOTS, MAX_VIBRATION_FREQUENCY, smoothing_value
 
 DEFAULT_JOINTS = ('joint1', 'joint2', 'joint3')
 # The planar arm's (and a joint-space planner's) limits when none are set.
@@ -44,6 +43,10 @@ TOOL_SPEEDS = (('max_tool_speed', 'm/s'), ('max_tool_angular_speed', 'rad/s'))
 # (neither max_acceleration nor the joint_limits_file): high enough that the torque
 # limits the arm, within the range the planner works in (LIMIT_RANGES).
 TORQUE_STAND_IN_ACCELERATION = 1000.0
+# inner_knots "auto": plan()'s default (inner_knots None), 4, or 6 with torque
+# limits and no smoothing windows (inner_knots.DEFAULT_INNER_KNOTS and
+# TORQUE_INNER_KNOTS).
+AUTO_INNER_KNOTS = -1
 # limit_torque: the share of every torque limit a plan leaves to the controller's
 # feedback (torque_headroom), by default and at most.  A plan that uses all of a
 # joint's torque leaves the PD loop nothing for its corrections, and the motor
@@ -78,7 +81,7 @@ class PlannerConfig(ValidatedConfig):
     min_position: Tuple[float, ...] = ()
     max_position: Tuple[float, ...] = ()
     output: str = 'sampled'
-    inner_knots: int = DEFAULT_INNER_KNOTS
+    inner_knots: int = AUTO_INNER_KNOTS
     vibration_frequency: float = 0.0
     smoothing: str = 'auto'
     # kinematics "model": a robot description (see nodes/robot_description.py).
@@ -178,18 +181,18 @@ class PlannerConfig(ValidatedConfig):
             raise ValueError(f'output must be one of {list(OUTPUTS)}, '
                              f'got {show(self.output)}')
 
-        if not 0 <= self.inner_knots <= MAX_INNER_KNOTS:
+        if not AUTO_INNER_KNOTS <= self.inner_knots <= MAX_INNER_KNOTS:
             raise ValueError(f'inner_knots = {self.inner_knots}: must be in '
-                             f'[0, {MAX_INNER_KNOTS}]')
+                             f'[0, {MAX_INNER_KNOTS}], or {AUTO_INNER_KNOTS} (auto)')
         self.require_in_range('vibration_frequency', 0.0, MAX_VIBRATION_FREQUENCY, 'Hz')
-        if self.vibration_frequency and not self.plan_inner_knots():
+        if self.vibration_frequency and not self.has_inner_knots():
             raise ValueError(f'vibration_frequency = {self.vibration_frequency:g} Hz needs '
                              'method "555" with timing "optimal" and inner_knots > 0 (got '
                              f'method {show(self.method)}, timing {show(self.timing)}, '
                              f'inner_knots {self.inner_knots}); 0 = not used')
         # The library's own check: one of auto, windows, none; not with a
         # vibration_frequency, and not where no speed profile is averaged.
-        smoothing_value(self.smoothing, self.vibration_frequency, self.plan_inner_knots())
+        smoothing_value(self.smoothing, self.vibration_frequency, self.has_inner_knots())
         if self.max_trajectory_points < 2:
             raise ValueError(f'max_trajectory_points = {self.max_trajectory_points}: must be '
                              'at least 2')
@@ -255,7 +258,7 @@ class PlannerConfig(ValidatedConfig):
             value = getattr(self, name)
             if not value:
                 continue
-            if not self.plan_inner_knots():
+            if not self.has_inner_knots():
                 raise ValueError(f'{name} = {value:g} {unit} needs method "555" with timing '
                                  '"optimal" and inner_knots > 0 (got method '
                                  f'{show(self.method)}, timing {show(self.timing)}, '
@@ -323,10 +326,18 @@ class PlannerConfig(ValidatedConfig):
         return None
 
     def plan_inner_knots(self):
-        """Inner knots per segment for plan(): ``inner_knots`` for 555 optimal, else 0."""
+        """
+        Inner knots per segment for plan(): ``inner_knots`` for 555 optimal, else 0.
+
+        "auto" (:data:`AUTO_INNER_KNOTS`) is None, plan()'s default.
+        """
         if self.method == '555' and self.timing == 'optimal':
-            return self.inner_knots
+            return None if self.inner_knots == AUTO_INNER_KNOTS else self.inner_knots
         return 0
+
+    def has_inner_knots(self):
+        """Whether plan() places inner knots: 555 optimal with ``inner_knots`` not 0."""
+        return self.method == '555' and self.timing == 'optimal' and self.inner_knots != 0
 
     def description_limits(self):
         """Return explicit (max_velocity, max_acceleration, max_jerk) for resolve_limits."""

@@ -122,7 +122,8 @@ PARAMETER_DESCRIPTIONS = {
               'quintic interpolation of joint_trajectory_controller between them reproduces '
               'the planned trajectory).',
     'inner_knots': 'Most inner knots per segment for method "555" with timing "optimal", '
-                   'in [0, 8] (default 4; fewer on segments shorter than a few jerk ramp '
+                   'in [0, 8], or -1 (default) = auto: 4, or 6 with limit_torque and no '
+                   'smoothing windows (fewer on segments shorter than a few jerk ramp '
                    'times a/j): a C4 spline with knots between the waypoints too, about '
                    'the duration of TOPP-RA with the jerk limits held; 0 = knots at the '
                    'waypoints only (longer). Ignored by other methods and timings.',

@@ -96,6 +96,14 @@ MAX_INNER_KNOTS = 8
 # default smoothing, 4 is as short as 6 and 8 on the benchmark's random paths
 # and shakes the arm least (bench_inner_knots.py, issue 23).
 DEFAULT_INNER_KNOTS = 4
+# With torque limits and no smoothing windows (issue 25): the count, step 2's
+# grid steps per segment and step 6's stop (relative gain over STALL
+# iterations).  On bench_torque.py's 10 paths per row 6 knots took Panda 3 kg
+# from 1.055 to 1.042 x TOPP-RA (median); the coarser grid and stop (with
+# torque.PIECE_SAMPLES 5) paid for them.
+TORQUE_INNER_KNOTS = 6
+TORQUE_GRID_STEPS = 20
+TORQUE_MIN_GAIN = 1e-2
 # Step 2's moving windows [s] when no vibration frequency is given: boxes of
 # 0.3 s and 0.15 s, which together pass at most 9 % of any frequency from
 # 3 Hz up (one box of 0.25 s, the default before: 30 %), the range where
@@ -567,11 +575,13 @@ class _Path:
             # Rest to rest the path's end derivatives are free (its speed is 0 there).
             knots = np.concatenate([[0.0], np.cumsum(durations)])
             self.ppoly = CubicSpline(knots, points, bc_type='natural')
-        fractions = np.arange(GRID_STEPS) / GRID_STEPS
+        grid = TORQUE_GRID_STEPS if torque is not None and not windows else GRID_STEPS
+        self.min_gain = TORQUE_MIN_GAIN if torque is not None and not windows else MIN_GAIN
+        fractions = np.arange(grid) / grid
         self.s = np.concatenate([(knots[:-1, None] + fractions * np.diff(knots)[:, None])
                                  .reshape(-1), knots[-1:]])
         self.steps = np.diff(self.s)
-        self.waypoint_s = self.s[::GRID_STEPS]
+        self.waypoint_s = self.s[::grid]
         constraints = (JointVelocity(limits.velocity), JointAcceleration(limits.acceleration))
         if torque is not None:
             # Held between the grid points too (path_velocity): at the grid
@@ -856,6 +866,7 @@ def _construct(path, boundary, limits, rest, knots_only=True):
     the knots-only optimum anyway.
     """
     budget = {'iterations': REST_ITERATIONS, 'relax': REST_RELAX} if rest else {}
+    budget['min_gain'] = path.min_gain
     start = _Profile(path, np.ones(path.s.size))
     best, iterations = _iterate(path, start.local, None, boundary, limits, rest, None,
                                 profile=start, **budget)

@@ -5,7 +5,8 @@ import math
 import numpy as np
 
 from .inner_knots import (DEFAULT_SMOOTHING, inner_knot_count, plan_with_inner_knots,
-                          smoothing_value, smoothing_windows, vibration_frequency_value)
+                          smoothing_value, smoothing_windows, TORQUE_INNER_KNOTS,
+                          vibration_frequency_value)
 from .limits import check_boundary_feasible, JointLimits
 from .methods import get_method
 from .optimal import optimal_durations
@@ -158,9 +159,11 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         jerk ramp times): the result is still a C4 quintic spline through
         every waypoint, passed at ``waypoint_times``; its ``breakpoints``
         include the inner knots.  None (the default) is
-        :data:`inner_knots.DEFAULT_INNER_KNOTS` for 555 optimal and 0
-        otherwise; 0 keeps knots at the waypoints only (the optimisation of
-        :mod:`optimal`, which also takes the ``durations`` warm start).  When
+        :data:`inner_knots.DEFAULT_INNER_KNOTS` for 555 optimal
+        (:data:`inner_knots.TORQUE_INNER_KNOTS` with torque limits and no
+        smoothing windows) and 0 otherwise; 0 keeps knots at the waypoints
+        only (the optimisation of :mod:`optimal`, which also takes the
+        ``durations`` warm start).  When
         no spline with inner knots is found (non-zero boundary values it
         cannot keep within the limits), the knots-only optimum is returned
         and ``optimizer['inner_knots']`` is 0.
@@ -195,12 +198,15 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
     """
     if not isinstance(timing, str) or timing not in TIMINGS:
         raise ValueError(f'unknown timing {timing!r}: expected one of {TIMINGS}')
+    given = inner_knots
     inner_knots = inner_knot_count(inner_knots, get_method(method).name, timing)
     vibration = vibration_frequency_value(vibration_frequency, inner_knots)
     if (max_torque is None) != (inverse_dynamics is None):
         raise ValueError('max_torque and inverse_dynamics must be given together')
     windows = smoothing_windows(vibration, smoothing_value(smoothing, vibration, inner_knots),
                                 max_torque is not None)
+    if given is None and inner_knots and max_torque is not None and not windows:
+        inner_knots = TORQUE_INNER_KNOTS
     with np.errstate(over='ignore', invalid='ignore', divide='ignore', under='ignore'):
         traj = _plan(waypoints, method, timing, durations, max_velocity, max_acceleration,
                      max_jerk, (start_velocity, start_acceleration, end_velocity,
@@ -350,19 +356,29 @@ def _plan_limited(method, points, timing, durations, max_velocity, max_accelerat
         shaped = windows not in ((), DEFAULT_SMOOTHING) and \
             not any(np.any(b) for b in boundary)
         # The knots-only optimum is the rival below: the construction's own
-        # knots-only candidates would only repeat it, less well.
-        optimum_rival = _optimum_rival(points, windows, torque) and not shaped
+        # knots-only candidates would only repeat it, less well.  With torque
+        # limits and no smoothing windows there is no knots-only plan at all:
+        # the optimum of the velocity, acceleration (a stand-in) and jerk
+        # limits, slowed down for the torque, decided none of bench_torque.py's
+        # 40 plans and took 45 % of their planning time, and the uniform
+        # rival and the construction's knots-only candidates none of its 160
+        # (about 15 %).
+        torque_only = torque is not None and not windows
+        optimum_rival = _optimum_rival(points) and not shaped and not torque_only
         refined = plan_with_inner_knots(points, boundary, limits, inner_knots, dropped,
-                                        windows, torque, knots_only=not optimum_rival,
+                                        windows, torque,
+                                        knots_only=not optimum_rival and not torque_only,
                                         keep_time_scale=shaped)
         if refined is not None and shaped:
             # A vibration_frequency asks for a profile without content at it,
             # which only the inner-knot plan has: no rival then.  With moving
             # ends the profile is not averaged, so the rival stays.
             return refined
+        if refined is not None and torque_only:
+            return _torque_limited(refined, torque)
         if refined is not None:
             return _with_knots_only_rival(refined, method, points, start, boundary, limits,
-                                          dropped, torque, optimum_rival)
+                                          dropped, torque)
     knots_only = _plan_knots_only(method, timing, points, start, boundary, limits, dropped)
     if timing == 'optimal':
         knots_only.optimizer['inner_knots'] = 0
@@ -372,11 +388,11 @@ def _plan_limited(method, points, timing, durations, max_velocity, max_accelerat
 
 
 def _with_knots_only_rival(refined, method, points, start, boundary, limits, dropped,
-                           torque=None, optimum=True):
+                           torque=None):
     """
     Return ``refined`` (inner knots), or a knots-only plan of the request when it is shorter.
 
-    The rival is the knots-only optimum (``optimum``) for requests of at most
+    The rival is the knots-only optimum for requests of at most
     :data:`SMALL_REQUEST` waypoints and of one joint (:func:`_optimum_rival`),
     where it costs tens of milliseconds
     and wins now and then (one segment, a joint reversing at every
@@ -419,7 +435,7 @@ def _with_knots_only_rival(refined, method, points, start, boundary, limits, dro
       instead of 4.0 ms, the same plans bit for bit).
     """
     rest = not any(np.any(b) for b in boundary)
-    small = optimum and not (rest and len(points) == 2)
+    small = _optimum_rival(points) and not (rest and len(points) == 2)
     timing = 'optimal' if small else 'uniform'
     options = {}
     warm = small and rest and points.shape[1] > 1
@@ -467,7 +483,7 @@ def _with_knots_only_rival(refined, method, points, start, boundary, limits, dro
     return rival
 
 
-def _optimum_rival(points, windows=DEFAULT_SMOOTHING, torque=None):
+def _optimum_rival(points):
     """
     Whether the knots-only optimum is the rival of the inner-knot plan of ``points``.
 
@@ -479,15 +495,7 @@ def _optimum_rival(points, windows=DEFAULT_SMOOTHING, torque=None):
     to its end (a cold start that gives up loses that one): on those 6 it
     took 3 to 9 times the planning time (76 waypoints: 65 -> 490 ms, where
     TOPP-RA takes 140 ms; 1000: 0.7 -> 1.4 s, TOPP-RA 1.5 s).
-
-    Not with torque limits and no smoothing ``windows`` (issue 25): the
-    optimum of the velocity, acceleration (a stand-in) and jerk limits,
-    slowed down for the torque, did not decide one of bench_torque.py's 40
-    plans (bench_torque_windows.py) and took 45 % of their planning time.
-    Uniform timing, slowed down for the torque, is the rival then.
     """
-    if torque is not None and not windows:
-        return False
     return len(points) <= SMALL_REQUEST or points.shape[1] == 1
 
 

@@ -37,8 +37,13 @@ COARSE_PERIOD = 1e-2
 # Most samples of one check (an hour at 1 kHz): a longer plan is refused
 # before anything is allocated for it.
 MAX_CHECK_SAMPLES = 3_600_000
-# Samples per spline piece of the inner-knot iteration's torque factor.
-PIECE_SAMPLES = 8
+# Samples per spline piece of the inner-knot iteration's torque factor, both
+# knots included (each knot sampled once, shared by its two pieces).  8 before
+# issue 25's last stop: with 5, and 6 inner knots (inner_knots.
+# TORQUE_INNER_KNOTS), bench_torque.py's plans took 0.88-0.99 of TOPP-RA's
+# planning time instead of 1.0-1.25, durations within 0.01 (the 1 kHz check
+# and its slow-down hold the limits whatever the count).
+PIECE_SAMPLES = 5
 
 
 class TorqueLimit:
@@ -89,8 +94,15 @@ class TorqueLimit:
         infinite there instead (no slow-down holds the torque).
         """
         zero = np.zeros_like(q)
-        gravity = self._torques(q, zero, zero)
-        dynamic = (self._torques(q, qd, qdd) if tau is None else tau) - gravity
+        if tau is None:
+            # One inverse-dynamics call for both: a call costs about as much as
+            # 200 samples (ArmDynamics: 16 us, 0.5 us a sample in bulk).
+            both = self._torques(np.concatenate([q, q]), np.concatenate([zero, qd]),
+                                 np.concatenate([zero, qdd]))
+            gravity, tau = both[:len(q)], both[len(q):]
+        else:
+            gravity = self._torques(q, zero, zero)
+        dynamic = tau - gravity
         limit = np.broadcast_to(self.max_torque, gravity.shape)
         if refuse:
             refuse_gravity_overload(q, gravity, limit)
@@ -106,11 +118,14 @@ class TorqueLimit:
         factor there: that candidate is not taken, and the path itself,
         checked when its constraints are built, is not refused for it.
         """
-        q, qd, qdd = sample_segments(coeffs, pieces, PIECE_SAMPLES, (0, 1, 2))
+        count = PIECE_SAMPLES
+        samples = sample_segments(coeffs, pieces, count, (0, 1, 2))
         n = coeffs.shape[2]
-        need = self.squared_factors(q.reshape(-1, n), qd.reshape(-1, n), qdd.reshape(-1, n),
-                                    refuse=False)
-        return np.sqrt(np.max(need.reshape(pieces.size, -1), axis=1))[:, None]
+        # A knot ends one piece and starts the next (the spline is C4): sampled once.
+        q, qd, qdd = (np.concatenate([a[:, :-1].reshape(-1, n), a[-1, -1:]]) for a in samples)
+        need = np.max(self.squared_factors(q, qd, qdd, refuse=False), axis=1)
+        inner = np.max(need[:-1].reshape(pieces.size, count - 1), axis=1)
+        return np.sqrt(np.maximum(inner, need[count - 1::count - 1]))[:, None]
 
     def time_factor(self, traj, period=CHECK_PERIOD):
         """
