@@ -267,6 +267,32 @@ def test_an_acceleration_limit_the_torque_keeps_below_does_not_change_the_plan(s
     np.testing.assert_array_equal(plans[0].breakpoints, plans[1].breakpoints)
 
 
+@settings(max_examples=EXAMPLES, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1))
+def test_piece_factors_are_the_need_at_each_pieces_samples_both_ends_included(seed):
+    """
+    piece_factors against the need computed here at PIECE_SAMPLES even times of every piece.
+
+    The times include both ends of every piece: a knot is sampled once and
+    counts for both of its pieces.
+    """
+    from splines445_ros.planning.torque import PIECE_SAMPLES
+    rng = np.random.default_rng(seed)
+    points, limit = random_request(rng)
+    traj = plan(points, '555', 'fixed', durations=rng.uniform(0.1, 0.5, len(points) - 1))
+    factors = TorqueLimit(limit, two_link_torques, 2).piece_factors(traj.coefficients,
+                                                                    traj.durations)
+    expected = []
+    for start, length in zip(traj.breakpoints[:-1], traj.durations):
+        t = np.minimum(start + np.linspace(0.0, length, PIECE_SAMPLES), traj.duration)
+        q, qd, qdd = (traj.evaluate(t, d) for d in range(3))
+        gravity = two_link_torques(q, 0 * q, 0 * q)
+        dynamic = two_link_torques(q, qd, qdd) - gravity
+        room = np.where(dynamic >= 0.0, limit - gravity, -limit - gravity)
+        expected.append(np.sqrt(np.max(dynamic / room)))
+    np.testing.assert_allclose(factors[:, 0], expected, rtol=1e-9)
+
+
 def test_a_spline_straying_into_a_gravity_overload_needs_an_infinite_factor_per_piece():
     """
     The construction's candidates may leave the path; where gravity overloads, none is taken.
