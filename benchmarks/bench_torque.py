@@ -11,8 +11,9 @@ along the tool frame's z).  Limits: velocity and torque from the URDF
 effect (plan() needs one: :data:`NO_ACCELERATION_LIMIT` rad/s^2 on every
 joint); jerk :data:`JERK_RATIO` times a typical acceleration (below).
 The inverse dynamics is :class:`splines445_ros.arm.dynamics.
-ArmDynamics` (MuJoCo RNE, payload included), the same function for both
-planners.
+ArmDynamics` (MuJoCo RNE, payload included), the same for both planners:
+ours is given the ArmDynamics itself (its torques, and its ``gravity``
+pass for the torques at rest), TOPP-RA its ``torques``.
 
 * Today's practice: one constant acceleration limit ``a`` common to all
   joints (jerk :data:`JERK_RATIO` times it), the largest (bisection over
@@ -209,10 +210,10 @@ def run_row(name, robot, joints, tool, payload, paths, vmax, tau_max):
             lambda: toppra_torque(points, vmax, tau_max, torques),
             lambda: plan(points, '555', 'optimal', max_velocity=vmax,
                          max_acceleration=np.full(n, NO_ACCELERATION_LIMIT), max_jerk=jerk,
-                         max_torque=tau_max, inverse_dynamics=torques)), REPEATS)
+                         max_torque=tau_max, inverse_dynamics=dynamics)), REPEATS)
         knots_only = plan(points, '555', 'optimal', inner_knots=0, max_velocity=vmax,
                           max_acceleration=np.full(n, NO_ACCELERATION_LIMIT), max_jerk=jerk,
-                          max_torque=tau_max, inverse_dynamics=torques)
+                          max_torque=tau_max, inverse_dynamics=dynamics)
         fine = toppra_torque(points, vmax, tau_max, torques, interpolation=True)
         ours_peak = np.max(peak_torque(ours_samples(traj), torques, tau_max))
         knots_peak = np.max(peak_torque(ours_samples(knots_only), torques, tau_max))
@@ -260,8 +261,9 @@ def main():
           f'{1e3 * CHECK_PERIOD:g} ms; planning times best of {REPEATS}, timed in turn; '
           'TOPP-RA: default grid, ParametrizeConstAccel, Collocation (its default; '
           'Interpolation shown too); '
-          "ours: plan(..., '555', 'optimal', max_torque=..., inverse_dynamics=...), default "
-          'inner knots (inner_knots=0 shown too).')
+          "ours: plan(..., '555', 'optimal', max_torque=..., inverse_dynamics=dynamics) (the "
+          'ArmDynamics: its gravity pass at rest; TOPP-RA dynamics.torques), default inner '
+          'knots (inner_knots=0 shown too).')
     print()
     print('| robot | payload [kg] | case | N | constant a [rad/s^2] | TOPP-RA [s] '
           '| TOPP-RA Interpolation [s] | ours [s] | ours / TOPP-RA | constant a [s] '

@@ -690,6 +690,115 @@ def test_a_batch_taken_in_chunks_is_the_batch_taken_whole(vendor):
     check_close(chunked, against_mujoco(dynamics, q, qd, qdd)[1])
 
 
+# gravity(q), the torques at rest by a pass of its own: torques(q, 0, 0) to round-off.
+GRAVITY_RTOL = 1e-12
+
+
+def held_still(dynamics, q):
+    """Return (gravity(q), torques(q, 0, 0), the latter by MuJoCo sample by sample)."""
+    zeros = np.zeros_like(q)
+    at_rest = dynamics.torques(q, zeros, zeros)
+    dynamics.vectorised_from = math.inf
+    try:
+        by_sample = dynamics.torques(q, zeros, zeros)
+    finally:
+        del dynamics.vectorised_from
+    return dynamics.gravity(q), at_rest, by_sample
+
+
+@pytest.mark.parametrize('robot_name', sorted(ROBOTS))
+@pytest.mark.parametrize('count', [2000, 20, 5])
+def test_gravity_is_the_torque_at_rest(vendor, robot_name, count):
+    """Its own pass from gravity_vectorised_from samples on, torques' below: the same torques."""
+    robot, _ = vendor[robot_name]
+    _, names, tool, _ = ROBOTS[robot_name]
+    dynamics = ArmDynamics(robot, names, tool, PAYLOAD_MASS, PAYLOAD_COM, PAYLOAD_INERTIA)
+    assert dynamics.vectorised
+    assert 5 < dynamics.gravity_vectorised_from <= 20 < dynamics.vectorised_from
+    rng = np.random.default_rng(count + len(robot_name))
+    q, _, _ = random_states(rng, count, *bounds(robot, list(names)))
+    passes, own = [], dynamics._vectorised.gravity     # which path each batch takes
+    dynamics._vectorised.gravity = lambda *args: (passes.append(len(args[0])), own(*args))
+    gravity, at_rest, by_sample = held_still(dynamics, q)
+    assert gravity.shape == q.shape
+    assert passes == ([count] if count >= dynamics.gravity_vectorised_from else [])
+    check_close(gravity, at_rest, GRAVITY_RTOL)
+    check_close(gravity, by_sample, GRAVITY_RTOL)
+    # The payload is in it: a bare arm's differ by much more than round-off.
+    bare = ArmDynamics(robot, names, tool).gravity(q)
+    assert np.max(np.abs(gravity - bare)) > 1.0
+    if count < dynamics.gravity_vectorised_from:    # torques' path: the very same numbers
+        np.testing.assert_array_equal(gravity, at_rest)
+        # Its own pass on a small batch too.
+        dynamics.gravity_vectorised_from = 1
+        check_close(dynamics.gravity(q), by_sample, GRAVITY_RTOL)
+
+
+@pytest.mark.parametrize('case', ['tree', 'tree held', 'no gravity', 'site damping',
+                                  'mimic quadratic'])
+def test_gravity_is_the_torque_at_rest_on_other_models(case):
+    """Slides, branches, two joints on a body, held and driven joints, gravity off or askew."""
+    names, tool, kwargs = None, '', {}
+    if case == 'tree':
+        robot, tool = tree_model(), 'grip'
+        kwargs = {'payload_mass': 1.0, 'payload_center_of_mass': (0.1, 0.0, 0.02),
+                  'payload_inertia': (0.01, 0.02, 0.015)}
+    elif case == 'tree held':
+        robot, names = tree_model(), ['j3', 'j2a', 'j2b', 'j4']
+    elif case == 'no gravity':
+        robot = tree_model(TREE_MJCF.replace('<option ', '<option><flag gravity="disable"/>'
+                                             '</option><option '))
+    elif case == 'site damping':
+        robot, tool = ur5_with_site(), 'grip'
+        kwargs = {'payload_mass': 2.0, 'include_damping': True}
+    else:
+        robot, names, tool = mimic_quadratic(), MIMIC_PLANNED, 'tool'
+        kwargs = {'payload_mass': 1.2, 'payload_center_of_mass': PAYLOAD_COM}
+    names = list(names or robot.joint_names)
+    dynamics = ArmDynamics(robot, names, tool, **kwargs)
+    assert dynamics.vectorised
+    rng = np.random.default_rng(len(case) + 100)
+    q, _, _ = random_states(rng, 500, *bounds(robot, names))
+    gravity, at_rest, by_sample = held_still(dynamics, q)
+    if case == 'no gravity':
+        np.testing.assert_array_equal(gravity, 0.0)
+        return
+    check_close(gravity, at_rest, GRAVITY_RTOL)
+    check_close(gravity, by_sample, GRAVITY_RTOL)
+
+
+def test_gravity_of_one_sample_in_chunks_and_on_unsupported_models(vendor):
+    robot, _ = vendor['panda']
+    names = list(vr.PANDA_ARM_JOINTS)
+    dynamics = ArmDynamics(robot, names, 'panda_hand_tcp', PAYLOAD_MASS, PAYLOAD_COM)
+    rng = np.random.default_rng(29)
+    q, qd, qdd = random_states(rng, 1000, *bounds(robot, names))
+    # Callable as its torques: an inverse_dynamics for plan().
+    np.testing.assert_array_equal(dynamics(q, qd, qdd), dynamics.torques(q, qd, qdd))
+    one = dynamics.gravity(q[0])
+    assert one.shape == (7,)
+    np.testing.assert_array_equal(one, dynamics.torques(q[0], np.zeros(7), np.zeros(7)))
+    assert dynamics.gravity(np.zeros((0, 7))).shape == (0, 7)
+    whole = dynamics.gravity(q)
+    dynamics.vectorised_chunk = 97
+    np.testing.assert_array_equal(dynamics.gravity(q), whole)
+    with pytest.raises(ValueError, match=r'shape \(N, 7\)'):
+        dynamics.gravity(np.zeros((4, 6)))
+    with pytest.raises(ValueError, match='not finite'):
+        dynamics.gravity(np.full((30, 7), math.nan))
+    # A ball joint: torques(q, 0, 0) (MuJoCo's) at every batch size.
+    ball = tree_model(TREE_MJCF.replace('<joint name="j1" axis="0.3 0.4 1" pos="0.02 -0.03 0.01" '
+                                        'ref="0.4" range="-2 2"/>', '<joint type="ball"/>')
+                      .replace('<joint joint1="j5" joint2="j1" polycoef="0.1 -0.5 0.2 0.05 '
+                               '0.01"/>', ''))
+    names = ['j2a', 'j3', 'j5']
+    dynamics = ArmDynamics(ball, names, 'grip', 1.0)
+    assert not dynamics.vectorised
+    q, _, _ = random_states(rng, 2 * dynamics.vectorised_from, *bounds(ball, names))
+    zeros = np.zeros_like(q)
+    np.testing.assert_array_equal(dynamics.gravity(q), dynamics.torques(q, zeros, zeros))
+
+
 def test_effort_limits_as_the_urdf_says(vendor):
     for name, (path, names, *_) in ROBOTS.items():
         robot, tree = vendor[name]

@@ -7,12 +7,14 @@ UR5 with a payload by :class:`ArmDynamics` (checked against a Newton-Euler
 written in ``test_dynamics``).
 """
 
+import math
 import os
 
 from hypothesis import given, settings, strategies as st
 import numpy as np
 import pytest
 from splines445_ros.planning import plan
+from splines445_ros.planning.path_constraints import GriddedPath, JointTorque
 from splines445_ros.planning.torque import GravityOverload, TorqueLimit
 from test_path_constraints import two_link_torques
 
@@ -155,6 +157,104 @@ def test_ur5_with_a_payload_holds_its_effort_limits():
     peak = np.max(np.abs(dense_torques(traj, dynamics.torques, 5000.0)), axis=0) / limit
     assert np.all(peak <= 1.0 + TORQUE_RTOL)
     assert max(peak.max(), np.max(traj.limit_ratios())) >= 0.98
+
+
+class WithGravity:
+    """An inverse dynamics with a ``gravity`` attribute, counting the calls of both."""
+
+    def __init__(self, torques, gravity):
+        self.torques, self.gravity_of = torques, gravity
+        self.at_rest = self.calls = self.gravity_calls = 0
+
+    def __call__(self, q, qd, qdd):
+        self.calls += 1
+        self.at_rest += int(not np.any(qd) and not np.any(qdd))
+        return self.torques(q, qd, qdd)
+
+    def gravity(self, q):
+        self.gravity_calls += 1
+        return self.gravity_of(q)
+
+
+def test_an_inverse_dynamics_gravity_is_taken_for_every_torque_at_rest():
+    """The torques at rest of TorqueLimit and its path constraint: gravity(q), same factors."""
+    rng = np.random.default_rng(3)
+    points, limit = random_request(rng)
+    traj = plan(points, '555', 'fixed', durations=rng.uniform(0.3, 0.8, len(points) - 1))
+    wrapped = WithGravity(two_link_torques, lambda q: two_link_torques(q, 0 * q, 0 * q))
+    plain, fast = TorqueLimit(limit, two_link_torques, 2), TorqueLimit(limit, wrapped, 2)
+    samples = [traj.evaluate(np.linspace(0.0, traj.duration, 300), d) for d in range(3)]
+    for torque in (plain, fast):    # the same, to round-off
+        torque.results = [torque.squared_factors(*samples), torque.time_factor(traj)[0],
+                          torque.factor_at_least(traj),
+                          torque.piece_factors(traj.coefficients, traj.durations),
+                          *torque.check(traj).needs(1.3), torque.check(traj).slow_down()]
+        torque.rows = torque.constraint().rows(GriddedPath(*samples[:1], *samples))
+    for mine, theirs in zip(fast.results + list(fast.rows), plain.results + list(plain.rows)):
+        np.testing.assert_allclose(mine, theirs, rtol=1e-12, atol=1e-12 * np.max(np.abs(theirs)))
+    assert wrapped.gravity_calls >= 7 and wrapped.calls >= 7 and wrapped.at_rest == 0
+    # plan() takes it too: the same trajectory.
+    kwargs = {'max_velocity': [4.0, 4.0], 'max_acceleration': [200.0, 200.0],
+              'max_jerk': [4000.0, 4000.0], 'max_torque': limit}
+    calls = wrapped.gravity_calls
+    mine = plan(points, '555', 'optimal', inverse_dynamics=wrapped, **kwargs)
+    theirs = plan(points, '555', 'optimal', inverse_dynamics=two_link_torques, **kwargs)
+    assert wrapped.gravity_calls > calls and wrapped.at_rest == 0
+    assert mine.duration == pytest.approx(theirs.duration, rel=1e-9)
+    # Its output is checked as the torques are; a gravity that is not callable is not one.
+    broken = TorqueLimit(limit, WithGravity(two_link_torques, lambda q: q[:, :1]), 2)
+    with pytest.raises(ValueError, match='inverse_dynamics.gravity returned'):
+        broken.check(traj)
+    broken = TorqueLimit(limit, WithGravity(two_link_torques, lambda q: q * math.nan), 2)
+    with pytest.raises(ValueError, match='non-finite'):
+        broken.squared_factors(*samples)
+    vector = WithGravity(two_link_torques, None)
+    vector.gravity = np.array([0.0, 0.0, -9.81])
+    assert TorqueLimit(limit, vector, 2).time_factor(traj)[0] == plain.time_factor(traj)[0]
+    assert vector.at_rest > 0
+
+
+def test_arm_dynamics_as_the_inverse_dynamics():
+    """An ArmDynamics itself (its gravity pass) and its torques: the same factors and plan."""
+    from splines445_ros.arm.dynamics import ArmDynamics, effort_limits
+    from splines445_ros.arm.robot_model import load_robot_model
+    from splines445_ros.tools import vendor_robots as vr
+    robot = load_robot_model(vr.panda_urdf())
+    joints = list(vr.PANDA_ARM_JOINTS)
+    dynamics = ArmDynamics(robot, joints, 'panda_hand_tcp', payload_mass=3.0,
+                           payload_center_of_mass=(0.0, 0.0, 0.1))
+    limit = effort_limits(robot, joints)
+    rng = np.random.default_rng(11)
+    points = np.array(vr.PANDA_READY) + np.cumsum(rng.uniform(-0.3, 0.3, (5, 7)), axis=0)
+    traj = plan(points, '555', 'fixed', durations=[0.4, 0.3, 0.5, 0.4])
+    plain, fast = TorqueLimit(limit, dynamics.torques, 7), TorqueLimit(limit, dynamics, 7)
+    assert plain.gravity is None and fast.gravity == dynamics.gravity
+    samples = [traj.evaluate(np.linspace(0.0, traj.duration, 400), d) for d in range(3)]
+    pieces = (traj.coefficients, traj.durations)
+    # The trajectory as a path in time: it starts at rest (q' = q'' = 0, exactly), where
+    # the torque's rows are exactly 0, as ID(q, 0, 0) - ID(q, 0, 0).
+    path = GriddedPath(np.linspace(0.0, traj.duration, 400), *samples)
+    assert not np.any(samples[1][0]) and not np.any(samples[2][0])
+    a, b, _, _ = JointTorque(limit, dynamics).rows(path)
+    assert not np.any(a[0]) and not np.any(b[0]) and np.all(np.any(a[1:], axis=1))
+    # So is the torque's dynamic part, hence its need.
+    assert not np.any(fast.squared_factors(*samples)[0])
+    assert not np.any(fast.check(traj).dynamic[0])
+    for mine, theirs in [([fast.squared_factors(*samples)], [plain.squared_factors(*samples)]),
+                         (fast.time_factor(traj), plain.time_factor(traj)),
+                         (fast.check(traj).needs(1.2), plain.check(traj).needs(1.2)),
+                         ([fast.check(traj).gravity], [plain.check(traj).gravity]),
+                         ([fast.piece_factors(*pieces)], [plain.piece_factors(*pieces)]),
+                         (JointTorque(limit, dynamics).rows(path),
+                          JointTorque(limit, dynamics.torques).rows(path))]:
+        for a, b in zip(mine, theirs):      # round-off against the largest
+            np.testing.assert_allclose(a, b, rtol=1e-11, atol=1e-12 * np.max(np.abs(b)))
+    kwargs = {'max_velocity': [2.0] * 7, 'max_acceleration': [1000.0] * 7,
+              'max_jerk': [400.0] * 7, 'max_torque': limit}
+    mine = plan(points, '555', 'optimal', inverse_dynamics=dynamics, **kwargs)
+    theirs = plan(points, '555', 'optimal', inverse_dynamics=dynamics.torques, **kwargs)
+    assert mine.duration == pytest.approx(theirs.duration, rel=1e-9)
+    assert mine.torque_factor <= 1.0
 
 
 @settings(max_examples=EXAMPLES, deadline=None)

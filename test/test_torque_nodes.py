@@ -344,6 +344,8 @@ def test_a_torque_setup_is_not_used_for_other_torque_parameters():
                            payload_mass=5.0)
     setup = build_robot_setup(config, robot=load_robot_model(vr.ur5_urdf()))
     assert set(setup.torque_kwargs(config)) == {'max_torque', 'inverse_dynamics'}
+    # The dynamics itself: plan() takes its gravity pass for the torques at rest.
+    assert setup.torque_kwargs(config)['inverse_dynamics'] is setup.torque.dynamics
     # The headroom scales the limits planned to, with no new setup.
     for headroom in (config.torque_headroom, 0.0, 0.3):
         np.testing.assert_allclose(

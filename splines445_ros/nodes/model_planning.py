@@ -74,7 +74,7 @@ class TorqueSetup:
         the controller's corrections.
         """
         return {'max_torque': self.max_torque * (1.0 - headroom),
-                'inverse_dynamics': self.dynamics.torques}
+                'inverse_dynamics': self.dynamics}    # its torques, and its gravity pass
 
     def report(self, joint_names):
         """Return status values: the torque limits with their sources, and the payload."""

@@ -179,13 +179,17 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         shorter (that one has no zero at ``f``).
     max_torque, inverse_dynamics : (n,) positive limits [N m] (inf: none) and
         a function ``tau(q, qd, qdd)`` ((N, n) each -> (N, n)), or both None
-        (:mod:`torque`).  Rest to rest only.  555 optimal with inner knots
-        shapes its speed profile for them (the torque is one more constraint
-        of the path-velocity step and of every piece); every other timing is
-        slowed down uniformly by the smallest factor that holds them
-        (checked at 1 kHz); "fixed" is only checked.  A pose where gravity
-        alone exceeds a limit is refused.  The result's ``torque_ratios``
-        (n,) are the peak torques over their limits.
+        (:mod:`torque`).  When ``inverse_dynamics`` has a callable attribute
+        ``gravity``, ``gravity(q)`` ((N, n) -> (N, n)) must equal
+        ``inverse_dynamics(q, 0, 0)`` and is called for those (as an
+        :class:`~splines445_ros.arm.dynamics.ArmDynamics`, callable as its
+        ``torques``, has it: its own cheaper pass).  Rest to rest only.
+        555 optimal with inner knots shapes its speed profile for them (the
+        torque is one more constraint of the path-velocity step and of every
+        piece); every other timing is slowed down uniformly by the smallest
+        factor that holds them (checked at 1 kHz); "fixed" is only checked.
+        A pose where gravity alone exceeds a limit is refused.  The result's
+        ``torque_ratios`` (n,) are the peak torques over their limits.
     smoothing : "auto" (None, the default), "windows" or "none"
         Without a ``vibration_frequency``, for 555 optimal with inner knots:
         "windows" averages a rest-to-rest speed profile over the windows of
