@@ -622,15 +622,31 @@ def test_large_batches_match_mujoco_sample_by_sample(vendor, robot_name, case):
     check_close(batch, by_sample)
 
 
-@pytest.mark.parametrize('case', ['tree', 'tree held', 'no gravity', 'site damping',
-                                  'mimic quadratic'])
-def test_large_batches_match_mujoco_on_other_models(case):
+def ball_jointed():
+    """Return (robot, names, dynamics) of the tree with a ball joint: MuJoCo's at every size."""
+    ball = tree_model(TREE_MJCF.replace('<joint name="j1" axis="0.3 0.4 1" pos="0.02 -0.03 0.01" '
+                                        'ref="0.4" range="-2 2"/>', '<joint type="ball"/>')
+                      .replace('<joint joint1="j5" joint2="j1" polycoef="0.1 -0.5 0.2 0.05 '
+                               '0.01"/>', ''))
+    names = ['j2a', 'j3', 'j5']
+    return ball, names, ArmDynamics(ball, names, 'grip', 1.0)
+
+
+def other_model(case):
+    """
+    Return (dynamics, robot, names) of one of the models besides the UR5 and the Panda.
+
+    'tree' (slides, branches, two joints on a body, a payload), 'tree held'
+    (j1 held: j5, driven by it, at a constant displacement), 'no gravity',
+    'site damping' (the UR5 with a site as its tool, damping counted) or
+    'mimic quadratic' (driven joints).
+    """
     names, tool, kwargs = None, '', {}
     if case == 'tree':
         robot, tool = tree_model(), 'grip'
         kwargs = {'payload_mass': 1.0, 'payload_center_of_mass': (0.1, 0.0, 0.02),
                   'payload_inertia': (0.01, 0.02, 0.015)}
-    elif case == 'tree held':      # j1 held: j5, driven by it, at a constant displacement
+    elif case == 'tree held':
         robot, names = tree_model(), ['j3', 'j2a', 'j2b', 'j4']
     elif case == 'no gravity':
         robot = tree_model(TREE_MJCF.replace('<option ', '<option><flag gravity="disable"/>'
@@ -642,7 +658,13 @@ def test_large_batches_match_mujoco_on_other_models(case):
         robot, names, tool = mimic_quadratic(), MIMIC_PLANNED, 'tool'
         kwargs = {'payload_mass': 1.2, 'payload_center_of_mass': PAYLOAD_COM}
     names = list(names or robot.joint_names)
-    dynamics = ArmDynamics(robot, names, tool, **kwargs)
+    return ArmDynamics(robot, names, tool, **kwargs), robot, names
+
+
+@pytest.mark.parametrize('case', ['tree', 'tree held', 'no gravity', 'site damping',
+                                  'mimic quadratic'])
+def test_large_batches_match_mujoco_on_other_models(case):
+    dynamics, robot, names = other_model(case)
     assert dynamics.vectorised
     rng = np.random.default_rng(len(case))
     q, qd, qdd = random_states(rng, 1000, *bounds(robot, names))
@@ -663,12 +685,7 @@ def test_small_batches_and_unsupported_models_take_mujoco(vendor):
     dynamics.vectorised_from = 1
     check_close(small, dynamics.torques(q, qd, qdd))
     # A ball joint: MuJoCo's Newton-Euler at every batch size.
-    ball = tree_model(TREE_MJCF.replace('<joint name="j1" axis="0.3 0.4 1" pos="0.02 -0.03 0.01" '
-                                        'ref="0.4" range="-2 2"/>', '<joint type="ball"/>')
-                      .replace('<joint joint1="j5" joint2="j1" polycoef="0.1 -0.5 0.2 0.05 '
-                               '0.01"/>', ''))
-    names = ['j2a', 'j3', 'j5']
-    dynamics = ArmDynamics(ball, names, 'grip', 1.0)
+    ball, names, dynamics = ball_jointed()
     assert not dynamics.vectorised
     q, qd, qdd = random_states(rng, 2 * dynamics.vectorised_from, *bounds(ball, names))
     batch = dynamics.torques(q, qd, qdd)
@@ -738,24 +755,7 @@ def test_gravity_is_the_torque_at_rest(vendor, robot_name, count):
                                   'mimic quadratic'])
 def test_gravity_is_the_torque_at_rest_on_other_models(case):
     """Slides, branches, two joints on a body, held and driven joints, gravity off or askew."""
-    names, tool, kwargs = None, '', {}
-    if case == 'tree':
-        robot, tool = tree_model(), 'grip'
-        kwargs = {'payload_mass': 1.0, 'payload_center_of_mass': (0.1, 0.0, 0.02),
-                  'payload_inertia': (0.01, 0.02, 0.015)}
-    elif case == 'tree held':
-        robot, names = tree_model(), ['j3', 'j2a', 'j2b', 'j4']
-    elif case == 'no gravity':
-        robot = tree_model(TREE_MJCF.replace('<option ', '<option><flag gravity="disable"/>'
-                                             '</option><option '))
-    elif case == 'site damping':
-        robot, tool = ur5_with_site(), 'grip'
-        kwargs = {'payload_mass': 2.0, 'include_damping': True}
-    else:
-        robot, names, tool = mimic_quadratic(), MIMIC_PLANNED, 'tool'
-        kwargs = {'payload_mass': 1.2, 'payload_center_of_mass': PAYLOAD_COM}
-    names = list(names or robot.joint_names)
-    dynamics = ArmDynamics(robot, names, tool, **kwargs)
+    dynamics, robot, names = other_model(case)
     assert dynamics.vectorised
     rng = np.random.default_rng(len(case) + 100)
     q, _, _ = random_states(rng, 500, *bounds(robot, names))
@@ -787,12 +787,7 @@ def test_gravity_of_one_sample_in_chunks_and_on_unsupported_models(vendor):
     with pytest.raises(ValueError, match='not finite'):
         dynamics.gravity(np.full((30, 7), math.nan))
     # A ball joint: torques(q, 0, 0) (MuJoCo's) at every batch size.
-    ball = tree_model(TREE_MJCF.replace('<joint name="j1" axis="0.3 0.4 1" pos="0.02 -0.03 0.01" '
-                                        'ref="0.4" range="-2 2"/>', '<joint type="ball"/>')
-                      .replace('<joint joint1="j5" joint2="j1" polycoef="0.1 -0.5 0.2 0.05 '
-                               '0.01"/>', ''))
-    names = ['j2a', 'j3', 'j5']
-    dynamics = ArmDynamics(ball, names, 'grip', 1.0)
+    ball, names, dynamics = ball_jointed()
     assert not dynamics.vectorised
     q, _, _ = random_states(rng, 2 * dynamics.vectorised_from, *bounds(ball, names))
     zeros = np.zeros_like(q)
