@@ -225,6 +225,28 @@ def test_a_knots_only_rival_that_starts_far_above_the_inner_knot_plan_is_not_giv
     assert traj.duration <= knots_only.duration * (1.0 + RIVAL_GAP)
 
 
+def test_a_rival_whose_warm_start_gives_up_is_run_again_from_the_uniform_solution():
+    """
+    This 4 x 2 rival's warm start (the inner-knot plan's durations) began 14 % above that plan.
+
+    It gave up after one LP, and plan() returned the uniform timing, 6.1 %
+    longer than the knots-only optimum (1.828 s against 1.724 s): the
+    uniform solution, below the plan to beat, is a start that wins.
+    """
+    points = np.array([[-0.8274416236318936, 0.5292072766255591],
+                       [-0.40330395022028176, 0.29562746485318137],
+                       [-0.3730979345541239, 0.26951773189873385],
+                       [-1.223739855026812, -0.5712409082494703]])
+    acceleration = np.array([6.855450825396301, 8.655759198276199])
+    kwargs = {'max_velocity': [1.7047943195057707, 1.0130634940541334],
+              'max_acceleration': acceleration, 'max_jerk': 20.0 * acceleration}
+    knots_only = plan(points, '555', 'optimal', inner_knots=0, **kwargs)
+    uniform = plan(points, '555', 'uniform', **kwargs)
+    traj = plan(points, '555', 'optimal', **kwargs)
+    assert traj.duration <= knots_only.duration * (1.0 + RIVAL_GAP)
+    assert traj.duration < 0.99 * uniform.duration
+
+
 @settings(max_examples=25)
 @given(req=requests())
 def test_rest_to_rest_plans_hold_limits_hit_waypoints_and_are_c4(req):
