@@ -159,6 +159,14 @@ def test_555_optimal_tool_paths_are_never_longer_than_with_knots_only(tolerance)
         stiff = plan_tool_path(poses, ARM, tolerance, vibration_frequency=100.0, **kwargs)
         assert stiff.trajectory.breakpoints.size > len(stiff.joints)
         assert stiff.trajectory.duration < knots_only.trajectory.duration
+        # smoothing is taken and checked as plan() checks it (the tool lines
+        # are never averaged).
+        bare = plan_tool_path(poses, ARM, tolerance, smoothing='none', **kwargs)
+        assert bare.trajectory.optimizer['smoothing_windows'] == []
+        assert bare.trajectory.duration < knots_only.trajectory.duration
+        with pytest.raises(ValueError, match='sets the windows itself'):
+            plan_tool_path(poses, ARM, tolerance, smoothing='none', vibration_frequency=4.0,
+                           **kwargs)
     else:
         check_result(default, poses, tolerance, np.inf)
 

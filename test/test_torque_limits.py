@@ -438,3 +438,36 @@ def test_the_default_inner_knots_and_windows_with_torque_limits():
     plain = plan(points, '555', 'optimal', **slow)
     assert plain.optimizer['inner_knots'] == 4
     assert plain.optimizer['smoothing_windows'] == [0.3, 0.15]
+
+
+def test_gravity_between_samples_past_the_far_side_of_a_limit_needs_an_infinite_factor():
+    """
+    A dynamic part that pushes away from the limit gravity passes between two samples.
+
+    Gravity dips to -1 - 1e-5 midway between two 1 ms samples (both within
+    the limit of 1) while the dynamic part is +1e-7: the torque passes -1
+    there at any speed, so the check's factor must say so, at its own
+    timing and slowed down (the ratios already did).
+    """
+    from splines445_ros.planning.torque import TorqueCheck
+    t = np.arange(0.0, 0.0205, 1e-3)
+    gravity = (-1.0 - 1e-5 + 2000.0 * (t - 0.0105) ** 2)[:, None]
+    assert np.all(np.abs(gravity) <= 1.0)
+    check = TorqueCheck(gravity, gravity + 1e-7, np.array([1.0]))
+    for factor in (1.0, 1.5):
+        need, ratios = check.needs(factor)
+        assert ratios[0] > 1.0 and need > 1.0, (factor, need, ratios)
+    assert check.slow_down() == np.inf
+
+
+@pytest.mark.parametrize('timing', ['uniform', 'optimal'])
+def test_gravity_exactly_at_its_limit_at_the_goal_is_planned(timing):
+    """The goal holds gravity at exactly the limit: planned (not slowed down without end)."""
+    def at_goal(q, qd, qdd):
+        return 0.2 * qdd + q
+
+    traj = plan(np.array([[0.0], [0.6], [1.0]]), '555', timing, max_velocity=[1.0],
+                max_acceleration=[5.0], max_torque=[1.0], inverse_dynamics=at_goal)
+    assert np.isfinite(traj.duration) and traj.torque_factor <= 1.0
+    tau = dense_torques(traj, at_goal)
+    assert np.max(np.abs(tau)) <= 1.0 + TORQUE_RTOL

@@ -93,7 +93,8 @@ from . import rotations as rot
 from .golden_search import golden_maxima
 from .tool_lines import edge_geometry, LineUnreachable, plan_tool_lines
 from ..planning import check_position_limits, JointLimits, merge_duplicates, plan
-from ..planning.inner_knots import inner_knot_count, smoothing_windows, vibration_frequency_value
+from ..planning.inner_knots import (inner_knot_count, smoothing_value, smoothing_windows,
+                                    vibration_frequency_value)
 from ..planning.methods import get_method
 from ..planning.path_constraints import GravityOverload
 from ..planning.torque import TorqueLimit
@@ -494,7 +495,10 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
         Largest linear speed [m/s] of the tool frame's origin and angular
         speed [rad/s] of the tool; None or 0: no limit.  They need method
         555 with optimal timing, rest to rest (:mod:`tool_lines`).
-    plan_kwargs : limits and boundary values passed on to ``plan()``.
+    plan_kwargs : limits and boundary values passed on to ``plan()``;
+        ``inner_knots``, ``vibration_frequency`` and ``smoothing`` shape the
+        555 optimal plan as there (the tool lines are never averaged: only
+        a refined path's inner-knot plan follows ``smoothing``).
 
     Method 555 with optimal timing (inner knots, rest to rest) is timed
     along the inverse kinematics of the lines themselves
@@ -517,6 +521,9 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
     # vibration_frequency shapes the inner-knot timing only.
     vibration = vibration_frequency_value(plan_kwargs.pop('vibration_frequency', None),
                                           inner_knots)
+    # smoothing too: the refined path's inner-knot plan follows it (plan()'s); the
+    # tool lines are never averaged.
+    smoothing = smoothing_value(plan_kwargs.pop('smoothing', None), vibration, inner_knots)
     request = tool_pose_array(poses)
     tol_position = _tolerance('max_deviation', max_deviation)
     tol_orientation = _tolerance('max_orientation_deviation', max_orientation_deviation)
@@ -599,7 +606,7 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
                 traj, deviation = _with_inner_knots(
                     traj, deviation, knot_joints, kinematics, edge_poses, segment_edges,
                     (tol_position, tol_orientation), method, timing, inner_knots,
-                    dict(plan_kwargs, vibration_frequency=vibration))
+                    dict(plan_kwargs, vibration_frequency=vibration, smoothing=smoothing))
             return ToolPath(traj, knots, knot_joints, _knot_of_waypoint(
                 waypoint_knots, segment_edges, len(knots)), segment_edges, inserted,
                 deviation, initial[0], initial[1], iteration)

@@ -122,9 +122,9 @@ PARAMETER_DESCRIPTIONS = {
               'quintic interpolation of joint_trajectory_controller between them reproduces '
               'the planned trajectory).',
     'inner_knots': 'Most inner knots per segment for method "555" with timing "optimal", '
-                   'in [0, 8], or -1 (default) = auto: 4, or 6 with limit_torque and no '
-                   'smoothing windows (fewer on segments shorter than a few jerk ramp '
-                   'times a/j): a C4 spline with knots between the waypoints too, about '
+                   'in [0, 8], or -1 (default) = auto: 4, or 6 for joint-space requests '
+                   'with limit_torque and no smoothing windows (fewer on segments shorter '
+                   'than a few jerk ramp times a/j): a C4 spline with knots between the waypoints too, about '
                    'the duration of TOPP-RA with the jerk limits held; 0 = knots at the '
                    'waypoints only (longer). Ignored by other methods and timings.',
     'vibration_frequency': "The arm's lowest structural mode [Hz] for method 555 with "
@@ -136,8 +136,8 @@ PARAMETER_DESCRIPTIONS = {
                  '(inner_knots > 0) and no vibration_frequency: "windows" averages the speed '
                  'profile over 0.3 s and 0.15 s (0.45 s longer, low arm modes shake about '
                  'half as much as with TOPP-RA), "none" does not (about TOPP-RA\'s duration '
-                 'and shaking); "auto" = "windows", or "none" with limit_torque. Joint-space '
-                 'rest-to-rest requests; tool requests are not averaged.',
+                 'and shaking); "auto" = "windows", or "none" with limit_torque. Rest-to-rest '
+                 'requests; the tool lines of tool requests are never averaged.',
     'model_file': 'kinematics "model": URDF or MJCF file of the robot; empty = the '
                   'robot_description topic.',
     'tool_frame': 'kinematics "model": the tool frame (URDF link, MJCF body or site) of '

@@ -167,6 +167,7 @@ def plan_tool_poses(config, poses, kinematics, torque=None):
                                max_jerk=config.jerk_limits(),
                                inner_knots=config.plan_inner_knots(),
                                vibration_frequency=config.vibration_frequency,
+                               smoothing=config.smoothing,
                                max_tool_speed=config.max_tool_speed,
                                max_tool_angular_speed=config.max_tool_angular_speed,
                                **(torque or {}))

@@ -118,7 +118,7 @@ DEFAULT_SMOOTHING = (0.3, 0.15)
 # "windows" except with torque limits.  A torque-limited move is short (0.5-3
 # s on bench_torque.py's paths) and the windows' 0.45 s made it 1.23-1.30
 # times TOPP-RA's duration, shaking a 4 Hz mode half as much as TOPP-RA;
-# without them 1.01-1.06 times, shaking about as much as TOPP-RA
+# without them 1.01-1.04 times (with 6 inner knots), shaking about as much as TOPP-RA
 # (bench_torque_windows.py).  A user who limits the torque asks for what
 # the motors can do; vibration_frequency or "windows" smooths it again.
 SMOOTHINGS = ('auto', 'windows', 'none')

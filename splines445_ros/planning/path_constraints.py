@@ -171,6 +171,12 @@ class JointTorque(AccelerationConstraint):
         return a, b, -limit - gravity, limit - gravity
 
 
+# Gravity is refused only beyond its limit by more than this (relative): a
+# waypoint where it is exactly at the limit came back 4e-16 over it from the
+# path's spline.
+GRAVITY_RTOL = 1e-12
+
+
 class GravityOverload(ValueError):
     """Gravity alone needs more torque than a joint's limit at some point of the path."""
 
@@ -178,9 +184,13 @@ class GravityOverload(ValueError):
         """Record grid point ``index``, joint column ``joint``, the ``pose`` and the torque."""
         self.index, self.joint, self.pose = index, joint, np.array(pose)
         self.torque, self.limit = torque, limit
-        super().__init__(f'joint {joint}: gravity alone needs {torque:.4g} N m at the pose '
-                         f'{np.array2string(self.pose, precision=4)}, beyond its limit of '
-                         f'{limit:.4g} N m: no speed along this path holds it')
+        # Enough digits to tell the two apart (a torque a hair over its limit).
+        digits = 4
+        while digits < 17 and f'{abs(torque):.{digits}g}' == f'{limit:.{digits}g}':
+            digits += 1
+        super().__init__(f'joint {joint}: gravity alone needs {torque:.{digits}g} N m at the '
+                         f'pose {np.array2string(self.pose, precision=4)}, beyond its limit '
+                         f'of {limit:.{digits}g} N m: no speed along this path holds it')
 
 
 def refuse_gravity_overload(q, gravity, limit):
@@ -191,7 +201,7 @@ def refuse_gravity_overload(q, gravity, limit):
     torques and the limits.  The worst is the largest ``|gravity| / limit``
     (the first of equal ones, in sample then joint order).
     """
-    over = np.abs(gravity) > limit
+    over = np.abs(gravity) > limit * (1.0 + GRAVITY_RTOL)
     if np.any(over):
         ratio = np.where(over, np.abs(gravity) / limit, 0.0)
         i, j = np.unravel_index(int(np.argmax(ratio)), ratio.shape)

@@ -303,6 +303,11 @@ def _torque_limited(traj, torque, to_beat=None):
         slow *= 1.0 + TORQUE_ROUNDOFF
         if not rescaled_check:
             slow = factor * (1.0 + TORQUE_MARGIN)
+        if not math.isfinite(slow):
+            j = int(np.argmax(ratios))
+            raise ValueError(f'joint {j}: gravity uses its whole torque limit where the '
+                             f'plan moves ({ratios[j]:.6g} times it between 1 ms samples): '
+                             'no speed holds it (lower the payload or raise the limit)')
         if to_beat is not None and traj.duration * slow >= to_beat:
             return None
         traj = slowed_down(traj, slow)

@@ -33,7 +33,7 @@ import math
 
 import numpy as np
 
-from .path_constraints import GravityOverload, JointTorque, refuse_gravity_overload
+from .path_constraints import GRAVITY_RTOL, GravityOverload, JointTorque, refuse_gravity_overload
 from .segments import sample_segments
 
 CHECK_PERIOD = 1e-3
@@ -46,7 +46,8 @@ MAX_CHECK_SAMPLES = 3_600_000
 # knots included (each knot sampled once, shared by its two pieces).  8 before
 # issue 25's last stop: with 5, and 6 inner knots (inner_knots.
 # TORQUE_INNER_KNOTS), bench_torque.py's plans took 0.88-0.99 of TOPP-RA's
-# planning time instead of 1.0-1.25, durations within 0.01 (the 1 kHz check
+# planning time instead of 1.0-1.25 (before ArmDynamics.gravity; 0.86-0.95
+# with it), durations within 0.01 (the 1 kHz check
 # and its slow-down hold the limits whatever the count).
 PIECE_SAMPLES = 5
 
@@ -103,9 +104,9 @@ class TorqueLimit:
                              f'torques for {q.shape} samples')
         return tau
 
-    def _whole(self, q, qd, qdd, gravity, tau=None):
+    def _whole(self, q, qd, qdd, gravity):
         """
-        Return the torques (N, n) at the samples (``tau`` if given), ``gravity`` where at rest.
+        Return the torques (N, n) at the samples, ``gravity`` where at rest.
 
         ``gravity(q)`` agrees with ``inverse_dynamics(q, 0, 0)`` to round-off
         only: at a sample at rest (the ends of a rest-to-rest plan) the torque
@@ -113,25 +114,22 @@ class TorqueLimit:
         slow-down needed, no excess between samples counted there) as when
         one function gives both.
         """
-        if tau is None:
-            tau = self._torques(q, qd, qdd)
+        tau = self._torques(q, qd, qdd)
         if self.gravity is not None:
             rest = ~(np.any(qd, axis=1) | np.any(qdd, axis=1))
             if np.any(rest):
                 tau = np.where(rest[:, None], gravity, tau)
         return tau
 
-    def squared_factors(self, q, qd, qdd, bend=0.0, tau=None, refuse=True):
+    def squared_factors(self, q, qd, qdd, refuse=True):
         """
         Return per sample and joint (N, n) the squared slow-down each needs, ``f**2`` above.
 
-        ``bend`` (N, n) is added to the size of the dynamic torque (the
-        excess between samples); ``tau``, when the caller has it, is the
-        torque at the samples.  Raises :class:`GravityOverload` where
-        gravity alone exceeds a limit; with ``refuse`` False the need is
-        infinite there instead (no slow-down holds the torque).
+        Raises :class:`GravityOverload` where gravity alone exceeds a limit;
+        with ``refuse`` False the need is infinite there instead (no
+        slow-down holds the torque).
         """
-        if tau is None and self.gravity is None:
+        if self.gravity is None:
             # One inverse-dynamics call for both: a call costs about as much as
             # 200 samples (ArmDynamics: 100 us, 0.5 us a sample in bulk).
             zero = np.zeros_like(q)
@@ -140,13 +138,13 @@ class TorqueLimit:
             gravity, tau = both[:len(q)], both[len(q):]
         else:
             gravity = self._gravity(q)
-            tau = self._whole(q, qd, qdd, gravity, tau)
-        dynamic = tau - gravity
+            tau = self._whole(q, qd, qdd, gravity)
         limit = np.broadcast_to(self.max_torque, gravity.shape)
         if refuse:
             refuse_gravity_overload(q, gravity, limit)
-        need = _squared_needs(gravity, dynamic + np.sign(dynamic) * bend, limit)
-        return need if refuse else np.where(np.abs(gravity) > limit, np.inf, need)
+        need = _squared_needs(gravity, tau - gravity, limit)
+        return need if refuse else np.where(np.abs(gravity) > limit * (1.0 + GRAVITY_RTOL),
+                                            np.inf, need)
 
     def piece_factors(self, coeffs, pieces):
         """
@@ -215,11 +213,13 @@ def _squared_needs(gravity, dynamic, limit):
     Return per sample and joint the squared slow-down ``|g + d / f**2| <= limit`` needs.
 
     No room (gravity at the limit, or beyond a ``limit`` lowered by an
-    excess between samples) and motion: no slow-down holds the torque there
-    (infinite need).
+    excess between samples, on either side: slowed down, the torque tends
+    to ``g``) and motion: no slow-down holds the torque there (infinite
+    need).
     """
     room = np.where(dynamic >= 0.0, limit - gravity, -limit - gravity)
-    some = np.where(dynamic >= 0.0, room > 0.0, room < 0.0)
+    some = np.where(dynamic >= 0.0, room > 0.0, room < 0.0) & \
+        (np.abs(gravity) <= limit * (1.0 + GRAVITY_RTOL))
     with np.errstate(divide='ignore', invalid='ignore'):
         need = np.where(some, dynamic / room, np.inf)
     return np.where(dynamic == 0.0, 0.0, need)
@@ -255,6 +255,11 @@ class TorqueCheck:
             bend = _bend(self.tau)
             dynamic = self.dynamic + np.sign(self.dynamic) * bend
             need = _squared_needs(self.gravity, dynamic, self.limit)
+            # Gravity within its own excess between samples of a limit, on
+            # the side the dynamic part does not push towards: no room.
+            bend_gravity = self._split_bends()[0]
+            crowded = (np.abs(self.gravity) + bend_gravity > self.limit) & (self.dynamic != 0.0)
+            need = np.where(crowded, np.inf, need)
             ratios = np.max((np.abs(self.tau) + bend) / self.limit, axis=0)
             return math.sqrt(float(np.max(need))), ratios
         bend_gravity, bend_dynamic = self._split_bends()
@@ -283,9 +288,20 @@ class TorqueCheck:
 
 
 def _samples(traj, period):
-    """Return the positions, velocities and accelerations of ``traj`` every ``period``."""
+    """
+    Return the positions, velocities and accelerations of ``traj`` every ``period``.
+
+    A rest-to-rest plan's first and last samples are at rest exactly (the
+    polynomials give round-off there: a dynamic part of 1e-16 at a goal
+    where gravity is at a limit asked for an infinite slow-down).
+    """
     t = check_times(traj.duration, period, 'the torque')
-    return tuple(traj.evaluate(t, d) for d in range(3))
+    q, qd, qdd = (traj.evaluate(t, d) for d in range(3))
+    if not any(np.any(v) for v in (traj.start_velocity, traj.start_acceleration,
+                                   traj.end_velocity, traj.end_acceleration)):
+        qd[[0, -1]] = 0.0
+        qdd[[0, -1]] = 0.0
+    return q, qd, qdd
 
 
 def check_times(duration, period, what):
