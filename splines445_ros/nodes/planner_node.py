@@ -124,8 +124,9 @@ PARAMETER_DESCRIPTIONS = {
     'inner_knots': 'Most inner knots per segment for method "555" with timing "optimal", '
                    'in [0, 8], or -1 (default) = auto: 4, or 6 for joint-space requests '
                    'with limit_torque and no smoothing windows (fewer on segments shorter '
-                   'than a few jerk ramp times a/j): a C4 spline with knots between the waypoints too, about '
-                   'the duration of TOPP-RA with the jerk limits held; 0 = knots at the '
+                   'than a few jerk ramp times a/j): a C4 spline with knots between the '
+                   'waypoints too, about the duration of TOPP-RA with the jerk limits '
+                   'held; 0 = knots at the '
                    'waypoints only (longer). Ignored by other methods and timings.',
     'vibration_frequency': "The arm's lowest structural mode [Hz] for method 555 with "
                            'timing "optimal" (inner_knots > 0): the speed profile is '
