@@ -477,14 +477,10 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
                  angular / max_tool_angular_speed if max_tool_angular_speed else 0.0)
     torque_check = None if torque is None else torque.check(traj)
     checked = None if torque_check is None else torque_check.needs()
-    rescaled_check = True
     if torque_check is not None and (factor > 1.0 or checked[0] > 1.0):
         # Slowed down, the torque is bounded with the gravity's and the
-        # dynamic part's excesses between samples apart (TorqueCheck); where
-        # gravity with its excess leaves no room, by a second check.
-        slow = torque_check.slow_down()
-        rescaled_check = math.isfinite(slow)
-        factor = max(factor, slow if rescaled_check else checked[0])
+        # dynamic part's excesses between samples apart (TorqueCheck).
+        factor = max(factor, torque_check.required_slow_down())
     if factor > 1.0:
         traj = rescaled(traj, factor * _ROUNDOFF)
         # Rest to rest, the spline through the same knots on pieces f times
@@ -495,8 +491,7 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
         linear, angular, sampled = (value / (factor * _ROUNDOFF)
                                     for value in (linear, angular, sampled))
         if torque_check is not None:
-            checked = torque_check.needs(factor * _ROUNDOFF) if rescaled_check \
-                else torque.time_factor(traj)
+            checked = torque_check.needs(factor * _ROUNDOFF)
     if checked is not None:
         traj.torque_factor, traj.torque_ratios = checked
     share = 0.0

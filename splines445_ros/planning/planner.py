@@ -1,7 +1,5 @@
 """``plan()``: the one entry point of the planning core."""
 
-import math
-
 import numpy as np
 
 from .inner_knots import (DEFAULT_SMOOTHING, inner_knot_count, plan_with_inner_knots,
@@ -56,14 +54,6 @@ MOVING_END_GAIN = 0.05
 # same samples rescaled (torque.TorqueCheck; a second 1 kHz check was a
 # seventh of the planning time of bench_torque.py's plans).
 TORQUE_ROUNDOFF = 1e-9
-# Where gravity plus its excess between samples leaves no room, that
-# rescaled check has no answer: the plan is slowed down by the factor of the
-# check with this much more (a new 1 kHz check of the slowed-down plan
-# samples other points of the path, and found up to 2.3e-5 more than the
-# first check's factor promised on bench_torque's UR5 and Panda paths) and
-# checked again, at most TORQUE_ROUNDS times.
-TORQUE_MARGIN = 1e-5
-TORQUE_ROUNDS = 3
 
 
 def merge_duplicates(waypoints, tolerance=0.0):
@@ -290,32 +280,17 @@ def _torque_limited(traj, torque, to_beat=None):
         return None
     check = torque.check(traj)
     factor, ratios = check.needs()
-    for _ in range(TORQUE_ROUNDS):
-        if factor <= 1.0:
-            break
+    if factor > 1.0:
         if traj.timing == 'fixed':
             j = int(np.argmax(ratios))
             raise ValueError(f'joint {j} needs {ratios[j]:.4g} times its torque limit with '
                              f'the given durations: slow them down by {factor:.4g}')
         # The slowed-down plan's check is this one's, rescaled (TorqueCheck).
-        slow = check.slow_down()
-        rescaled_check = math.isfinite(slow)
-        slow *= 1.0 + TORQUE_ROUNDOFF
-        if not rescaled_check:
-            slow = factor * (1.0 + TORQUE_MARGIN)
-        if not math.isfinite(slow):
-            j = int(np.argmax(ratios))
-            raise ValueError(f'joint {j}: gravity uses its whole torque limit where the '
-                             f'plan moves ({ratios[j]:.6g} times it between 1 ms samples): '
-                             'no speed holds it (lower the payload or raise the limit)')
+        slow = check.required_slow_down() * (1.0 + TORQUE_ROUNDOFF)
         if to_beat is not None and traj.duration * slow >= to_beat:
             return None
         traj = slowed_down(traj, slow)
-        if rescaled_check:
-            factor, ratios = check.needs(slow)
-        else:
-            check = torque.check(traj)
-            factor, ratios = check.needs()
+        factor, ratios = check.needs(slow)
     traj.torque_ratios = ratios
     traj.torque_factor = factor
     return traj

@@ -87,22 +87,14 @@ class TorqueLimit:
                            None if self.gravity is None else self._gravity)
 
     def _torques(self, q, qd, qdd):
-        tau = np.asarray(self.inverse_dynamics(q, qd, qdd), dtype=float)
-        if tau.shape != q.shape or not np.all(np.isfinite(tau)):
-            raise ValueError(f'inverse_dynamics returned {tau.shape} or non-finite torques '
-                             f'for {q.shape} samples')
-        return tau
+        return _checked(self.inverse_dynamics(q, qd, qdd), q, 'inverse_dynamics')
 
     def _gravity(self, q):
         """Return the torques (N, n) at rest at ``q`` (N, n): gravity's alone."""
         if self.gravity is None:
             zero = np.zeros_like(q)
             return self._torques(q, zero, zero)
-        tau = np.asarray(self.gravity(q), dtype=float)
-        if tau.shape != q.shape or not np.all(np.isfinite(tau)):
-            raise ValueError(f'inverse_dynamics.gravity returned {tau.shape} or non-finite '
-                             f'torques for {q.shape} samples')
-        return tau
+        return _checked(self.gravity(q), q, 'inverse_dynamics.gravity')
 
     def _whole(self, q, qd, qdd, gravity):
         """
@@ -200,6 +192,15 @@ class TorqueLimit:
         return math.sqrt(float(np.max(self.squared_factors(*_samples(traj, period)))))
 
 
+def _checked(tau, q, what):
+    """Return ``tau``, what the function ``what`` gave, as floats: shaped as ``q``, finite."""
+    tau = np.asarray(tau, dtype=float)
+    if tau.shape != q.shape or not np.all(np.isfinite(tau)):
+        raise ValueError(f'{what} returned {tau.shape} or non-finite torques for {q.shape} '
+                         'samples')
+    return tau
+
+
 def _bend(tau):
     """Return the excess of ``tau`` (N, n) between samples: h**2 / 8 |tau''| (module docstring)."""
     bend = np.zeros_like(tau)
@@ -242,33 +243,31 @@ class TorqueCheck:
         """Keep the samples' gravity and whole torques (N, n) and the limits (n,)."""
         self.gravity, self.tau, self.limit = gravity, tau, limit
         self.dynamic = tau - gravity
-        self._bends = None
+        self._split = None
 
     def needs(self, factor=1.0):
         """
         Return (factor, ratios) of the trajectory slowed down by ``factor``: as ``time_factor``.
 
         At ``factor`` 1 the excess between samples is that of the torque
-        itself; slowed down, the two parts' excesses bound it (class docstring).
+        itself; slowed down, the two parts' excesses bound it (class
+        docstring), and every squared need is the split one over
+        ``factor**2``: the factor is :meth:`slow_down` over ``factor``.
         """
+        bend_gravity, bend_dynamic, split = self._split_needs()
         if factor == 1.0:
             bend = _bend(self.tau)
-            dynamic = self.dynamic + np.sign(self.dynamic) * bend
-            need = _squared_needs(self.gravity, dynamic, self.limit)
-            # Gravity within its own excess between samples of a limit, on
-            # the side the dynamic part does not push towards: no room.
-            bend_gravity = self._split_bends()[0]
-            crowded = (np.abs(self.gravity) + bend_gravity > self.limit) & (self.dynamic != 0.0)
-            need = np.where(crowded, np.inf, need)
+            need = _squared_needs(self.gravity, self.dynamic + np.sign(self.dynamic) * bend,
+                                  self.limit)
+            # Where gravity with its own excess between samples leaves no room
+            # (on either side), no slow-down holds the torque: none does here.
+            need = np.where(np.isinf(split), np.inf, need)
             ratios = np.max((np.abs(self.tau) + bend) / self.limit, axis=0)
             return math.sqrt(float(np.max(need))), ratios
-        bend_gravity, bend_dynamic = self._split_bends()
         scale = 1.0 / (factor * factor)
-        dynamic = (self.dynamic + np.sign(self.dynamic) * bend_dynamic) * scale
-        need = _squared_needs(self.gravity, dynamic, self.limit - bend_gravity)
         ratios = np.max((np.abs(self.gravity + self.dynamic * scale) + bend_gravity
                          + bend_dynamic * scale) / self.limit, axis=0)
-        return math.sqrt(float(np.max(need))), ratios
+        return self.slow_down() / factor, ratios
 
     def slow_down(self):
         """
@@ -276,15 +275,27 @@ class TorqueCheck:
 
         Infinite where gravity plus its excess between samples leaves no room.
         """
-        bend_gravity, bend_dynamic = self._split_bends()
-        dynamic = self.dynamic + np.sign(self.dynamic) * bend_dynamic
-        return math.sqrt(float(np.max(_squared_needs(self.gravity, dynamic,
-                                                     self.limit - bend_gravity))))
+        return math.sqrt(float(np.max(self._split_needs()[2])))
 
-    def _split_bends(self):
-        if self._bends is None:
-            self._bends = (_bend(self.gravity), _bend(self.dynamic))
-        return self._bends
+    def required_slow_down(self):
+        """Return :meth:`slow_down`, or raise ValueError naming the joint when it is infinite."""
+        slow = self.slow_down()
+        if not math.isfinite(slow):
+            j = int(np.argmax(np.any(np.isinf(self._split_needs()[2]), axis=0)))
+            raise ValueError(f'joint {j}: gravity uses its whole torque limit where the plan '
+                             'moves (with its change between 1 ms samples): no speed holds it '
+                             '(lower the payload or raise the limit)')
+        return slow
+
+    def _split_needs(self):
+        """Return the excesses of gravity and of the dynamic part, and the needs they bound."""
+        if self._split is None:
+            bend_gravity, bend_dynamic = _bend(self.gravity), _bend(self.dynamic)
+            need = _squared_needs(self.gravity,
+                                  self.dynamic + np.sign(self.dynamic) * bend_dynamic,
+                                  self.limit - bend_gravity)
+            self._split = (bend_gravity, bend_dynamic, need)
+        return self._split
 
 
 def _samples(traj, period):
