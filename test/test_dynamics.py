@@ -693,13 +693,17 @@ def test_small_batches_and_unsupported_models_take_mujoco(vendor):
     np.testing.assert_array_equal(batch, one_by_one)
 
 
-def test_a_batch_taken_in_chunks_is_the_batch_taken_whole(vendor):
-    """A 1 kHz check of a long plan goes through in chunks: the same torques, bit for bit."""
+def loaded_panda(vendor, rng):
+    """Return the Panda's dynamics with the payload and 1000 random states of its arm."""
     robot, _ = vendor['panda']
     names = list(vr.PANDA_ARM_JOINTS)
     dynamics = ArmDynamics(robot, names, 'panda_hand_tcp', PAYLOAD_MASS, PAYLOAD_COM)
-    rng = np.random.default_rng(5)
-    q, qd, qdd = random_states(rng, 1000, *bounds(robot, names))
+    return (dynamics, *random_states(rng, 1000, *bounds(robot, names)))
+
+
+def test_a_batch_taken_in_chunks_is_the_batch_taken_whole(vendor):
+    """A 1 kHz check of a long plan goes through in chunks: the same torques, bit for bit."""
+    dynamics, q, qd, qdd = loaded_panda(vendor, np.random.default_rng(5))
     whole = dynamics.torques(q, qd, qdd)
     dynamics.vectorised_chunk = 97     # the last chunk shorter than the others
     chunked = dynamics.torques(q, qd, qdd)
@@ -768,11 +772,8 @@ def test_gravity_is_the_torque_at_rest_on_other_models(case):
 
 
 def test_gravity_of_one_sample_in_chunks_and_on_unsupported_models(vendor):
-    robot, _ = vendor['panda']
-    names = list(vr.PANDA_ARM_JOINTS)
-    dynamics = ArmDynamics(robot, names, 'panda_hand_tcp', PAYLOAD_MASS, PAYLOAD_COM)
     rng = np.random.default_rng(29)
-    q, qd, qdd = random_states(rng, 1000, *bounds(robot, names))
+    dynamics, q, qd, qdd = loaded_panda(vendor, rng)
     # Callable as its torques: an inverse_dynamics for plan().
     np.testing.assert_array_equal(dynamics(q, qd, qdd), dynamics.torques(q, qd, qdd))
     one = dynamics.gravity(q[0])
