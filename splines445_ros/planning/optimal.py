@@ -518,29 +518,28 @@ def _from_uniform_too(method, points, boundary, limits, stall_tolerance, give_up
     a 4 x 2 request whose warm start began 14 % above the plan to beat gave
     up after one LP, and plan() returned the uniform timing, 6.1 % longer
     than the knots-only optimum (1.828 against 1.724 s).  Only where the
-    uniform solution (or its lower bound) is below both the restored total
-    given up on and the first give-up threshold: rarely, since a rival that
-    loses is mostly above the plan to beat from any start.  Returns the
-    better of the two runs, its info (evaluations of both) and ``uniform``
-    (built when it was needed).
+    uniform solution (``uniform_at_least`` bounds its duration) is below
+    both the restored total given up on and the first give-up threshold:
+    rarely, since a rival that loses is mostly above the plan to beat from
+    any start.  Returns the better of the two runs, its info (evaluations
+    of both), ``uniform`` (built when it was needed) and the bound (its
+    duration once built).
     """
-    at_least = uniform.duration if uniform is not None and not callable(uniform) \
-        else uniform_at_least
     threshold = min(_restored(candidate, info), give_up * (1.0 + GIVE_UP_MARGIN))
-    if uniform is None or at_least is None or not at_least < threshold:
-        return candidate, info, uniform
+    if uniform is None or uniform_at_least is None or not uniform_at_least < threshold:
+        return candidate, info, uniform, uniform_at_least
     if callable(uniform):
         uniform = uniform()
     if not uniform.duration < threshold:
-        return candidate, info, uniform
+        return candidate, info, uniform, uniform.duration
     again, more = minimise_total_time(method, points, uniform.durations, boundary, limits,
                                       stall_tolerance, give_up)
     more['evaluations'] += info['evaluations']
     more['restarted'] = 'from the uniform solution'
     if _restored(again, more) < _restored(candidate, info):
-        return again, more, uniform
+        return again, more, uniform, uniform.duration
     info['evaluations'] = more['evaluations']
-    return candidate, info, uniform
+    return candidate, info, uniform, uniform.duration
 
 
 def optimal_durations(method, points, start, boundary, limits, dropped, uniform=None,
@@ -565,15 +564,15 @@ def optimal_durations(method, points, start, boundary, limits, dropped, uniform=
     name = get_method(method).name
     candidate, info = minimise_total_time(method, points, start, boundary, limits,
                                           stall_tolerance, give_up)
-    if give_up is not None and info['message'].startswith('gave up'):
-        candidate, info, uniform = _from_uniform_too(
-            method, points, boundary, limits, stall_tolerance, give_up, candidate, info,
-            uniform, uniform_at_least)
     if give_up is not None:
-        beaten = give_up * (1.0 + CANNOT_WIN_RTOL)
-        restored = _restored(candidate, info)
         if uniform is not None and not callable(uniform):
             uniform_at_least = uniform.duration
+        if info['message'].startswith('gave up'):
+            candidate, info, uniform, uniform_at_least = _from_uniform_too(
+                method, points, boundary, limits, stall_tolerance, give_up, candidate, info,
+                uniform, uniform_at_least)
+        beaten = give_up * (1.0 + CANNOT_WIN_RTOL)
+        restored = _restored(candidate, info)
         if restored > beaten and (uniform is None or (uniform_at_least is not None
                                                       and uniform_at_least > beaten)):
             return None
