@@ -539,8 +539,9 @@ class _Path:
     (``min_piece``, ``ramp_pieces`` and ``ramp_acceleration``:
     :func:`knots_per_segment`, :func:`ramp_accelerations`), the torque's
     ``piece_factors`` (or None) and ``torque_neighbours`` (step 6's power of
-    them for the neighbours, 0: none), ``keep_time_scale`` (:func:`plan_with_inner_knots`)
-    and step 2's averaged :meth:`timing`.  :class:`path_timing.JointPathSamples`
+    them for the neighbours, 0: none), ``keep_time_scale`` (:func:`plan_with_inner_knots`),
+    step 6's stop ``min_gain`` (:func:`_iterate`) and step 2's averaged
+    :meth:`timing`.  :class:`path_timing.JointPathSamples`
     has the same, for a path the caller gives.
     """
 
@@ -551,10 +552,11 @@ class _Path:
         self.most = most
         self.windows = windows
         self.min_piece = 0.0
-        # Shorter pieces follow a torque-limited profile's jumps of acceleration;
-        # averaged over the windows it has none (TORQUE_RAMP_PIECES).
-        self.ramp_pieces = TORQUE_RAMP_PIECES if torque is not None and not windows \
-            else RAMP_PIECES
+        # A torque-limited profile not averaged over windows has jumps of
+        # acceleration: shorter pieces follow them (TORQUE_RAMP_PIECES), on a
+        # coarser grid with a coarser stop (TORQUE_GRID_STEPS, TORQUE_MIN_GAIN).
+        sharp = torque is not None and not windows
+        self.ramp_pieces = TORQUE_RAMP_PIECES if sharp else RAMP_PIECES
         self.torque_neighbours = 0.0 if torque is None else TORQUE_NEIGHBOURS
         self.keep_time_scale = keep_time_scale
         self.rounding = 0.0     # no corner rounding (path_timing.JointPathSamples)
@@ -575,8 +577,8 @@ class _Path:
             # Rest to rest the path's end derivatives are free (its speed is 0 there).
             knots = np.concatenate([[0.0], np.cumsum(durations)])
             self.ppoly = CubicSpline(knots, points, bc_type='natural')
-        grid = TORQUE_GRID_STEPS if torque is not None and not windows else GRID_STEPS
-        self.min_gain = TORQUE_MIN_GAIN if torque is not None and not windows else MIN_GAIN
+        grid = TORQUE_GRID_STEPS if sharp else GRID_STEPS
+        self.min_gain = TORQUE_MIN_GAIN if sharp else MIN_GAIN
         fractions = np.arange(grid) / grid
         self.s = np.concatenate([(knots[:-1, None] + fractions * np.diff(knots)[:, None])
                                  .reshape(-1), knots[-1:]])
