@@ -777,8 +777,7 @@ class ArmDynamics:
         if vectorised:
             # Only the moving joints' columns are filled: the held ones' are not read.
             force = np.zeros((count, m.nv), order=layout)
-            for start in range(0, count, self.vectorised_chunk):
-                rows = slice(start, min(start + self.vectorised_chunk, count))
+            for rows in self._chunks(count):
                 self._vectorised.forces(qpos[rows], qvel[rows], qacc[rows], force[rows])
         else:
             force = np.empty((count, m.nv))
@@ -825,10 +824,14 @@ class ArmDynamics:
         qpos, slopes, _ = self._positions(q, 'F')
         # Only the moving joints' columns are filled: the held ones' are not read.
         force = np.zeros((count, self.model.nv), order='F')
-        for start in range(0, count, self.vectorised_chunk):
-            rows = slice(start, min(start + self.vectorised_chunk, count))
+        for rows in self._chunks(count):
             self._vectorised.gravity(qpos[rows], force[rows])
         return self._planned(force, slopes, single)
+
+    def _chunks(self, count):
+        """Return the slices of ``count`` samples the vectorised passes take at a time."""
+        return [slice(start, min(start + self.vectorised_chunk, count))
+                for start in range(0, count, self.vectorised_chunk)]
 
     def _positions(self, q, layout):
         """
