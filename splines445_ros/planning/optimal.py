@@ -56,8 +56,9 @@ from scipy.sparse import csc_array
 from .dense_lp import solve_elastic_lp
 from .limits import limit_ratios
 from .methods import get_method
+from .ratio_search import two_segment_optimum
 from .sensitivity import PeakRatios
-from .timing import ScaledSpline, uniform_scale
+from .timing import chord_durations, closed_form_scale, ScaledSpline, uniform_scale
 from .trajectory import Trajectory
 
 # Bounds of every duration relative to its starting (uniform) value.
@@ -594,4 +595,42 @@ def optimal_durations(method, points, start, boundary, limits, dropped, uniform=
                             ratios, dropped_waypoints=dropped)
     info['uniform_duration'] = None if uniform is None else uniform.duration
     traj.optimizer = info
+    return traj
+
+
+def two_segment_plan(method, points, start, limits, dropped, give_up=None):
+    """
+    Plan a rest-to-rest request of two segments with time-optimal durations, or return None.
+
+    The optimum of the restored total over the ratio of the two durations
+    (:func:`ratio_search.two_segment_optimum`, which also tries the
+    uniform solution's ratio: the result is never longer than it), from
+    the (2,) ``start`` durations, brought exactly to the limits by the
+    closed-form common factor.  With ``give_up`` (a total to beat), None
+    when the search shows that it cannot beat it, or when the plan is
+    longer.  Raises ValueError when a continuity system is singular (the
+    caller then runs :func:`optimal_durations`).
+    """
+    chords = chord_durations(points)
+    also = [float(np.log(chords[0] / chords[1]))]
+    durations, log_factor, passes = two_segment_optimum(method, points, start, limits, also,
+                                                        give_up)
+    if durations is None:
+        return None
+    zero = np.zeros(points.shape[1])
+    boundary = (zero, zero, zero, zero)
+    durations = durations * (np.exp(log_factor) * (1.0 + 1e-12))
+    coeffs = ScaledSpline(method, points, durations, boundary).coefficients(1.0)
+    ratios = limit_ratios(coeffs, durations, limits)
+    factor = closed_form_scale(ratios)
+    if factor > 1.0:    # round-off of the factor: stretched once more, exactly
+        durations = durations * factor
+        coeffs = ScaledSpline(method, points, durations, boundary).coefficients(1.0)
+        ratios = limit_ratios(coeffs, durations, limits)
+    traj = Trajectory.build(get_method(method).name, 'optimal', points, durations, boundary,
+                            limits, coeffs, ratios, dropped_waypoints=dropped)
+    if give_up is not None and traj.duration > give_up * (1.0 + CANNOT_WIN_RTOL):
+        return None
+    traj.optimizer = {'iterations': 0, 'passes': passes, 'message': 'converged',
+                      'uniform_duration': None}
     return traj

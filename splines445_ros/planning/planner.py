@@ -7,7 +7,7 @@ from .inner_knots import (DEFAULT_SMOOTHING, inner_knot_count, plan_with_inner_k
                           vibration_frequency_value)
 from .limits import check_boundary_feasible, JointLimits
 from .methods import get_method
-from .optimal import optimal_durations
+from .optimal import optimal_durations, two_segment_plan
 from .path_timing import rescaled
 from .timing import (chord_durations, rest_to_rest_durations, rest_to_rest_lower_bound,
                      rest_to_rest_scale, scaled_spline, ScaledSpline, uniform_scale)
@@ -512,6 +512,14 @@ def _plan_knots_only(method, timing, points, start, boundary, limits, dropped, *
     chords = chord_durations(points)
     if not np.all(np.isfinite(chords)):
         raise ValueError('waypoints too large: chord lengths overflow')
+    rest = not any(np.any(b) for b in boundary)
+    if timing == 'optimal' and rest and chords.size == 2:
+        # One ratio of durations is free: searched on a grid (ratio_search).
+        try:
+            return two_segment_plan(method, points, chords if start is None else start,
+                                    limits, dropped, options.get('give_up'))
+        except ValueError:
+            pass    # a singular system: optimal_durations below
     if (timing == 'optimal' and start is not None and options.get('give_up') is not None
             and not any(np.any(b) for b in boundary)):
         # A rest-to-rest rival: uniform timing is solved only if it can still
