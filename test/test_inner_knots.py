@@ -484,3 +484,24 @@ def test_the_averaged_profile_and_its_inverse(seed, windows):
     assert np.all(np.diff(found) >= 0.0)
     np.testing.assert_allclose(timing.position_at(found[1:-1]), targets, rtol=0,
                                atol=1e-5 * s[-1])
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n_points=st.integers(2, 40), n_joints=st.integers(1, 7))
+def test_the_natural_cubic_path_is_scipys(seed, n_points, n_joints):
+    """Step 1's natural cubic spline against scipy's CubicSpline (bc_type 'natural')."""
+    from scipy.interpolate import CubicSpline
+    from splines445_ros.planning.inner_knots import natural_cubic_spline
+    rng = np.random.default_rng(seed)
+    knots = np.concatenate([[0.0], np.cumsum(rng.uniform(0.01, 3.0, n_points - 1))])
+    points = np.cumsum(rng.uniform(-1.0, 1.0, (n_points, n_joints)), axis=0)
+    ours = natural_cubic_spline(knots, points)
+    theirs = CubicSpline(knots, points, bc_type='natural')
+    t = np.linspace(knots[0], knots[-1], 501)
+    for derivative in range(4):
+        scale = max(1.0, float(np.max(np.abs(theirs(t, derivative)))))
+        np.testing.assert_allclose(ours(t, derivative), theirs(t, derivative), rtol=0,
+                                   atol=1e-10 * scale)
+    np.testing.assert_allclose(ours(knots), points, rtol=0, atol=1e-12)
+    with pytest.raises(ValueError, match='strictly increasing'):
+        natural_cubic_spline(np.concatenate([knots[:1], knots[:-1]]), points)
