@@ -511,7 +511,7 @@ class _Scaled:
         self.positions[-1] = traj.waypoints[-1]
         self.waypoint_knots = np.searchsorted(traj.breakpoints, traj.waypoint_times)
         self.positions[self.waypoint_knots] = traj.waypoints
-        self.coeffs = None      # solved on the pieces by _trajectory
+        self.coeffs = self.ratios = None      # solved on the pieces by _trajectory
 
 
 __all__ = ['GRID_PER_SAMPLE', 'JointPathSamples', 'midpoint_fractions', 'PathTiming',
