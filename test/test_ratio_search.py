@@ -15,7 +15,7 @@ from reference_spline import exact_peaks, global_coefficients
 from scipy.interpolate import PPoly
 from splines445_ros.planning import plan
 from splines445_ros.planning.limits import JointLimits
-from splines445_ros.planning.ratio_search import GIVE_UP_DIP, two_segment_optimum
+from splines445_ros.planning.ratio_search import GIVE_UP_DIP, RatioSearch
 
 
 def request(seed):
@@ -65,7 +65,7 @@ def dense_minimum(method, points, vmax, amax, jmax):
 @pytest.mark.parametrize('method', ['555', '445', '434'])
 @settings(max_examples=6)
 @given(seed=st.integers(0, 2**32 - 1))
-def test_two_segment_optimum_is_no_longer_than_a_dense_search(method, seed):
+def test_RatioSearch_is_no_longer_than_a_dense_search(method, seed):
     points, vmax, amax, jmax = request(seed)
     traj = plan(points, method, 'optimal', inner_knots=0, max_velocity=vmax,
                 max_acceleration=amax, max_jerk=jmax)
@@ -83,13 +83,12 @@ def test_the_search_gives_up_only_on_a_total_it_cannot_beat(seed, excess):
     points, vmax, amax, jmax = request(seed)
     limits = JointLimits.from_user(points.shape[1], vmax, amax, jmax)
     start = np.linalg.norm(np.diff(points, axis=0), axis=1)
-    durations, log_factor, _ = two_segment_optimum('555', points, start, limits)
+    durations, log_factor = RatioSearch('555', points, start, limits).result()
     optimum = float(np.sum(durations)) * np.exp(log_factor)
     # A total above the optimum is beaten: the search runs to its end.
-    beaten = two_segment_optimum('555', points, start, limits, give_up=optimum * (1 + excess))
-    assert beaten[0] is not None
-    np.testing.assert_allclose(beaten[0], durations, rtol=1e-12)
+    search = RatioSearch('555', points, start, limits)
+    assert not search.cannot_beat(optimum * (1 + excess))
+    np.testing.assert_allclose(search.result()[0], durations, rtol=1e-12)
     # One below it by more than the dip allowed for is given up.
-    lost = two_segment_optimum('555', points, start, limits,
-                               give_up=optimum / (1.0 + GIVE_UP_DIP + 0.01))
-    assert lost[0] is None
+    assert RatioSearch('555', points, start, limits).cannot_beat(
+        optimum / (1.0 + GIVE_UP_DIP + 0.01))

@@ -206,6 +206,14 @@ WINDOWS_RELAX = 1.3
 # less time, for 0.02 % shorter and 0.17 % longer plans on average (the
 # worst 0.2 % and 0.7 % longer); on 12 x 5 it would have cost 0.4 %.
 # Neither applies with torque limits (their own stop, TORQUE_MIN_GAIN).
+# With a total to beat (plan_with_inner_knots' give_up): the construction
+# stops once the best candidate after k candidates is above it by more than
+# the k-th of these (the last for more).  On 1000 random 3-waypoint
+# requests (1-7 joints, j = 5-100 a or none, some near-duplicates) the
+# plan was below the best of the first k candidates by at most 21.7 %,
+# 5.9 %, 5.5 % and 2.1 % (k = 1 to 4): a construction so stopped would not
+# have won.
+GIVE_UP_GAINS = (0.3, 0.1, 0.08, 0.05)
 FEW_WAYPOINTS = 5
 FEW_ITERATIONS = 3
 FEW_RECOUNTS = 1
@@ -926,7 +934,7 @@ class _Candidate:
 
 def plan_with_inner_knots(points, boundary, limits, most, dropped_waypoints=(),
                           windows=DEFAULT_SMOOTHING, torque=None, knots_only=True,
-                          keep_time_scale=False):
+                          keep_time_scale=False, give_up=None):
     """
     Return the 555 optimal Trajectory with up to ``most`` inner knots per segment, or None.
 
@@ -945,7 +953,9 @@ def plan_with_inner_knots(points, boundary, limits, most, dropped_waypoints=(),
     caller computes the knots-only optimum).  ``keep_time_scale``: step 5
     never speeds the spline up (a factor below 1 would move the windows'
     spectral zeros up by its inverse: on a short move, far from the
-    ``vibration_frequency`` they were chosen for).
+    ``vibration_frequency`` they were chosen for).  ``give_up``, a total
+    to beat (another plan's, rest to rest): None also when the construction
+    shows that it will not beat it (:data:`GIVE_UP_GAINS`).
     """
     if np.all(points == points[0]):
         return None
@@ -958,7 +968,7 @@ def plan_with_inner_knots(points, boundary, limits, most, dropped_waypoints=(),
             raise
         except ValueError:
             continue
-        best, iterations = _construct(path, boundary, limits, rest, knots_only)
+        best, iterations = _construct(path, boundary, limits, rest, knots_only, give_up)
         if best is None:
             continue
         traj = _trajectory(points, boundary, limits, rest, best, dropped_waypoints,
@@ -971,13 +981,14 @@ def plan_with_inner_knots(points, boundary, limits, most, dropped_waypoints=(),
     return None
 
 
-def _construct(path, boundary, limits, rest, knots_only=True):
+def _construct(path, boundary, limits, rest, knots_only=True, give_up=None):
     """
     Run steps 2-7 on ``path``; return (a candidate within the limits or None, iterations).
 
     ``knots_only`` False leaves out the last candidates of step 7 (knots at
     the waypoints only, on this timing): for a caller that compares with
-    the knots-only optimum anyway.
+    the knots-only optimum anyway.  ``give_up`` as for
+    :func:`plan_with_inner_knots` (None once the construction cannot beat it).
     """
     budget = {'iterations': REST_ITERATIONS, 'relax': REST_RELAX} if rest else {}
     budget['min_gain'] = path.min_gain
@@ -988,6 +999,7 @@ def _construct(path, boundary, limits, rest, knots_only=True):
             budget.update(iterations=FEW_ITERATIONS, stall=1)
             recounts = FEW_RECOUNTS
     start = _Profile(path, np.ones(path.s.size))
+    budget['give_up'] = give_up
     best, iterations = _iterate(path, start.local, None, boundary, limits, rest, None,
                                 profile=start, **budget)
     for _ in range(recounts):
@@ -1001,7 +1013,7 @@ def _construct(path, boundary, limits, rest, knots_only=True):
             break
         counts = np.where(outliers, best.counts // 2, best.counts)
         best, more = _iterate(path, best.local, counts, boundary, limits, rest, best,
-                              profile=best.profile, **budget)
+                              profile=best.profile, made=iterations, **budget)
         iterations += more
     if best is None:
         return None, iterations
@@ -1019,7 +1031,8 @@ def _construct(path, boundary, limits, rest, knots_only=True):
 
 
 def _iterate(path, local, counts, boundary, limits, rest, best, fractions=None,
-             iterations=ITERATIONS, profile=None, relax=RELAX, min_gain=MIN_GAIN, stall=STALL):
+             iterations=ITERATIONS, profile=None, relax=RELAX, min_gain=MIN_GAIN, stall=STALL,
+             give_up=None, made=0):
     """
     Run steps 2-6 from the local factors ``local``; return (best candidate or None, iterations).
 
@@ -1029,7 +1042,10 @@ def _iterate(path, local, counts, boundary, limits, rest, best, fractions=None,
     (:data:`REST_RELAX`, :data:`WINDOWS_RELAX` and the iterations for
     rest-to-rest requests of plan(): :func:`_construct`).
     ``fractions`` as for :class:`_Candidate`; ``profile``, when given, is
-    the :class:`_Profile` of ``local`` (the first candidate's).
+    the :class:`_Profile` of ``local`` (the first candidate's).  With
+    ``give_up`` (a total to beat), (None, iterations) once the best
+    candidate is above it by more than :data:`GIVE_UP_GAINS` says the
+    iterations could still gain after ``made`` + these candidates.
     """
     stalled, most = 0, iterations
     for iterations in range(1, most + 1):
@@ -1042,6 +1058,9 @@ def _iterate(path, local, counts, boundary, limits, rest, best, fractions=None,
         stalled = 0 if gain else stalled + 1
         if candidate.better_than(best):
             best = candidate
+        if give_up is not None and best.feasible and best.score > give_up * (
+                1.0 + GIVE_UP_GAINS[min(made + iterations, len(GIVE_UP_GAINS)) - 1]):
+            return None, iterations
         if stalled >= stall:
             break
         local = candidate.relaxed(local, relax)

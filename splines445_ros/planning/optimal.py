@@ -56,9 +56,9 @@ from scipy.sparse import csc_array
 from .dense_lp import solve_elastic_lp
 from .limits import limit_ratios
 from .methods import get_method
-from .ratio_search import two_segment_optimum
+from .ratio_search import RatioSearch
 from .sensitivity import PeakRatios
-from .timing import chord_durations, closed_form_scale, ScaledSpline, uniform_scale
+from .timing import chord_durations, ScaledSpline, uniform_scale
 from .trajectory import Trajectory
 
 # Bounds of every duration relative to its starting (uniform) value.
@@ -598,39 +598,46 @@ def optimal_durations(method, points, start, boundary, limits, dropped, uniform=
     return traj
 
 
-def two_segment_plan(method, points, start, limits, dropped, give_up=None):
+def two_segment_search(method, points, start, limits):
+    """
+    Return the :class:`ratio_search.RatioSearch` of a two-segment rest-to-rest request.
+
+    From the (2,) ``start`` durations (the chords' when None), with the
+    uniform solution's ratio among the first pass's: its plan is never
+    longer than uniform timing's.
+    """
+    chords = chord_durations(points)
+    also = [float(np.log(chords[0] / chords[1]))]
+    return RatioSearch(method, points, chords if start is None else start, limits, also)
+
+
+def two_segment_plan(method, points, limits, dropped, search, give_up=None):
     """
     Plan a rest-to-rest request of two segments with time-optimal durations, or return None.
 
     The optimum of the restored total over the ratio of the two durations
-    (:func:`ratio_search.two_segment_optimum`, which also tries the
-    uniform solution's ratio: the result is never longer than it), from
-    the (2,) ``start`` durations, brought exactly to the limits by the
-    closed-form common factor.  With ``give_up`` (a total to beat), None
-    when the search shows that it cannot beat it, or when the plan is
-    longer.  Raises ValueError when a continuity system is singular (the
-    caller then runs :func:`optimal_durations`).
+    (``search``, a :func:`two_segment_search`), brought exactly to the
+    limits by the closed-form common factor.  With ``give_up`` (a total to
+    beat), None when the search shows that it cannot beat it, or when the
+    plan is longer.  Raises ValueError when a continuity system is singular
+    (the caller then runs :func:`optimal_durations`).
     """
-    chords = chord_durations(points)
-    also = [float(np.log(chords[0] / chords[1]))]
-    durations, log_factor, passes = two_segment_optimum(method, points, start, limits, also,
-                                                        give_up)
-    if durations is None:
+    if give_up is not None and search.cannot_beat(give_up):
         return None
+    durations, log_factor = search.result()
     zero = np.zeros(points.shape[1])
     boundary = (zero, zero, zero, zero)
-    durations = durations * (np.exp(log_factor) * (1.0 + 1e-12))
-    coeffs = ScaledSpline(method, points, durations, boundary).coefficients(1.0)
-    ratios = limit_ratios(coeffs, durations, limits)
-    factor = closed_form_scale(ratios)
-    if factor > 1.0:    # round-off of the factor: stretched once more, exactly
-        durations = durations * factor
-        coeffs = ScaledSpline(method, points, durations, boundary).coefficients(1.0)
-        ratios = limit_ratios(coeffs, durations, limits)
+    # Slowed down by its factor (and 1e-12 for the round-off of its terms
+    # and ratios, which scale with it exactly; Trajectory.build solves again
+    # if the PPoly's widths differ from the durations).
+    factor = np.exp(log_factor) * (1.0 + 1e-12)
+    durations = durations * factor
+    coeffs = search.terms / factor ** np.arange(6)[None, :, None]
+    ratios = search.ratios / factor ** np.arange(1, 4)
     traj = Trajectory.build(get_method(method).name, 'optimal', points, durations, boundary,
                             limits, coeffs, ratios, dropped_waypoints=dropped)
     if give_up is not None and traj.duration > give_up * (1.0 + CANNOT_WIN_RTOL):
         return None
-    traj.optimizer = {'iterations': 0, 'passes': passes, 'message': 'converged',
+    traj.optimizer = {'iterations': 0, 'passes': search.passes, 'message': 'converged',
                       'uniform_duration': None}
     return traj

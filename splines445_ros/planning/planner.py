@@ -7,8 +7,9 @@ from .inner_knots import (DEFAULT_SMOOTHING, inner_knot_count, plan_with_inner_k
                           vibration_frequency_value)
 from .limits import check_boundary_feasible, JointLimits
 from .methods import get_method
-from .optimal import optimal_durations, two_segment_plan
+from .optimal import optimal_durations, two_segment_plan, two_segment_search
 from .path_timing import rescaled
+from .ratio_search import GIVE_UP_PASSES
 from .timing import (chord_durations, rest_to_rest_durations, rest_to_rest_lower_bound,
                      rest_to_rest_scale, scaled_spline, ScaledSpline, uniform_scale)
 from .torque import TorqueLimit
@@ -336,6 +337,7 @@ def _plan_limited(method, points, timing, durations, max_velocity, max_accelerat
     if start is not None and dropped:
         # A dropped waypoint's segment joins the one before it.
         start = np.diff(np.delete(np.concatenate([[0.0], np.cumsum(start)]), dropped))
+    search = give_up = None     # two segments: the knots-only optimum's search (below)
     if inner_knots:
         shaped = windows not in ((), DEFAULT_SMOOTHING) and \
             not any(np.any(b) for b in boundary)
@@ -349,10 +351,20 @@ def _plan_limited(method, points, timing, durations, max_velocity, max_accelerat
         # (about 15 %).
         torque_only = torque is not None and not windows
         optimum_rival = _optimum_rival(points) and not shaped and not torque_only
+        if optimum_rival and torque is None and len(points) == 3 and \
+                not any(np.any(b) for b in boundary):
+            # Two segments: the knots-only optimum is a cheap search, whose
+            # first passes bound it; the construction stops once it cannot
+            # beat that (about 60 % of random 3 x 3 requests).
+            try:
+                search = two_segment_search(method, points, start, limits)
+                give_up = search.run(GIVE_UP_PASSES).best_total
+            except ValueError:
+                search = None   # a singular system: the rival is optimal_durations'
         refined = plan_with_inner_knots(points, boundary, limits, inner_knots, dropped,
                                         windows, torque,
                                         knots_only=not optimum_rival and not torque_only,
-                                        keep_time_scale=shaped)
+                                        keep_time_scale=shaped, give_up=give_up)
         if refined is not None and shaped:
             # A vibration_frequency asks for a profile without content at it,
             # which only the inner-knot plan has: no rival then.  With moving
@@ -362,17 +374,20 @@ def _plan_limited(method, points, timing, durations, max_velocity, max_accelerat
             return _torque_limited(refined, torque)
         if refined is not None:
             return _with_knots_only_rival(refined, method, points, start, boundary, limits,
-                                          dropped, torque)
-    knots_only = _plan_knots_only(method, timing, points, start, boundary, limits, dropped)
+                                          dropped, torque, search)
+    knots_only = _plan_knots_only(method, timing, points, start, boundary, limits, dropped,
+                                  search)
     if timing == 'optimal':
         knots_only.optimizer['inner_knots'] = 0
         if inner_knots:
-            knots_only.optimizer['inner_knots_skipped'] = 'no spline with inner knots found'
+            knots_only.optimizer['inner_knots_skipped'] = (
+                'no spline with inner knots found' if give_up is None else
+                'no spline with inner knots shorter than the knots-only optimum')
     return knots_only
 
 
 def _with_knots_only_rival(refined, method, points, start, boundary, limits, dropped,
-                           torque=None):
+                           torque=None, search=None):
     """
     Return ``refined`` (inner knots), or a knots-only plan of the request when it is shorter.
 
@@ -386,7 +401,10 @@ def _with_knots_only_rival(refined, method, points, start, boundary, limits, dro
     is returned when it is shorter all the same).  With torque limits both
     are compared as they will be returned (slowed down for the torque).
     With non-zero boundary values the knots-only optimum is kept unless
-    ``refined`` is shorter by more than :data:`MOVING_END_GAIN`.
+    ``refined`` is shorter by more than :data:`MOVING_END_GAIN`.  Two
+    segments rest to rest, the rival is the search ``search``
+    (:func:`optimal.two_segment_search`, started by the caller; given up
+    when its first passes show it cannot beat ``refined``).
 
     Rest to rest, the optimum is cheaper to find (issue 23: it cost small
     requests 3 to 6 times TOPP-RA's planning time):
@@ -433,7 +451,7 @@ def _with_knots_only_rival(refined, method, points, start, boundary, limits, dro
         options = {'stall_tolerance': RIVAL_STALL_TOLERANCE, 'give_up': refined.duration}
     try:
         rival = _plan_knots_only(method, timing, points, start, boundary, limits, dropped,
-                                 **options)
+                                 search, **options)
         if rival is None:
             return refined  # it could not beat refined (optimal.CANNOT_WIN_RTOL)
         if torque is not None:
@@ -502,12 +520,15 @@ def _unsmoothed_durations(refined):
     return durations
 
 
-def _plan_knots_only(method, timing, points, start, boundary, limits, dropped, **options):
+def _plan_knots_only(method, timing, points, start, boundary, limits, dropped, search=None,
+                     **options):
     """
     Uniform or optimal timing with knots at the waypoints only (``options``: optimal's).
 
     With a ``give_up`` total among the options, None when the plan would be
-    longer than it (:func:`optimal.optimal_durations`).
+    longer than it (:func:`optimal.optimal_durations`).  Two segments rest
+    to rest: the search of :func:`optimal.two_segment_search` (``search``,
+    when the caller has started it).
     """
     chords = chord_durations(points)
     if not np.all(np.isfinite(chords)):
@@ -516,8 +537,10 @@ def _plan_knots_only(method, timing, points, start, boundary, limits, dropped, *
     if timing == 'optimal' and rest and chords.size == 2:
         # One ratio of durations is free: searched on a grid (ratio_search).
         try:
-            return two_segment_plan(method, points, chords if start is None else start,
-                                    limits, dropped, options.get('give_up'))
+            if search is None:
+                search = two_segment_search(method, points, start, limits)
+            return two_segment_plan(method, points, limits, dropped, search,
+                                    options.get('give_up'))
         except ValueError:
             pass    # a singular system: optimal_durations below
     if (timing == 'optimal' and start is not None and options.get('give_up') is not None

@@ -51,7 +51,8 @@ def restored_totals(method, points, durations, limits):
     """
     Return the restored totals (B,) of the rows of ``durations`` (B, 2) and their factors (B,).
 
-    Rest to rest.  The exact peaks of each spline over the limits, to the
+    Rest to rest.  Also returns the splines' terms (B, 2, 6, n) and exact
+    ratios (B, 2, n, 3).  The exact peaks of each spline over the limits, to the
     power ``1 / q`` for velocity (q = 1), acceleration (2) and jerk (3),
     give the factor that brings it to its limits; the restored total is the
     factor times the total time.  Raises ValueError when the continuity
@@ -64,51 +65,85 @@ def restored_totals(method, points, durations, limits):
     vel, acc = system.solve(dP, zero, zero, zero, zero)
     coeffs = system.coefficients(points[:-1], dP, vel, acc)     # (B, S, 6, n)
     ratios = limit_ratios(coeffs.reshape(B * S, *coeffs.shape[2:]), durations.reshape(-1),
-                          limits)
+                          limits).reshape(B, S, -1, 3)
     factors = (ratios ** (1.0 / np.arange(1, 4))).reshape(B, -1).max(axis=1)
-    return durations.sum(axis=1) * factors, factors
+    return durations.sum(axis=1) * factors, factors, coeffs, ratios
 
 
-def two_segment_optimum(method, points, start, limits, also=(), give_up=None):
+class RatioSearch:
     """
-    Return the two durations of the smallest restored total and the log of their factor.
+    The search for the two durations of the smallest restored total, pass by pass.
 
     ``points`` (3, n), rest to rest; ``start`` (2,) centres the first pass
-    and sets the total of the durations returned (not yet scaled: the
-    factor ``exp(log factor)`` brings them exactly to the limits, as
+    and sets the total of the durations found (not yet scaled: the factor
+    ``exp(log factor)`` brings them exactly to the limits, as
     :func:`optimal.minimise_total_time` returns them).  The values ``also``
     of x join the first pass (the uniform solution's: the result is never
-    longer than it).  With ``give_up``, a total to beat: None when after
-    :data:`GIVE_UP_PASSES` passes the best total is above it by more than
-    :data:`GIVE_UP_DIP`.  Also returns the number of passes.  Raises
-    ValueError when a continuity system is singular or no total is finite.
+    longer than it).  :meth:`run` takes passes, :attr:`best_total` is the
+    best restored total so far, :meth:`cannot_beat` tells a total that the
+    minimum will not beat after :data:`GIVE_UP_PASSES` passes, and
+    :meth:`result` runs to the end.  Raises ValueError when a continuity
+    system is singular or no total is finite.  :attr:`terms` and
+    :attr:`ratios` are the best spline's (for the durations found, before
+    their factor).
     """
-    total = float(start[0] + start[1])
-    centre = float(np.log(start[0] / start[1]))
-    x = np.concatenate([np.linspace(centre - X_RANGE, centre + X_RANGE, GRID), also])
-    passes = 0
-    kept = (np.inf, None, None)     # the best total so far, its durations and factor
-    while True:
-        passes += 1
+
+    def __init__(self, method, points, start, limits, also=()):
+        """Prepare the first pass; nothing is evaluated yet."""
+        self.method, self.points, self.limits = method, points, limits
+        self.total = float(start[0] + start[1])
+        centre = float(np.log(start[0] / start[1]))
+        self._x = np.concatenate([np.linspace(centre - X_RANGE, centre + X_RANGE, GRID), also])
+        self.passes = 0
+        self.done = False
+        # The best total so far, its durations and factor.
+        self.best_total, self._durations, self._factor = np.inf, None, None
+        self.terms = self.ratios = None
+
+    def run(self, passes=MAX_PASSES):
+        """Take passes until the search is done or has taken ``passes``; return self."""
+        while not self.done and self.passes < passes:
+            self._pass()
+        return self
+
+    def cannot_beat(self, total):
+        """
+        Whether the minimum is above ``total``, after :data:`GIVE_UP_PASSES` passes.
+
+        True when the best total so far is above it by more than
+        :data:`GIVE_UP_DIP` (the minimum's largest dip below it).
+        """
+        self.run(GIVE_UP_PASSES)
+        return self.best_total > total * (1.0 + GIVE_UP_DIP)
+
+    def result(self):
+        """Run to the end; return the best durations (2,) and the log of their factor."""
+        self.run()
+        return self._durations, float(np.log(self._factor))
+
+    def _pass(self):
+        x = self._x
+        self.passes += 1
         share = 1.0 / (1.0 + np.exp(-x))       # T_1 / (T_1 + T_2)
-        durations = total * np.column_stack([share, 1.0 - share])
-        totals, factors = restored_totals(method, points, durations, limits)
+        durations = self.total * np.column_stack([share, 1.0 - share])
+        totals, factors, terms, ratios = restored_totals(self.method, self.points, durations,
+                                                         self.limits)
         totals[~np.isfinite(totals)] = np.inf
         best = int(np.argmin(totals))
-        if totals[best] < kept[0]:
-            kept = (totals[best], durations[best], factors[best])
-        if not np.isfinite(kept[0]):
+        if totals[best] < self.best_total:
+            self.best_total, self._durations, self._factor = (
+                float(totals[best]), durations[best], factors[best])
+            self.terms, self.ratios = terms[best], ratios[best]
+        if not np.isfinite(self.best_total):
             raise ValueError('no spline of finite peaks on the grid')
-        if (give_up is not None and passes == GIVE_UP_PASSES and
-                kept[0] > give_up * (1.0 + GIVE_UP_DIP)):
-            return None, None, passes
         spacing = x[1] - x[0]
-        if spacing <= X_TOLERANCE or passes == MAX_PASSES:
-            return kept[1], float(np.log(kept[2])), passes
+        if spacing <= X_TOLERANCE or self.passes == MAX_PASSES:
+            self.done = True
+            return
         # The next pass spans the best point's neighbours on this grid (one
         # side more when it is at an end; an extra point: its grid point's).
         on_grid = best if best < GRID else int(np.argmin(np.abs(x[:GRID] - x[best])))
         lo = x[max(on_grid - 1, 0)] - (spacing * (GRID - 1) / 2 if on_grid == 0 else 0.0)
         hi = x[min(on_grid + 1, GRID - 1)] + (
             spacing * (GRID - 1) / 2 if on_grid == GRID - 1 else 0.0)
-        x = np.linspace(lo, hi, GRID)
+        self._x = np.linspace(lo, hi, GRID)
