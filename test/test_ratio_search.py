@@ -14,6 +14,7 @@ import pytest
 from reference_spline import exact_peaks, global_coefficients
 from scipy.interpolate import PPoly
 from splines445_ros.planning import plan
+from splines445_ros.planning.inner_knots import DEFAULT_INNER_KNOTS, plan_with_inner_knots
 from splines445_ros.planning.limits import JointLimits
 from splines445_ros.planning.ratio_search import GIVE_UP_DIP, RatioSearch
 
@@ -92,3 +93,25 @@ def test_the_search_gives_up_only_on_a_total_it_cannot_beat(seed, excess):
     # One below it by more than the dip allowed for is given up.
     assert RatioSearch('555', points, start, limits).cannot_beat(
         optimum / (1.0 + GIVE_UP_DIP + 0.01))
+
+
+@settings(max_examples=25)
+@given(seed=st.integers(0, 2**32 - 1))
+def test_a_two_segment_plan_is_the_shorter_of_the_construction_and_the_knots_only_optimum(seed):
+    """
+    The construction stops once it cannot beat the search: never where it would have won.
+
+    Against the construction run to its end (no total to beat) and the
+    knots-only optimum of plan(inner_knots=0), the same search.
+    """
+    points, vmax, amax, jmax = request(seed)
+    kwargs = {'max_velocity': vmax, 'max_acceleration': amax, 'max_jerk': jmax}
+    traj = plan(points, '555', 'optimal', **kwargs)
+    knots_only = plan(points, '555', 'optimal', inner_knots=0, **kwargs)
+    zero = np.zeros(points.shape[1])
+    whole = plan_with_inner_knots(points, [zero] * 4,
+                                  JointLimits.from_user(points.shape[1], vmax, amax, jmax),
+                                  DEFAULT_INNER_KNOTS, knots_only=False)
+    best = min(knots_only.duration, np.inf if whole is None else whole.duration)
+    assert traj.duration <= best * (1 + 1e-9)
+    assert traj.within_limits(rtol=1e-9)
