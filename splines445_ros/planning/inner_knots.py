@@ -195,28 +195,31 @@ REST_RELAX = 1.0
 # the update a little and converges in fewer iterations.  On
 # bench_inner_knots.py's 20 requests (j = 20 a) the median duration went
 # from 1.047 to 1.043 times TOPP-RA's and the 4 Hz residual from 0.11 to
-# 0.12 of TOPP-RA's; on random 3 x 3 requests, with FEW_ITERATIONS below,
+# 0.12 of TOPP-RA's; on random 3 x 3 requests, with 3 iterations (below),
 # the inner-knot plans were 0.2 % shorter in 28 % less planning time.  A
 # vibration_frequency keeps REST_RELAX (its residual at the frequency).
 WINDOWS_RELAX = 1.3
 # Requests of at most FEW_WAYPOINTS waypoints, rest to rest with the default
 # windows, stop after FEW_ITERATIONS iterations, or one without a gain of
 # MIN_GAIN, and recount once (issue 23: their planning time was above
-# TOPP-RA's).  On random 3 x 3 and 5 x 6 requests that took 28 % and 21 %
-# less time, for 0.02 % shorter and 0.17 % longer plans on average (the
-# worst 0.2 % and 0.7 % longer); on 12 x 5 it would have cost 0.4 %.
-# Neither applies with torque limits (their own stop, TORQUE_MIN_GAIN).
+# TOPP-RA's).  With 3 iterations random 3 x 3 and 5 x 6 requests took 28 %
+# and 21 % less time, for 0.02 % shorter and 0.17 % longer plans on average
+# (the worst 0.2 % and 0.7 % longer; on 12 x 5 it would have cost 0.4 %);
+# 2 took 14 % and 12 % less again, for plans 0.13 % and 0.16 % longer (the
+# worst 1.9 % and 1.2 %; 150 requests of 3 waypoints, 1-7 joints, j = 5,
+# 20, 100 a; 60 of 5 x 6).  Neither applies with torque limits (their own
+# stop, TORQUE_MIN_GAIN).
+FEW_WAYPOINTS = 5
+FEW_ITERATIONS = 2
+FEW_RECOUNTS = 1
 # With a total to beat (plan_with_inner_knots' give_up): the construction
 # stops once the best candidate after k candidates is above it by more than
 # the k-th of these (the last for more).  On 1000 random 3-waypoint
 # requests (1-7 joints, j = 5-100 a or none, some near-duplicates) the
 # plan was below the best of the first k candidates by at most 21.7 %,
-# 5.9 %, 5.5 % and 2.1 % (k = 1 to 4): a construction so stopped would not
-# have won.
+# 5.9 %, 5.5 % and 2.1 % (k = 1 to 4; with 3 iterations): a construction so
+# stopped would not have won.
 GIVE_UP_GAINS = (0.3, 0.1, 0.08, 0.05)
-FEW_WAYPOINTS = 5
-FEW_ITERATIONS = 3
-FEW_RECOUNTS = 1
 # With non-zero boundary values: the smallest common margin on the local
 # factors tried, and the bisection steps towards the largest feasible one.
 MIN_MARGIN = 0.5

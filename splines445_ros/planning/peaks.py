@@ -223,7 +223,7 @@ def flat_polynomials(coeffs, durations, derivatives):
     return flat_p, flat_p[:, 1:] * _POWERS[None, 1:width]
 
 
-def _flat_candidates(flat_p, flat_dp):
+def peak_candidates(flat_p, flat_dp):
     """Candidate points x in [0, 1] (K, 5) of the rows and the |polynomial| there."""
     candidates = np.zeros((flat_p.shape[0], 5))
     candidates[:, 1] = 1.0
@@ -259,7 +259,7 @@ def sampled_segment_peaks_of(coeffs, durations, derivatives):
 
 def _candidates(coeffs, durations, derivative):
     """Candidate points x in [0, 1] (S*m, 5) and the |d-th derivative| there."""
-    return _flat_candidates(*flat_polynomials(coeffs, durations, (derivative,)))
+    return peak_candidates(*flat_polynomials(coeffs, durations, (derivative,)))
 
 
 def segment_peaks(coeffs, durations, derivative):
@@ -287,7 +287,7 @@ def segment_peaks_of(coeffs, durations, derivatives):
     bit for bit.
     """
     S, _, m = np.shape(coeffs)
-    _, values = _flat_candidates(*flat_polynomials(coeffs, durations, tuple(derivatives)))
+    _, values = peak_candidates(*flat_polynomials(coeffs, durations, tuple(derivatives)))
     return row_max(values).reshape(len(derivatives), S, m)
 
 
@@ -419,16 +419,40 @@ def peak_sensitivities_of(coeffs, durations, derivatives, flat=None):
     ``flat``, when given, is ``flat_polynomials(coeffs, durations,
     derivatives)``, computed already.
     """
+    if flat is None:
+        flat = flat_polynomials(coeffs, durations, tuple(derivatives))
+    candidates = peak_candidates(*flat)
+    return peak_sensitivities_at(coeffs, durations, derivatives, candidates)
+
+
+def peaks_of_candidates(candidates, shape):
+    """
+    Return the peaks (k, S, m) of :func:`peak_candidates`' ``candidates`` (points, |values|).
+
+    ``shape`` is (k, S, m): the derivatives, segments and joints of the
+    rows.  The same values as :func:`segment_peaks_of` (the largest |value|
+    of every row), for a caller that may need the sensitivities at them
+    later (:func:`peak_sensitivities_at`).
+    """
+    return row_max(candidates[1]).reshape(shape)
+
+
+def peak_sensitivities_at(coeffs, durations, derivatives, candidates):
+    """
+    :func:`peak_sensitivities_of` from the rows' ``candidates`` (:func:`peak_candidates`).
+
+    The root finding of the peaks is done: only their times' powers, the
+    weights and the slopes are left (the rest of an evaluation of optimal
+    timing, which needs them only for a Jacobian).
+    """
     c = np.asarray(coeffs, dtype=float)
     T = np.asarray(durations, dtype=float)
     S, n_terms, m = c.shape
     k = len(derivatives)
-    if flat is None:
-        flat = flat_polynomials(c, T, tuple(derivatives))
-    candidates, values = _flat_candidates(*flat)
+    points, values = candidates
     best = np.argmax(values, axis=1)
     rows = np.arange(k * S * m)
-    x = candidates[rows, best].reshape(k, S, m)
+    x = points[rows, best].reshape(k, S, m)
     peaks = values[rows, best].reshape(k, S, m)
     tau = x * T[:, None]
     # tau**i for every exponent i the weights use: the same values as

@@ -35,7 +35,8 @@ from scipy.sparse import csr_matrix
 from .continuity_system import banded_solve, ContinuitySystem
 from .limits import QUANTITIES
 from .methods import get_method
-from .peaks import flat_polynomials, peak_sensitivities_of, sampled_peaks
+from .peaks import (flat_polynomials, peak_candidates, peak_sensitivities_at,
+                    peaks_of_candidates, sampled_peaks)
 from .segments import input_map_derivatives
 
 # Jacobian entries (d log r / d log T) below this are dropped.
@@ -90,17 +91,29 @@ class PeakRatios:
         flat = flat_polynomials(coeffs, durations, derivatives)
         if above is not None and self._restored_above(durations, flat[0], above):
             return None
-        sens = peak_sensitivities_of(coeffs, durations, derivatives, flat)
-        peaks = np.stack([s[0] for s in sens], axis=-1)      # (S, n, n_q)
+        candidates = peak_candidates(*flat)
+        peaks = np.moveaxis(peaks_of_candidates(candidates, (len(derivatives),) +
+                                                coeffs.shape[::2]), 0, -1)   # (S, n, n_q)
         if not np.all(np.isfinite(peaks)):
             return None
         order = np.array(self._quantities) + 1.0
         with np.errstate(divide='ignore'):
             log_ratios = np.log(peaks / self._bounds.T[None]) / order
+        # The peaks' sensitivities (weights, slope) wait for a Jacobian
+        # (_sensitivities): most states are trials that are not taken.
         return {'durations': durations, 'system': system, 'vel': vel, 'acc': acc,
                 'peaks': peaks, 'order': order, 'log_ratios': log_ratios,
-                'weights': np.stack([s[1] for s in sens], axis=2),   # (S, n, n_q, 6)
-                'slope': np.stack([s[2] for s in sens], axis=-1)}    # (S, n, n_q)
+                'coeffs': coeffs, 'derivatives': derivatives, 'candidates': candidates}
+
+    @staticmethod
+    def _sensitivities(state):
+        """Add the peaks' ``weights`` (S, n, n_q, 6) and ``slope`` (S, n, n_q) to ``state``."""
+        if 'weights' not in state:
+            sens = peak_sensitivities_at(state['coeffs'], state['durations'],
+                                         state['derivatives'], state['candidates'])
+            state['weights'] = np.stack([s[1] for s in sens], axis=2)
+            state['slope'] = np.stack([s[2] for s in sens], axis=-1)
+        return state
 
     def _restored_above(self, durations, flat_p, above):
         """Whether the restored total of ``durations`` is above ``above`` by the sampled bound."""
@@ -114,7 +127,7 @@ class PeakRatios:
 
     def jacobian(self, state):
         """Return d log r / d log T at ``state`` as a :class:`PeakJacobian`."""
-        return peak_jacobian(self.method, self.dP, state)
+        return peak_jacobian(self.method, self.dP, self._sensitivities(state))
 
 
 class PeakJacobian:
