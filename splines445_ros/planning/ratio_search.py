@@ -7,7 +7,7 @@ waypoints, and the boundary values are zero), so the total time after the
 common factor that brings it to its limits (the *restored total* of
 :mod:`optimal`)::
 
-    R(T) = sum_k T_k * max_{k, j, q} r_{k, j, q}(T) ** (1 / q)
+    R(T) = sum_k T_k * max_{s, j, q} r_{s, j, q}(T) ** (1 / q)
 
 does not change when ``T`` is scaled.  With two segments it is a function
 of ``x = log(T_1 / T_2)`` alone, and the problem that
@@ -18,8 +18,9 @@ system and the exact polynomial peaks of :func:`limits.limit_ratios`) at
 around its best point until its spacing is below :data:`X_TOLERANCE`.  A
 pass costs about one evaluation of the SLP, which on 3 x 3 requests took
 3-8 LPs (each with its Jacobian) and 5-15 evaluations.  The first pass
-spans every ratio within ``exp(X_RANGE)`` of the start's, so the search is
-not caught in a local minimum narrower than its spacing.
+spans every ratio within ``exp(X_RANGE)`` of the start's, so only a local
+minimum whose basin is narrower than its spacing can be missed, where the
+SLP kept to the basin it started in.
 """
 
 import numpy as np
@@ -36,8 +37,9 @@ X_RANGE = 6.0
 # minimum; a segment that is not at a limit there is within 1e-4 of one, or
 # shortening it by 0.1 % breaks one (test_optimal_timing's optimality check).
 X_TOLERANCE = 1e-4
-# With a total to beat: the search stops after GIVE_UP_PASSES passes when
-# its best total is above it by more than GIVE_UP_DIP (relative): the
+# A total to beat is out of reach (RatioSearch.cannot_beat) when after
+# GIVE_UP_PASSES passes the best total is above it by more than GIVE_UP_DIP
+# (relative): the
 # minimum was below the second pass's best (spacing 0.023) by at most 1.2 %
 # on 2000 random requests (1-7 joints, a fifth with near-duplicate
 # waypoints, the three methods; test_ratio_search.py checks the give-up).
