@@ -7,8 +7,9 @@ Test set-up shared by every test module.
 * Hypothesis: the default profile has moderate example counts and is
   derandomized (each test draws the same examples on every run), so
   ``make test`` and CI are reproducible and a red run means a change broke
-  something.  SPLINES445_HYPOTHESIS_PROFILE=long draws 2000 fresh random
-  examples per test each run: use it to hunt for new failures.
+  something.  SPLINES445_HYPOTHESIS_PROFILE=long draws fresh random
+  examples on every run, 2000 per test or 30 times a test's own count
+  (example_counts.py): use it to hunt for new failures.
 """
 
 import os

@@ -12,6 +12,7 @@ The 555 method (C4 quintic spline) against independent routes and its defining p
   degree), but not along a 445 spline (the -1 root of even degree).
 """
 
+from example_counts import examples
 from hypothesis import assume, given, settings, strategies as st
 import numpy as np
 import pytest
@@ -196,7 +197,7 @@ def test_uniform_555_meets_limits_one_binds_and_keeps_chord_proportions(fraction
         np.testing.assert_allclose(traj.durations / chords, traj.scale, rtol=1e-9)
 
 
-@settings(max_examples=20)
+@settings(max_examples=examples(20))
 @given(data=st.data())
 def test_optimal_555_is_feasible_c4_and_not_longer_than_uniform(data):
     fraction = data.draw(st.sampled_from([0.0, 0.5]))

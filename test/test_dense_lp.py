@@ -8,6 +8,7 @@ explicit elastic variables and solved by scipy's HiGHS; the simplex must
 reach the same optimal value, with a feasible point.
 """
 
+from example_counts import examples
 from hypothesis import given, settings, strategies as st
 import numpy as np
 from scipy.optimize import Bounds, LinearConstraint, milp
@@ -57,7 +58,7 @@ def lps(draw):
     return c, A, b, lower, upper, penalty
 
 
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=examples(300), deadline=None)
 @given(lp=lps())
 def test_the_dense_simplex_reaches_highs_optimum_with_a_feasible_point(lp):
     c, A, b, lower, upper, penalty = lp

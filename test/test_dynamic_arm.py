@@ -9,6 +9,7 @@ import math
 
 from arm_client import ArmClient
 from diagnostic_msgs.msg import DiagnosticStatus
+from example_counts import examples
 from fuzz_messages import arm_trajectories
 from hypothesis import given, HealthCheck, settings, strategies as st
 import numpy as np
@@ -250,7 +251,7 @@ def test_dynamic_arm_follows_simulated_time():
         assert len(states[-1].effort) == 3
 
 
-@settings(max_examples=100, suppress_health_check=list(HealthCheck), deadline=None)
+@settings(max_examples=examples(100), suppress_health_check=list(HealthCheck), deadline=None)
 @given(case=arm_trajectories(), huge=st.sampled_from([1.0, 1.0, 1e3, 1e300]))
 def test_fuzzed_trajectories_never_break_the_dynamic_arm(dynamic_arm, case, huge):
     msg, good = case

@@ -9,6 +9,7 @@ all knots (the unique C4 quintic spline with those knot values and boundary
 derivatives), and closed-form time-optimal moves for the speed profile.
 """
 
+from example_counts import examples
 from hypothesis import assume, given, settings, strategies as st
 import numpy as np
 from numpy.polynomial import polynomial as P
@@ -130,7 +131,7 @@ def check_inner_knot_plan(traj, points, kwargs):
     check_against_make_interp_spline(traj, kwargs)
 
 
-@settings(max_examples=25)
+@settings(max_examples=examples(25))
 @given(req=requests(max_points=SMALL_REQUEST))
 def test_small_plans_are_not_longer_than_the_knots_only_optimum_beyond_its_tolerance(req):
     """
@@ -247,7 +248,7 @@ def test_a_rival_whose_warm_start_gives_up_is_run_again_from_the_uniform_solutio
     assert traj.duration < 0.99 * uniform.duration
 
 
-@settings(max_examples=25)
+@settings(max_examples=examples(25))
 @given(req=requests())
 def test_rest_to_rest_plans_hold_limits_hit_waypoints_and_are_c4(req):
     points, kwargs = req
@@ -263,7 +264,7 @@ def test_rest_to_rest_plans_hold_limits_hit_waypoints_and_are_c4(req):
         assert np.all(counts <= DEFAULT_INNER_KNOTS)
 
 
-@settings(max_examples=15)
+@settings(max_examples=examples(15))
 @given(req=requests(boundary=True))
 def test_boundary_values_are_kept_exactly_with_inner_knots(req):
     points, kwargs = req
@@ -381,7 +382,7 @@ def test_speed_profile_of_a_straight_path_is_the_closed_form_optimum(distance, v
     assert expected * (1 - 1e-12) <= total <= expected * (1 + 1e-3)
 
 
-@settings(max_examples=20)
+@settings(max_examples=examples(20))
 @given(seed=st.integers(0, 2**32 - 1))
 def test_speed_profile_meets_the_limits_on_curved_paths(seed):
     """Joint velocity q' sdot and acceleration q' u + q'' x at every grid point, within limits."""
@@ -448,7 +449,7 @@ def test_bad_inner_knots_are_rejected(kwargs, message):
         plan([[0.0], [1.0], [0.5]], max_velocity=[1.0], max_acceleration=[1.0], **kwargs)
 
 
-@settings(max_examples=15, deadline=None)
+@settings(max_examples=examples(15), deadline=None)
 @given(seed=st.integers(0, 2**32 - 1),
        windows=st.sampled_from([(0.3, 0.15), (0.25,), (0.02, 0.02)]))
 def test_the_averaged_profile_and_its_inverse(seed, windows):
@@ -486,7 +487,7 @@ def test_the_averaged_profile_and_its_inverse(seed, windows):
                                atol=1e-5 * s[-1])
 
 
-@settings(max_examples=30, deadline=None)
+@settings(max_examples=examples(30), deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), n_points=st.integers(2, 40), n_joints=st.integers(1, 7))
 def test_the_natural_cubic_path_is_scipys(seed, n_points, n_joints):
     """Step 1's natural cubic spline against scipy's CubicSpline (bc_type 'natural')."""

@@ -5,6 +5,7 @@ These test the durations optimiser (:mod:`optimal`), so 555 is planned with
 ``inner_knots=0``; its default, free inner knots, is tested in test_inner_knots.py.
 """
 
+from example_counts import examples
 from hypothesis import assume, given, settings, strategies as st
 import numpy as np
 import pytest
@@ -46,7 +47,7 @@ def feasible(traj, vmax, amax, jmax, rtol=1e-7):
 
 
 @pytest.mark.parametrize('method', ['445', '434', '555'])
-@settings(max_examples=15)
+@settings(max_examples=examples(15))
 @given(req=small_requests())
 def test_optimal_is_feasible_not_longer_than_uniform_and_segments_are_limited(method, req):
     check_optimal(method, req)
@@ -84,7 +85,7 @@ def test_optimal_regressions(name):
 
 
 @pytest.mark.parametrize('method', ['445', '434', '555'])
-@settings(max_examples=10)
+@settings(max_examples=examples(10))
 @given(req=small_requests(), seed=st.integers(0, 2**32 - 1))
 def test_a_warm_start_anywhere_keeps_every_property(method, req, seed):
     # Start from durations up to e times off the chord durations, either way.
@@ -214,7 +215,7 @@ def test_optimal_timing_has_no_segment_cap(method):
     np.testing.assert_allclose(optimal.evaluate(optimal.breakpoints), points, atol=1e-9)
 
 
-@settings(max_examples=25)
+@settings(max_examples=examples(25))
 @given(seed=st.integers(0, 2**32 - 1), n_points=st.integers(3, 8),
        share=st.sampled_from([0.8, 0.95, 1.0, 1.05, 1.3]))
 def test_a_rival_that_gives_up_is_none_only_when_it_cannot_win(seed, n_points, share):

@@ -9,6 +9,7 @@ and the speed of its tip.
 
 import os
 
+from example_counts import examples
 from hypothesis import assume, given, settings, strategies as st
 import numpy as np
 import pytest
@@ -18,7 +19,7 @@ from splines445_ros.planning.path_constraints import (
 from splines445_ros.planning.path_timing import _RoundedTiming
 from splines445_ros.planning.path_velocity import PathLimits, traversal_times
 
-EXAMPLES = int(os.environ.get('SPLINES445_PROPERTY_EXAMPLES', '25'))
+EXAMPLES = int(os.environ.get('SPLINES445_PROPERTY_EXAMPLES', str(examples(25))))
 LINKS = (0.5, 0.4)          # m
 MASSES = (3.0, 2.0)         # kg
 CENTRES = (0.25, 0.2)       # m from each joint

@@ -1,5 +1,6 @@
 """Every bad input to plan() is a ValueError that names the problem (and index)."""
 
+from example_counts import examples
 from hypothesis import given, settings, strategies as st
 import numpy as np
 import pytest
@@ -138,7 +139,7 @@ def test_coefficients_are_built_on_the_widths_the_ppoly_uses():
     assert abs(traj.evaluate([end], 1)[0, 0]) < 1e-9
 
 
-@settings(max_examples=40)
+@settings(max_examples=examples(40))
 @given(st.floats(-90, 300), st.floats(-90, 300), st.floats(-70, 110),
        st.sampled_from(['445', '434', '555']), st.sampled_from(['uniform', 'optimal', 'fixed']))
 def test_every_returned_trajectory_is_finite(log_v, log_a, log_t, method, timing):

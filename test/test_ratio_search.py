@@ -8,6 +8,7 @@ ratios; the planned optimum must be feasible and not longer than the best
 of that grid, and the search may give up only on a total it cannot beat.
 """
 
+from example_counts import examples
 from hypothesis import given, settings, strategies as st
 import numpy as np
 import pytest
@@ -64,7 +65,7 @@ def dense_minimum(method, points, vmax, amax, jmax):
 
 
 @pytest.mark.parametrize('method', ['555', '445', '434'])
-@settings(max_examples=6)
+@settings(max_examples=examples(6))
 @given(seed=st.integers(0, 2**32 - 1))
 def test_RatioSearch_is_no_longer_than_a_dense_search(method, seed):
     points, vmax, amax, jmax = request(seed)
@@ -78,7 +79,7 @@ def test_RatioSearch_is_no_longer_than_a_dense_search(method, seed):
     assert traj.duration <= dense_minimum(method, points, vmax, amax, jmax) * (1 + 1e-4)
 
 
-@settings(max_examples=20)
+@settings(max_examples=examples(20))
 @given(seed=st.integers(0, 2**32 - 1), excess=st.floats(0.0, 0.05))
 def test_the_search_gives_up_only_on_a_total_it_cannot_beat(seed, excess):
     points, vmax, amax, jmax = request(seed)
@@ -95,7 +96,7 @@ def test_the_search_gives_up_only_on_a_total_it_cannot_beat(seed, excess):
         optimum / (1.0 + GIVE_UP_DIP + 0.01))
 
 
-@settings(max_examples=25)
+@settings(max_examples=examples(25))
 @given(seed=st.integers(0, 2**32 - 1))
 def test_a_two_segment_plan_is_the_shorter_of_the_construction_and_the_knots_only_optimum(seed):
     """

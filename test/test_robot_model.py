@@ -11,6 +11,7 @@ import logging
 import math
 import xml.etree.ElementTree as ET
 
+from example_counts import examples
 from hypothesis import assume, given, settings, strategies as st
 import numpy as np
 import pytest
@@ -143,7 +144,7 @@ def test_panda_fingers_mimic_is_not_actuated_and_ranges_are_the_vendors(panda):
 angles = st.floats(-math.pi, math.pi, allow_nan=False)
 
 
-@settings(max_examples=40)
+@settings(max_examples=examples(40))
 @given(st.lists(angles, min_size=6, max_size=6))
 def test_ur5_forward_kinematics_matches_the_urdf(ur5_kinematics, q):
     chain = UrdfChain(vr.ur5_urdf(), 'base_link', 'tool0')
@@ -153,7 +154,7 @@ def test_ur5_forward_kinematics_matches_the_urdf(ur5_kinematics, q):
     np.testing.assert_allclose(quaternion_matrix(pose[3:]), expected[:3, :3], atol=1e-9)
 
 
-@settings(max_examples=40)
+@settings(max_examples=examples(40))
 @given(st.lists(st.floats(0.0, 1.0), min_size=7, max_size=7))
 def test_panda_forward_kinematics_through_fixed_joints(panda, panda_kinematics, u):
     lower = np.array([panda.joint(n).lower for n in vr.PANDA_ARM_JOINTS])
@@ -181,7 +182,7 @@ def planar_model(tmp_path_factory):
     return load_robot_model(str(path))
 
 
-@settings(max_examples=40)
+@settings(max_examples=examples(40))
 @given(st.lists(angles, min_size=3, max_size=3))
 def test_generic_kinematics_agree_with_the_planar_arm(planar_model, q):
     kin = ModelKinematics(planar_model, 'tool')
@@ -205,7 +206,7 @@ def test_generic_inverse_agrees_with_the_planar_arm(planar_model):
 
 # --------------------------------------------------------------- inverse kinematics
 
-@settings(max_examples=25)
+@settings(max_examples=examples(25))
 @given(st.lists(angles, min_size=6, max_size=6), st.lists(st.floats(-0.1, 0.1), min_size=6,
                                                           max_size=6))
 def test_ur5_inverse_returns_the_pose_on_the_seeds_branch(ur5_kinematics, q, nudge):
@@ -227,7 +228,7 @@ def test_ur5_inverse_returns_the_pose_on_the_seeds_branch(ur5_kinematics, q, nud
     np.testing.assert_allclose(solution, q, atol=1e-6)
 
 
-@settings(max_examples=25)
+@settings(max_examples=examples(25))
 @given(st.lists(st.floats(0.05, 0.95), min_size=7, max_size=7), st.integers(0, 2**32 - 1))
 def test_panda_inverse_reaches_random_poses_within_the_ranges(panda, panda_kinematics, u, seed):
     lower, upper = panda_kinematics.lower, panda_kinematics.upper

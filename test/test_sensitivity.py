@@ -1,5 +1,6 @@
 """Exact derivatives of the peak ratios (optimal timing's Jacobian) against finite differences."""
 
+from example_counts import examples
 from hypothesis import given, settings, strategies as st
 import numpy as np
 import pytest
@@ -8,7 +9,7 @@ from splines445_ros.planning.sensitivity import PeakRatios
 
 
 @pytest.mark.parametrize('method', ['445', '434', '555'])
-@settings(max_examples=12)
+@settings(max_examples=examples(12))
 @given(seed=st.integers(0, 2**32 - 1), n_points=st.sampled_from([2, 3, 5, 12, 40]),
        jerk=st.booleans(), boundary=st.booleans())
 def test_jacobian_matches_central_differences(method, seed, n_points, jerk, boundary):
@@ -59,7 +60,7 @@ def test_445_tail_is_accurate_with_unequal_durations():
         np.testing.assert_allclose(jac @ (step / h), central, atol=1e-4)
 
 
-@settings(max_examples=30)
+@settings(max_examples=examples(30))
 @given(seed=st.integers(0, 2**32 - 1), n_points=st.sampled_from([2, 3, 5, 12]),
        jerk=st.booleans())
 def test_a_state_is_only_skipped_when_its_restored_total_is_above(seed, n_points, jerk):

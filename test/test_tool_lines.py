@@ -11,6 +11,7 @@ by central differences of the test's forward kinematics.
 import math
 import os
 
+from example_counts import examples
 from hypothesis import given, HealthCheck, settings, strategies as st
 import numpy as np
 import pytest
@@ -22,7 +23,7 @@ from splines445_ros.tools import vendor_robots as vr
 from test_tool_paths_6d import check_1khz, DEG, MM, PANDA_LIMITS, UR5_LIMITS
 from urdf_reference import BatchedUrdfChain
 
-EXAMPLES = int(os.environ.get('SPLINES445_PROPERTY_EXAMPLES', '6'))
+EXAMPLES = int(os.environ.get('SPLINES445_PROPERTY_EXAMPLES', str(examples(6))))
 ROBOTS = {
     'ur5': (vr.ur5_urdf, 'tool0', 'base_link', vr.UR5_JOINTS, vr.UR5_READY, UR5_LIMITS,
             ((0.3, 0.55), (-0.2, 0.2), 0.15)),

@@ -3,6 +3,7 @@
 import math
 
 from diagnostic_msgs.msg import DiagnosticStatus
+from example_counts import examples
 from geometry_msgs.msg import Pose, PoseArray
 from hypothesis import given, settings, strategies as st
 import numpy as np
@@ -158,7 +159,7 @@ ANY_FLOAT = st.one_of(st.floats(-3.0, 3.0), st.floats(allow_nan=True, allow_infi
                       st.sampled_from([0.0, 1e300, -1e-300]))
 
 
-@settings(max_examples=40)
+@settings(max_examples=examples(40))
 @given(rows=st.lists(st.tuples(*[ANY_FLOAT] * 7), max_size=6))
 def test_random_pose_arrays_get_one_status_each_and_never_an_internal_error(system, rows):
     msg = PoseArray()
@@ -211,7 +212,7 @@ def test_params_file_configures_tool_paths():
     assert config.tool_kinematics().d1 == 1.1
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=examples(60), deadline=None)
 @given(yaw=st.floats(-10.0, 10.0), sign=st.sampled_from([1.0, -1.0]))
 def test_yaw_of_a_quaternion_is_the_same_for_q_and_minus_q(yaw, sign):
     # q and -q are one rotation: the same yaw, wrapped into (-pi, pi], so a

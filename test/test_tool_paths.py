@@ -7,6 +7,7 @@ implementation's, and the distance to the requested edge each time belongs
 to (from the times the tool waypoints are passed).
 """
 
+from example_counts import examples
 from hypothesis import assume, event, given, settings, strategies as st
 import numpy as np
 import pytest
@@ -106,7 +107,7 @@ def test_uniform_timing_stays_within_the_tolerance_everywhere(poses, method, tol
     check_result(result, poses, tol, tol_yaw)
 
 
-@settings(max_examples=6)
+@settings(max_examples=examples(6))
 @given(poses=reachable_polygons(), method=st.sampled_from(METHODS))
 def test_optimal_timing_stays_within_the_tolerance_everywhere(poses, method):
     assume(len(poses) <= 4)

@@ -10,6 +10,7 @@ written in ``test_dynamics``).
 import math
 import os
 
+from example_counts import examples
 from hypothesis import given, settings, strategies as st
 import numpy as np
 import pytest
@@ -18,7 +19,7 @@ from splines445_ros.planning.path_constraints import GriddedPath, JointTorque
 from splines445_ros.planning.torque import GravityOverload, TorqueLimit
 from test_path_constraints import two_link_torques
 
-EXAMPLES = int(os.environ.get('SPLINES445_PROPERTY_EXAMPLES', '12'))
+EXAMPLES = int(os.environ.get('SPLINES445_PROPERTY_EXAMPLES', str(examples(12))))
 # The 1 kHz check holds the torque within 0.5 % between its samples (issue 25).
 TORQUE_RTOL = 5e-3
 ROUTES = [('555', 'optimal'), ('555', 'uniform'), ('445', 'uniform'), ('434', 'optimal')]

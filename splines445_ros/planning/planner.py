@@ -577,6 +577,16 @@ def _plan_knots_only(method, timing, points, start, boundary, limits, dropped, s
     uniform = Trajectory.build(method, 'uniform', points, spline.durations(scale), boundary,
                                limits, spline.coefficients(scale), ratios, scale=scale,
                                dropped_waypoints=dropped)
+    if timing == 'optimal' and rest and chords.size == 1:
+        # One segment rest to rest: its duration alone is free, and the
+        # smallest factor that meets the limits is the optimum (the SLP came
+        # within round-off of it, on either side of the rival's).
+        optimum = Trajectory.build(uniform.method, 'optimal', points, uniform.durations,
+                                   boundary, limits, uniform.coefficients, ratios,
+                                   dropped_waypoints=dropped)
+        optimum.optimizer = {'iterations': 0, 'message': 'one segment: the uniform solution',
+                             'uniform_duration': uniform.duration}
+        return optimum
     if timing == 'optimal':
         if start is None:
             start = optimal_start(method, points, boundary, limits, uniform)
