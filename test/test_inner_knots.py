@@ -458,7 +458,7 @@ def test_the_averaged_profile_and_its_inverse(seed, windows):
 
     ``s_avg(t)`` is the mean of ``s(t - a - b ...)`` over the windows' box;
     here it is a midpoint rule in every window variable on the plain
-    profile's positions.  ``time_at`` must invert ``position_at`` to 1e-5 of
+    profile's positions.  ``time_at`` must invert ``position_at`` to 1e-9 of
     the path, in order, with the ends pinned to 0 and the duration.
     """
     from splines445_ros.planning.inner_knots import _Timing
@@ -484,7 +484,7 @@ def test_the_averaged_profile_and_its_inverse(seed, windows):
     assert found[0] == 0.0 and found[-1] == timing.duration
     assert np.all(np.diff(found) >= 0.0)
     np.testing.assert_allclose(timing.position_at(found[1:-1]), targets, rtol=0,
-                               atol=1e-5 * s[-1])
+                               atol=1e-9 * s[-1])
 
 
 @settings(max_examples=examples(30), deadline=None)

@@ -128,22 +128,19 @@ SMOOTHINGS = ('auto', 'windows', 'none')
 MAX_VIBRATION_FREQUENCY = 1000.0
 # Grid steps per segment of the speed profile (step 2).
 GRID_STEPS = 24
-# Regula falsi steps (Illinois) of _Timing.time_at within a step of its
-# table: on the plans' profiles the positions at the times found were within
-# 3e-11 of the path's length of the targets, and within 1e-5 on rougher
-# random profiles (test_the_averaged_profile_and_its_inverse; 2-4 steps
-# missed that there); up to 5e-4 where windows of seconds average a profile
-# of a fraction of one (the review's case).  Only where the inner knots sit
-# depends on it: the waypoints are knots themselves and the limits are
-# exact.  The dense table of every breakpoint and midpoint it
-# replaced took a third of the planning time at 1000 x 7.
-INVERSE_STEPS = 5
-# _Timing.time_at's Newton steps (issue 23, the planning time of small
-# requests): most steps, and the largest position error accepted (relative to
-# the path's length; the regula falsi above gets within 3e-11).  Where they
-# do not get there the regula falsi runs instead.
+# _Timing.time_at: safeguarded Newton steps (issue 23, the planning time of
+# small requests; they replaced a table of the averaged profile at the grid
+# points and 5 regula falsi steps within its brackets, 0.2 ms of a 3 x 3
+# candidate's 0.8): most steps, and the largest position error accepted
+# (relative to the path's length; the table's regula falsi got within 3e-11
+# on the plans' profiles, and missed 1e-5 on a random one, 4e-5 next to
+# its end).  Targets still further off (where the average flattens, next to
+# a rest end) get regula falsi (Illinois) steps on Newton's brackets, at
+# most INVERSE_STEPS.  Only where the inner knots sit depends on it: the
+# waypoints are knots themselves and the limits are exact.
 NEWTON_STEPS = 6
 NEWTON_TOLERANCE = 1e-12
+INVERSE_STEPS = 20
 # A piece lasts at least this many jerk ramp times a / j (step 3).
 RAMP_PIECES = 1.5
 # With torque limits (issue 25): the same for step 3, whose ramp
@@ -366,25 +363,6 @@ class _Timing:
             poly[:, 0] = np.concatenate([[0.0], np.cumsum(ends)])
         self.poly = poly
         self._shifts, self._signs, self._product = _window_shifts(tuple(self.widths))
-        self._t = self._s = None    # time_at's table, built by its first call
-
-    def _bracket(self, s):
-        """
-        Return time_at's brackets of the positions ``s``: (times, times, values, values).
-
-        From a table of the grid times moved by none, half and all of the
-        windows (the average passes the grid points about half the windows
-        later; the others keep the ramps at the ends, where it is most
-        curved, within one grid step), built by the first call.
-        """
-        if self._t is None:
-            total = sum(self.widths)
-            self._t = np.unique(np.concatenate([self.times, self.times + 0.5 * total,
-                                                self.times + total]))
-            self._s = np.maximum.accumulate(self.position_at(self._t))
-        i = np.searchsorted(self._s, s, side='right') - 1
-        np.minimum(np.maximum(i, 0, out=i), self._t.size - 2, out=i)
-        return self._t[i], self._t[i + 1], self._s[i] - s, self._s[i + 1] - s
 
     def _antiderivative(self, t, slope=False):
         # Few numpy calls: small requests call this thousands of times.
@@ -437,32 +415,25 @@ class _Timing:
             return self.time_at(s.reshape(1)).reshape(())
         out = np.empty(s.shape)
         inner = (s > 0.0) & (s < self.s[-1])
-        found = self._newton(s[inner])
-        if found is not None:
-            out[inner] = found
-        else:
-            # The table brackets every s; regula falsi with the Illinois rule
-            # converges within the bracket, where the average is a smooth
-            # increasing function.
-            out = regula_falsi(self.position_at, s, *self._bracket(s), INVERSE_STEPS)
+        out[inner] = self._newton(s[inner])
         out[s <= 0.0] = 0.0
         out[s >= self.s[-1]] = self.duration
         return out
 
     def _newton(self, s):
         """
-        Return time_at's times by safeguarded Newton steps, or None when they do not converge.
+        Return time_at's times of the positions ``s`` strictly inside the path.
 
         The average of an increasing ``s(t)`` over windows of total width
         ``W`` is between ``s(t - W)`` and ``s(t)``, so it passes a position
-        between the plain profile's time there and ``W`` later: a bracket
-        without a table.  Newton's steps start in its middle with the
-        average's velocity as slope (a step that leaves the bracket is a
-        bisection) and stop once every position is within
-        :data:`NEWTON_TOLERANCE` of the path's length; at most
-        :data:`NEWTON_STEPS`.  Two or three steps on the plans' profiles
-        (the table's regula falsi: its table and five steps, 0.2 ms of a
-        3 x 3 candidate's 0.8).
+        between the plain profile's time there and ``W`` later: a bracket.
+        Newton's steps start in its middle with the average's velocity as
+        slope (a step that leaves the bracket is a bisection) and stop once
+        every position is within :data:`NEWTON_TOLERANCE` of the path's
+        length, at most :data:`NEWTON_STEPS` (two or three on the plans'
+        profiles); regula falsi with the Illinois rule takes the targets
+        still further off on from their brackets, where the average is a
+        smooth increasing function (:data:`INVERSE_STEPS`).
         """
         lo = np.interp(s, self.s, self.times)
         hi = lo + sum(self.widths)
@@ -471,7 +442,8 @@ class _Timing:
         for _ in range(NEWTON_STEPS):
             values, rates = self._antiderivative(t[..., None] - self._shifts, slope=True)
             f = values @ self._signs / self._product - s
-            if np.all(np.abs(f) <= tolerance):
+            off = np.abs(f) > tolerance
+            if not np.any(off):
                 return t
             rate = rates @ self._signs / self._product
             above = f > 0.0
@@ -481,7 +453,18 @@ class _Timing:
                 step = t - f / rate
             inside = (step > lo) & (step < hi)
             t = np.where(inside, step, 0.5 * (lo + hi))
-        return None
+        # The last step's positions; the targets still off get regula falsi.
+        f = self.position_at(t) - s
+        off = np.abs(f) > tolerance
+        if np.any(off):
+            above = f > 0.0
+            np.copyto(hi, t, where=above)
+            np.copyto(lo, t, where=~above)
+            k = np.flatnonzero(off)
+            ends = self.position_at(np.concatenate([lo[k], hi[k]])) - np.tile(s[k], 2)
+            t[k] = regula_falsi(self.position_at, s[k], lo[k], hi[k], ends[:k.size],
+                                ends[k.size:], INVERSE_STEPS)
+        return t
 
 
 def regula_falsi(position_at, s, lo_t, hi_t, lo_f, hi_f, steps):
