@@ -10,7 +10,7 @@ derivatives), and closed-form time-optimal moves for the speed profile.
 """
 
 from example_counts import examples
-from hypothesis import assume, given, settings, strategies as st
+from hypothesis import assume, example, given, settings, strategies as st
 import numpy as np
 from numpy.polynomial import polynomial as P
 import pytest
@@ -489,6 +489,8 @@ def test_the_averaged_profile_and_its_inverse(seed, windows):
 
 @settings(max_examples=examples(30), deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), n_points=st.integers(2, 40), n_joints=st.integers(1, 7))
+@example(seed=1, n_points=3, n_joints=2)   # one interior knot: its own closed form
+@example(seed=2, n_points=4, n_joints=1)
 def test_the_natural_cubic_path_is_scipys(seed, n_points, n_joints):
     """Step 1's natural cubic spline against scipy's CubicSpline (bc_type 'natural')."""
     from scipy.interpolate import CubicSpline
