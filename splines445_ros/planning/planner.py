@@ -342,8 +342,8 @@ def _plan_limited(method, points, timing, durations, max_velocity, max_accelerat
         start = np.diff(np.delete(np.concatenate([[0.0], np.cumsum(start)]), dropped))
     search = give_up = None     # two segments: the knots-only optimum's search (below)
     if inner_knots:
-        shaped = windows not in ((), DEFAULT_SMOOTHING) and \
-            not any(np.any(b) for b in boundary)
+        rest = not any(np.any(b) for b in boundary)
+        shaped = windows not in ((), DEFAULT_SMOOTHING) and rest
         # The knots-only optimum is the rival below: the construction's own
         # knots-only candidates would only repeat it, less well.  With torque
         # limits and no smoothing windows there is no knots-only plan at all:
@@ -354,8 +354,7 @@ def _plan_limited(method, points, timing, durations, max_velocity, max_accelerat
         # (about 15 %).
         torque_only = torque is not None and not windows
         optimum_rival = _optimum_rival(points) and not shaped and not torque_only
-        if optimum_rival and torque is None and len(points) == 3 and \
-                not any(np.any(b) for b in boundary):
+        if optimum_rival and torque is None and len(points) == 3 and rest:
             # Two segments: the knots-only optimum is a cheap search, whose
             # first passes bound it; the construction stops once it cannot
             # beat that (about 60 % of random 3 x 3 requests).
@@ -413,8 +412,8 @@ def _with_knots_only_rival(refined, method, points, start, boundary, limits, dro
     requests 3 to 6 times TOPP-RA's planning time):
 
     * one segment: its duration alone is free, so the optimum is the
-      uniform solution (the smallest factor that meets the limits), and
-      uniform timing is the rival;
+      uniform solution (the smallest factor that meets the limits), which
+      :func:`_plan_knots_only` returns;
     * it starts from the segment durations of ``refined`` without the
       smoothing windows (:func:`_unsmoothed_durations`; unless the caller
       gave ``durations``): close to the optimum when the rival can win,
@@ -440,7 +439,7 @@ def _with_knots_only_rival(refined, method, points, start, boundary, limits, dro
       instead of 4.0 ms, the same plans bit for bit).
     """
     rest = not any(np.any(b) for b in boundary)
-    small = _optimum_rival(points) and not (rest and len(points) == 2)
+    small = _optimum_rival(points)
     timing = 'optimal' if small else 'uniform'
     options = {}
     warm = small and rest and points.shape[1] > 1
@@ -475,17 +474,25 @@ def _with_knots_only_rival(refined, method, points, start, boundary, limits, dro
     if refined.duration * premium <= rival.duration:
         return refined
     if timing == 'uniform':
-        checked = rival
-        rival = Trajectory.build(rival.method, 'optimal', points, rival.durations, boundary,
-                                 limits, rival.coefficients, rival.limit_ratios(),
-                                 dropped_waypoints=dropped)
-        rival.optimizer = {}
-        # The same spline: its torque check stands (plan() would run it again).
-        for name in ('torque_ratios', 'torque_factor'):
-            if hasattr(checked, name):
-                setattr(rival, name, getattr(checked, name))
+        rival = _as_optimal(rival, points, boundary, limits, dropped)
     rival.optimizer.update(inner_knots=0, inner_knots_duration=refined.duration)
     return rival
+
+
+def _as_optimal(traj, points, boundary, limits, dropped):
+    """
+    Return the knots-only ``traj`` of uniform timing as a plan of optimal timing: the same spline.
+
+    Its torque check, if any, stands (plan() would run it again).
+    """
+    optimal = Trajectory.build(traj.method, 'optimal', points, traj.durations, boundary,
+                               limits, traj.coefficients, traj.limit_ratios(),
+                               dropped_waypoints=dropped)
+    optimal.optimizer = {}
+    for name in ('torque_ratios', 'torque_factor'):
+        if hasattr(traj, name):
+            setattr(optimal, name, getattr(traj, name))
+    return optimal
 
 
 def _optimum_rival(points):
@@ -537,6 +544,15 @@ def _plan_knots_only(method, timing, points, start, boundary, limits, dropped, s
     if not np.all(np.isfinite(chords)):
         raise ValueError('waypoints too large: chord lengths overflow')
     rest = not any(np.any(b) for b in boundary)
+    if timing == 'optimal' and rest and chords.size == 1:
+        # One segment rest to rest: its duration alone is free, and the
+        # smallest factor that meets the limits is the optimum (the SLP came
+        # within round-off of it, on either side of uniform timing's).
+        uniform = _plan_knots_only(method, 'uniform', points, None, boundary, limits, dropped)
+        optimum = _as_optimal(uniform, points, boundary, limits, dropped)
+        optimum.optimizer = {'iterations': 0, 'message': 'one segment: the uniform solution',
+                             'uniform_duration': uniform.duration}
+        return optimum
     if timing == 'optimal' and rest and chords.size == 2:
         # One ratio of durations is free: searched on a grid (ratio_search).
         try:
@@ -546,8 +562,8 @@ def _plan_knots_only(method, timing, points, start, boundary, limits, dropped, s
                                     options.get('give_up'))
         except ValueError:
             pass    # a singular system: optimal_durations below
-    if (timing == 'optimal' and start is not None and options.get('give_up') is not None
-            and not any(np.any(b) for b in boundary)):
+    if timing == 'optimal' and start is not None and options.get('give_up') is not None \
+            and rest:
         # A rest-to-rest rival: uniform timing is solved only if it can still
         # win, and otherwise only bounded (timing.rest_to_rest_lower_bound).
         spline = ScaledSpline(method, points, chords, boundary)
@@ -577,16 +593,6 @@ def _plan_knots_only(method, timing, points, start, boundary, limits, dropped, s
     uniform = Trajectory.build(method, 'uniform', points, spline.durations(scale), boundary,
                                limits, spline.coefficients(scale), ratios, scale=scale,
                                dropped_waypoints=dropped)
-    if timing == 'optimal' and rest and chords.size == 1:
-        # One segment rest to rest: its duration alone is free, and the
-        # smallest factor that meets the limits is the optimum (the SLP came
-        # within round-off of it, on either side of the rival's).
-        optimum = Trajectory.build(uniform.method, 'optimal', points, uniform.durations,
-                                   boundary, limits, uniform.coefficients, ratios,
-                                   dropped_waypoints=dropped)
-        optimum.optimizer = {'iterations': 0, 'message': 'one segment: the uniform solution',
-                             'uniform_duration': uniform.duration}
-        return optimum
     if timing == 'optimal':
         if start is None:
             start = optimal_start(method, points, boundary, limits, uniform)
