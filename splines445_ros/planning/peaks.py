@@ -238,7 +238,7 @@ def sampled_peaks(flat_p):
 
     ``flat_p`` as from :func:`flat_polynomials`.  Evaluated like the
     candidates of the exact peaks, without their root finding (a third of
-    the cost of :func:`peak_sensitivities_of` on a small spline): within
+    the cost of the exact peaks on a small spline): within
     round-off of the polynomial's values below the exact peaks, so a bound
     that shows a state to be too long spares its exact peaks.
     """
@@ -287,8 +287,8 @@ def segment_peaks_of(coeffs, durations, derivatives):
     bit for bit.
     """
     S, _, m = np.shape(coeffs)
-    _, values = peak_candidates(*flat_polynomials(coeffs, durations, tuple(derivatives)))
-    return row_max(values).reshape(len(derivatives), S, m)
+    candidates = peak_candidates(*flat_polynomials(coeffs, durations, tuple(derivatives)))
+    return peaks_of_candidates(candidates, (len(derivatives), S, m))
 
 
 def velocity_ratios_above(coeffs, durations, bounds, floor):
@@ -393,57 +393,33 @@ def segment_peak_times(coeffs, durations, derivative):
     return x * np.asarray(durations, dtype=float)[:, None]
 
 
-def peak_sensitivities(coeffs, durations, derivative):
-    """
-    Peaks (S, m) of |d-th derivative| and how they change with the coefficients.
-
-    A peak sits at the end of its segment or at a stationary point of the
-    d-th derivative, so to first order it moves only through the values at
-    the same relative position ``x = tau / T`` (the envelope theorem).
-    Returns ``(peaks, weights, slope)``: ``d peak = weights . d coeffs +
-    slope * d T`` with ``weights`` (S, m, 6) on the ascending coefficients of
-    the same segment and joint, and ``slope`` (S, m) for a change of that
-    segment's own duration ``T`` (non-zero only for a peak at ``tau = T``).
-    """
-    return peak_sensitivities_of(coeffs, durations, (derivative,))[0]
-
-
-def peak_sensitivities_of(coeffs, durations, derivatives, flat=None):
-    """
-    :func:`peak_sensitivities` of several ``derivatives`` at once: a list of its results.
-
-    One root finding and one evaluation for all of them, as in
-    :func:`segment_peaks_of` (the padding leaves them unchanged), and the
-    powers of every peak's time once for a derivative and the next one:
-    the results are those of :func:`peak_sensitivities`, bit for bit.
-    ``flat``, when given, is ``flat_polynomials(coeffs, durations,
-    derivatives)``, computed already.
-    """
-    if flat is None:
-        flat = flat_polynomials(coeffs, durations, tuple(derivatives))
-    candidates = peak_candidates(*flat)
-    return peak_sensitivities_at(coeffs, durations, derivatives, candidates)
-
-
 def peaks_of_candidates(candidates, shape):
     """
     Return the peaks (k, S, m) of :func:`peak_candidates`' ``candidates`` (points, |values|).
 
     ``shape`` is (k, S, m): the derivatives, segments and joints of the
-    rows.  The same values as :func:`segment_peaks_of` (the largest |value|
-    of every row), for a caller that may need the sensitivities at them
-    later (:func:`peak_sensitivities_at`).
+    rows; the largest |value| of every row (:func:`segment_peaks_of`'s), for
+    a caller that may need the sensitivities at them later
+    (:func:`peak_sensitivities_at`).
     """
     return row_max(candidates[1]).reshape(shape)
 
 
 def peak_sensitivities_at(coeffs, durations, derivatives, candidates):
     """
-    :func:`peak_sensitivities_of` from the rows' ``candidates`` (:func:`peak_candidates`).
+    Return per derivative its peaks (S, m) of |value| and how they move with the coefficients.
 
-    The root finding of the peaks is done: only their times' powers, the
-    weights and the slopes are left (the rest of an evaluation of optimal
-    timing, which needs them only for a Jacobian).
+    A peak sits at the end of its segment or at a stationary point of the
+    derivative, so to first order it moves only through the values at the
+    same relative position ``x = tau / T`` (the envelope theorem).  For
+    each of ``derivatives`` the result has ``(peaks, weights, slope)``:
+    ``d peak = weights . d coeffs + slope * d T`` with ``weights`` (S, m,
+    6) on the ascending coefficients of the same segment and joint, and
+    ``slope`` (S, m) for a change of that segment's own duration ``T``
+    (non-zero only for a peak at ``tau = T``).  ``candidates`` are the
+    rows' :func:`peak_candidates` (the root finding is done: optimal
+    timing's evaluations need the rest only for a Jacobian).  The powers of
+    every peak's time are found once for a derivative and the next one.
     """
     c = np.asarray(coeffs, dtype=float)
     T = np.asarray(durations, dtype=float)

@@ -16,7 +16,7 @@ states respond by one banded solve with that right-hand side
 (:meth:`ContinuitySystem.duration_derivatives`), the coefficients through
 the segment maps (eqs. 3-23) and their exact ``T`` derivatives, and a peak
 through the coefficients at its fixed relative position (envelope theorem,
-:func:`peaks.peak_sensitivities_of`).
+:func:`peaks.peak_sensitivities_at`).
 
 The response decays away from segment k by the method's ``reach``
 (:mod:`methods`), so the Jacobian is banded and responses of segments one
