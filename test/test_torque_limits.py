@@ -140,17 +140,32 @@ def test_bad_torque_arguments_are_refused(kwargs, message):
         plan(points, '555', 'optimal', max_velocity=[2, 2], max_acceleration=[20, 20], **kwargs)
 
 
-def test_ur5_with_a_payload_holds_its_effort_limits():
+def loaded_arm(robot_name, payload_mass, seed, n_points):
+    """
+    Return a vendor arm's ArmDynamics with a payload, its effort limits and random waypoints.
+
+    ``robot_name`` 'ur5' or 'panda'; the payload's centre of mass is 0.1 m
+    out along the tool; the waypoints (n_points, n) are a random walk of
+    steps up to 0.3 rad from the ready pose.
+    """
     from splines445_ros.arm.dynamics import ArmDynamics, effort_limits
     from splines445_ros.arm.robot_model import load_robot_model
     from splines445_ros.tools import vendor_robots as vr
-    robot = load_robot_model(vr.ur5_urdf())
-    joints = list(vr.UR5_JOINTS)
-    dynamics = ArmDynamics(robot, joints, 'tool0', payload_mass=5.0,
+    urdf, joints, tool, ready = {
+        'ur5': (vr.ur5_urdf, vr.UR5_JOINTS, 'tool0', vr.UR5_READY),
+        'panda': (vr.panda_urdf, vr.PANDA_ARM_JOINTS, 'panda_hand_tcp', vr.PANDA_READY),
+    }[robot_name]
+    robot = load_robot_model(urdf())
+    joints = list(joints)
+    dynamics = ArmDynamics(robot, joints, tool, payload_mass=payload_mass,
                            payload_center_of_mass=(0.0, 0.0, 0.1))
-    limit = effort_limits(robot, joints)
-    rng = np.random.default_rng(7)
-    points = np.array(vr.UR5_READY) + np.cumsum(rng.uniform(-0.3, 0.3, (6, 6)), axis=0)
+    rng = np.random.default_rng(seed)
+    steps = rng.uniform(-0.3, 0.3, (n_points, len(joints)))
+    return dynamics, effort_limits(robot, joints), np.array(ready) + np.cumsum(steps, axis=0)
+
+
+def test_ur5_with_a_payload_holds_its_effort_limits():
+    dynamics, limit, points = loaded_arm('ur5', 5.0, 7, 6)
     kwargs = {'max_velocity': [3.15] * 3 + [3.2] * 3, 'max_acceleration': [1000.0] * 6,
               'max_jerk': [500.0] * 6}
     traj = plan(points, '555', 'optimal', max_torque=limit, inverse_dynamics=dynamics.torques,
@@ -217,16 +232,7 @@ def test_an_inverse_dynamics_gravity_is_taken_for_every_torque_at_rest():
 
 def test_arm_dynamics_as_the_inverse_dynamics():
     """An ArmDynamics itself (its gravity pass) and its torques: the same factors and plan."""
-    from splines445_ros.arm.dynamics import ArmDynamics, effort_limits
-    from splines445_ros.arm.robot_model import load_robot_model
-    from splines445_ros.tools import vendor_robots as vr
-    robot = load_robot_model(vr.panda_urdf())
-    joints = list(vr.PANDA_ARM_JOINTS)
-    dynamics = ArmDynamics(robot, joints, 'panda_hand_tcp', payload_mass=3.0,
-                           payload_center_of_mass=(0.0, 0.0, 0.1))
-    limit = effort_limits(robot, joints)
-    rng = np.random.default_rng(11)
-    points = np.array(vr.PANDA_READY) + np.cumsum(rng.uniform(-0.3, 0.3, (5, 7)), axis=0)
+    dynamics, limit, points = loaded_arm('panda', 3.0, 11, 5)
     traj = plan(points, '555', 'fixed', durations=[0.4, 0.3, 0.5, 0.4])
     plain, fast = TorqueLimit(limit, dynamics.torques, 7), TorqueLimit(limit, dynamics, 7)
     assert plain.gravity is None and fast.gravity == dynamics.gravity
