@@ -22,9 +22,15 @@ BIN := $(abspath $(VENV))/bin/
 PYTHON := $(BIN)python
 COLCON := $(BIN)colcon
 ENV_STAMP := $(VENV)/.installed
+# The Jazzy wheels install their CMake configs and ament index in the venv:
+# CMake and the rosidl generators of splines445_interfaces find them there.
+export CMAKE_PREFIX_PATH := $(abspath $(VENV))
+export AMENT_PREFIX_PATH := $(abspath $(VENV))
 endif
 
-COLCON_PATHS := --base-paths . --build-base build --install-base install
+# The repository's root is splines445_ros; colcon does not crawl into a package,
+# so the interface package inside it is named too.
+COLCON_PATHS := --base-paths . splines445_interfaces --build-base build --install-base install
 SOURCE_INSTALL := source install/setup.bash
 OUT ?= out
 
