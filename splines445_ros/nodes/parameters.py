@@ -124,6 +124,21 @@ class ConfigParameters:
         node.add_pre_set_parameters_callback(self._as_field_types)
         node.add_on_set_parameters_callback(self._on_set_parameters)
 
+    def overridden(self, values):
+        """
+        Return the config of the current parameters with ``values`` in their place.
+
+        ``values`` maps parameter names to values (a request's overrides); they
+        are validated as a ``set_parameters`` would be (ValueError with the
+        same reason), and the node's parameters do not change.
+        """
+        unknown = sorted(set(values) - set(self.names))
+        if unknown:
+            raise ValueError(f'unknown parameters {unknown}')
+        current = {name: self._node.get_parameter(name).value for name in self.names}
+        current.update(values)
+        return self._config_cls.from_values(current)
+
     def _as_field_types(self, parameters):
         return [(_normalised(p, self._kinds[p.name]) if p.name in self._kinds else None) or p
                 for p in parameters]

@@ -53,6 +53,13 @@ AUTO_INNER_KNOTS = -1
 # saturates (benchmarks/bench_torque_arm.py).
 DEFAULT_TORQUE_HEADROOM = 0.1
 MAX_TORQUE_HEADROOM = 0.5
+# follow_waypoints goals: the arm has settled when joint_states are this close to the
+# end [rad or m] and this slow [rad/s or m/s] (joint_trajectory_controller's goal
+# and stopped_velocity_tolerance), at most goal_time_tolerance after the end [s].
+DEFAULT_GOAL_POSITION_TOLERANCE = 0.01
+DEFAULT_GOAL_VELOCITY_TOLERANCE = 0.01
+DEFAULT_GOAL_TIME_TOLERANCE = 2.0
+MAX_GOAL_TIME_TOLERANCE = 3600.0
 
 
 @dataclass(frozen=True)
@@ -96,6 +103,10 @@ class PlannerConfig(ValidatedConfig):
     payload_center_of_mass: Tuple[float, ...] = (0.0, 0.0, 0.0)
     payload_inertia: Tuple[float, ...] = ()
     torque_headroom: float = DEFAULT_TORQUE_HEADROOM
+    # follow_waypoints goals: when the arm has settled at the end.
+    goal_position_tolerance: float = DEFAULT_GOAL_POSITION_TOLERANCE
+    goal_velocity_tolerance: float = DEFAULT_GOAL_VELOCITY_TOLERANCE
+    goal_time_tolerance: float = DEFAULT_GOAL_TIME_TOLERANCE
 
     PARAMETER_DEFAULTS = {'joint_names': NOT_SET_NAMES, 'max_velocity': NOT_SET_LIMITS,
                           'max_acceleration': NOT_SET_LIMITS, 'max_jerk': NOT_SET_LIMITS,
@@ -175,6 +186,11 @@ class PlannerConfig(ValidatedConfig):
                              f'{MIN_SAMPLE_PERIOD} s')
         self.require_in_range('replan_lead_time', 0.0, MAX_LEAD_TIME, 's')
         self.require_in_range('waypoint_tolerance', 0.0, MAX_WAYPOINT_TOLERANCE)
+        for name in ('goal_position_tolerance', 'goal_velocity_tolerance'):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0.0):
+                raise ValueError(f'{name} = {value}: must be positive and finite')
+        self.require_in_range('goal_time_tolerance', 0.0, MAX_GOAL_TIME_TOLERANCE, 's')
         if n or not model:  # with all of a model's joints: checked once it is loaded
             self.validate_position_limits(n)
         if self.output not in OUTPUTS:

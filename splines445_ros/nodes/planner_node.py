@@ -27,34 +27,43 @@ other callbacks (parameter services, state subscriptions).  A bad request is
 reported and logged; the node keeps serving.
 """
 
+from dataclasses import dataclass, field
 import queue
 import threading
 import time
 import traceback
+from typing import Callable, Optional
 
 from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import PoseArray
 import numpy as np
 from rclpy.node import Node
+from rclpy.task import Future
 from rclpy.time import Time
 from sensor_msgs.msg import JointState
+from splines445_interfaces.srv import Plan
 from std_msgs.msg import String
 from trajectory_msgs.msg import JointTrajectory
+from visualization_msgs.msg import MarkerArray
 
 from . import topics
 from .diagnostics import format_vector, status_message
+from .follow_waypoints import FollowWaypointsServer
+from .interface_requests import override_values, request_message
 from .model_planning import (build_robot_setup, check_model_file, description_source,
                              load_model, plan_model_tool_request, robot_fields,
                              tool_poses_from_message)
 from .node_main import run_node
 from .parameters import ConfigParameters
+from .planned_path import planned_path_markers, tool_path_points, tool_position_function
 from .planner_config import (MAX_WAYPOINT_TOLERANCE, PlannerConfig,
                              TORQUE_STAND_IN_ACCELERATION)
 from .request_planning import (gravity_overload, gravity_overload_report, output_samples,
-                               plan_from_running, plan_request, plan_tool_request,
+                               plan_from_running, plan_request, plan_stop, plan_tool_request,
                                REPLAN_MAX_DELAY, slow_plan_warning, start_from_state,
                                summary_values, tool_summary_values)
-from .ros_conversions import parse_tool_request, parse_waypoint_request, trajectory_to_msg
+from .ros_conversions import (hold_message, parse_tool_request, parse_waypoint_request,
+                              plan_response, trajectory_to_msg)
 from ..arm.robot_model import MAX_DESCRIPTION_CHARS
 from ..planning import DEFAULT_WAYPOINT_TOLERANCE
 
@@ -169,6 +178,15 @@ PARAMETER_DESCRIPTIONS = {
     'payload_inertia': "limit_torque: the payload's inertia [kg m^2] about its centre of mass "
                        "in the tool frame's axes: empty (default) = a point mass, 3 principal "
                        'moments, or 6 values ixx, iyy, izz, ixy, ixz, iyz.',
+    'goal_position_tolerance': 'follow_waypoints goals: the arm has reached the end when every '
+                               'joint of joint_states is within this of it [rad or m], > 0 '
+                               '(default 0.01).',
+    'goal_velocity_tolerance': 'follow_waypoints goals: ... and every joint velocity of '
+                               'joint_states is within this [rad/s or m/s], > 0 (default 0.01; '
+                               "joint_trajectory_controller's stopped_velocity_tolerance).",
+    'goal_time_tolerance': 'follow_waypoints goals: how long after the planned end the arm may '
+                           'take to settle [s], in [0, 3600] (default 2); later the goal is '
+                           'aborted with the remaining error.',
 }
 PARAMETER_DESCRIPTIONS['kinematics'] = (
     'Kinematics for tool_waypoints requests: "" (none: joint space only), "planar_3dof" (the '
@@ -176,8 +194,47 @@ PARAMETER_DESCRIPTIONS['kinematics'] = (
     'robot_description: 6-D poses; joint_names, limits and tool_frame not set = from the '
     'description).')
 ROBOT_DESCRIPTION = 'robot_description'
+PLAN_SERVICE = '~/plan'
+PLAN_INTERFACE = 'plan service'
 
 _STOP = object()
+
+
+@dataclass
+class PlanJob:
+    """
+    One request for the planning worker.
+
+    ``msg``: a waypoints ``JointTrajectory`` or a tool_waypoints ``PoseArray``;
+    ``overrides``: parameter values for this request only (see
+    :mod:`.plan_overrides`); ``publish``: send the plan on joint_trajectory
+    (topics and goals; not the plan service); ``from_running``: plan from the
+    running trajectory's state while one runs (goals, so that a preempting
+    goal never jumps); ``done``: called on the worker with the PlanOutcome;
+    ``interface``: named on ``~/status``; ``kind`` 'stop' stops the running
+    trajectory (a cancelled goal) instead.
+    """
+
+    msg: object = None
+    overrides: dict = field(default_factory=dict)
+    publish: bool = True
+    from_running: bool = False
+    done: Optional[Callable] = None
+    interface: str = ''
+    kind: str = 'plan'
+
+
+@dataclass
+class PlanOutcome:
+    """What the worker made of a PlanJob: the status it reported, and the plan."""
+
+    ok: bool
+    message: str                 # the ~/status message
+    values: dict                 # the ~/status values
+    trajectory: object = None    # the planned Trajectory
+    msg: object = None           # the JointTrajectory (published when the job said so)
+    joint_names: tuple = ()
+    start_ns: Optional[int] = None  # when the published trajectory takes over
 
 
 class _Compile:
@@ -223,6 +280,10 @@ class PlannerNode(Node):
         self._active = None  # (planned Trajectory, start time [ns]) of the last publication
         self._worker = threading.Thread(target=self._work, name='planner', daemon=True)
         self._worker.start()
+        self.planned_path_publisher = self.create_publisher(
+            MarkerArray, topics.PLANNED_PATH, topics.LATCHED)
+        self.create_service(Plan, PLAN_SERVICE, self._on_plan)
+        self._follow_waypoints = FollowWaypointsServer(self)
         config = self.parameters.config
         if config.kinematics == 'model':
             with self._robot_lock:  # a bad model at start-up: invalid parameters
@@ -231,6 +292,71 @@ class PlannerNode(Node):
                 self.get_logger().info('kinematics "model": waiting for robot_description')
         self.get_logger().info(
             f'planning {config.method}/{config.timing} for {list(config.joint_names)}')
+
+    async def _on_plan(self, request, response):
+        """Serve ``~/plan``: plan (never publish to the arm), answer with the outcome."""
+        try:
+            job = self.plan_job(request_message(request.waypoints, request.tool_waypoints),
+                                override_values(request.overrides), publish=False,
+                                interface=PLAN_INTERFACE)
+        except ValueError as exc:
+            outcome = self._rejected(f'{PLAN_INTERFACE} request rejected: {exc}',
+                                     {'interface': PLAN_INTERFACE})
+        else:
+            outcome = await self.submit(job)
+        return plan_response(response, outcome)
+
+    def plan_job(self, msg, overrides, **kwargs):
+        """Return a PlanJob of ``msg`` with the parameter ``overrides`` (see PlanJob)."""
+        return PlanJob(msg, overrides, **kwargs)
+
+    async def submit(self, job):
+        """Queue ``job`` for the worker; await its outcome (the executor is not blocked)."""
+        future = Future(executor=self.executor)
+
+        def done(outcome):
+            future.set_result(outcome)
+            executor = self.executor
+            if executor is not None:
+                executor.wake()  # the awaiting coroutine resumes when the executor wakes
+        job.done = done
+        self._requests.put(job)
+        return await future
+
+    def planned_joint_names(self):
+        """Return the joints this node plans (the robot's with kinematics "model")."""
+        config = self.parameters.config
+        robot = self._robot
+        if config.kinematics == 'model' and robot is not None:
+            return robot.config.joint_names
+        return config.joint_names
+
+    def active_trajectory(self):
+        """Return the Trajectory last published to the arm (None when stopped or none)."""
+        active = self._active
+        return None if active is None else active[0]
+
+    def measured_state(self, names):
+        """
+        Latest joint_states (position, velocity or None) of the joints ``names``, or None.
+
+        None when none have arrived or they do not cover ``names``.
+        """
+        state = self._latest_joint_state
+        if state is None or len(state.position) != len(state.name):
+            return None
+        index = {name: i for i, name in enumerate(state.name)}
+        if any(name not in index for name in names):
+            return None
+        order = [index[name] for name in names]
+        position = np.array([state.position[i] for i in order], dtype=float)
+        velocity = (np.array([state.velocity[i] for i in order], dtype=float)
+                    if len(state.velocity) == len(state.name) else None)
+        return position, velocity
+
+    def report(self, ok, message, values, warn=False):
+        """Log ``message`` and publish it on ``~/status`` (see diagnostics.status_message)."""
+        self._report(ok, message, values, warn)
 
     def _on_waypoints(self, msg):
         self._requests.put(msg)
@@ -358,41 +484,81 @@ class PlannerNode(Node):
 
     def _work(self):
         while True:
-            msg = self._requests.get()
-            if msg is _STOP:
+            job = self._requests.get()
+            if job is _STOP:
                 return
-            if isinstance(msg, (String, _Compile)):
+            if isinstance(job, (String, _Compile)):
                 try:
-                    if isinstance(msg, String):
-                        self._load_description(msg)
+                    if isinstance(job, String):
+                        self._load_description(job)
                     else:
-                        self._compile(msg.source, f'model_file {msg.source[1]!r}')
+                        self._compile(job.source, f'model_file {job.source[1]!r}')
                 except Exception as exc:  # noqa: B902 - a description must never kill the node
                     self._report(False, f'robot model: internal error: '
                                         f'{type(exc).__name__}: {exc}', {})
                     self.get_logger().error(traceback.format_exc())
                 continue
-            self._request_count += 1
-            try:
-                self._serve(msg, self._request_count)
-            except Exception as exc:  # noqa: B902 - a request must never kill the node
-                self._report(False, f'internal error: {type(exc).__name__}: {exc}',
-                             {'request': self._request_count})
-                self.get_logger().error(traceback.format_exc())
+            if not isinstance(job, PlanJob):
+                job = PlanJob(job)  # a waypoints or tool_waypoints message
+            if job.kind == 'stop':
+                outcome = self._serve_stop(job)
+            else:
+                self._request_count += 1
+                try:
+                    outcome = self._serve(job, self._request_count)
+                except Exception as exc:  # noqa: B902 - a request must never kill the node
+                    message = f'internal error: {type(exc).__name__}: {exc}'
+                    self._report(False, message, {'request': self._request_count})
+                    self.get_logger().error(traceback.format_exc())
+                    outcome = PlanOutcome(False, message, {'request': self._request_count})
+            if job.done is not None:
+                try:
+                    job.done(outcome)
+                except Exception:  # noqa: B902 - a client's callback must never kill the node
+                    self.get_logger().error(traceback.format_exc())
 
-    def _serve(self, msg, request_id):
+    def _request_config(self, job):
+        """Return the config of one request: the parameters with its overrides (ValueError)."""
+        if not job.overrides:
+            return self.parameters.config
+        return self.parameters.overridden(job.overrides)
+
+    def _robot_for(self, config):
+        """
+        Return the RobotSetup that plans under ``config`` (kinematics "model"; ValueError).
+
+        The node's own, or for a request whose overrides change the limits a
+        setup of its own, built from the compiled model (quick, nothing kept).
+        """
+        robot = self._robot
+        if robot is None:
+            raise ValueError('kinematics "model" has no robot yet: set model_file or '
+                             'publish robot_description')
+        if robot_fields(config) == self._robot_fields:
+            return robot
+        with self._robot_lock:
+            if self._compiled is None:
+                raise ValueError('kinematics "model": the robot is still being set up; send '
+                                 'the request again')
+            return build_robot_setup(config, self._description, self._compiled[1])
+
+    def _serve(self, job, request_id):
+        """Plan one request, report it on ``~/status``, publish it if asked: a PlanOutcome."""
+        msg = job.msg
         config = self.parameters.config
         started = time.perf_counter()
         switch_ns = None
         switch_delay = 0.0
         tool_values = {}
         torque = {}
-        robot = self._robot if config.kinematics == 'model' else None
+        values = {'request': request_id}
+        if job.interface:
+            values['interface'] = job.interface
         try:
+            config = self._request_config(job)
+            robot = None
             if config.kinematics == 'model':
-                if robot is None:
-                    raise ValueError('kinematics "model" has no robot yet: set model_file or '
-                                     'publish robot_description')
+                robot = self._robot_for(config)
                 torque = robot.torque_kwargs(config)
                 config = robot.effective(config)  # joint names and limits of the robot
                 tool_values = robot.limits.report()
@@ -412,9 +578,10 @@ class PlannerNode(Node):
                 tool_values = tool_summary_values(tool_path)
             else:
                 request = parse_waypoint_request(msg, config.joint_names)
-                if config.start_from_current_state:
-                    requested_ns = (self.get_clock().now().nanoseconds
-                                    + int(config.replan_lead_time * 1e9))
+                now_ns = self.get_clock().now().nanoseconds
+                if config.start_from_current_state or (job.from_running
+                                                       and self._running_at(now_ns)):
+                    requested_ns = now_ns + int(config.replan_lead_time * 1e9)
                     switch_ns, traj = self._replan(config, request, requested_ns, torque)
                     switch_delay = 1e-9 * (switch_ns - requested_ns)
                 else:
@@ -422,30 +589,30 @@ class PlannerNode(Node):
             planned = time.perf_counter()
             samples = output_samples(config, traj)
         except ValueError as exc:
-            values = {'request': request_id}
             overload = gravity_overload(exc)
             if overload is not None:
                 text, details = gravity_overload_report(overload, config.joint_names,
                                                         config.torque_headroom)
                 values.update(details)
                 exc = text
-            self._report(False, f'request {request_id} rejected: {exc}', values)
-            return
+            return self._rejected(f'request {request_id} rejected: {exc}', values)
         stamp = None if switch_ns is None else Time(nanoseconds=switch_ns).to_msg()
         out = trajectory_to_msg(samples, config.joint_names, stamp)
         now_ns = self.get_clock().now().nanoseconds
         if switch_ns is not None and now_ns > switch_ns:
-            self._report(False, f'request {request_id} rejected: planning took '
-                                f'{1e3 * (time.perf_counter() - started):.1f} ms, longer than '
-                                f'replan_lead_time ({config.replan_lead_time} s); the running '
-                                'trajectory continues', {'request': request_id})
-            return
-        self.trajectory_publisher.publish(out)
-        self._active = (traj, now_ns if switch_ns is None else switch_ns)
+            return self._rejected(
+                f'request {request_id} rejected: planning took '
+                f'{1e3 * (time.perf_counter() - started):.1f} ms, longer than '
+                f'replan_lead_time ({config.replan_lead_time} s); the running '
+                'trajectory continues', values)
+        start_ns = now_ns if switch_ns is None else switch_ns
+        if job.publish:
+            self.trajectory_publisher.publish(out)
+            self._active = (traj, start_ns)
         published = time.perf_counter()
-        values = {'request': request_id, 'points': len(out.points),
-                  'planning_time_ms': f'{1e3 * (planned - started):.3f}',
-                  'publishing_time_ms': f'{1e3 * (published - planned):.3f}'}
+        values.update({'points': len(out.points),
+                       'planning_time_ms': f'{1e3 * (planned - started):.3f}',
+                       'publishing_time_ms': f'{1e3 * (published - planned):.3f}'})
         if switch_ns is not None:
             values['switch_time_ns'] = switch_ns
             values['switch_delay'] = f'{switch_delay:.9g}'
@@ -465,10 +632,93 @@ class PlannerNode(Node):
             delayed = (f'; switching {switch_delay:.3f} s after now + replan_lead_time, '
                        'since no plan met the limits from the state there')
         warning = slow_plan_warning(traj)
-        self._report(True, f'request {request_id}: {traj.method}/{traj.timing} through '
-                           f'{through} in {traj.duration:.4f} s{delayed}'
-                           + ('' if warning is None else f'; WARNING: {warning}'),
-                     values, warn=warning is not None)
+        message = (f'request {request_id}: {traj.method}/{traj.timing} through '
+                   f'{through} in {traj.duration:.4f} s{delayed}'
+                   + ('' if warning is None else f'; WARNING: {warning}'))
+        self._report(True, message, values, warn=warning is not None)
+        self._publish_planned_path(traj, config, robot)
+        return PlanOutcome(True, message, values, traj, out, config.joint_names,
+                           start_ns if job.publish else None)
+
+    def _publish_planned_path(self, traj, config, robot):
+        """Publish the plan's tool path on ``~/planned_path`` (none without a tool)."""
+        tool = tool_position_function(config, robot)
+        if tool is None:
+            return
+        forward, frame_id = tool
+        try:
+            path, waypoints = tool_path_points(traj, forward)
+        except (ValueError, ArithmeticError) as exc:  # the plan stands without its markers
+            self.get_logger().warning(f'planned_path: no markers: {exc}')
+            return
+        self.planned_path_publisher.publish(planned_path_markers(
+            path, waypoints, frame_id, self.get_clock().now().to_msg()))
+
+    def _rejected(self, message, values):
+        """Report a rejected request on ``~/status``; return its PlanOutcome."""
+        self._report(False, message, values)
+        return PlanOutcome(False, message, values)
+
+    def _running_at(self, now_ns):
+        """Return True while the last published trajectory runs at ``now_ns``."""
+        if self._active is None:
+            return False
+        running, start_ns = self._active
+        return now_ns < start_ns + int(running.duration * 1e9)
+
+    def _serve_stop(self, job):
+        """
+        Stop the running trajectory (a cancelled goal): a PlanOutcome of the stop.
+
+        The stop is planned from the commanded state at now +
+        ``replan_lead_time`` (:func:`plan_stop`) and takes over there, so the
+        arm brakes within the velocity, acceleration and jerk limits without
+        a jump; an arm already (nearly) at rest holds its commanded position.
+        """
+        config = self.parameters.config
+        if config.kinematics == 'model' and self._robot is not None:
+            config = self._robot.effective(config)
+        now_ns = self.get_clock().now().nanoseconds
+        if not self._running_at(now_ns):
+            return PlanOutcome(True, 'nothing to stop: the trajectory has ended', {})
+        running, start_ns = self._active
+        switch_ns = now_ns + int(config.replan_lead_time * 1e9)
+        t = 1e-9 * (switch_ns - start_ns)
+
+        def clock():
+            return (self.get_clock().now().nanoseconds - start_ns) * 1e-9
+        try:
+            stop = (plan_stop(config, running, t, clock)
+                    if t < running.duration else None)
+            if stop is None:
+                traj, used = None, min(t, running.duration)
+            else:
+                used, traj = stop
+            switch = start_ns + int(round(used * 1e9))
+            stamp = Time(nanoseconds=switch).to_msg()
+            if traj is None:
+                out = hold_message(running.evaluate([used], 0)[0], config.joint_names,
+                                   config.sample_period, stamp)
+            else:
+                out = trajectory_to_msg(output_samples(config, traj), config.joint_names,
+                                        stamp)
+        except ValueError as exc:
+            return self._rejected(f'stop rejected: {exc}; the running trajectory continues',
+                                  {})
+        if self.get_clock().now().nanoseconds > switch:
+            return self._rejected(f'stop rejected: planning took longer than replan_lead_time '
+                                  f'({config.replan_lead_time} s); the running trajectory '
+                                  'continues', {})
+        self.trajectory_publisher.publish(out)
+        if traj is not None:
+            self._active = (traj, switch)
+            message = (f'stopping: braking to rest in {traj.duration:.4f} s, from '
+                       f'{1e-9 * (switch - now_ns):.3f} s after the cancel')
+        else:
+            self._active = None
+            message = 'stopping: holding the commanded position'
+        self._report(True, message, {'switch_time_ns': switch})
+        return PlanOutcome(True, message, {}, traj, out, config.joint_names, switch)
 
     def _replan(self, config, request, switch_ns, torque=None):
         """
@@ -537,6 +787,7 @@ class PlannerNode(Node):
 
     def destroy_node(self):
         """Stop the planning worker, then destroy the node."""
+        self._follow_waypoints.destroy()
         self._requests.put(_STOP)
         self._worker.join(timeout=10.0)
         return super().destroy_node()

@@ -5,6 +5,7 @@ This is everything the planner node does between parsing a message and
 publishing one, so it is testable without ROS.
 """
 
+from dataclasses import replace
 import re
 
 import numpy as np
@@ -38,6 +39,9 @@ TIME_RESOLUTION = 1e-9
 # The torque limits bind a plan whose peak torque reaches this share of a limit
 # (and more than any velocity, acceleration or jerk limit's share).
 TORQUE_BINDING = 0.999
+# A stop (a cancelled goal) is planned jerk-continuous and as short as the limits allow.
+STOP_METHOD = '555'
+STOP_TIMING = 'optimal'
 
 
 def plan_request(config, request, torque=None):
@@ -304,6 +308,47 @@ def plan_from_running(config, request, running, switch_time, clock=None, torque=
                          f'time and {tried - 1} later times up to '
                          f'{candidates[-1] - switch_time:.3g} s later)') from first_error
     raise first_error
+
+
+def stop_position(config, position, velocity):
+    """
+    Return where each joint comes to rest when braking from ``velocity``: the stop's goal.
+
+    A joint braking at its acceleration limit a, reached at its jerk limit j,
+    travels about v (|v| / 2a + a / 2j); without a jerk limit the second
+    term is 0.
+    """
+    velocity = np.asarray(velocity, dtype=float)
+    acceleration = np.asarray(config.max_acceleration, dtype=float)
+    jerk = config.jerk_limits()
+    ramp = 0.0 if jerk is None else acceleration / np.asarray(jerk, dtype=float)
+    return (np.asarray(position, dtype=float)
+            + velocity * (np.abs(velocity) / (2.0 * acceleration) + 0.5 * ramp))
+
+
+def plan_stop(config, running, switch_time, clock=None):
+    """
+    Plan a stop of the ``running`` Trajectory from its state at ``switch_time`` (a cancel).
+
+    The stop starts with the running trajectory's position, velocity and
+    acceleration there, so the arm's commanded state does not jump, and ends
+    at rest at :func:`stop_position`, within the velocity, acceleration and
+    jerk limits of ``config``; it is planned with :data:`STOP_METHOD` and
+    :data:`STOP_TIMING` (no torque limits, no smoothing windows: those
+    plan rest to rest).  Later switch times are tried as in
+    :func:`plan_from_running`.  Returns ``(time, trajectory)``, or None when
+    the running trajectory is already within ``waypoint_tolerance`` of its
+    stop there (it is at rest, or nearly: the caller holds its position).
+    """
+    position, velocity = (running.evaluate([switch_time], d)[0] for d in (0, 1))
+    goal = stop_position(config, position, velocity)
+    if np.max(np.abs(goal - position)) <= config.waypoint_tolerance:
+        return None
+    zeros = np.zeros_like(goal)
+    request = WaypointRequest(goal[None, :], zeros, zeros, zeros, zeros, None)
+    stop_config = replace(config, method=STOP_METHOD, timing=STOP_TIMING,
+                          vibration_frequency=0.0)
+    return plan_from_running(stop_config, request, running, switch_time, clock)
 
 
 def slow_plan_warning(traj):

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from typing import Optional
 
 from builtin_interfaces.msg import Duration
+from diagnostic_msgs.msg import KeyValue
 import numpy as np
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
@@ -167,3 +168,47 @@ def sampled_trajectory_from_msg(msg, joint_names):
     times = np.array([duration_to_seconds(p.time_from_start) for p in msg.points])
     return SampledTrajectory(times, positions, optional['velocities'],
                              optional['accelerations'])
+
+
+def hold_message(position, joint_names, period, stamp=None):
+    """
+    Return a ``JointTrajectory`` holding ``position`` at rest: two points ``period`` apart.
+
+    ``stamp`` (builtin_interfaces/Time) is when it takes over; None = on receipt.
+    """
+    position = [float(v) for v in position]
+    zeros = [0.0] * len(position)
+    msg = JointTrajectory()
+    msg.joint_names = list(joint_names)
+    if stamp is not None:
+        msg.header.stamp = stamp
+    msg.points = [JointTrajectoryPoint(positions=position, velocities=zeros,
+                                       accelerations=zeros,
+                                       time_from_start=seconds_to_duration(t))
+                  for t in (0.0, period)]
+    return msg
+
+
+def plan_response(response, outcome):
+    """
+    Fill a ``splines445_interfaces/srv/Plan`` response from the worker's PlanOutcome.
+
+    On success: the trajectory as ``joint_trajectory`` would carry it, its
+    duration, exact per-joint peaks and binding limit; always: the
+    ``~/status`` message and values.
+    """
+    response.success = bool(outcome.ok)
+    response.message = outcome.message
+    response.values = [KeyValue(key=str(k), value=str(v)) for k, v in outcome.values.items()]
+    traj = outcome.trajectory
+    if not outcome.ok or traj is None:
+        return response
+    response.trajectory = outcome.msg
+    response.duration = float(traj.duration)
+    response.joint_names = list(outcome.joint_names)
+    peaks = traj.peaks()
+    response.peak_velocity = [float(v) for v in peaks['velocity']]
+    response.peak_acceleration = [float(v) for v in peaks['acceleration']]
+    response.peak_jerk = [float(v) for v in peaks['jerk']]
+    response.binding_limit = str(outcome.values.get('binding', ''))
+    return response

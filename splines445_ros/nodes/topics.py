@@ -12,6 +12,8 @@ Topic names (relative, so they remap and namespace) and QoS profiles.
   newer trajectory replaces an older one.
 * ``~/status``: reliable, transient-local, depth 10, so a monitor that starts
   later sees the most recent outcomes.
+* ``~/planned_path`` (planner output, visualization_msgs/MarkerArray): latched
+  like ``joint_trajectory``, so RViz started later shows the latest plan.
 * ``joint_states`` and ``tool_pose``: the sensor-style default (reliable,
   volatile, depth 10), as robot_state_publisher and the rest of ROS expect.
 """
@@ -24,6 +26,7 @@ JOINT_TRAJECTORY = 'joint_trajectory'
 JOINT_STATES = 'joint_states'
 TOOL_POSE = 'tool_pose'
 STATUS = '~/status'
+PLANNED_PATH = '~/planned_path'
 
 
 def _reliable(depth, durability):

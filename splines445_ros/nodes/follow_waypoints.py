@@ -1,0 +1,231 @@
+"""
+planner_node's ``~/follow_waypoints`` action: plan, send to the arm, follow until settled.
+
+A goal (``splines445_interfaces/action/FollowWaypoints``) carries what a
+``Plan`` request carries.  The planner's worker plans it, publishes the
+trajectory on ``joint_trajectory``, and this server then publishes feedback
+every :data:`FEEDBACK_PERIOD`: the time from the start, the time left, and the
+tracking error (measured ``joint_states`` position less the planned one at
+that time).  The goal succeeds once the planned end has passed and the arm
+has settled there (``goal_position_tolerance``, ``goal_velocity_tolerance``);
+it is aborted when it has not settled ``goal_time_tolerance`` after the end.
+
+* **Preemption.**  A new goal preempts the running one, as
+  joint_trajectory_controller's ``FollowJointTrajectory`` does: the old goal
+  is aborted ("preempted"), and the new plan starts from the running
+  trajectory's state at now + ``replan_lead_time``, so the arm does not jump.
+  A tool-pose goal plans from rest and is rejected while a goal runs.
+* **Cancel** stops the arm: a stop planned from the commanded state (the
+  worker's ``plan_stop``, within the velocity, acceleration and jerk limits)
+  takes over at now + ``replan_lead_time``; the goal ends canceled once the
+  arm has settled.
+* **Bad goals** (no or both kinds of waypoints, a malformed override, joints
+  the node does not plan) are rejected at once with the reason logged and on
+  ``~/status``; a goal whose plan fails is aborted with the planner's error.
+  A trajectory sent meanwhile on the ``waypoints`` topic replaces the goal's
+  on the arm: the goal is aborted, saying so.
+
+Nothing here blocks the executor: the execute callback is a coroutine that
+waits on futures completed by the worker and by a timer.
+"""
+
+import math
+
+import numpy as np
+from rclpy.action import ActionServer, CancelResponse, GoalResponse
+from rclpy.task import Future
+from splines445_interfaces.action import FollowWaypoints
+
+from .interface_requests import override_values, request_message
+from .ros_conversions import joint_order, seconds_to_duration
+
+ACTION = '~/follow_waypoints'
+# Period of the feedback and of the checks for cancel, preemption and the end [s].
+FEEDBACK_PERIOD = 0.05
+INTERFACE = 'follow_waypoints'
+
+
+class _Run:
+    """The state of one accepted goal."""
+
+    def __init__(self, handle):
+        self.handle = handle
+        self.preempted = False
+
+
+class FollowWaypointsServer:
+    """The action server of a :class:`~.planner_node.PlannerNode` (see the module)."""
+
+    def __init__(self, node):
+        """Create the action server and its feedback timer on ``node``."""
+        self._node = node
+        self._run = None        # the _Run of the latest accepted goal, while it runs
+        self._runs = {}         # id of a goal handle -> its _Run, until its execution starts
+        self._ticks = []        # futures awaiting the next timer tick
+        self._server = ActionServer(
+            node, FollowWaypoints, ACTION, execute_callback=self._execute,
+            goal_callback=self._on_goal, handle_accepted_callback=self._on_accepted,
+            cancel_callback=self._on_cancel)
+        self._timer = node.create_timer(FEEDBACK_PERIOD, self._on_tick)
+
+    def destroy(self):
+        """Destroy the action server and its timer."""
+        self._node.destroy_timer(self._timer)
+        self._server.destroy()
+
+    def _on_goal(self, goal):
+        try:
+            msg = request_message(goal.waypoints, goal.tool_waypoints)
+            override_values(goal.overrides)
+            if msg is goal.waypoints:
+                joint_order(msg.joint_names, self._node.planned_joint_names())
+            elif self._run is not None:
+                raise ValueError('a tool_waypoints goal plans from rest, and a goal is '
+                                 'running: cancel it first, or send joint waypoints')
+        except ValueError as exc:
+            self._node.report(False, f'{INTERFACE} goal rejected: {exc}',
+                              {'interface': INTERFACE})
+            return GoalResponse.REJECT
+        return GoalResponse.ACCEPT
+
+    def _on_accepted(self, handle):
+        if self._run is not None:
+            self._run.preempted = True
+        self._run = self._runs[id(handle)] = _Run(handle)
+        handle.execute()
+
+    def _on_cancel(self, _handle):
+        return CancelResponse.ACCEPT
+
+    def _on_tick(self):
+        ticks, self._ticks = self._ticks, []
+        for tick in ticks:
+            tick.set_result(None)
+
+    async def _tick(self):
+        tick = Future(executor=self._node.executor)
+        self._ticks.append(tick)
+        await tick
+
+    async def _execute(self, handle):
+        run = self._runs.pop(id(handle), None) or _Run(handle)
+        goal = handle.request
+        try:
+            job = self._node.plan_job(request_message(goal.waypoints, goal.tool_waypoints),
+                                      override_values(goal.overrides), publish=True,
+                                      from_running=True, interface=INTERFACE)
+            outcome = await self._node.submit(job)
+            if not outcome.ok:
+                return self._end(run, handle.abort, outcome.message)
+            if run.preempted:
+                return self._end(run, handle.abort, 'preempted by a newer goal')
+            return await self._follow(run, outcome)
+        finally:
+            if self._run is run:
+                self._run = None
+
+    async def _follow(self, run, outcome):
+        """Publish feedback until the arm settles at the end; return the result."""
+        handle, node = run.handle, self._node
+        config = node.parameters.config
+        traj, names = outcome.trajectory, outcome.joint_names
+        start_ns, end = outcome.start_ns, outcome.trajectory.duration
+        final = traj.evaluate([traj.duration], 0)[0]
+        while True:
+            await self._tick()
+            if run.preempted:
+                return self._end(run, handle.abort, 'preempted by a newer goal', names,
+                                 final)
+            if node.active_trajectory() is not traj:
+                return self._end(run, handle.abort, 'the trajectory on the arm was replaced '
+                                 '(a request on the waypoints topic)', names, final)
+            if handle.is_cancel_requested:
+                return await self._stop(run, names, final)
+            t = 1e-9 * (node.get_clock().now().nanoseconds - start_ns)
+            measured = node.measured_state(names)
+            planned = traj.evaluate([min(max(t, 0.0), end)], 0)[0]
+            handle.publish_feedback(_feedback(t, end, names, measured, planned))
+            if t < end:
+                continue
+            if _settled(measured, final, config):
+                return self._end(run, handle.succeed, f'reached the end of the '
+                                 f'{end:.4f} s trajectory and settled', names, final,
+                                 success=True, duration=end)
+            if t > end + config.goal_time_tolerance:
+                return self._end(run, handle.abort, _not_settled(measured, final, config),
+                                 names, final, duration=end)
+
+    async def _stop(self, run, names, final):
+        """Stop the arm for a cancel; return the result once it has settled."""
+        node = self._node
+        stop = await node.submit(node.plan_job(None, {}, kind='stop', interface=INTERFACE))
+        if not stop.ok:
+            # The running trajectory continues: the goal cannot end canceled.
+            return self._end(run, run.handle.abort, f'cancel failed: {stop.message}', names,
+                             final)
+        config = node.parameters.config
+        end_ns = stop.start_ns or 0
+        rest = final
+        if stop.trajectory is not None:
+            end_ns += int(stop.trajectory.duration * 1e9)
+            rest = stop.trajectory.evaluate([stop.trajectory.duration], 0)[0]
+        elif stop.msg is not None:
+            rest = np.asarray(stop.msg.points[-1].positions, dtype=float)
+        while True:
+            await self._tick()
+            now_ns = node.get_clock().now().nanoseconds
+            measured = node.measured_state(names)
+            if now_ns >= end_ns and (_settled(measured, rest, config) or now_ns > end_ns + int(
+                    config.goal_time_tolerance * 1e9)):
+                return self._end(run, run.handle.canceled, f'canceled: {stop.message}', names,
+                                 rest)
+
+    def _end(self, run, mark, message, names=(), final=None, success=False, duration=0.0):
+        """
+        Mark the goal (succeed, abort or canceled), report, and return its result.
+
+        An aborted goal is an ERROR on ``~/status``; success and cancel are OK.
+        """
+        mark()
+        result = FollowWaypoints.Result(success=success, message=message,
+                                        duration=float(duration), joint_names=list(names))
+        measured = self._node.measured_state(names) if names else None
+        if measured is not None and final is not None:
+            result.final_error = [float(v) for v in measured[0] - final]
+        self._node.report(mark != run.handle.abort, f'{INTERFACE} goal: {message}',
+                          {'interface': INTERFACE})
+        return result
+
+
+def _feedback(t, end, names, measured, planned):
+    feedback = FollowWaypoints.Feedback()
+    feedback.time_from_start = seconds_to_duration(max(t, 0.0))
+    feedback.time_left = seconds_to_duration(max(end - t, 0.0))
+    feedback.joint_names = list(names)
+    if measured is not None:
+        error = measured[0] - planned
+        feedback.tracking_error = [float(v) for v in error]
+        feedback.max_tracking_error = float(np.max(np.abs(error)))
+    else:
+        feedback.max_tracking_error = math.nan  # no joint_states of these joints yet
+    return feedback
+
+
+def _settled(measured, final, config):
+    """Return True when joint_states are within the goal tolerances of rest at ``final``."""
+    if measured is None:
+        return False
+    position, velocity = measured
+    return bool(np.max(np.abs(position - final)) <= config.goal_position_tolerance
+                and (velocity is None
+                     or np.max(np.abs(velocity)) <= config.goal_velocity_tolerance))
+
+
+def _not_settled(measured, final, config):
+    if measured is None:
+        return (f'no joint_states of the planned joints within goal_time_tolerance '
+                f'({config.goal_time_tolerance:g} s) after the end: it cannot be confirmed')
+    error = float(np.max(np.abs(measured[0] - final)))
+    return (f'the arm did not settle within goal_time_tolerance ({config.goal_time_tolerance:g}'
+            f' s) after the end: position error {error:.4g} (goal_position_tolerance '
+            f'{config.goal_position_tolerance:g})')
