@@ -19,7 +19,7 @@ PNG = b'\x89PNG\r\n\x1a\n'
 @pytest.fixture(scope='module')
 def demo(tmp_path_factory):
     out = tmp_path_factory.mktemp('demo')
-    results = run_paper_example()
+    results, _ = run_paper_example()
     metrics, paths = write_report(results, str(out))
     return results, metrics, paths
 

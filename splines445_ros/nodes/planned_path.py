@@ -4,9 +4,10 @@ The planned path as RViz markers: ``~/planned_path`` (visualization_msgs/MarkerA
 After every plan the planner publishes the tool's path through forward
 kinematics: a line strip along the trajectory and a sphere at every
 waypoint, in the frame of the tool poses (the model's ``base_frame``, or
-``world``; ``base_link`` for the planar arm), after a DELETEALL marker that
-clears the previous plan's.  A joint-space planner (``kinematics: ""``) has no
-tool, so it publishes none.
+``world`` when it is empty; ``base_link`` for the planar arm, the frame of
+``arm_sim_node``'s ``tool_pose``), after a DELETEALL marker that clears the
+previous plan's.  A joint-space planner (``kinematics: ""``) has no tool, so
+it publishes none.  Message building only: the node decides when to publish.
 """
 
 from geometry_msgs.msg import Point
@@ -14,53 +15,88 @@ import numpy as np
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
+from .arm_sim_config import ArmSimConfig
+
 # The line is sampled this often [s], with at most MAX_PATH_POINTS points.
 PATH_PERIOD = 0.01
 MAX_PATH_POINTS = 2000
-LINE_WIDTH = 0.005       # m
+LINE_WIDTH = 0.005        # m
 WAYPOINT_DIAMETER = 0.02  # m
-PLANAR_FRAME = 'base_link'
-PATH_COLOUR = ColorRGBA(r=0.1, g=0.6, b=1.0, a=1.0)
-WAYPOINT_COLOUR = ColorRGBA(r=1.0, g=0.5, b=0.0, a=1.0)
+# The planar arm's frame: the one arm_sim_node stamps its tool_pose with.
+PLANAR_FRAME = ArmSimConfig.frame_id
+# kinematics "model" with base_frame "": the model's world (the URDF root),
+# which tool_waypoints requests name 'world' too.
+WORLD_FRAME = 'world'
+PATH_NS, PATH_ID = 'tool_path', 0
+WAYPOINTS_NS, WAYPOINTS_ID = 'waypoints', 1
+PATH_COLOUR = (0.1, 0.6, 1.0, 1.0)      # r, g, b, a
+WAYPOINT_COLOUR = (1.0, 0.5, 0.0, 1.0)
 
 
-def tool_path_points(trajectory, forward):
+def path_times(trajectory, samples=None):
     """
-    Return (path (M, 3), waypoints (N, 3)): tool positions along ``trajectory`` [m].
+    Return the times (M,) at which the tool path of ``trajectory`` is drawn.
 
-    ``forward`` maps joint positions (K, n) to tool positions (K, 3).  The
-    path is sampled every :data:`PATH_PERIOD` (fewer points on long plans, at
-    most :data:`MAX_PATH_POINTS`), its end included.
+    ``samples``: how many, evenly from 0 to the end (both included, at
+    least 2); None = one every :data:`PATH_PERIOD`, at most
+    :data:`MAX_PATH_POINTS`.
     """
-    count = int(min(MAX_PATH_POINTS, max(2, trajectory.duration / PATH_PERIOD + 1)))
-    times = np.linspace(0.0, trajectory.duration, count)
-    path = forward(trajectory.evaluate(times, 0))
-    waypoints = forward(trajectory.evaluate(np.asarray(trajectory.waypoint_times), 0))
-    return np.asarray(path, dtype=float), np.asarray(waypoints, dtype=float)
+    duration = float(trajectory.duration)
+    if samples is None:
+        samples = min(MAX_PATH_POINTS, int(np.ceil(duration / PATH_PERIOD)) + 1)
+    return np.linspace(0.0, duration, max(2, int(samples)))
+
+
+def tool_path_points(trajectory, forward, samples=None):
+    """
+    Return (path (M, 3), waypoints (N, 3)): tool positions of ``trajectory`` [m].
+
+    ``forward`` maps joint positions (K, n) to tool positions (K, 3), as
+    the functions of :func:`tool_position_function` do (they take one
+    (n,) row to (3,) too).  The path is the trajectory at
+    :func:`path_times` (``samples``), its start and end included; the
+    waypoints are the trajectory's, where it passes them
+    (``waypoint_times``).
+    """
+    path = forward(trajectory.evaluate(path_times(trajectory, samples), 0))
+    passed = forward(trajectory.evaluate(np.asarray(trajectory.waypoint_times, dtype=float), 0))
+    return _xyz(path, 'path'), _xyz(passed, 'waypoints')
+
+
+def _xyz(points, what):
+    """Return ``points`` as a float (K, 3) array (ValueError for another shape)."""
+    array = np.asarray(points, dtype=float)
+    if array.ndim != 2 or array.shape[1] != 3:
+        raise ValueError(f'forward kinematics gave {what} of shape {array.shape}, '
+                         'not (K, 3)')
+    return array
 
 
 def tool_position_function(config, robot=None):
     """
-    Return (forward, frame id) for a planner config, or None without a tool.
+    Return (forward, frame id) of a planner config, or None without a tool.
 
-    ``forward`` maps joint positions (K, n) to tool positions (K, 3): the
-    planar arm's (z = 0) with ``kinematics: planar_3dof``, the robot's tool
-    frame in its ``base_frame`` with ``kinematics: model`` (``robot``, the
-    RobotSetup, with a tool frame).
+    ``forward`` maps joint positions (..., n) to tool positions (..., 3)
+    [m]: with ``kinematics: planar_3dof`` the planar arm's (``link_lengths``;
+    z = 0) in :data:`PLANAR_FRAME`; with ``kinematics: model`` the tool
+    frame of ``robot`` (the planner's RobotSetup) in its ``base_frame``
+    (:data:`WORLD_FRAME` when empty).  None for ``kinematics: ""`` (joint
+    space only) and for a model without a robot or tool frame yet.
     """
     if config.kinematics == 'planar_3dof':
         arm = config.tool_kinematics()
 
-        def planar(q):
-            pose = arm.forward(q)
-            return np.column_stack([pose[..., 0], pose[..., 1], np.zeros(len(pose))])
+        def planar(joints):
+            pose = arm.forward(joints)
+            return np.stack([pose[..., 0], pose[..., 1], np.zeros_like(pose[..., 0])],
+                            axis=-1)
         return planar, PLANAR_FRAME
     if config.kinematics == 'model' and robot is not None and robot.kinematics is not None:
         kinematics = robot.kinematics
 
-        def model(q):
-            return kinematics.forward(q)[..., :3]
-        return model, config.base_frame or 'world'
+        def model(joints):
+            return kinematics.forward(np.asarray(joints, dtype=float))[..., :3]
+        return model, kinematics.base_frame or WORLD_FRAME
     return None
 
 
@@ -69,25 +105,36 @@ def planned_path_markers(path, waypoints, frame_id, stamp=None):
     Return the MarkerArray of a plan: DELETEALL, the line strip, the waypoint spheres.
 
     ``path`` (M, 3) and ``waypoints`` (N, 3) in metres in ``frame_id``;
-    ``stamp`` (builtin_interfaces/Time) on every marker, zero when None.
+    ``stamp`` (builtin_interfaces/Time) on every marker, zero (the latest
+    transform, for RViz) when None.  The line strip (ns ``tool_path``, id 0)
+    is :data:`LINE_WIDTH` wide, the spheres (ns ``waypoints``, id 1)
+    :data:`WAYPOINT_DIAMETER` across.
     """
-    def marker(kind, marker_id, ns):
-        m = Marker(type=kind, id=marker_id, ns=ns, action=Marker.ADD)
-        m.header.frame_id = frame_id
-        if stamp is not None:
-            m.header.stamp = stamp
-        m.pose.orientation.w = 1.0
-        return m
-    clear = Marker(action=Marker.DELETEALL)
-    clear.header.frame_id = frame_id
-    if stamp is not None:
-        clear.header.stamp = stamp
-    line = marker(Marker.LINE_STRIP, 0, 'tool_path')
+    clear = _marker(frame_id, stamp, action=Marker.DELETEALL)
+    line = _marker(frame_id, stamp, type=Marker.LINE_STRIP, ns=PATH_NS, id=PATH_ID)
     line.scale.x = LINE_WIDTH
-    line.color = PATH_COLOUR
-    line.points = [Point(x=float(x), y=float(y), z=float(z)) for x, y, z in path]
-    spheres = marker(Marker.SPHERE_LIST, 1, 'waypoints')
+    line.color = ColorRGBA(r=PATH_COLOUR[0], g=PATH_COLOUR[1], b=PATH_COLOUR[2],
+                           a=PATH_COLOUR[3])
+    line.points = _points(path)
+    spheres = _marker(frame_id, stamp, type=Marker.SPHERE_LIST, ns=WAYPOINTS_NS,
+                      id=WAYPOINTS_ID)
     spheres.scale.x = spheres.scale.y = spheres.scale.z = WAYPOINT_DIAMETER
-    spheres.color = WAYPOINT_COLOUR
-    spheres.points = [Point(x=float(x), y=float(y), z=float(z)) for x, y, z in waypoints]
+    spheres.color = ColorRGBA(r=WAYPOINT_COLOUR[0], g=WAYPOINT_COLOUR[1],
+                              b=WAYPOINT_COLOUR[2], a=WAYPOINT_COLOUR[3])
+    spheres.points = _points(waypoints)
     return MarkerArray(markers=[clear, line, spheres])
+
+
+def _marker(frame_id, stamp, **fields):
+    """Return a Marker with ``fields``, the header and an identity orientation."""
+    marker = Marker(**fields)
+    marker.header.frame_id = frame_id
+    if stamp is not None:
+        marker.header.stamp = stamp
+    marker.pose.orientation.w = 1.0
+    return marker
+
+
+def _points(xyz):
+    """Return geometry_msgs/Point of (K, 3) rows."""
+    return [Point(x=float(x), y=float(y), z=float(z)) for x, y, z in _xyz(xyz, 'points')]

@@ -24,29 +24,51 @@ import sys
 
 from diagnostic_msgs.msg import DiagnosticStatus
 import numpy as np
+from sensor_msgs.msg import JointState
+from trajectory_msgs.msg import JointTrajectory
+from visualization_msgs.msg import MarkerArray
 
 from .figures import plot_joint_curves, plot_tool_path, plot_tracking
 from .in_process import InProcessSystem, stamp_ns, waypoint_message
+from .recording import McapRecording
 from .report import markdown_table, run_metrics, write_csv
 from .robot_seam_demo import run_robot_seam_demo
 from .tool_path_demo import run_tool_path_demo, TOLERANCE
 from ..arm import paper_example as pe
 from ..arm.kinematics import PlanarArm
+from ..nodes import topics
 from ..nodes.arm_sim_config import ArmSimConfig
 from ..nodes.diagnostics import status_values
 from ..planning import plan
 
 RUNS = (('434', 'uniform'), ('445', 'uniform'), ('445', 'optimal'), ('555', 'uniform'),
         ('555', 'optimal'))
-PLANNER_PARAMETERS = {'max_velocity': pe.MAX_VELOCITY.tolist(),
+# kinematics planar_3dof: the planned paths are published as markers (and recorded).
+PLANNER_PARAMETERS = {'kinematics': 'planar_3dof', 'max_velocity': pe.MAX_VELOCITY.tolist(),
                       'max_acceleration': pe.MAX_ACCELERATION.tolist(),
                       'max_jerk': [0.0, 0.0, 0.0]}  # the paper sets no jerk limit
 # The dynamic arm with its default model and controller; 100 Hz joint_states for tracking.png.
 ARM_PARAMETERS = {'simulation': 'dynamic', 'publish_rate': 100.0}
+# What the demo records (MCAP): the requests, the trajectories, the arm, the markers
+# and both nodes' statuses, each with the QoS of its publisher.
+RECORDED_TOPICS = (
+    ('/' + topics.WAYPOINTS, JointTrajectory, topics.REQUEST_QOS),
+    ('/' + topics.JOINT_TRAJECTORY, JointTrajectory, topics.LATCHED),
+    ('/' + topics.JOINT_STATES, JointState, topics.STATE_QOS),
+    ('/planner_node/planned_path', MarkerArray, topics.LATCHED),
+    ('/planner_node/status', DiagnosticStatus, topics.STATUS_QOS),
+    ('/arm_sim_node/status', DiagnosticStatus, topics.STATUS_QOS),
+)
+RECORDING = 'demo.mcap'
 
 
-def run_paper_example(runs=RUNS):
-    """Run every (method, timing) through both nodes; return one dict per run."""
+def run_paper_example(runs=RUNS, recording=None):
+    """
+    Run every (method, timing) through both nodes; return (one dict per run, counts).
+
+    ``recording``: a path to record :data:`RECORDED_TOPICS` to (MCAP), or None;
+    ``counts`` are the recorded messages per topic ({} without a recording).
+    """
     waypoints = pe.joint_waypoints()
     boundary = (pe.BOUNDARY_VELOCITY, pe.BOUNDARY_ACCELERATION,
                 pe.BOUNDARY_VELOCITY, pe.BOUNDARY_ACCELERATION)
@@ -56,6 +78,11 @@ def run_paper_example(runs=RUNS):
     arm_parameters = {**ARM_PARAMETERS, 'initial_positions': waypoints[0].tolist()}
     with InProcessSystem(planner_parameters=PLANNER_PARAMETERS,
                          arm_parameters=arm_parameters) as system:
+        recorder = (None if recording is None
+                    else McapRecording(system.client, recording, RECORDED_TOPICS))
+        if recorder is not None:
+            system.spin_until(lambda: all(
+                s.get_publisher_count() >= 1 for s in recorder.subscriptions), 10.0)
         for method, timing in runs:
             outcome = system.set_planner_parameters({'method': method, 'timing': timing})
             if not all(r.successful for r in outcome):
@@ -83,7 +110,12 @@ def run_paper_example(runs=RUNS):
                             'tool_end': (pose.x, pose.y),
                             'tracking': tracking, 'start_ns': start, 'states': settled,
                             'torque_limits': ArmSimConfig().torque_limits})
-    return results
+        counts = {}
+        if recorder is not None:
+            system.spin_for(0.1)  # the last statuses
+            recorder.close()
+            counts = dict(recorder.counts)
+    return results, counts
 
 
 def _tracking_status(system, n_arm_status, timeout=10.0):
@@ -124,8 +156,10 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument('--out', default='out', help='folder for figures and tables')
     args = parser.parse_args(argv)
+    os.makedirs(args.out, exist_ok=True)
+    recording = os.path.join(args.out, RECORDING)
     try:
-        results = run_paper_example()
+        results, counts = run_paper_example(recording=recording)
     except KeyboardInterrupt:
         return 130
     metrics, paths = write_report(results, args.out)
@@ -153,6 +187,9 @@ def main(argv=None):
           'config/ur5_joint_limits.yaml:')
     print()
     print(seam_text)
+    print()
+    print(f'Recorded to {os.path.abspath(recording)} (MCAP, the rosbag2 format): '
+          + ', '.join(f'{topic} {count}' for topic, count in counts.items()))
     print()
     print(f'Figures and tables written to {os.path.abspath(args.out)}/: '
           + ', '.join(os.path.basename(p)
