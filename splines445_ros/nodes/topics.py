@@ -12,8 +12,10 @@ Topic names (relative, so they remap and namespace) and QoS profiles.
   newer trajectory replaces an older one.
 * ``~/status``: reliable, transient-local, depth 10, so a monitor that starts
   later sees the most recent outcomes.
-* ``~/planned_path`` (planner output, visualization_msgs/MarkerArray): latched
-  like ``joint_trajectory``, so RViz started later shows the latest plan.
+* ``~/planned_path`` (planner output, visualization_msgs/MarkerArray, the
+  tool path of the latest plan): ``LATCHED`` like ``joint_trajectory``
+  (reliable, transient-local, depth 1), so an RViz started later still shows
+  the latest plan.
 * ``joint_states`` and ``tool_pose``: the sensor-style default (reliable,
   volatile, depth 10), as robot_state_publisher and the rest of ROS expect.
 """
