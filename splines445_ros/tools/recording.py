@@ -6,8 +6,11 @@ A recording of topics in MCAP, rosbag2's default storage (``ros2 bag``, Foxglove
 way rosbag2 does: profile ``ros2``, one schema per message type named
 ``pkg/msg/Type`` with encoding ``ros2msg`` and the full definition text (the
 type's ``.msg`` file followed by every type it uses, each after a line of 80
-``=`` and ``MSG: pkg/Type``), channels with message encoding ``cdr``, and log
-and publish times from the node's clock at receipt, strictly increasing.
+``=`` and ``MSG: pkg/Type``), channels with message encoding ``cdr`` and
+their ``offered_qos_profiles`` (the QoS given for the topic, in the YAML
+form of Jazzy's rosbag2, so that ``ros2 bag play`` offers latched topics as
+transient-local again), and log and publish times from the node's clock at
+receipt, strictly increasing.
 
 The ``.msg`` texts are read from the installed message packages (their share
 folders, found through the ament index, else below this Python's prefix as
@@ -19,6 +22,7 @@ import re
 import sys
 
 from mcap.writer import Writer
+import yaml
 
 # Types of the ROS 2 interface definition language that are not messages.
 PRIMITIVES = {'bool', 'byte', 'char', 'float32', 'float64', 'int8', 'uint8', 'int16',
@@ -39,7 +43,7 @@ def _share_folders(package):
                                                  PackageNotFoundError)
         try:
             folders.append(get_package_share_directory(package))
-        except PackageNotFoundError:
+        except (PackageNotFoundError, OSError):  # not indexed, or AMENT_PREFIX_PATH unset
             pass
     except ImportError:
         pass
@@ -97,6 +101,28 @@ def message_definition(msg_type):
     return '\n'.join(parts) + '\n'
 
 
+def offered_qos_profiles(qos):
+    """
+    Return the ``offered_qos_profiles`` channel metadata of ``qos`` as rosbag2 writes it.
+
+    A YAML list of one profile, in the form of Jazzy's rosbag2 (metadata
+    version 9): policies by their rmw names (``keep_last``, ``reliable``,
+    ``transient_local``, ...), durations as ``sec`` and ``nsec``.
+    ``ros2 bag play`` publishes the topic with this profile.
+    """
+    def duration(value):
+        sec, nsec = divmod(int(value.nanoseconds), 1_000_000_000)
+        return {'sec': sec, 'nsec': nsec}
+    profile = {'history': qos.history.name.lower(), 'depth': int(qos.depth),
+               'reliability': qos.reliability.name.lower(),
+               'durability': qos.durability.name.lower(),
+               'deadline': duration(qos.deadline), 'lifespan': duration(qos.lifespan),
+               'liveliness': qos.liveliness.name.lower(),
+               'liveliness_lease_duration': duration(qos.liveliness_lease_duration),
+               'avoid_ros_namespace_conventions': bool(qos.avoid_ros_namespace_conventions)}
+    return yaml.safe_dump([profile], sort_keys=False, default_flow_style=False)
+
+
 class McapRecording:
     """Record ``topics`` [(name, message class, QoS)] seen by ``node`` to ``path``."""
 
@@ -117,7 +143,8 @@ class McapRecording:
                     name=name, encoding='ros2msg',
                     data=message_definition(msg_type).encode('utf-8'))
             channel = self._writer.register_channel(
-                topic=topic, message_encoding='cdr', schema_id=schemas[name])
+                topic=topic, message_encoding='cdr', schema_id=schemas[name],
+                metadata={'offered_qos_profiles': offered_qos_profiles(qos)})
             self.counts[topic] = 0
             self.subscriptions.append(node.create_subscription(
                 msg_type, topic, self._recorder(topic, channel), qos, raw=True))
