@@ -200,7 +200,7 @@ class FollowWaypointsServer:
 def _feedback(t, end, names, measured, planned):
     feedback = FollowWaypoints.Feedback()
     feedback.time_from_start = seconds_to_duration(max(t, 0.0))
-    feedback.time_left = seconds_to_duration(max(end - t, 0.0))
+    feedback.time_left = seconds_to_duration(max(end - max(t, 0.0), 0.0))  # of the motion
     feedback.joint_names = list(names)
     if measured is not None:
         error = measured[0] - planned

@@ -196,6 +196,9 @@ PARAMETER_DESCRIPTIONS['kinematics'] = (
 ROBOT_DESCRIPTION = 'robot_description'
 PLAN_SERVICE = '~/plan'
 PLAN_INTERFACE = 'plan service'
+# A follow_waypoints goal's trajectory takes over this long after it is published [s]
+# (its header.stamp): longer than delivery to the arm takes on one machine.
+GOAL_START_DELAY = 0.05
 
 _STOP = object()
 
@@ -282,7 +285,7 @@ class PlannerNode(Node):
         self._worker.start()
         self.planned_path_publisher = self.create_publisher(
             MarkerArray, topics.PLANNED_PATH, topics.LATCHED)
-        self.create_service(Plan, PLAN_SERVICE, self._on_plan)
+        self.create_service(Plan, PLAN_SERVICE, self._on_plan, qos_profile=topics.PLAN_QOS)
         self._follow_waypoints = FollowWaypointsServer(self)
         config = self.parameters.config
         if config.kinematics == 'model':
@@ -596,9 +599,13 @@ class PlannerNode(Node):
                 values.update(details)
                 exc = text
             return self._rejected(f'request {request_id} rejected: {exc}', values)
+        now_ns = self.get_clock().now().nanoseconds
+        if switch_ns is None and job.from_running and job.publish:
+            # A goal's trajectory starts at a stamped time, so the planner and the arm
+            # agree on its clock: a later stop or preemption then switches without a jump.
+            switch_ns = now_ns + int(GOAL_START_DELAY * 1e9)
         stamp = None if switch_ns is None else Time(nanoseconds=switch_ns).to_msg()
         out = trajectory_to_msg(samples, config.joint_names, stamp)
-        now_ns = self.get_clock().now().nanoseconds
         if switch_ns is not None and now_ns > switch_ns:
             return self._rejected(
                 f'request {request_id} rejected: planning took '

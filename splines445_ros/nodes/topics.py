@@ -16,6 +16,9 @@ Topic names (relative, so they remap and namespace) and QoS profiles.
   tool path of the latest plan): ``LATCHED`` like ``joint_trajectory``
   (reliable, transient-local, depth 1), so an RViz started later still shows
   the latest plan.
+* ``~/plan`` (service): reliable, depth 1000, so a burst of calls is queued, not
+  dropped (the services default keeps 10); a client that sends bursts needs a
+  deep queue of its own too (``PLAN_QOS``).
 * ``joint_states`` and ``tool_pose``: the sensor-style default (reliable,
   volatile, depth 10), as robot_state_publisher and the rest of ROS expect.
 """
@@ -40,3 +43,4 @@ REQUEST_QOS = _reliable(100, DurabilityPolicy.VOLATILE)
 LATCHED = _reliable(1, DurabilityPolicy.TRANSIENT_LOCAL)
 STATUS_QOS = _reliable(10, DurabilityPolicy.TRANSIENT_LOCAL)
 STATE_QOS = _reliable(10, DurabilityPolicy.VOLATILE)
+PLAN_QOS = _reliable(1000, DurabilityPolicy.VOLATILE)

@@ -1,0 +1,311 @@
+"""
+planner_node's ~/plan service and ~/follow_waypoints action, both nodes in one process.
+
+The arm is simulated kinematically, so its ``joint_states`` are the commanded
+state: a stop or a preemption that jumped would show as a step larger than
+the limits allow.  Expected values come from ``plan()`` called here with the
+same limits, from the limits themselves, and from the planar arm's forward
+kinematics written out in the test.
+"""
+
+import math
+import os
+
+from action_msgs.msg import GoalStatus
+from geometry_msgs.msg import Pose
+import numpy as np
+import pytest
+from rclpy.action import ActionClient
+from rclpy.node import Node
+from splines445_interfaces.action import FollowWaypoints
+from splines445_interfaces.srv import Plan
+from splines445_ros.nodes import topics
+from splines445_ros.nodes.diagnostics import status_values
+from splines445_ros.nodes.ros_conversions import duration_to_seconds
+from splines445_ros.planning import plan
+from splines445_ros.tools.in_process import InProcessSystem, stamp_ns, waypoint_message
+from visualization_msgs.msg import Marker, MarkerArray
+
+CONFIG = os.path.join(os.path.dirname(__file__), '..', 'config', 'planar_arm.yaml')
+NAMES = ('joint1', 'joint2', 'joint3')
+V, A, J = 2.0, 10.0, 200.0  # config/planar_arm.yaml
+LINKS = (1.1, 0.9)
+W = np.array([[0.0, 0.0, 0.0], [0.5, 1.0, -0.5], [1.0, 0.5, 0.0]])
+LONG = np.array([[0.0, 0.0, 0.0], [1.5, 2.0, -1.5], [3.0, 0.0, 1.5], [0.0, -1.0, 0.0]])
+
+
+@pytest.fixture
+def system():
+    parameters = {'kinematics': 'planar_3dof', 'replan_lead_time': 0.1}
+    with InProcessSystem(planner_parameters=parameters, params_file=CONFIG,
+                         arm_parameters={'simulation': 'kinematic',
+                                         'initial_positions': [0.0, 0.0, 0.0]}) as s:
+        s.markers = []
+        s.client.create_subscription(MarkerArray, '/planner_node/planned_path',
+                                     s.markers.append, topics.LATCHED)
+        s.plan_client = s.client.create_client(Plan, '/planner_node/plan',
+                                               qos_profile=topics.PLAN_QOS)
+        s.action_client = ActionClient(s.client, FollowWaypoints,
+                                       '/planner_node/follow_waypoints')
+        assert s.spin_until(lambda: s.plan_client.service_is_ready()
+                            and s.action_client.server_is_ready(), 10.0)
+        yield s
+
+
+def call(system, request, timeout=30.0):
+    future = system.plan_client.call_async(request)
+    assert system.spin_until(future.done, timeout)
+    return future.result()
+
+
+def plan_request(waypoints=W, names=NAMES, **overrides):
+    request = Plan.Request()
+    request.waypoints = waypoint_message(names, waypoints)
+    for name, value in overrides.items():
+        setattr(request.overrides, name, value)
+    return request
+
+
+def send_goal(system, waypoints, feedback=None, names=NAMES):
+    goal = FollowWaypoints.Goal()
+    goal.waypoints = waypoint_message(names, waypoints)
+    sent = system.action_client.send_goal_async(
+        goal, feedback_callback=None if feedback is None
+        else (lambda m: feedback.append((system.client.get_clock().now().nanoseconds,
+                                         m.feedback))))
+    assert system.spin_until(sent.done, 10.0)
+    return sent.result()
+
+
+def result_of(system, handle, timeout=30.0):
+    future = handle.get_result_async()
+    assert system.spin_until(future.done, timeout)
+    return future.result()
+
+
+def reference(waypoints=W, method='445', timing='uniform'):
+    return plan(waypoints, method, timing, max_velocity=[V] * 3, max_acceleration=[A] * 3,
+                max_jerk=[J] * 3)
+
+
+def planar_tool(q):
+    """Return the planar arm's tool (x, y) at joint angles q, written out here."""
+    d1, d2 = LINKS
+    return (d1 * math.cos(q[0]) + d2 * math.cos(q[0] + q[1]),
+            d1 * math.sin(q[0]) + d2 * math.sin(q[0] + q[1]))
+
+
+def states_between(system, start_ns, end_ns=None):
+    states = [s for s in system.joint_states
+              if stamp_ns(s) >= start_ns and (end_ns is None or stamp_ns(s) <= end_ns)]
+    times = 1e-9 * np.array([stamp_ns(s) for s in states])
+    return times, np.array([s.position for s in states]), np.array([s.velocity for s in states])
+
+
+def assert_no_jump(times, positions, velocities):
+    """Between two joint_states the commanded state moves no more than the limits allow."""
+    dt = np.diff(times)[:, None]
+    assert np.max(np.abs(velocities)) <= V * (1 + 1e-6)
+    dv = np.abs(np.diff(velocities, axis=0)) - A * dt
+    dq = np.abs(np.diff(positions, axis=0)) - V * dt
+    assert np.max(dv) <= 1e-6, (np.unravel_index(np.argmax(dv), dv.shape), dv.max())
+    assert np.max(dq) <= 1e-6, (np.unravel_index(np.argmax(dq), dq.shape), dq.max())
+
+
+def test_plan_service_answers_with_the_plan_and_does_not_move_the_arm(system):
+    n_trajectories = len(system.trajectories)
+    response = call(system, plan_request())
+    expected = reference()
+    assert response.success, response.message
+    assert response.duration == pytest.approx(expected.duration, rel=1e-9)
+    assert list(response.joint_names) == list(NAMES)
+    peaks = expected.peaks()
+    for field, key in (('peak_velocity', 'velocity'), ('peak_acceleration', 'acceleration'),
+                       ('peak_jerk', 'jerk')):
+        np.testing.assert_allclose(getattr(response, field), peaks[key], rtol=1e-9)
+    assert max(response.peak_velocity) <= V and max(response.peak_jerk) <= J * (1 + 1e-9)
+    assert response.binding_limit.split()[0] in NAMES
+    values = {kv.key: kv.value for kv in response.values}
+    assert float(values['duration']) == pytest.approx(expected.duration, rel=1e-8)
+    assert values['interface'] == 'plan service'
+    times = [duration_to_seconds(p.time_from_start) for p in response.trajectory.points]
+    assert times[-1] == pytest.approx(expected.duration, abs=1e-9)
+    np.testing.assert_allclose(response.trajectory.points[-1].positions, W[-1], atol=1e-12)
+    # The same text as on ~/status, and nothing for the arm.
+    assert any(s.message == response.message for s in system.planner_status)
+    system.spin_for(0.3)
+    assert len(system.trajectories) == n_trajectories
+
+
+def test_overrides_hold_for_one_request_and_are_validated_like_parameters(system):
+    default = call(system, plan_request())
+    fast = call(system, plan_request(method='555', timing='optimal'))
+    assert fast.success, fast.message
+    expected = reference(W, '555', 'optimal')
+    assert fast.duration == pytest.approx(expected.duration, rel=1e-6)
+    assert fast.duration < default.duration
+    slow = call(system, plan_request(max_velocity=[0.5, 0.5, 0.5]))
+    assert slow.success and max(slow.peak_velocity) <= 0.5 * (1 + 1e-9)
+    assert slow.duration > default.duration
+    assert system.planner.get_parameter('method').value == '445'
+    assert system.planner.get_parameter('timing').value == 'uniform'
+    bad = call(system, plan_request(method='xyz'))
+    refused = system.set_planner_parameters({'method': 'xyz'})[0]
+    assert not bad.success and not refused.successful
+    reason = refused.reason.split('rejected: ', 1)[1]
+    assert reason in bad.message
+    assert call(system, plan_request()).duration == default.duration
+
+
+def test_bad_service_requests_get_an_error_response(system):
+    response = call(system, Plan.Request())
+    assert not response.success and 'both are empty' in response.message
+    both = plan_request()
+    both.tool_waypoints.poses = [Pose(), Pose()]
+    response = call(system, both)
+    assert not response.success and 'not both' in response.message
+    unknown = call(system, plan_request(names=('joint1', 'joint2', 'wrist')))
+    assert not unknown.success and "'wrist'" in unknown.message
+    nan = W.copy()
+    nan[1, 1] = math.nan
+    response = call(system, plan_request(nan))
+    assert not response.success and response.message
+
+
+def test_a_hundred_concurrent_calls_are_all_answered(system):
+    requests = [plan_request() if k % 3 else plan_request(names=('a', 'b', 'c'))
+                for k in range(100)]
+    futures = [system.plan_client.call_async(r) for r in requests]
+    assert system.spin_until(lambda: all(f.done() for f in futures), 120.0)
+    results = [f.result() for f in futures]
+    assert [r.success for r in results] == [bool(k % 3) for k in range(100)]
+    assert len({r.duration for r in results if r.success}) == 1
+    assert call(system, plan_request()).success
+
+
+def test_a_goal_reports_feedback_and_succeeds_once_the_arm_has_settled(system):
+    feedback = []
+    handle = send_goal(system, W, feedback)
+    assert handle.accepted
+    result = result_of(system, handle)
+    expected = reference()
+    assert result.status == GoalStatus.STATUS_SUCCEEDED, result.result.message
+    assert result.result.success
+    assert result.result.duration == pytest.approx(expected.duration, rel=1e-9)
+    assert np.max(np.abs(result.result.final_error)) <= 0.01
+    assert len(feedback) >= 10
+    elapsed = [duration_to_seconds(f.time_from_start) for _, f in feedback]
+    left = [duration_to_seconds(f.time_left) for _, f in feedback]
+    assert all(b >= a for a, b in zip(elapsed, elapsed[1:]))
+    assert all(b <= a for a, b in zip(left, left[1:])) and left[-1] == 0.0
+    for (_, f), t, rest in zip(feedback, elapsed, left):
+        assert list(f.joint_names) == list(NAMES)
+        if t < expected.duration:
+            assert t + rest == pytest.approx(expected.duration, abs=1e-6)
+    # Kinematic arm: it is where the plan says, within one joint_states period of motion.
+    errors = [f.max_tracking_error for _, f in feedback if not math.isnan(f.max_tracking_error)]
+    assert errors and max(errors) <= V * 0.05
+    np.testing.assert_allclose(system.joint_states[-1].position, W[-1], atol=1e-6)
+
+
+def test_cancel_stops_the_arm_within_its_limits(system):
+    handle = send_goal(system, LONG)
+    assert handle.accepted
+    duration = reference(LONG).duration
+    system.spin_for(0.4 * duration)
+    cancel_ns = system.client.get_clock().now().nanoseconds
+    cancel = handle.cancel_goal_async()
+    assert system.spin_until(cancel.done, 5.0)
+    result = result_of(system, handle)
+    assert result.status == GoalStatus.STATUS_CANCELED, result.result.message
+    system.spin_for(1.0)
+    times, positions, velocities = states_between(system, cancel_ns - int(0.2e9))
+    assert times.size > 20
+    assert_no_jump(times, positions, velocities)
+    # It came to rest within a second, long before the plan's end, and stays there.
+    stopped = 1e-9 * cancel_ns + 1.0
+    assert np.all(np.abs(velocities[times > stopped]) == 0.0) and np.any(times > stopped)
+    assert 1e-9 * (stamp_ns(system.joint_states[-1])) - 1e-9 * cancel_ns < duration
+    assert np.max(np.abs(positions[-1] - LONG[-1])) > 0.1
+    moving = np.max(np.abs(velocities[times < 1e-9 * cancel_ns]))
+    assert moving > 0.5  # it was moving when cancelled
+
+
+def test_a_new_goal_preempts_the_running_one_without_a_jump(system):
+    first = send_goal(system, LONG)
+    assert first.accepted
+    system.spin_for(1.0)
+    switch_ns = system.client.get_clock().now().nanoseconds
+    second = send_goal(system, np.array([[0.0, 0.0, 0.0], [-0.5, 0.5, 0.2]]))
+    assert second.accepted
+    first_result = result_of(system, first)
+    assert first_result.status == GoalStatus.STATUS_ABORTED
+    assert 'preempted' in first_result.result.message
+    second_result = result_of(system, second)
+    assert second_result.status == GoalStatus.STATUS_SUCCEEDED, second_result.result.message
+    np.testing.assert_allclose(system.joint_states[-1].position, [-0.5, 0.5, 0.2], atol=1e-6)
+    times, positions, velocities = states_between(system, switch_ns - int(0.2e9))
+    assert_no_jump(times, positions, velocities)
+
+
+def test_malformed_goals_are_rejected_with_the_reason(system):
+    n_status = len(system.planner_status)
+    goal = FollowWaypoints.Goal()
+    sent = system.action_client.send_goal_async(goal)
+    assert system.spin_until(sent.done, 10.0) and not sent.result().accepted
+    assert not send_goal(system, W, names=('joint1', 'joint2', 'elbow')).accepted
+    system.spin_for(0.2)
+    messages = [s.message for s in system.planner_status[n_status:]]
+    assert any('both are empty' in m for m in messages)
+    assert any("unknown joints ['elbow']" in m for m in messages)
+    # A goal whose plan fails is accepted, then aborted with the planner's error.
+    nan = W.copy()
+    nan[2, 0] = math.nan
+    handle = send_goal(system, nan)
+    assert handle.accepted
+    result = result_of(system, handle)
+    assert result.status == GoalStatus.STATUS_ABORTED and not result.result.success
+    assert result.result.message.startswith('request ')
+    assert any(s.message == result.result.message for s in system.planner_status)
+
+
+def test_a_client_that_goes_away_leaves_the_node_serving(system):
+    other = system.add(Node('vanishing_client', context=system.context))
+    client = ActionClient(other, FollowWaypoints, '/planner_node/follow_waypoints')
+    assert system.spin_until(client.server_is_ready, 10.0)
+    goal = FollowWaypoints.Goal()
+    goal.waypoints = waypoint_message(NAMES, W)
+    sent = client.send_goal_async(goal)
+    assert system.spin_until(sent.done, 10.0) and sent.result().accepted
+    system.spin_for(0.3)
+    client.destroy()
+    system.executor.remove_node(other)
+    other.destroy_node()
+    system.spin_for(0.3)
+    handle = send_goal(system, W[::-1])
+    assert handle.accepted
+    result = result_of(system, handle)
+    assert result.status == GoalStatus.STATUS_SUCCEEDED, result.result.message
+    np.testing.assert_allclose(system.joint_states[-1].position, W[0], atol=1e-6)
+
+
+def test_markers_follow_every_plan(system):
+    assert call(system, plan_request()).success
+    assert system.spin_until(lambda: system.markers, 5.0)
+    markers = system.markers[-1].markers
+    assert markers[0].action == Marker.DELETEALL
+    line = next(m for m in markers if m.type == Marker.LINE_STRIP)
+    spheres = next(m for m in markers if m.type == Marker.SPHERE_LIST)
+    assert line.header.frame_id == spheres.header.frame_id == 'base_link'
+    for point, q in ((line.points[0], W[0]), (line.points[-1], W[-1])):
+        assert (point.x, point.y) == pytest.approx(planar_tool(q), abs=1e-9)
+    assert [(p.x, p.y) for p in spheres.points] == [pytest.approx(planar_tool(q), abs=1e-9)
+                                                    for q in W]
+    # The path stays where the arm can reach: within d1 + d2 of the base.
+    assert all(math.hypot(p.x, p.y) <= sum(LINKS) + 1e-9 for p in line.points)
+    n = len(system.markers)
+    assert call(system, plan_request(W[::-1])).success
+    assert system.spin_until(lambda: len(system.markers) > n, 5.0)
+    first = system.markers[-1].markers[1].points[0]
+    assert (first.x, first.y) == pytest.approx(planar_tool(W[-1]), abs=1e-9)
+    assert status_values(system.planner_status[-1])['request']
