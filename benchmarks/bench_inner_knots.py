@@ -36,8 +36,8 @@ from bench_planning import toppra_trajectory  # noqa: E402, I100
 import numpy as np  # noqa: E402, I100
 from shaking import (FREQUENCIES, of_toppra, shaking_figures, shaking_header,  # noqa: E402
                      shaking_ratios)
-from splines445_ros.arm import paper_example as pe  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
+from splines445_ros.robot import paper_example as pe  # noqa: E402
 
 SEED = 17
 N_CASES = 20

@@ -26,8 +26,8 @@ os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but th
 from bench_planning import toppra_plan, toppra_trajectory  # noqa: E402, I100
 import numpy as np  # noqa: E402, I100
 from shaking import of_toppra, shaking_figures, shaking_header, shaking_ratios  # noqa: E402
-from splines445_ros.arm import paper_example as pe  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
+from splines445_ros.robot import paper_example as pe  # noqa: E402
 
 SEED = 2024
 N_CASES = 20

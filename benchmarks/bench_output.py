@@ -26,12 +26,12 @@ os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 import numpy as np  # noqa: E402
 from rclpy.node import Node  # noqa: E402
 from rclpy.serialization import serialize_message  # noqa: E402
-from splines445_ros.arm import paper_example as pe  # noqa: E402
 from splines445_ros.nodes import topics  # noqa: E402
-from splines445_ros.nodes.planner_config import PlannerConfig  # noqa: E402
-from splines445_ros.nodes.request_planning import output_samples  # noqa: E402
 from splines445_ros.nodes.ros_conversions import trajectory_to_msg  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
+from splines445_ros.robot import paper_example as pe  # noqa: E402
+from splines445_ros.service.planner_config import PlannerConfig  # noqa: E402
+from splines445_ros.service.request_planning import output_samples  # noqa: E402
 from splines445_ros.tools.in_process import LocalRos  # noqa: E402
 from trajectory_msgs.msg import JointTrajectory  # noqa: E402
 from wall_time import best_of  # noqa: E402

@@ -31,8 +31,8 @@ import numpy as np  # noqa: E402
 from scipy.interpolate import CubicSpline  # noqa: E402
 
 from shaking import of_toppra, shaking_figures, shaking_header, shaking_ratios  # noqa: E402
-from splines445_ros.arm import paper_example as pe  # noqa: E402
 from splines445_ros.planning import chord_durations, plan  # noqa: E402
+from splines445_ros.robot import paper_example as pe  # noqa: E402
 from wall_time import best_of  # noqa: E402
 
 SIZES = ((12, 3), (100, 7), (1000, 7), (10000, 7))

@@ -24,11 +24,11 @@ import numpy as np
 
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but the rule holds
 
-from splines445_ros.arm import paper_example as pe  # noqa: E402
-from splines445_ros.nodes.planner_config import PlannerConfig  # noqa: E402
-from splines445_ros.nodes.request_planning import plan_from_running  # noqa: E402
 from splines445_ros.nodes.ros_conversions import WaypointRequest  # noqa: E402
 from splines445_ros.planning import METHODS, plan  # noqa: E402
+from splines445_ros.robot import paper_example as pe  # noqa: E402
+from splines445_ros.service.planner_config import PlannerConfig  # noqa: E402
+from splines445_ros.service.request_planning import plan_from_running  # noqa: E402
 
 SECOND = np.array([[0.2, 2.0, -2.0], [0.6, 1.6, -2.2], [0.9, 1.2, -1.5]])
 VMAX, AMAX = 2.0, 10.0

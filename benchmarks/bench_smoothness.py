@@ -63,12 +63,12 @@ import time
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but the rule holds
 
 import numpy as np  # noqa: E402, I100
-from splines445_ros.arm import paper_example as pe  # noqa: E402
-from splines445_ros.arm.dynamic_sim import DynamicArm  # noqa: E402
-from splines445_ros.arm.mujoco_model import (  # noqa: E402
-    load_arm_model, PlanarArmModel, stiffness_for_frequency)
-from splines445_ros.nodes.arm_sim_config import ArmSimConfig  # noqa: E402
 from splines445_ros.planning import METHODS, plan  # noqa: E402
+from splines445_ros.robot import paper_example as pe  # noqa: E402
+from splines445_ros.service.arm_sim_config import ArmSimConfig  # noqa: E402
+from splines445_ros.sim.dynamic_sim import DynamicArm  # noqa: E402
+from splines445_ros.sim.mujoco_model import (  # noqa: E402
+    load_arm_model, PlanarArmModel, stiffness_for_frequency)
 
 SEED = 445
 N_RANDOM = 10

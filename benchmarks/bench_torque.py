@@ -10,7 +10,7 @@ along the tool frame's z).  Limits: velocity and torque from the URDF
 (``<limit velocity>``, ``<limit effort>``); no acceleration limit in
 effect (plan() needs one: :data:`NO_ACCELERATION_LIMIT` rad/s^2 on every
 joint); jerk :data:`JERK_RATIO` times a typical acceleration (below).
-The inverse dynamics is :class:`splines445_ros.arm.dynamics.
+The inverse dynamics is :class:`splines445_ros.robot.dynamics.
 ArmDynamics` (MuJoCo RNE, payload included), the same for both planners:
 ours is given the ArmDynamics itself (its torques, and its ``gravity``
 pass for the torques at rest), TOPP-RA its ``torques``.
@@ -55,9 +55,9 @@ os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but th
 
 import numpy as np  # noqa: E402
 from shaking import of_toppra, shaking_figures, shaking_header, shaking_ratios  # noqa: E402
-from splines445_ros.arm.dynamics import ArmDynamics, effort_limits  # noqa: E402, I100
-from splines445_ros.arm.robot_model import load_robot_model  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
+from splines445_ros.robot.dynamics import ArmDynamics, effort_limits  # noqa: E402, I100
+from splines445_ros.robot.robot_model import load_robot_model  # noqa: E402
 from splines445_ros.tools import vendor_robots as vr  # noqa: E402
 from wall_time import interleaved_best_of  # noqa: E402
 

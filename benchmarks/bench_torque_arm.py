@@ -9,7 +9,7 @@ payload: 5 kg, a point mass 0.1 m along tool0's z.  The payload goes into
 the simulated model and into the controller's rigid model (its feed-forward
 knows it), by ``arm_sim_model.add_payload`` as the node does; the gains are
 those of the arm with its payload (``resolve_model_config``).  The planner's
-inverse dynamics is :class:`splines445_ros.arm.dynamics.ArmDynamics` with
+inverse dynamics is :class:`splines445_ros.robot.dynamics.ArmDynamics` with
 the same payload.
 
 Paths (fixed seed): random walks from the ready pose, 5 to 15 waypoints,
@@ -59,13 +59,13 @@ import bench_smoothness as smooth  # noqa: E402
 import bench_torque  # noqa: E402
 import numpy as np  # noqa: E402, I100
 from scipy.spatial import cKDTree  # noqa: E402
-from splines445_ros.arm.dynamic_sim import DynamicArm  # noqa: E402
-from splines445_ros.arm.dynamics import ArmDynamics  # noqa: E402
-from splines445_ros.arm.mujoco_model import load_arm_model  # noqa: E402
-from splines445_ros.nodes.arm_sim_config import ArmSimConfig  # noqa: E402
-from splines445_ros.nodes.arm_sim_model import add_payload, resolve_model_config  # noqa: E402
-from splines445_ros.nodes.planner_config import DEFAULT_TORQUE_HEADROOM  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
+from splines445_ros.robot.dynamics import ArmDynamics  # noqa: E402
+from splines445_ros.service.arm_sim_config import ArmSimConfig  # noqa: E402
+from splines445_ros.service.arm_sim_model import add_payload, resolve_model_config  # noqa: E402
+from splines445_ros.service.planner_config import DEFAULT_TORQUE_HEADROOM  # noqa: E402
+from splines445_ros.sim.dynamic_sim import DynamicArm  # noqa: E402
+from splines445_ros.sim.mujoco_model import load_arm_model  # noqa: E402
 from splines445_ros.tools import robot_seam_demo as seam  # noqa: E402
 from splines445_ros.tools import vendor_robots as vr  # noqa: E402
 

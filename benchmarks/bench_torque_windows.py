@@ -27,9 +27,9 @@ os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but th
 import bench_torque as bt  # noqa: E402, I100
 import numpy as np  # noqa: E402, I100
 from shaking import of_toppra, shaking_figures, shaking_ratios  # noqa: E402
-from splines445_ros.arm.dynamics import ArmDynamics  # noqa: E402
-from splines445_ros.arm.robot_model import load_robot_model  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
+from splines445_ros.robot.dynamics import ArmDynamics  # noqa: E402
+from splines445_ros.robot.robot_model import load_robot_model  # noqa: E402
 
 PLANS = ('default', 'smoothing=windows', 'inner_knots=0')
 

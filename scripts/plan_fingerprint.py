@@ -23,12 +23,11 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, '..'))
 
-from splines445_ros.nodes.model_planning import (  # noqa: E402
+from splines445_ros.service.model_planning import (  # noqa: E402
     build_robot_setup, plan_model_tool_request)
-from splines445_ros.nodes.planner_config import PlannerConfig  # noqa: E402
-from splines445_ros.nodes.request_planning import (  # noqa: E402
-    plan_request, plan_tool_request)
-from splines445_ros.nodes.ros_conversions import WaypointRequest  # noqa: E402
+from splines445_ros.service.planner_config import PlannerConfig  # noqa: E402
+from splines445_ros.service.request_planning import (  # noqa: E402
+    plan_request, plan_tool_request, WaypointRequest)
 from splines445_ros.tools.vendor_robots import (  # noqa: E402
     PANDA_ARM_JOINTS, PANDA_READY, panda_urdf, UR5_JOINTS, UR5_READY, ur5_urdf)
 

@@ -15,12 +15,12 @@ import math
 
 import numpy as np
 import pytest
-from splines445_ros.arm.dynamic_sim import DynamicArm, TrackingMetrics
-from splines445_ros.arm.mujoco_model import (
-    GRAVITY, load_arm_model, PlanarArmModel, stiffness_for_frequency, TOOL_OFFSET)
-from splines445_ros.arm.playback import SampledTrajectory
-from splines445_ros.nodes.arm_sim_config import ArmSimConfig
 from splines445_ros.planning import plan
+from splines445_ros.service.arm_sim_config import ArmSimConfig
+from splines445_ros.sim.dynamic_sim import DynamicArm, TrackingMetrics
+from splines445_ros.sim.mujoco_model import (GRAVITY, load_arm_model, PlanarArmModel,
+                                             stiffness_for_frequency, TOOL_OFFSET)
+from splines445_ros.sim.playback import SampledTrajectory
 
 mujoco = pytest.importorskip('mujoco')
 JOINTS = ('joint1', 'joint2', 'joint3')

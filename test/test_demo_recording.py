@@ -13,7 +13,7 @@ from mcap.reader import make_reader
 from mcap_ros2.reader import read_ros2_messages
 import numpy as np
 import pytest
-from splines445_ros.arm import paper_example as pe
+from splines445_ros.robot import paper_example as pe
 from splines445_ros.tools.demo import RECORDED_TOPICS, run_paper_example
 
 RUNS = (('555', 'optimal'), ('445', 'uniform'))

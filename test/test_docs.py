@@ -17,8 +17,8 @@ import re
 
 from file_tree import write_file
 import pytest
-from splines445_ros.nodes.arm_sim_config import ArmSimConfig
-from splines445_ros.nodes.planner_config import PlannerConfig
+from splines445_ros.service.arm_sim_config import ArmSimConfig
+from splines445_ros.service.planner_config import PlannerConfig
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 LINK = re.compile(r'!?\[[^\]]*\]\(\s*<?([^)\s>]+)>?(?:\s+"[^"]*")?\s*\)')

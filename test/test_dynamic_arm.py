@@ -15,11 +15,11 @@ from hypothesis import given, HealthCheck, settings, strategies as st
 import numpy as np
 import pytest
 from sim_clock import ClockDriver
-from splines445_ros.nodes.arm_sim_config import ArmSimConfig
 from splines445_ros.nodes.arm_sim_node import ArmSimNode
 from splines445_ros.nodes.diagnostics import status_values
 from splines445_ros.nodes.ros_conversions import trajectory_to_msg
 from splines445_ros.planning import plan
+from splines445_ros.service.arm_sim_config import ArmSimConfig
 from splines445_ros.tools.in_process import LocalRos, overrides, stamp_ns
 from trajectory_msgs.msg import JointTrajectoryPoint
 

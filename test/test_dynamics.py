@@ -1,5 +1,5 @@
 """
-Inverse dynamics with a payload (splines445_ros.arm.dynamics) against formulations written here.
+Inverse dynamics with a payload (splines445_ros.robot.dynamics) against formulations written here.
 
 Every expected value comes from outside the implementation:
 
@@ -26,8 +26,8 @@ import mujoco
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
-from splines445_ros.arm.dynamics import ArmDynamics, effort_limits
-from splines445_ros.arm.robot_model import load_robot_model, RobotModel
+from splines445_ros.robot.dynamics import ArmDynamics, effort_limits
+from splines445_ros.robot.robot_model import load_robot_model, RobotModel
 from splines445_ros.tools import vendor_robots as vr
 
 GRAVITY = 9.81

@@ -5,9 +5,9 @@ import os
 
 import numpy as np
 import pytest
-from splines445_ros.arm import paper_example as pe
-from splines445_ros.arm.kinematics import PlanarArm
 from splines445_ros.nodes.ros_conversions import duration_to_seconds
+from splines445_ros.robot import paper_example as pe
+from splines445_ros.robot.kinematics import PlanarArm
 from splines445_ros.tools.demo import run_paper_example, write_report
 from splines445_ros.tools.in_process import stamp_ns
 from splines445_ros.tools.plot_trajectory import load_dump, main as plot_main, message_to_dict

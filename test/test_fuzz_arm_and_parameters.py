@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from rclpy.exceptions import ParameterNotDeclaredException
 from rclpy.parameter import Parameter
-from splines445_ros.nodes.arm_sim_config import ArmSimConfig
-from splines445_ros.nodes.planner_config import PlannerConfig
+from splines445_ros.service.arm_sim_config import ArmSimConfig
+from splines445_ros.service.planner_config import PlannerConfig
 from splines445_ros.tools.in_process import InProcessSystem, overrides, waypoint_message
 
 N_MESSAGES = int(os.environ.get('SPLINES445_FUZZ_EXAMPLES', '2000')) // 2

@@ -14,9 +14,9 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 import pytest
-from splines445_ros.arm import joint_limits_file as jlf
-from splines445_ros.arm import robot_model as rm
-from splines445_ros.arm.mujoco_model import load_arm_model, planar_arm_mjcf, PlanarArmModel
+from splines445_ros.robot import joint_limits_file as jlf
+from splines445_ros.robot import robot_model as rm
+from splines445_ros.sim.mujoco_model import load_arm_model, planar_arm_mjcf, PlanarArmModel
 from splines445_ros.tools import vendor_robots as vr
 
 PLANAR_JOINTS = ('joint1', 'joint2', 'joint3')

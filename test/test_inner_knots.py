@@ -20,8 +20,7 @@ from splines445_ros.planning import plan
 from splines445_ros.planning.continuity_system import spline_coefficients
 from splines445_ros.planning.inner_knots import DEFAULT_INNER_KNOTS, plan_with_inner_knots
 from splines445_ros.planning.limits import JointLimits
-from splines445_ros.planning.path_constraints import (GriddedPath, JointAcceleration,
-                                                      JointVelocity)
+from splines445_ros.planning.path_constraints import GriddedPath, JointAcceleration, JointVelocity
 from splines445_ros.planning.path_velocity import PathLimits, traversal_times
 from splines445_ros.planning.planner import SMALL_REQUEST
 
@@ -307,7 +306,7 @@ def test_paper_example_with_its_boundary_values_keeps_the_smoother_knots_only_pl
     MOVING_END_GAIN, so plan() keeps the knots-only optimum, whose jerk
     varies far less.
     """
-    from splines445_ros.arm import paper_example as pe
+    from splines445_ros.robot import paper_example as pe
     from splines445_ros.planning.inner_knots import plan_with_inner_knots
     from splines445_ros.planning.limits import JointLimits
     from splines445_ros.planning.planner import MOVING_END_GAIN

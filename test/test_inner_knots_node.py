@@ -9,10 +9,10 @@ separately.
 import numpy as np
 import pytest
 from rclpy.parameter import Parameter
-from splines445_ros.nodes.planner_config import PlannerConfig
 from splines445_ros.nodes.planner_node import PlannerNode
-from splines445_ros.nodes.request_planning import plan_request, start_from_state, summary_values
 from splines445_ros.nodes.ros_conversions import WaypointRequest
+from splines445_ros.service.planner_config import PlannerConfig
+from splines445_ros.service.request_planning import plan_request, start_from_state, summary_values
 from splines445_ros.tools.in_process import LocalRos
 
 WAYPOINTS = np.array([[0.0, 0.0, 0.0], [1.0, -0.5, 0.3], [1.5, 0.5, -0.2], [0.5, 1.0, 0.4],

@@ -6,12 +6,12 @@ import xml.etree.ElementTree as ElementTree
 
 import numpy as np
 import pytest
-from splines445_ros.arm import joint_limits_file as jlf
-from splines445_ros.arm.joint_limits_file import read_joint_limits_file, resolve_limits
-from splines445_ros.arm.robot_model import load_robot_model
-from splines445_ros.nodes.model_planning import build_robot_setup
-from splines445_ros.nodes.planner_config import PlannerConfig
 from splines445_ros.planning import plan
+from splines445_ros.robot import joint_limits_file as jlf
+from splines445_ros.robot.joint_limits_file import read_joint_limits_file, resolve_limits
+from splines445_ros.robot.robot_model import load_robot_model
+from splines445_ros.service.model_planning import build_robot_setup
+from splines445_ros.service.planner_config import PlannerConfig
 from splines445_ros.tools import vendor_robots as vr
 
 # As MoveIt Setup Assistant writes it (moveit_resources style), for the UR5.

@@ -3,8 +3,8 @@
 from hypothesis import given, strategies as st
 import numpy as np
 import pytest
-from splines445_ros.arm import paper_example
-from splines445_ros.arm.kinematics import PlanarArm
+from splines445_ros.robot import paper_example
+from splines445_ros.robot.kinematics import PlanarArm
 
 
 @given(q=st.lists(st.floats(-3.0, 3.0), min_size=3, max_size=3))

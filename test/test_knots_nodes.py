@@ -10,13 +10,13 @@ import os
 from diagnostic_msgs.msg import DiagnosticStatus
 import numpy as np
 from rclpy.time import Time
-from splines445_ros.arm import paper_example as pe
 from splines445_ros.nodes.diagnostics import status_values
-from splines445_ros.nodes.request_planning import plan_tool_request
 from splines445_ros.nodes.ros_conversions import sampled_trajectory_from_msg
 from splines445_ros.planning import plan
-from splines445_ros.tools.in_process import (
-    InProcessSystem, stamp_ns, tool_waypoint_message, waypoint_message)
+from splines445_ros.robot import paper_example as pe
+from splines445_ros.service.request_planning import plan_tool_request
+from splines445_ros.tools.in_process import (InProcessSystem, stamp_ns, tool_waypoint_message,
+                                             waypoint_message)
 
 CONFIG = os.path.join(os.path.dirname(__file__), '..', 'config', 'planar_arm.yaml')
 W = pe.joint_waypoints()

@@ -25,11 +25,11 @@ and requires 1e-9 alone for 434 when the knots lie on the nanosecond grid.
 from hypothesis import assume, given, settings, strategies as st
 import numpy as np
 import pytest
-from splines445_ros.arm import paper_example as pe
-from splines445_ros.nodes.planner_config import PlannerConfig
-from splines445_ros.nodes.request_planning import output_samples
 from splines445_ros.nodes.ros_conversions import sampled_trajectory_from_msg, trajectory_to_msg
 from splines445_ros.planning import plan
+from splines445_ros.robot import paper_example as pe
+from splines445_ros.service.planner_config import PlannerConfig
+from splines445_ros.service.request_planning import output_samples
 from splines445_ros.tools.plot_trajectory import controller_view
 
 NANOS = 1_000_000_000

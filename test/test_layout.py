@@ -3,10 +3,14 @@ The package layout: one folder per concept, and who may import whom.
 
 The rules (also in each folder's ``__init__`` docstring)::
 
-    planning  numpy/scipy only: no ROS, nothing else from the package
-    arm       may import planning; no ROS
-    nodes     may import planning and arm (and ROS); never tools
-    tools     may import everything
+    planning   numpy/scipy only: no ROS, nothing else from the package
+    robot      may import planning; no ROS
+    cartesian  may import robot and planning; no ROS
+    sim        may import robot and planning; no ROS
+    service    may import sim, cartesian, robot and planning; no ROS
+    nodes      may import service and everything below it (and ROS); never tools
+    tools      may import everything but the deprecated arm
+    arm        deprecated re-exports of robot, sim and cartesian; no ROS
 
 They are checked by reading every module's imports with :mod:`ast` (imports
 inside functions included), so nothing is executed and a lazy import cannot
@@ -30,11 +34,15 @@ ROOT = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
 # Layer -> the package layers it may import.
 MAY_IMPORT = {
     'planning': {'planning'},
-    'arm': {'arm', 'planning'},
-    'nodes': {'nodes', 'arm', 'planning'},
-    'tools': {'tools', 'nodes', 'arm', 'planning'},
+    'robot': {'robot', 'planning'},
+    'cartesian': {'cartesian', 'robot', 'planning'},
+    'sim': {'sim', 'robot', 'planning'},
+    'service': {'service', 'sim', 'cartesian', 'robot', 'planning'},
+    'nodes': {'nodes', 'service', 'sim', 'cartesian', 'robot', 'planning'},
+    'tools': {'tools', 'nodes', 'service', 'sim', 'cartesian', 'robot', 'planning'},
+    'arm': {'arm', 'robot', 'sim', 'cartesian', 'planning'},
 }
-ROS_FREE = {'planning', 'arm'}
+ROS_FREE = {'planning', 'robot', 'cartesian', 'sim', 'service', 'arm'}
 ROS_MODULES = {'rclpy', 'rcl_interfaces', 'builtin_interfaces', 'launch', 'launch_ros',
                'ament_index_python', 'rosidl_runtime_py'}
 
@@ -174,27 +182,32 @@ def test_checker_flags_bad_imports(tmp_path):
         write_file(root, f'{layer}/__init__.py', '"""Layer."""\n')
     write_file(root, '__init__.py', '')
     write_file(root, 'planning/core.py', 'import numpy\nfrom rclpy.node import Node\n')
-    write_file(root, 'planning/sneaky.py', 'def f():\n    from ..arm import kinematics\n')
-    write_file(root, 'arm/sim.py', 'from .. import planning\nfrom geometry_msgs.msg import Pose\n')
-    write_file(root, 'arm/up.py', 'import pkg.nodes.node\nimport tf2_ros\n')
+    write_file(root, 'planning/sneaky.py', 'def f():\n    from ..robot import kinematics\n')
+    write_file(root, 'robot/sim.py',
+               'from .. import planning\nfrom geometry_msgs.msg import Pose\n')
+    write_file(root, 'robot/up.py', 'import pkg.nodes.node\nimport tf2_ros\n')
     write_file(root, 'nodes/node.py',
-               'import rclpy\nfrom ..arm import sim\nfrom pkg.tools import demo\n')
+               'import rclpy\nfrom ..robot import sim\nfrom pkg.tools import demo\n')
     write_file(root, 'tools/demo.py', 'from ..nodes import node\nfrom ..planning import core\n')
+    write_file(root, 'nodes/old.py', 'from ..arm import kinematics\n')
+    write_file(root, 'service/up.py', 'from ..nodes import node\n')
     write_file(root, 'stray.py', 'import os\n')
     found = violations(root)
     expected = [
         'pkg.stray: outside the layer folders',
-        'pkg/arm/sim.py:2: arm imports ROS module geometry_msgs.msg',
-        'pkg/arm/up.py:1: arm imports pkg.nodes.node',
-        'pkg/arm/up.py:2: arm imports ROS module tf2_ros',
+        'pkg/robot/sim.py:2: robot imports ROS module geometry_msgs.msg',
+        'pkg/robot/up.py:1: robot imports pkg.nodes.node',
+        'pkg/robot/up.py:2: robot imports ROS module tf2_ros',
         'pkg/nodes/node.py:3: nodes imports pkg.tools',
         'pkg/planning/core.py:2: planning imports ROS module rclpy.node',
-        'pkg/planning/sneaky.py:2: planning imports pkg.arm',
+        'pkg/planning/sneaky.py:2: planning imports pkg.robot',
+        'pkg/nodes/old.py:1: nodes imports pkg.arm',
+        'pkg/service/up.py:1: service imports pkg.nodes',
     ]
     for text in expected:
         assert any(v.startswith(text) for v in found), (text, found)
-    # Allowed imports (tools -> nodes/planning, nodes -> arm, arm -> planning) are not flagged.
-    assert not any('tools/demo.py' in v or 'arm/sim.py:1' in v or 'node.py:2' in v
+    # Allowed imports (tools -> nodes/planning, nodes -> robot, robot -> planning) are not flagged.
+    assert not any('tools/demo.py' in v or 'robot/sim.py:1' in v or 'node.py:2' in v
                    for v in found), found
 
 

@@ -15,10 +15,10 @@ from diagnostic_msgs.msg import DiagnosticStatus
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
-from splines445_ros.arm.model_drives import DEFAULT_BANDWIDTH
 from splines445_ros.nodes.arm_sim_node import ArmSimNode
 from splines445_ros.nodes.ros_conversions import trajectory_to_msg
 from splines445_ros.planning import plan
+from splines445_ros.robot.model_drives import DEFAULT_BANDWIDTH
 from splines445_ros.tools import vendor_robots as vr
 from splines445_ros.tools.in_process import LocalRos, overrides
 from urdf_reference import BatchedUrdfChain
@@ -140,9 +140,9 @@ def test_the_shipped_ur5_config_is_valid():
     """config/ur5.yaml builds both nodes' configs (model_file given as on the command line)."""
     import os
     import yaml
-    from splines445_ros.nodes.arm_sim_config import ArmSimConfig
-    from splines445_ros.nodes.model_planning import build_robot_setup
-    from splines445_ros.nodes.planner_config import PlannerConfig
+    from splines445_ros.service.arm_sim_config import ArmSimConfig
+    from splines445_ros.service.model_planning import build_robot_setup
+    from splines445_ros.service.planner_config import PlannerConfig
     path = os.path.join(os.path.dirname(__file__), '..', 'config', 'ur5.yaml')
     with open(path, encoding='utf-8') as stream:
         data = yaml.safe_load(stream)

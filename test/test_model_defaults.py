@@ -19,11 +19,11 @@ from diagnostic_msgs.msg import DiagnosticStatus
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
-from splines445_ros.arm.chain_tip import chain_tips
-from splines445_ros.arm.robot_model import load_robot_model
 from splines445_ros.nodes.diagnostics import status_values
-from splines445_ros.nodes.planner_config import PlannerConfig
 from splines445_ros.nodes.planner_node import PlannerNode
+from splines445_ros.robot.chain_tip import chain_tips
+from splines445_ros.robot.robot_model import load_robot_model
+from splines445_ros.service.planner_config import PlannerConfig
 from splines445_ros.tools import vendor_robots as vr
 from splines445_ros.tools.in_process import InProcessSystem, LocalRos, overrides, \
     waypoint_message

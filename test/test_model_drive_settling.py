@@ -20,12 +20,12 @@ spare, so the test asks for a tenth of the dead band.
 
 import numpy as np
 import pytest
-from splines445_ros.arm.dynamic_sim import DynamicArm
-from splines445_ros.arm.mujoco_model import load_arm_model
-from splines445_ros.arm.robot_model import load_robot_model
-from splines445_ros.nodes.arm_sim_config import ArmSimConfig
-from splines445_ros.nodes.arm_sim_model import resolve_model_config
 from splines445_ros.planning import plan
+from splines445_ros.robot.robot_model import load_robot_model
+from splines445_ros.service.arm_sim_config import ArmSimConfig
+from splines445_ros.service.arm_sim_model import resolve_model_config
+from splines445_ros.sim.dynamic_sim import DynamicArm
+from splines445_ros.sim.mujoco_model import load_arm_model
 from splines445_ros.tools import vendor_robots as vr
 
 pytest.importorskip('mujoco')

@@ -14,8 +14,8 @@ Expected poses come from forward kinematics written for the tests
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
-from splines445_ros.arm.inverse_kinematics import KinematicsError, ModelKinematics
-from splines445_ros.arm.robot_model import load_robot_model
+from splines445_ros.robot.inverse_kinematics import KinematicsError, ModelKinematics
+from splines445_ros.robot.robot_model import load_robot_model
 from splines445_ros.tools import vendor_robots as vr
 from urdf_reference import BatchedUrdfChain
 

@@ -5,12 +5,11 @@ import os
 from diagnostic_msgs.msg import DiagnosticStatus
 import numpy as np
 import pytest
-from splines445_ros.arm import paper_example as pe
 from splines445_ros.nodes.diagnostics import status_values
 from splines445_ros.nodes.ros_conversions import duration_to_seconds, sampled_trajectory_from_msg
 from splines445_ros.planning import plan
-from splines445_ros.tools.in_process import (
-    InProcessSystem, overrides, stamp_ns, waypoint_message)
+from splines445_ros.robot import paper_example as pe
+from splines445_ros.tools.in_process import InProcessSystem, overrides, stamp_ns, waypoint_message
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 CONFIG = os.path.join(os.path.dirname(__file__), '..', 'config', 'planar_arm.yaml')

@@ -159,7 +159,7 @@ def check_optimal(method, req, start=None):
 
 
 def test_optimal_beats_uniform_on_the_paper_example():
-    from splines445_ros.arm import paper_example as pe
+    from splines445_ros.robot import paper_example as pe
     kwargs = request_kwargs(pe.MAX_VELOCITY, pe.MAX_ACCELERATION, None,
                             (pe.BOUNDARY_VELOCITY, pe.BOUNDARY_ACCELERATION,
                              pe.BOUNDARY_VELOCITY, pe.BOUNDARY_ACCELERATION))

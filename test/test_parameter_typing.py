@@ -12,10 +12,10 @@ from diagnostic_msgs.msg import DiagnosticStatus
 import pytest
 from rcl_interfaces.msg import Parameter as ParameterMsg, ParameterType, ParameterValue
 from rclpy.parameter import Parameter
-from splines445_ros.arm import paper_example as pe
 from splines445_ros.nodes.arm_sim_node import ArmSimNode
 from splines445_ros.nodes.diagnostics import status_values
 from splines445_ros.nodes.planner_node import PlannerNode
+from splines445_ros.robot import paper_example as pe
 from splines445_ros.tools.in_process import InProcessSystem, LocalRos, waypoint_message
 
 

@@ -4,12 +4,12 @@ from hypothesis import given, strategies as st
 import numpy as np
 import pytest
 from reference_spline import random_limits
-from splines445_ros.arm import paper_example as pe
-from splines445_ros.nodes.planner_config import PlannerConfig
-from splines445_ros.nodes.request_planning import (
-    plan_from_running, REPLAN_MAX_DELAY, REPLAN_RETRY_STEP)
 from splines445_ros.nodes.ros_conversions import WaypointRequest
 from splines445_ros.planning import plan
+from splines445_ros.robot import paper_example as pe
+from splines445_ros.service.planner_config import PlannerConfig
+from splines445_ros.service.request_planning import (plan_from_running, REPLAN_MAX_DELAY,
+                                                     REPLAN_RETRY_STEP)
 
 SECOND = np.array([[0.2, 2.0, -2.0], [0.6, 1.6, -2.2], [0.9, 1.2, -1.5]])
 VMAX, AMAX = 2.0, 10.0

@@ -11,13 +11,12 @@ import math
 from builtin_interfaces.msg import Time
 import numpy as np
 import pytest
-from splines445_ros.arm import paper_example as pe
-from splines445_ros.nodes.model_planning import build_robot_setup
-from splines445_ros.nodes.planned_path import (MAX_PATH_POINTS, PATH_PERIOD,
-                                               planned_path_markers, tool_path_points,
-                                               tool_position_function)
-from splines445_ros.nodes.planner_config import PlannerConfig
+from splines445_ros.nodes.planned_path import (MAX_PATH_POINTS, PATH_PERIOD, planned_path_markers,
+                                               tool_path_points, tool_position_function)
 from splines445_ros.planning import plan
+from splines445_ros.robot import paper_example as pe
+from splines445_ros.service.model_planning import build_robot_setup
+from splines445_ros.service.planner_config import PlannerConfig
 from splines445_ros.tools import vendor_robots as vr
 from urdf_reference import BatchedUrdfChain
 from visualization_msgs.msg import Marker

@@ -7,15 +7,15 @@ from rclpy.node import Node
 from rclpy.time import Time
 from sensor_msgs.msg import JointState
 from sim_clock import ClockDriver
-from splines445_ros.arm import paper_example as pe
 from splines445_ros.nodes import topics
 from splines445_ros.nodes.diagnostics import status_values
 from splines445_ros.nodes.planner_node import PlannerNode
-from splines445_ros.nodes.request_planning import REPLAN_MAX_DELAY
 from splines445_ros.nodes.ros_conversions import sampled_trajectory_from_msg
 from splines445_ros.planning import plan
-from splines445_ros.tools.in_process import (
-    InProcessSystem, LocalRos, overrides, stamp_ns, waypoint_message)
+from splines445_ros.robot import paper_example as pe
+from splines445_ros.service.request_planning import REPLAN_MAX_DELAY
+from splines445_ros.tools.in_process import (InProcessSystem, LocalRos, overrides, stamp_ns,
+                                             waypoint_message)
 from trajectory_msgs.msg import JointTrajectory
 
 W = pe.joint_waypoints()

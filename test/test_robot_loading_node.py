@@ -13,8 +13,8 @@ import threading
 
 from diagnostic_msgs.msg import DiagnosticStatus
 import pytest
-from splines445_ros.nodes import model_planning
 from splines445_ros.nodes.diagnostics import status_values
+from splines445_ros.service import model_planning
 from splines445_ros.tools import vendor_robots as vr
 from splines445_ros.tools.in_process import InProcessSystem, overrides, waypoint_message
 from test_model_planner_node import LIMITS_YAML

@@ -15,10 +15,10 @@ from example_counts import examples
 from hypothesis import assume, given, settings, strategies as st
 import numpy as np
 import pytest
-from splines445_ros.arm.inverse_kinematics import KinematicsError, ModelKinematics
-from splines445_ros.arm.kinematics import PlanarArm
-from splines445_ros.arm.mujoco_model import planar_arm_mjcf, PlanarArmModel
-from splines445_ros.arm.robot_model import load_robot_model, MAX_DESCRIPTION_CHARS
+from splines445_ros.robot.inverse_kinematics import KinematicsError, ModelKinematics
+from splines445_ros.robot.kinematics import PlanarArm
+from splines445_ros.robot.robot_model import load_robot_model, MAX_DESCRIPTION_CHARS
+from splines445_ros.sim.mujoco_model import planar_arm_mjcf, PlanarArmModel
 from splines445_ros.tools import vendor_robots as vr
 
 

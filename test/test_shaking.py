@@ -174,7 +174,7 @@ def test_vibration_frequency_changes_nothing_with_moving_ends():
     example (moving ends) returned the unaveraged inner-knot plan, which
     shook bench_smoothness.py's 4 Hz arm six times as much.
     """
-    from splines445_ros.arm import paper_example as pe
+    from splines445_ros.robot import paper_example as pe
     kwargs = pe.plan_kwargs()
     default = plan(pe.joint_waypoints(), '555', 'optimal', **kwargs)
     shaped = plan(pe.joint_waypoints(), '555', 'optimal', vibration_frequency=4.0, **kwargs)

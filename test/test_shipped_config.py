@@ -9,8 +9,8 @@ import os
 
 from diagnostic_msgs.msg import DiagnosticStatus
 import numpy as np
-from splines445_ros.arm import paper_example as pe
 from splines445_ros.nodes.diagnostics import status_values
+from splines445_ros.robot import paper_example as pe
 from splines445_ros.tools.in_process import InProcessSystem, tool_waypoint_message
 
 

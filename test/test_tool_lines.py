@@ -16,9 +16,9 @@ from hypothesis import given, HealthCheck, settings, strategies as st
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
-from splines445_ros.arm.inverse_kinematics import ModelKinematics
-from splines445_ros.arm.robot_model import load_robot_model
-from splines445_ros.arm.tool_paths import plan_tool_path
+from splines445_ros.cartesian.tool_paths import plan_tool_path
+from splines445_ros.robot.inverse_kinematics import ModelKinematics
+from splines445_ros.robot.robot_model import load_robot_model
 from splines445_ros.tools import vendor_robots as vr
 from test_tool_paths_6d import check_1khz, DEG, MM, PANDA_LIMITS, UR5_LIMITS
 from urdf_reference import BatchedUrdfChain
@@ -152,7 +152,7 @@ def test_other_methods_keep_the_refinement(arms):
 
 def test_a_line_out_of_reach_names_its_tool_waypoints():
     """The paper's arm cannot reach near its base: the line between two reachable poses can't."""
-    from splines445_ros.arm.kinematics import PlanarArm
+    from splines445_ros.robot.kinematics import PlanarArm
     poses = np.array([[0.6, 0.05, 0.0], [-0.6, 0.05, 0.0]])
     limits = {'max_velocity': [2.0] * 3, 'max_acceleration': [10.0] * 3, 'max_jerk': [100.0] * 3}
     with pytest.raises(ValueError, match=r'line from tool waypoint 0 to 1 leaves the reach of '
@@ -165,7 +165,7 @@ def test_a_line_out_of_reach_names_its_tool_waypoints():
 @given(seed=st.integers(0, 2**32 - 1), spatial=st.booleans())
 def test_corner_blends_pass_the_corner_smoothly_within_their_share(seed, spatial):
     """Blended corners: through the waypoint, tangent continuous, within the tolerance share."""
-    from splines445_ros.arm import tool_lines as tl
+    from splines445_ros.cartesian import tool_lines as tl
     rng = np.random.default_rng(seed)
     dims = 3 if spatial else 2
     corners = np.cumsum(rng.uniform(-0.3, 0.3, (4, dims)), axis=0)
@@ -207,7 +207,7 @@ def test_corner_blends_pass_the_corner_smoothly_within_their_share(seed, spatial
 @given(seed=st.integers(0, 2**32 - 1), limited=st.booleans())
 def test_torque_limits_hold_along_tool_lines(arms, seed, limited):
     """UR5 with 5 kg: the torque (ArmDynamics, see test_dynamics) within half the efforts."""
-    from splines445_ros.arm.dynamics import ArmDynamics, effort_limits
+    from splines445_ros.robot.dynamics import ArmDynamics, effort_limits
     arm = arms['ur5']
     robot, joints = arm[0], list(arm[3])
     dynamics = ArmDynamics(robot, joints, 'tool0', payload_mass=5.0,
@@ -232,7 +232,7 @@ def test_torque_limits_hold_along_tool_lines(arms, seed, limited):
 @pytest.mark.parametrize('gap', [1e-9, 1e-6, 1e-5])
 def test_a_near_duplicate_tool_waypoint_costs_no_time(gap):
     """A waypoint within a tenth of the tolerance of the one before is merged into it."""
-    from splines445_ros.arm.kinematics import PlanarArm
+    from splines445_ros.robot.kinematics import PlanarArm
     limits = {'max_velocity': [2.0] * 3, 'max_acceleration': [10.0] * 3, 'max_jerk': [100.0] * 3}
     plain = np.array([[1.2, 0.3, 0.0], [1.0, 0.8, 0.0]])
     doubled = np.array([[1.2, 0.3, 0.0], [1.2 + gap, 0.3, 0.0], [1.0, 0.8, 0.0]])
@@ -291,7 +291,7 @@ def test_the_timing_leaves_rest_and_comes_to_rest_at_the_path_jerk():
 @pytest.mark.parametrize('robot', sorted(ROBOTS))
 def test_tool_rates_match_central_differences_of_the_tests_own_fk(arms, robot):
     """The planner's one-pass tool Jacobian against the URDF chain written in the test."""
-    from splines445_ros.arm.tool_lines import ToolRates
+    from splines445_ros.cartesian.tool_lines import ToolRates
     arm = arms[robot]
     fk = arm[7]
     rng = np.random.default_rng(7)
@@ -317,7 +317,7 @@ def test_tool_rates_match_central_differences_of_the_tests_own_fk(arms, robot):
 @pytest.mark.parametrize('robot, speed', [('ur5', 0.0), ('panda', 0.2)])
 def test_the_reported_deviation_per_edge_is_the_final_splines(arms, robot, speed):
     """The deviation per edge, from the last measure per piece, as a fresh measure finds it."""
-    from splines445_ros.arm.tool_paths import path_deviation
+    from splines445_ros.cartesian.tool_paths import path_deviation
     arm = arms[robot]
     poses = random_lines(np.random.default_rng(3), arm, 4)
     result = plan_tool_path(poses, kinematics(arm), MM, DEG, method='555', timing='optimal',
@@ -374,7 +374,7 @@ def test_the_final_check_holds_the_speed_where_the_piece_samples_miss_it(arms, r
     (without them the tool ran 0.06-0.08 % over it here): exactly, at the
     test's own FK, and the plan reports the slow-down in its speeds.
     """
-    from splines445_ros.arm import tool_lines
+    from splines445_ros.cartesian import tool_lines
     monkeypatch.setattr(tool_lines, 'PIECE_SAMPLES', 2)
     monkeypatch.setattr(tool_lines, 'SPEED_MARGIN', 1.0)
     arm = arms[robot]

@@ -8,9 +8,9 @@ from geometry_msgs.msg import Pose, PoseArray
 from hypothesis import given, settings, strategies as st
 import numpy as np
 import pytest
-from splines445_ros.arm import paper_example as pe
 from splines445_ros.nodes.diagnostics import status_values
 from splines445_ros.nodes.ros_conversions import parse_tool_request, sampled_trajectory_from_msg
+from splines445_ros.robot import paper_example as pe
 from splines445_ros.tools.in_process import InProcessSystem, overrides, tool_waypoint_message
 from urdf_reference import distance_to_polyline
 
@@ -203,7 +203,7 @@ def test_planar_kinematics_needs_three_joints(system):
 def test_params_file_configures_tool_paths():
     import os
     import yaml
-    from splines445_ros.nodes.planner_config import PlannerConfig
+    from splines445_ros.service.planner_config import PlannerConfig
     path = os.path.join(os.path.dirname(__file__), '..', 'config', 'planar_arm.yaml')
     with open(path, encoding='utf-8') as handle:
         values = yaml.safe_load(handle)['planner_node']['ros__parameters']

@@ -1,5 +1,5 @@
 """
-Straight tool paths: Taylor's bounded-deviation refinement (splines445_ros.arm.tool_paths).
+Straight tool paths: Taylor's bounded-deviation refinement (splines445_ros.cartesian.tool_paths).
 
 The deviation is checked independently of the implementation: forward
 kinematics written here, a grid 400 points per segment offset from the
@@ -11,10 +11,10 @@ from example_counts import examples
 from hypothesis import assume, event, given, settings, strategies as st
 import numpy as np
 import pytest
-from splines445_ros.arm import paper_example as pe
-from splines445_ros.arm.kinematics import PlanarArm
-from splines445_ros.arm.tool_paths import path_deviation, plan_tool_path
+from splines445_ros.cartesian.tool_paths import path_deviation, plan_tool_path
 from splines445_ros.planning import METHODS, plan
+from splines445_ros.robot import paper_example as pe
+from splines445_ros.robot.kinematics import PlanarArm
 
 D1, D2 = 1.1, 0.9
 ARM = PlanarArm(D1, D2)
@@ -123,7 +123,7 @@ def test_optimal_timing_stays_within_the_tolerance_everywhere(poses, method):
 
 
 def test_optimal_refinement_restarts_from_the_split_optimum(monkeypatch):
-    from splines445_ros.arm import tool_paths
+    from splines445_ros.cartesian import tool_paths
     calls = []
 
     def recording(waypoints, **kwargs):

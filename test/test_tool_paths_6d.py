@@ -11,12 +11,12 @@ import math
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation, Slerp
-from splines445_ros.arm import paper_example as pe
-from splines445_ros.arm.inverse_kinematics import ModelKinematics
-from splines445_ros.arm.kinematics import PlanarArm
-from splines445_ros.arm.mujoco_model import planar_arm_mjcf, PlanarArmModel
-from splines445_ros.arm.robot_model import load_robot_model
-from splines445_ros.arm.tool_paths import plan_tool_path
+from splines445_ros.cartesian.tool_paths import plan_tool_path
+from splines445_ros.robot import paper_example as pe
+from splines445_ros.robot.inverse_kinematics import ModelKinematics
+from splines445_ros.robot.kinematics import PlanarArm
+from splines445_ros.robot.robot_model import load_robot_model
+from splines445_ros.sim.mujoco_model import planar_arm_mjcf, PlanarArmModel
 from splines445_ros.tools import vendor_robots as vr
 from urdf_reference import BatchedUrdfChain
 

@@ -16,10 +16,10 @@ from diagnostic_msgs.msg import DiagnosticStatus
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
-from splines445_ros.arm import paper_example as pe
 from splines445_ros.nodes.diagnostics import status_values
 from splines445_ros.nodes.planner_node import PlannerNode
 from splines445_ros.nodes.ros_conversions import sampled_trajectory_from_msg
+from splines445_ros.robot import paper_example as pe
 from splines445_ros.tools import vendor_robots as vr
 from splines445_ros.tools.in_process import (InProcessSystem, LocalRos, overrides,
                                              tool_waypoint_message, waypoint_message)

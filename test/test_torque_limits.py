@@ -148,8 +148,8 @@ def loaded_arm(robot_name, payload_mass, seed, n_points):
     out along the tool; the waypoints (n_points, n) are a random walk of
     steps up to 0.3 rad from the ready pose.
     """
-    from splines445_ros.arm.dynamics import ArmDynamics, effort_limits
-    from splines445_ros.arm.robot_model import load_robot_model
+    from splines445_ros.robot.dynamics import ArmDynamics, effort_limits
+    from splines445_ros.robot.robot_model import load_robot_model
     from splines445_ros.tools import vendor_robots as vr
     urdf, joints, tool, ready = {
         'ur5': (vr.ur5_urdf, vr.UR5_JOINTS, 'tool0', vr.UR5_READY),

@@ -22,15 +22,14 @@ import pytest
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from scipy.spatial.transform import Rotation
-from splines445_ros.arm.dynamics import ArmDynamics
-from splines445_ros.arm.robot_model import load_robot_model
 from splines445_ros.nodes import topics
 from splines445_ros.nodes.arm_sim_node import ArmSimNode
 from splines445_ros.nodes.diagnostics import status_values
 from splines445_ros.nodes.planner_node import PlannerNode
+from splines445_ros.robot.dynamics import ArmDynamics
+from splines445_ros.robot.robot_model import load_robot_model
 from splines445_ros.tools import vendor_robots as vr
-from splines445_ros.tools.in_process import (InProcessSystem, LocalRos, overrides,
-                                             waypoint_message)
+from splines445_ros.tools.in_process import InProcessSystem, LocalRos, overrides, waypoint_message
 from trajectory_msgs.msg import JointTrajectory
 from urdf_reference import BatchedUrdfChain
 
@@ -335,8 +334,8 @@ def test_gravity_beyond_a_limit_names_the_joint_and_the_node_keeps_serving(plann
 def test_a_torque_setup_is_not_used_for_other_torque_parameters():
     """A new payload while the description compiles: refused, not planned with the old one."""
     from dataclasses import replace
-    from splines445_ros.nodes.model_planning import build_robot_setup
-    from splines445_ros.nodes.planner_config import PlannerConfig
+    from splines445_ros.service.model_planning import build_robot_setup
+    from splines445_ros.service.planner_config import PlannerConfig
     config = PlannerConfig(kinematics='model', model_file=vr.ur5_urdf(), tool_frame='tool0',
                            joint_names=tuple(vr.UR5_JOINTS), max_velocity=(0.0,),
                            max_acceleration=(0.0,), max_jerk=(0.0,), max_effort=(0.0,) * 6,
@@ -369,8 +368,8 @@ def test_a_tool_request_with_torque_limits_on_an_arm_whose_tool_frame_is_its_cha
     whose tool frame differs from the setup's: "still being set up", so
     every tool request of such an arm was refused.
     """
-    from splines445_ros.nodes.model_planning import build_robot_setup, plan_model_tool_request
-    from splines445_ros.nodes.planner_config import PlannerConfig
+    from splines445_ros.service.model_planning import build_robot_setup, plan_model_tool_request
+    from splines445_ros.service.planner_config import PlannerConfig
     config = PlannerConfig.from_values({'kinematics': 'model', 'model_file': vr.panda_urdf(),
                                         'joint_names': list(vr.PANDA_ARM_JOINTS),
                                         'max_velocity': [0.0], 'max_acceleration': [0.0],

@@ -3,11 +3,11 @@
 from diagnostic_msgs.msg import DiagnosticStatus
 import numpy as np
 import pytest
-from splines445_ros.arm import paper_example as pe
 from splines445_ros.nodes.diagnostics import status_values
-from splines445_ros.nodes.request_planning import start_from_state
 from splines445_ros.nodes.ros_conversions import WaypointRequest
 from splines445_ros.planning import DEFAULT_WAYPOINT_TOLERANCE, plan
+from splines445_ros.robot import paper_example as pe
+from splines445_ros.service.request_planning import start_from_state
 from splines445_ros.tools.in_process import InProcessSystem, overrides, waypoint_message
 
 W = pe.joint_waypoints()

@@ -1,13 +1,14 @@
 """
-The arm, pure Python: kinematics, the paper's example, playback, MuJoCo dynamics.
+Deprecated: the old home of the robot side, split into rooms (issue 37).
 
-Lives here: what describes or moves the arm itself without ROS, i.e. the
-paper's planar 3-DOF kinematics (Section III), its triangle example, the
-playback of a sampled trajectory the way joint_trajectory_controller
-interpolates it, and the dynamic arm: the MuJoCo model (built-in MJCF or a
-user's file) with its joint controller and tracking metrics.
+``splines445_ros.arm`` moved to :mod:`splines445_ros.robot` (description,
+kinematics, IK, limits, dynamics, the paper's arm), :mod:`splines445_ros.sim`
+(the simulated arm, playback) and :mod:`splines445_ros.cartesian` (tool
+paths).  The modules the documentation showed (``dynamics``,
+``inverse_kinematics``, ``kinematics``, ``robot_model``, ``tool_paths``) are
+re-exported here with a DeprecationWarning for one release.
 
-May import: numpy/scipy, mujoco and :mod:`splines445_ros.planning`.  Never rclpy or
-ROS message packages, never :mod:`splines445_ros.nodes` or
-:mod:`splines445_ros.tools` (``test/test_layout.py`` checks this).
+May import: :mod:`splines445_ros.planning`, :mod:`splines445_ros.robot`,
+:mod:`splines445_ros.sim` and :mod:`splines445_ros.cartesian` (re-exports only;
+``test/test_layout.py`` checks this).
 """

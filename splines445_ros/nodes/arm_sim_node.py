@@ -34,15 +34,15 @@ from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory
 
 from . import topics
-from .arm_sim_config import ArmSimConfig
-from .arm_sim_model import add_payload, resolve_model_config
 from .diagnostics import format_vector, status_message
 from .node_main import run_node
 from .parameters import ConfigParameters
 from .ros_conversions import sampled_trajectory_from_msg
-from ..arm.dynamic_sim import DynamicArm, rotation_to_quaternion, TrackingMetrics
-from ..arm.kinematics import PlanarArm
-from ..arm.mujoco_model import load_arm_model
+from ..robot.kinematics import PlanarArm
+from ..service.arm_sim_config import ArmSimConfig
+from ..service.arm_sim_model import add_payload, resolve_model_config
+from ..sim.dynamic_sim import DynamicArm, rotation_to_quaternion, TrackingMetrics
+from ..sim.mujoco_model import load_arm_model
 
 PER_JOINT = 'one value per joint, in joint_names order'
 PARAMETER_DESCRIPTIONS = {

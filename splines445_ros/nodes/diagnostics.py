@@ -2,6 +2,8 @@
 
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 
+from ..robot.user_text import format_vector  # noqa: F401 - the nodes' status formatting
+
 
 def status_message(name, ok, message, values=None, warn=False):
     """Build a status: level OK, WARN (``ok`` and ``warn``) or ERROR, a message and details."""
@@ -19,8 +21,3 @@ def status_message(name, ok, message, values=None, warn=False):
 def status_values(status):
     """Key/value details of a status as a dict (for clients and tests)."""
     return {kv.key: kv.value for kv in status.values}
-
-
-def format_vector(values):
-    """Per-joint numbers as a compact comma-separated string."""
-    return ', '.join(f'{float(v):.6g}' for v in values)

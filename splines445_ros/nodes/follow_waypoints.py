@@ -36,8 +36,8 @@ from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.task import Future
 from splines445_interfaces.action import FollowWaypoints
 
-from .interface_requests import override_values, request_message
 from .ros_conversions import joint_order, seconds_to_duration
+from ..service.interface_requests import override_values, request_message
 
 ACTION = '~/follow_waypoints'
 # Period of the feedback and of the checks for cancel, preemption and the end [s].

@@ -15,7 +15,7 @@ import numpy as np
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
-from .arm_sim_config import ArmSimConfig
+from ..service.arm_sim_config import ArmSimConfig
 
 # The line is sampled this often [s], with at most MAX_PATH_POINTS points.
 PATH_PERIOD = 0.01

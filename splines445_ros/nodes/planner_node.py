@@ -49,23 +49,23 @@ from visualization_msgs.msg import MarkerArray
 from . import topics
 from .diagnostics import format_vector, status_message
 from .follow_waypoints import FollowWaypointsServer
-from .interface_requests import override_values, request_message
-from .model_planning import (build_robot_setup, check_model_file, description_source,
-                             load_model, plan_model_tool_request, robot_fields,
-                             tool_poses_from_message)
 from .node_main import run_node
 from .parameters import ConfigParameters
 from .planned_path import planned_path_markers, tool_path_points, tool_position_function
-from .planner_config import (MAX_WAYPOINT_TOLERANCE, PlannerConfig,
-                             TORQUE_STAND_IN_ACCELERATION)
-from .request_planning import (gravity_overload, gravity_overload_report, output_samples,
-                               plan_from_running, plan_request, plan_stop, plan_tool_request,
-                               REPLAN_MAX_DELAY, slow_plan_warning, start_from_state,
-                               summary_values, tool_summary_values)
 from .ros_conversions import (hold_message, parse_tool_request, parse_waypoint_request,
                               plan_response, trajectory_to_msg)
-from ..arm.robot_model import MAX_DESCRIPTION_CHARS
 from ..planning import DEFAULT_WAYPOINT_TOLERANCE
+from ..robot.robot_model import MAX_DESCRIPTION_CHARS
+from ..service.interface_requests import override_values, request_message
+from ..service.model_planning import (build_robot_setup, check_model_file, description_source,
+                                      load_model, plan_model_tool_request, robot_fields,
+                                      tool_poses_from_message)
+from ..service.planner_config import (MAX_WAYPOINT_TOLERANCE, PlannerConfig,
+                                      TORQUE_STAND_IN_ACCELERATION)
+from ..service.request_planning import (gravity_overload, gravity_overload_report, output_samples,
+                                        plan_from_running, plan_request, plan_stop,
+                                        plan_tool_request, REPLAN_MAX_DELAY, slow_plan_warning,
+                                        start_from_state, summary_values, tool_summary_values)
 
 PARAMETER_DESCRIPTIONS = {
     'joint_names': 'Joints planned, in the order of the limit arrays. Not set ([""], the '

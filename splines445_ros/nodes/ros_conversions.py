@@ -18,31 +18,17 @@ not used); ``position.x``, ``position.y`` and the yaw of the orientation
 (a rotation about z; ``position.z`` must be finite and is ignored).
 """
 
-from dataclasses import dataclass
-from typing import Optional
-
 from builtin_interfaces.msg import Duration
 from diagnostic_msgs.msg import KeyValue
 import numpy as np
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-from ..arm.playback import SampledTrajectory
+from ..service.request_planning import WaypointRequest
+from ..sim.playback import SampledTrajectory
 
 NANOS = 1_000_000_000
 # A tool orientation may tilt away from a rotation about z by this much [rad].
 MAX_TOOL_TILT = 1e-6
-
-
-@dataclass
-class WaypointRequest:
-    """A parsed waypoint request, columns in the configured joint order."""
-
-    waypoints: np.ndarray
-    start_velocity: np.ndarray
-    start_acceleration: np.ndarray
-    end_velocity: np.ndarray
-    end_acceleration: np.ndarray
-    times: Optional[np.ndarray]
 
 
 def duration_to_seconds(duration):

@@ -9,8 +9,9 @@ Usage::
     traj.evaluate([0.0, 0.5], derivative=1)
 
 May import: numpy and scipy only.  Never rclpy or ROS message packages, and
-nothing from the rest of the package (:mod:`splines445_ros.arm`, ``nodes``,
-``tools``): it is the bottom layer (``test/test_layout.py`` checks this).
+nothing from the rest of the package (``robot``, ``cartesian``, ``sim``,
+``service``, ``nodes``, ``tools``): it is the bottom layer (``test/test_layout.py``
+checks this).
 """
 
 from .limits import BindingLimit, JointLimits

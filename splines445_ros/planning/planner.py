@@ -176,7 +176,7 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         (:mod:`torque`).  When ``inverse_dynamics`` has a callable attribute
         ``gravity``, ``gravity(q)`` ((N, n) -> (N, n)) must equal
         ``inverse_dynamics(q, 0, 0)`` and is called for those (as an
-        :class:`~splines445_ros.arm.dynamics.ArmDynamics`, callable as its
+        :class:`~splines445_ros.robot.dynamics.ArmDynamics`, callable as its
         ``torques``, has it: its own cheaper pass).  Rest to rest only.
         555 optimal with inner knots shapes its speed profile for them (the
         torque is one more constraint of the path-velocity step and of every

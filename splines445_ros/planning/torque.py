@@ -3,7 +3,7 @@ Joint torque limits along a trajectory (issue 25): the rigid-body torque within 
 
 The caller gives the limits ``max_torque`` (n,) and the inverse dynamics
 ``inverse_dynamics(q, qd, qdd)`` (each (N, n) -> (N, n)), ``M(q) qdd +
-c(q, qd) + g(q)`` with the payload (e.g. :class:`splines445_ros.arm.dynamics.
+c(q, qd) + g(q)`` with the payload (e.g. :class:`splines445_ros.robot.dynamics.
 ArmDynamics`); the planning core never sees the model.  About half the
 samples it asks for are at rest, ``inverse_dynamics(q, 0, 0)``, the torque
 that gravity alone needs: when ``inverse_dynamics`` has a callable

@@ -34,12 +34,12 @@ from .recording import McapRecording
 from .report import markdown_table, run_metrics, write_csv
 from .robot_seam_demo import run_robot_seam_demo
 from .tool_path_demo import run_tool_path_demo, TOLERANCE
-from ..arm import paper_example as pe
-from ..arm.kinematics import PlanarArm
 from ..nodes import topics
-from ..nodes.arm_sim_config import ArmSimConfig
 from ..nodes.diagnostics import status_values
 from ..planning import plan
+from ..robot import paper_example as pe
+from ..robot.kinematics import PlanarArm
+from ..service.arm_sim_config import ArmSimConfig
 
 RUNS = (('434', 'uniform'), ('445', 'uniform'), ('445', 'optimal'), ('555', 'uniform'),
         ('555', 'optimal'))

@@ -26,7 +26,7 @@ import numpy as np
 import yaml
 
 from .figures import plot_samples
-from ..arm.playback import SampledTrajectory
+from ..sim.playback import SampledTrajectory
 
 # Fewer points than this (with velocities) are interpolated for the figure.
 PLOT_POINTS = 2000

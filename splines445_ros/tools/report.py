@@ -14,7 +14,7 @@ import csv
 
 import numpy as np
 
-from ..arm.paper_example import distance_to_triangle
+from ..robot.paper_example import distance_to_triangle
 
 QUANTITIES = ('velocity', 'acceleration', 'jerk')
 TRACKING = ('tracking_rms_error', 'tracking_max_error', 'peak_effort', 'peak_effort_rate',

@@ -9,7 +9,7 @@ do.  Limits: velocity from the URDF, acceleration and jerk from
 ``config/<robot>_joint_limits.yaml`` (MoveIt format).
 
 * :func:`seam_table`: every method and timing with
-  :func:`~splines445_ros.arm.tool_paths.plan_tool_path` (the library): the
+  :func:`~splines445_ros.cartesian.tool_paths.plan_tool_path` (the library): the
   deviation before and after (the refinement's maxima, and an independent
   1 kHz sampling of the trajectory through forward kinematics), waypoints
   inserted, durations and planning time (median of repeats for uniform
@@ -35,12 +35,12 @@ import numpy as np
 from . import vendor_robots as vr
 from .figures import plt
 from .in_process import InProcessSystem
-from ..arm import rotations as rot
-from ..arm.inverse_kinematics import ModelKinematics
-from ..arm.joint_limits_file import read_joint_limits_file, resolve_limits
-from ..arm.robot_model import load_robot_model
-from ..arm.tool_paths import plan_tool_path
+from ..cartesian.tool_paths import plan_tool_path
 from ..nodes.diagnostics import status_values
+from ..robot import rotations as rot
+from ..robot.inverse_kinematics import ModelKinematics
+from ..robot.joint_limits_file import read_joint_limits_file, resolve_limits
+from ..robot.robot_model import load_robot_model
 
 TOLERANCE = 1e-3                    # m
 ANGLE_TOLERANCE = math.radians(1.0)

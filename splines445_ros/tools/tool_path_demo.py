@@ -4,7 +4,7 @@ The paper's triangle with straight tool paths: Taylor's refinement at 1 mm for e
 For every method of :data:`splines445_ros.planning.METHODS` and the timings
 "uniform" and "optimal", plans the triangle's 12 tool waypoints (tool
 orientation 0, rest to rest, v <= 2 rad/s, a <= 10 rad/s^2, no jerk limit)
-with :func:`splines445_ros.arm.tool_paths.plan_tool_path` and a tolerance of
+with :func:`splines445_ros.cartesian.tool_paths.plan_tool_path` and a tolerance of
 1 mm from the straight lines between consecutive waypoints, and reports the
 deviation before and after, the waypoints inserted, the duration before and
 after and the planning time.  The deviation "after" is given twice: the
@@ -22,10 +22,10 @@ import time
 import numpy as np
 
 from .figures import plt
-from ..arm import paper_example as pe
-from ..arm.kinematics import PlanarArm
-from ..arm.tool_paths import plan_tool_path
+from ..cartesian.tool_paths import plan_tool_path
 from ..planning import METHODS
+from ..robot import paper_example as pe
+from ..robot.kinematics import PlanarArm
 
 TOLERANCE = 1e-3
 TIMINGS = ('uniform', 'optimal')

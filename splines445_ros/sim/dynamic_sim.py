@@ -48,7 +48,7 @@ tabulates.
 
 import numpy as np
 
-from .mujoco_import import import_mujoco as _import_mujoco
+from ..robot.mujoco_import import import_mujoco as _import_mujoco
 
 # Commanded velocity [rad/s or m/s] at which 76 % of the dry friction is compensated
 # (more where MuJoCo's friction is softer: see the module docstring).

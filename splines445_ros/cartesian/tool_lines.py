@@ -44,13 +44,13 @@ import math
 
 import numpy as np
 
-from . import rotations as rot
 from .golden_search import golden_maxima
-from .robot_model import FrameChain
 from ..planning.path_constraints import ToolSpeed
 from ..planning.path_timing import JointPathSamples, midpoint_fractions, plan_along_path, \
     rescaled
 from ..planning.torque import check_times
+from ..robot import rotations as rot
+from ..robot.robot_model import FrameChain
 
 # Path length [m] that one radian of tool rotation counts for in s.
 ANGLE_LENGTH = 0.1

@@ -6,9 +6,9 @@ from typing import Tuple
 
 from .planner_config import check_payload, DEFAULT_JOINTS
 from .validated_config import ValidatedConfig
-from ..arm.model_drives import DEFAULT_BANDWIDTH, DEFAULT_DAMPING_RATIO
-from ..arm.mujoco_model import PlanarArmModel
-from ..arm.user_text import show
+from ..robot.model_drives import DEFAULT_BANDWIDTH, DEFAULT_DAMPING_RATIO
+from ..robot.user_text import show
+from ..sim.mujoco_model import PlanarArmModel
 
 MIN_PUBLISH_RATE = 0.001
 # The dynamic arm steps its physics in the publishing timer: at least this rate.

@@ -12,12 +12,12 @@ import math
 from typing import Tuple
 
 from .validated_config import ValidatedConfig
-from ..arm.dynamics import payload_inertia_matrix
-from ..arm.joint_limits_file import check_limit_value
-from ..arm.kinematics import PlanarArm
-from ..arm.user_text import show
 from ..planning import DEFAULT_WAYPOINT_TOLERANCE, METHODS, TIMINGS
 from ..planning.inner_knots import MAX_INNER_KNOTS, MAX_VIBRATION_FREQUENCY, smoothing_value
+from ..robot.dynamics import payload_inertia_matrix
+from ..robot.joint_limits_file import check_limit_value
+from ..robot.kinematics import PlanarArm
+from ..robot.user_text import show
 
 DEFAULT_JOINTS = ('joint1', 'joint2', 'joint3')
 # The planar arm's (and a joint-space planner's) limits when none are set.

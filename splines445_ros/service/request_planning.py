@@ -5,16 +5,16 @@ This is everything the planner node does between parsing a message and
 publishing one, so it is testable without ROS.
 """
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 import re
+from typing import Optional
 
 import numpy as np
 
-from .diagnostics import format_vector
-from .ros_conversions import WaypointRequest
-from ..arm.tool_paths import BOUNDARY_KEYWORDS, plan_tool_path
+from ..cartesian.tool_paths import BOUNDARY_KEYWORDS, plan_tool_path
 from ..planning import check_position_limits, plan
 from ..planning.path_constraints import GravityOverload
+from ..robot.user_text import format_vector
 
 # A fixed-timing request may exceed a limit by this much (round-off of times
 # that came through nanosecond Durations) before it is rejected.
@@ -42,6 +42,18 @@ TORQUE_BINDING = 0.999
 # A stop (a cancelled goal) is planned jerk-continuous and as short as the limits allow.
 STOP_METHOD = '555'
 STOP_TIMING = 'optimal'
+
+
+@dataclass
+class WaypointRequest:
+    """A parsed waypoint request, columns in the configured joint order."""
+
+    waypoints: np.ndarray
+    start_velocity: np.ndarray
+    start_acceleration: np.ndarray
+    end_velocity: np.ndarray
+    end_acceleration: np.ndarray
+    times: Optional[np.ndarray]
 
 
 def plan_request(config, request, torque=None):

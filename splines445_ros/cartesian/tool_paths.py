@@ -19,9 +19,9 @@ Any object with
 
 Poses are planar, P = 3: (x, y, yaw), or spatial, P = 7: (x, y, z, qw, qx,
 qy, qz), a position and a unit quaternion (scalar first).
-:class:`splines445_ros.arm.kinematics.PlanarArm` implements the planar
+:class:`splines445_ros.robot.kinematics.PlanarArm` implements the planar
 protocol (its ``inverse`` takes the paper's elbow branch, ``elbow=1``, by
-default); :class:`splines445_ros.arm.inverse_kinematics.ModelKinematics` the
+default); :class:`splines445_ros.robot.inverse_kinematics.ModelKinematics` the
 spatial one for any robot model.  The planar case is the special case of the
 spatial one with z = 0 and rotations about z; it keeps its own arithmetic,
 so its results are exactly those of the planar-only code.
@@ -89,7 +89,6 @@ import numbers
 
 import numpy as np
 
-from . import rotations as rot
 from .golden_search import golden_maxima
 from .tool_lines import edge_geometry, LineUnreachable, plan_tool_lines
 from ..planning import check_position_limits, JointLimits, merge_duplicates, plan
@@ -98,6 +97,7 @@ from ..planning.inner_knots import (inner_knot_count, smoothing_value, smoothing
 from ..planning.methods import get_method
 from ..planning.path_constraints import GravityOverload
 from ..planning.torque import TorqueLimit
+from ..robot import rotations as rot
 
 GRID = 24
 # Golden-section steps on each bracket of two grid cells: 10 shrink it to

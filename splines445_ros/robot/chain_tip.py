@@ -2,7 +2,7 @@
 The tip of a robot's chain: the default tool frame, like MoveIt's tip link (no rclpy).
 
 :func:`chain_tips` returns the candidates for the tool frame of a set of
-planned joints of a :class:`~splines445_ros.arm.robot_model.RobotModel`:
+planned joints of a :class:`~splines445_ros.robot.robot_model.RobotModel`:
 
 1. the *last* planned joint is the one every other planned joint lies on
    the way to (from the world); planned joints on separate branches (two

@@ -31,9 +31,9 @@ from typing import Optional, Tuple
 
 import numpy as np
 
-from .mujoco_import import import_mujoco
-from .robot_model import check_mjcf_size, read_description_file, urdf_spec
-from .user_text import clip, show, show_names, show_path
+from ..robot.mujoco_import import import_mujoco
+from ..robot.robot_model import check_mjcf_size, read_description_file, urdf_spec
+from ..robot.user_text import clip, show, show_names, show_path
 
 TOOL_SITE = 'tool'
 TOOL_OFFSET = 0.15  # m, centre of mass of the tool body beyond joint 3
@@ -241,7 +241,7 @@ def load_arm_model(joint_names, torque_limits, actuator_time_constant, timestep=
     ``tool_site`` names the site of ``tool_pose`` (built-in arm: ``tool``
     when empty; a file: none when empty); ``tool_frame`` (a file: a URDF
     link, MJCF body or site) overrides it.  A URDF ``model_file`` is read as
-    by :func:`splines445_ros.arm.robot_model.load_robot_model` (fixed-joint
+    by :func:`splines445_ros.robot.robot_model.load_robot_model` (fixed-joint
     links kept, unreadable meshes dropped) and simulated without contacts.
     """
     mujoco = import_mujoco()

@@ -1,7 +1,7 @@
 """
 Text from users: files read with a size bound, values shown in messages with a length bound.
 
-A leaf module of ``arm`` (standard library only).  :func:`read_text_file`
+A leaf module of ``robot`` (standard library only).  :func:`read_text_file`
 opens the path first and then looks at what it opened, so a directory, a
 device such as ``/dev/zero`` or a named pipe is named as such (never read,
 never waited on), and a regular file is read up to its cap and no further.
@@ -40,6 +40,11 @@ def show(value, limit=SHOWN_CHARS):
         except Exception:  # a value whose repr fails is still named
             text = f'<{type(value).__name__}>'
     return clip(text, limit)
+
+
+def format_vector(values):
+    """Per-joint numbers as a compact comma-separated string (for status values)."""
+    return ', '.join(f'{float(v):.6g}' for v in values)
 
 
 def show_names(names, most=40):

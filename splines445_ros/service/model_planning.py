@@ -6,7 +6,7 @@ from its config and the robot description (``model_file``, else the latest
 ``robot_description`` string): the compiled model, the tool kinematics of
 ``tool_frame`` in ``base_frame``, the joint limits in use (explicit
 parameters over ``joint_limits_file`` over the URDF, see
-:mod:`splines445_ros.arm.joint_limits_file`) and the *effective* planner
+:mod:`splines445_ros.robot.joint_limits_file`) and the *effective* planner
 config, with ``joint_names``, the limit arrays and the position limits
 (``min_position``/``max_position`` when set, else the model's joint
 ranges) filled in, which every
@@ -17,7 +17,7 @@ good setup.
 With ``limit_torque`` the setup also holds a :class:`TorqueSetup`: the
 torque limit of every planned joint (``max_effort``, 0 entries from the
 description as the simulated arm reads it) and the arm's inverse dynamics
-with the payload (:class:`~splines445_ros.arm.dynamics.ArmDynamics`), built
+with the payload (:class:`~splines445_ros.robot.dynamics.ArmDynamics`), built
 once per robot, joint set, tool frame and payload, never per request.  A
 joint without an acceleration limit then gets
 :data:`~.planner_config.TORQUE_STAND_IN_ACCELERATION`: the torque limits it.
@@ -31,13 +31,13 @@ import numpy as np
 
 from .planner_config import TORQUE_STAND_IN_ACCELERATION
 from .request_planning import plan_tool_poses
-from ..arm.chain_tip import chain_tips
-from ..arm.dynamics import ArmDynamics
-from ..arm.inverse_kinematics import ModelKinematics
-from ..arm.joint_limits_file import JointLimits, read_joint_limits_file, resolve_limits
-from ..arm.model_drives import model_torque_limits
-from ..arm.robot_model import load_robot_model, MAX_DESCRIPTION_CHARS, RobotModel
-from ..arm.user_text import check_text_file, show, show_path
+from ..robot.chain_tip import chain_tips
+from ..robot.dynamics import ArmDynamics
+from ..robot.inverse_kinematics import ModelKinematics
+from ..robot.joint_limits_file import JointLimits, read_joint_limits_file, resolve_limits
+from ..robot.model_drives import model_torque_limits
+from ..robot.robot_model import load_robot_model, MAX_DESCRIPTION_CHARS, RobotModel
+from ..robot.user_text import check_text_file, show, show_path
 
 # The parameters a RobotSetup is built from: a change to any other one (method,
 # timing, ...) never rebuilds the robot.

@@ -5,7 +5,7 @@ Pure Python (numpy, MuJoCo), no rclpy.  :class:`ArmDynamics` evaluates
 
     tau = M(q) qdd + c(q, qd) + g(q)
 
-for the planned joints of a :class:`~splines445_ros.arm.robot_model.RobotModel`
+for the planned joints of a :class:`~splines445_ros.robot.robot_model.RobotModel`
 over many samples at once (``torques``, (N, n) in, (N, n) out), with
 MuJoCo's recursive Newton-Euler (``mj_rne`` after ``mj_kinematics``,
 ``mj_comPos`` and ``mj_comVel``) on a private copy of the compiled model,
@@ -17,7 +17,7 @@ within about 1e-14 of their scale).
 What is counted
 ---------------
 * The bodies' masses and inertias as the model was compiled (for a URDF,
-  :func:`~splines445_ros.arm.robot_model.load_robot_model` gives a massless
+  :func:`~splines445_ros.robot.robot_model.load_robot_model` gives a massless
   link 1e-6 kg and 1e-9 kg m^2), and gravity as the description sets it
   (``opt.gravity``, none when its ``gravity`` flag is disabled).
 * A payload rigidly held by the tool frame: ``payload_mass`` [kg] with its
@@ -28,7 +28,7 @@ What is counted
   and inertia by the parallel-axis theorem, then diagonalised into MuJoCo's
   principal inertia (``body_inertia``, ``body_iquat``).
 * The joints that are not planned stay where the kinematics holds them
-  (:meth:`~splines445_ros.arm.robot_model.RobotModel.hold_positions`), at
+  (:meth:`~splines445_ros.robot.robot_model.RobotModel.hold_positions`), at
   rest.  A joint driven by another through a joint equality (URDF
   ``<mimic>``: ``q - q0 = c0 + c1 x + ... + c4 x^4``, ``x = p - p0`` its
   parent's displacement) follows its parent with the chain rule's velocity
@@ -66,7 +66,7 @@ too) and is not thread-safe.
 
 :func:`effort_limits` returns the description's per-joint torque limits,
 resolved as the simulated arm resolves them
-(:func:`~splines445_ros.arm.model_drives.model_torque_limits`).
+(:func:`~splines445_ros.robot.model_drives.model_torque_limits`).
 """
 
 import copy
@@ -90,7 +90,7 @@ def effort_limits(robot, joint_names=(), missing='raise'):
     Return the torque limits (n,) [N m or N] of ``joint_names`` from the description.
 
     Resolved as the simulated arm does
-    (:func:`~splines445_ros.arm.model_drives.model_torque_limits`), per
+    (:func:`~splines445_ros.robot.model_drives.model_torque_limits`), per
     joint the first that exists: an MJCF actuator's ``forcerange``, its
     ``ctrlrange`` times ``|gear|``, the joint's ``actuatorfrcrange`` (a
     URDF ``<limit effort>``).  ``joint_names`` empty: every actuated joint.

@@ -4,7 +4,7 @@ import array
 from dataclasses import fields, replace
 import math
 
-from ..arm.user_text import show
+from ..robot.user_text import show
 
 
 def _is_number(value):

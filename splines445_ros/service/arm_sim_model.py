@@ -10,10 +10,10 @@ runs with:
   pose moved into the joint ranges;
 * ``torque_limits``: the model's (MJCF actuator ``forcerange``, or
   ``ctrlrange`` x gear; URDF ``effort``), see
-  :func:`~splines445_ros.arm.model_drives.model_torque_limits`;
+  :func:`~splines445_ros.robot.model_drives.model_torque_limits`;
 * ``kp``, ``kd``: from the joint-space inertia at the initial pose, for
   ``control_bandwidth`` [Hz] and ``control_damping_ratio``, see
-  :func:`~splines445_ros.arm.model_drives.inertia_gains`.
+  :func:`~splines445_ros.robot.model_drives.inertia_gains`.
 
 Explicit values (non-zero entries) override, joint by joint.
 
@@ -26,12 +26,12 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..arm import rotations as rot
-from ..arm.dynamics import add_rigid_mass, payload_inertia_matrix
-from ..arm.model_drives import inertia_gains, model_torque_limits
-from ..arm.mujoco_import import import_mujoco
-from ..arm.mujoco_model import load_arm_model
-from ..arm.robot_model import load_robot_model
+from ..robot import rotations as rot
+from ..robot.dynamics import add_rigid_mass, payload_inertia_matrix
+from ..robot.model_drives import inertia_gains, model_torque_limits
+from ..robot.mujoco_import import import_mujoco
+from ..robot.robot_model import load_robot_model
+from ..sim.mujoco_model import load_arm_model
 
 
 def add_payload(arm, config):
@@ -42,7 +42,7 @@ def add_payload(arm, config):
     ``payload_inertia`` [kg m^2] about it, in the tool frame) is rigidly
     held by the tool frame, the site of ``tool_pose`` (built-in arm: the
     ``tool`` site on joint 3; a model file: ``tool_frame`` or
-    ``tool_site``), as :class:`~splines445_ros.arm.dynamics.ArmDynamics`
+    ``tool_site``), as :class:`~splines445_ros.robot.dynamics.ArmDynamics`
     holds the planner's.  It goes into the simulated model and into the
     controller's rigid model (its inverse-dynamics feed-forward knows the
     payload, as a real arm's controller is told it).  No payload: nothing

@@ -15,7 +15,7 @@ on the diagonal of the joint-space inertia matrix at the initial pose
 (``mj_fullM``; MuJoCo adds the rotor inertia, ``armature``, to that
 diagonal): ``kp = I w^2`` and ``kd = 2 zeta I w`` with ``w = 2 pi
 bandwidth``.  With the inverse-dynamics feed-forward of
-:class:`~splines445_ros.arm.dynamic_sim.DynamicArm` the PD loop only
+:class:`~splines445_ros.sim.dynamic_sim.DynamicArm` the PD loop only
 corrects model errors, so a moderate bandwidth (:data:`DEFAULT_BANDWIDTH`)
 and critical damping (:data:`DEFAULT_DAMPING_RATIO`) are the defaults.
 
@@ -39,7 +39,7 @@ loop faster than designed (its slow mode is ``p < w``; its fast mode
 implicitly), so the physics step carries it as it carries ``I w^2``.
 Dry friction is not a matter of gains (``kp`` would have to exceed
 friction / dead band, thousands of N m/rad on a wrist of 1e-4 kg m^2):
-:class:`~splines445_ros.arm.dynamic_sim.DynamicArm` compensates it.
+:class:`~splines445_ros.sim.dynamic_sim.DynamicArm` compensates it.
 """
 
 import math
