@@ -24,6 +24,7 @@ import configparser
 import importlib
 import os
 import re
+import sys
 
 from file_tree import write_file
 import pytest
@@ -234,3 +235,17 @@ def test_executables_keep_their_names_and_resolve():
 @pytest.mark.parametrize('layer', sorted(MAY_IMPORT))
 def test_layer_is_a_package(layer):
     assert importlib.import_module(f'{PACKAGE}.{layer}').__doc__
+
+
+@pytest.mark.parametrize('old, new, name', [
+    ('arm.dynamics', 'robot.dynamics', 'ArmDynamics'),
+    ('arm.inverse_kinematics', 'robot.inverse_kinematics', 'ModelKinematics'),
+    ('arm.kinematics', 'robot.kinematics', 'PlanarArm'),
+    ('arm.robot_model', 'robot.robot_model', 'load_robot_model'),
+    ('arm.tool_paths', 'cartesian.tool_paths', 'plan_tool_path'),
+])
+def test_old_import_paths_still_work_with_a_deprecation_warning(old, new, name):
+    sys.modules.pop(f'{PACKAGE}.{old}', None)
+    with pytest.warns(DeprecationWarning, match=new.replace('.', r'\.')):
+        module = importlib.import_module(f'{PACKAGE}.{old}')
+    assert getattr(module, name) is getattr(importlib.import_module(f'{PACKAGE}.{new}'), name)
