@@ -1,6 +1,11 @@
 """
 Test set-up shared by every test module.
 
+* The test folders mirror the package's rooms, as toppra's tests mirror its
+  packages: ``planning/``, ``robot/``, ``cartesian/``, ``sim/``, ``service/``,
+  ``nodes/``, ``tools/``; the checks of the whole tree (lint, docs, layout)
+  and the helpers stay at the top.
+
 * DDS discovery stays on this machine (ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST)
   and every test process gets its own ROS_DOMAIN_ID unless one is set, so
   parallel runs never see each other.  Both are set before rclpy is imported.
@@ -13,6 +18,11 @@ Test set-up shared by every test module.
 """
 
 import os
+import sys
+
+# The tests live in folders that mirror the package's rooms (planning/, robot/, ...);
+# their shared helpers (file_tree, reference_spline, ...) stay here, importable from all.
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 os.environ.setdefault('ROS_DOMAIN_ID', str(1 + os.getpid() % 100))

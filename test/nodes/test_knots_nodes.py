@@ -18,7 +18,7 @@ from splines445_ros.service.request_planning import plan_tool_request
 from splines445_ros.tools.in_process import (InProcessSystem, stamp_ns, tool_waypoint_message,
                                              waypoint_message)
 
-CONFIG = os.path.join(os.path.dirname(__file__), '..', 'config', 'planar_arm.yaml')
+CONFIG = os.path.join(os.path.dirname(__file__), '..', '..', 'config', 'planar_arm.yaml')
 W = pe.joint_waypoints()
 BOUNDARY = (pe.BOUNDARY_VELOCITY, pe.BOUNDARY_ACCELERATION,
             pe.BOUNDARY_VELOCITY, pe.BOUNDARY_ACCELERATION)

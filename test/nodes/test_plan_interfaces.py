@@ -26,7 +26,7 @@ from splines445_ros.planning import plan
 from splines445_ros.tools.in_process import InProcessSystem, stamp_ns, waypoint_message
 from visualization_msgs.msg import Marker, MarkerArray
 
-CONFIG = os.path.join(os.path.dirname(__file__), '..', 'config', 'planar_arm.yaml')
+CONFIG = os.path.join(os.path.dirname(__file__), '..', '..', 'config', 'planar_arm.yaml')
 NAMES = ('joint1', 'joint2', 'joint3')
 V, A, J = 2.0, 10.0, 200.0  # config/planar_arm.yaml
 LINKS = (1.1, 0.9)

@@ -15,7 +15,7 @@ from splines445_ros.tools.in_process import InProcessSystem, tool_waypoint_messa
 
 
 def test_the_shipped_config_refines_the_paper_triangle_for_every_method():
-    path = os.path.join(os.path.dirname(__file__), '..', 'config', 'planar_arm.yaml')
+    path = os.path.join(os.path.dirname(__file__), '..', '..', 'config', 'planar_arm.yaml')
     xy = pe.triangle_points()
     request = tool_waypoint_message(np.column_stack([xy, np.zeros(len(xy))]))
     with InProcessSystem(params_file=path,

@@ -12,7 +12,7 @@ from splines445_ros.robot import paper_example as pe
 from splines445_ros.tools.in_process import InProcessSystem, overrides, stamp_ns, waypoint_message
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-CONFIG = os.path.join(os.path.dirname(__file__), '..', 'config', 'planar_arm.yaml')
+CONFIG = os.path.join(os.path.dirname(__file__), '..', '..', 'config', 'planar_arm.yaml')
 W = pe.joint_waypoints()
 BOUNDARY = (pe.BOUNDARY_VELOCITY, pe.BOUNDARY_ACCELERATION,
             pe.BOUNDARY_VELOCITY, pe.BOUNDARY_ACCELERATION)

@@ -143,7 +143,7 @@ def test_the_shipped_ur5_config_is_valid():
     from splines445_ros.service.arm_sim_config import ArmSimConfig
     from splines445_ros.service.model_planning import build_robot_setup
     from splines445_ros.service.planner_config import PlannerConfig
-    path = os.path.join(os.path.dirname(__file__), '..', 'config', 'ur5.yaml')
+    path = os.path.join(os.path.dirname(__file__), '..', '..', 'config', 'ur5.yaml')
     with open(path, encoding='utf-8') as stream:
         data = yaml.safe_load(stream)
     planner = {**data['planner_node']['ros__parameters'], 'model_file': vr.ur5_urdf()}

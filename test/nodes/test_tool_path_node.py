@@ -204,7 +204,7 @@ def test_params_file_configures_tool_paths():
     import os
     import yaml
     from splines445_ros.service.planner_config import PlannerConfig
-    path = os.path.join(os.path.dirname(__file__), '..', 'config', 'planar_arm.yaml')
+    path = os.path.join(os.path.dirname(__file__), '..', '..', 'config', 'planar_arm.yaml')
     with open(path, encoding='utf-8') as handle:
         values = yaml.safe_load(handle)['planner_node']['ros__parameters']
     config = PlannerConfig.from_values(values)

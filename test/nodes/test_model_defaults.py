@@ -30,7 +30,7 @@ from splines445_ros.tools.in_process import InProcessSystem, LocalRos, overrides
 from test_model_planner_node import CORNERS, pose_array
 from urdf_reference import BatchedUrdfChain
 
-CONFIG = os.path.join(os.path.dirname(__file__), '..', 'config')
+CONFIG = os.path.join(os.path.dirname(__file__), '..', '..', 'config')
 XARM7 = 'xarm_description/urdf/xarm7.urdf'
 
 

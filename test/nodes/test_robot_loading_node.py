@@ -19,7 +19,7 @@ from splines445_ros.tools import vendor_robots as vr
 from splines445_ros.tools.in_process import InProcessSystem, overrides, waypoint_message
 from test_model_planner_node import LIMITS_YAML
 
-CONFIG = os.path.join(os.path.dirname(__file__), '..', 'config')
+CONFIG = os.path.join(os.path.dirname(__file__), '..', '..', 'config')
 # What the defaults are since issue 22, spelled out (as before it).
 ALL_FROM_MODEL = {'joint_names': [''], 'max_velocity': [0.0], 'max_acceleration': [0.0],
                   'max_jerk': [0.0]}
