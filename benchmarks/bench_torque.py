@@ -56,6 +56,7 @@ os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but th
 import numpy as np  # noqa: E402
 from shaking import of_toppra, shaking_figures, shaking_header, shaking_ratios  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
+from splines445_ros.planning.torque import CHECK_PERIOD  # noqa: E402 - [s] the 1 kHz torque check
 from splines445_ros.robot.dynamics import ArmDynamics, effort_limits  # noqa: E402, I100
 from splines445_ros.robot.robot_model import load_robot_model  # noqa: E402
 from splines445_ros.tools import vendor_robots as vr  # noqa: E402
@@ -73,7 +74,6 @@ JERK_RATIO = 50.0               # jerk limit = JERK_RATIO * typical acceleration
 MIN_TYPICAL = 1e-3              # [rad/s^2] floor of a joint's typical acceleration
 BINDS = 0.99                    # a limit this close is reported as reached
 REPEATS = 3
-CHECK_PERIOD = 1e-3             # [s] torque check
 BISECTION_RANGE = (0.1, NO_ACCELERATION_LIMIT)     # [rad/s^2] constant acceleration
 BISECTION_STEPS = 12
 ROBOTS = (

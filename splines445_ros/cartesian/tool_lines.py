@@ -27,7 +27,7 @@ uses for method 555 with optimal timing, rest to rest:
    tool speeds are measured every :data:`CHECK_PERIOD` (``|J(q) qdot|`` from
    the spline's joint positions and velocities, :class:`ToolRates`; every
    local maximum refined by golden-section search; the trial splines of
-   step 2 are sampled the same way, :data:`PIECE_SAMPLES` per piece) and
+   step 2 are sampled the same way, :data:`TOOL_SPEED_PIECE_SAMPLES` per piece) and
    the spline is slowed down uniformly by the largest ratio to
    its limit when one exceeds it (a uniform slow-down divides every speed by
    its factor and keeps the v/a/j limits).
@@ -48,7 +48,7 @@ from .golden_search import golden_maxima
 from ..planning.path_constraints import ToolSpeed
 from ..planning.path_timing import JointPathSamples, midpoint_fractions, plan_along_path, \
     rescaled
-from ..planning.torque import check_times
+from ..planning.torque import CHECK_PERIOD, check_times
 from ..robot import rotations as rot
 from ..robot.robot_model import FrameChain
 
@@ -67,8 +67,7 @@ MIN_BLEND_TURN = 1e-6
 MAX_BLEND_TURN = math.radians(60.0)
 # Rounds of knot insertion (step 3).
 MAX_ROUNDS = 10
-# Tool speed check period [s] and the central-difference half step [s].
-CHECK_PERIOD = 1e-3
+# The central-difference half step [s] of the tool speed (checked every CHECK_PERIOD).
 _DIFFERENCE_STEP = 1e-5
 # Golden-section steps refining a sampled local maximum of the tool speed:
 # its 2 ms bracket shrinks to 2 ms * 0.618**10 = 16 us, where a speed whose
@@ -81,16 +80,16 @@ REFINED_MAXIMA = 8
 # (the 1 kHz check holds the limit).  bench_tool_lines' seams and 40 random
 # line sets got the same shares and durations (within 0.1 %) from 8 as from
 # 12, in two thirds of the tool-rate evaluations.
-PIECE_SAMPLES = 8
+TOOL_SPEED_PIECE_SAMPLES = 8
 # Slack on the final slow-down against round-off.
-_ROUNDOFF = 1.0 + 1e-9
+_SLOW_DOWN_ROUNDOFF = 1.0 + 1e-9
 # The profile aims at this share of a tool speed limit: the spline follows it
 # within a few tenths of a percent on the lines, so the last step's uniform
 # slow-down stays below the 1 % that "at the programmed speed" allows.
 SPEED_MARGIN = 0.998
 # Most knots per edge (inner knots plus its waypoint) of the first spline, and
 # the shortest piece [s]: knots every 30 ms at most follow a speed ramp.
-START_KNOTS = 64
+EDGE_START_KNOTS = 64
 MIN_PIECE = 0.03
 # Rounds of splitting the pieces that slow a tool-speed line down (_unbound).
 SPEED_ROUNDS = 4
@@ -440,7 +439,7 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
         constraints.append(torque.constraint())
         factors.append(torque.piece_factors)
     path = JointPathSamples(s, joints, waypoint_index, limits, constraints, windows,
-                            _joined(factors), START_KNOTS, MIN_PIECE, round_corners=speeds)
+                            _joined(factors), EDGE_START_KNOTS, MIN_PIECE, round_corners=speeds)
     timing = plan_along_path(path, limits)
     initial = None
     inserted, rounds = 0, 0
@@ -482,16 +481,16 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
         # dynamic part's excesses between samples apart (TorqueCheck).
         factor = max(factor, torque_check.required_slow_down())
     if factor > 1.0:
-        traj = rescaled(traj, factor * _ROUNDOFF)
+        traj = rescaled(traj, factor * _SLOW_DOWN_ROUNDOFF)
         # Rest to rest, the spline through the same knots on pieces f times
         # longer is this one slowed down by f: every tool speed divided by
         # f, so no second check (it cost 14 ms on the Panda seam); nor of
         # the torque, g + d / f**2 at the same path points.  Its samples are
         # those of a period f times CHECK_PERIOD.
-        linear, angular, sampled = (value / (factor * _ROUNDOFF)
+        linear, angular, sampled = (value / (factor * _SLOW_DOWN_ROUNDOFF)
                                     for value in (linear, angular, sampled))
         if torque_check is not None:
-            checked = torque_check.needs(factor * _ROUNDOFF)
+            checked = torque_check.needs(factor * _SLOW_DOWN_ROUNDOFF)
     if checked is not None:
         traj.torque_factor, traj.torque_ratios = checked
     share = 0.0
@@ -593,7 +592,7 @@ def _first_refused(kinematics, samples):
 
 class _PieceSpeeds:
     """
-    Tool speed over its limit per spline piece, from :data:`PIECE_SAMPLES` samples each.
+    Tool speed over its limit per spline piece, from :data:`TOOL_SPEED_PIECE_SAMPLES` samples each.
 
     The samples include both ends of every piece; a piece's end is its
     successor's start (the spline is C4), so it is computed once.
@@ -605,7 +604,7 @@ class _PieceSpeeds:
 
     def __call__(self, coeffs, pieces):
         """Return (P, k): the largest sampled speed of each piece over each speed limit."""
-        tau = pieces[:, None] * np.linspace(0.0, 1.0, PIECE_SAMPLES)[None, :-1]
+        tau = pieces[:, None] * np.linspace(0.0, 1.0, TOOL_SPEED_PIECE_SAMPLES)[None, :-1]
         powers = tau[..., None] ** np.arange(6)
         q = np.einsum('psk,pkn->psn', powers, coeffs).reshape(-1, coeffs.shape[2])
         qd = np.einsum('psk,pkn->psn', powers[..., :5] * np.arange(1, 6), coeffs[:, 1:]
@@ -616,8 +615,8 @@ class _PieceSpeeds:
         speeds = self.rates(q, qd)
         out = []
         for k, v in self.limits:
-            sampled = speeds[k][:-1].reshape(pieces.size, PIECE_SAMPLES - 1)
-            ends = speeds[k][PIECE_SAMPLES - 1::PIECE_SAMPLES - 1]
+            sampled = speeds[k][:-1].reshape(pieces.size, TOOL_SPEED_PIECE_SAMPLES - 1)
+            ends = speeds[k][TOOL_SPEED_PIECE_SAMPLES - 1::TOOL_SPEED_PIECE_SAMPLES - 1]
             out.append(np.maximum(np.max(sampled, axis=1), ends) / v)
         return np.stack(out, axis=1)
 

@@ -57,13 +57,13 @@ GRID_PER_SAMPLE = 2
 # Most knots per segment between waypoints (inner knots plus the waypoint).
 MAX_SEGMENT_KNOTS = 256
 # Most inner knots per segment of the first spline (more are inserted where needed).
-START_KNOTS = 8
+PATH_START_KNOTS = 8
 # A waypoint where the fastest profile's speed is below this share of both
 # neighbouring segments' top speeds is a stop (JointPathSamples).
 STOP_RATIO = 0.2
 # A piece lasts at least this many jerk ramp times a / j (inner_knots' step 3
 # keeps 1.5 on its coarser knots; along a sampled path 1 is shorter and as smooth).
-RAMP_PIECES = 1.0
+PATH_RAMP_PIECES = 1.0
 # Start and end ramps (JointPathSamples): from rest the profile's path jerk
 # is at most this share of the joints' (q' s''' alone; the spline's exact
 # factors hold the rest).  A profile that leaves rest at full acceleration
@@ -188,9 +188,9 @@ class JointPathSamples:
                        JointAcceleration(limits.acceleration)) + tuple(constraints)
         self.limits = PathLimits(self.gridded, constraints)
         self.start = self.end = 0.0
-        self.most = START_KNOTS if most is None else int(most)
+        self.most = PATH_START_KNOTS if most is None else int(most)
         self.min_piece = float(min_piece)
-        self.ramp_pieces = RAMP_PIECES
+        self.ramp_pieces = PATH_RAMP_PIECES
         self.torque_neighbours = 0.0
         self.keep_time_scale = False
         self.windows = tuple(windows)

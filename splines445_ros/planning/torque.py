@@ -36,6 +36,8 @@ import numpy as np
 from .path_constraints import GRAVITY_RTOL, GravityOverload, JointTorque, refuse_gravity_overload
 from .segments import sample_segments
 
+# Period [s] of the dense checks of a plan: the torque here, the tool speed in
+# cartesian.tool_lines, the demos' deviations (1 kHz, a servo rate).
 CHECK_PERIOD = 1e-3
 # Period [s] of TorqueLimit.factor_at_least's samples.
 COARSE_PERIOD = 1e-2
@@ -49,7 +51,7 @@ MAX_CHECK_SAMPLES = 3_600_000
 # planning time instead of 1.0-1.25 (before ArmDynamics.gravity; 0.82-0.95
 # with it), durations within 0.01 (the 1 kHz check
 # and its slow-down hold the limits whatever the count).
-PIECE_SAMPLES = 5
+TORQUE_PIECE_SAMPLES = 5
 
 
 class TorqueLimit:
@@ -140,14 +142,14 @@ class TorqueLimit:
 
     def piece_factors(self, coeffs, pieces):
         """
-        Return per piece (P, 1) the slow-down its :data:`PIECE_SAMPLES` samples need.
+        Return per piece (P, 1) the slow-down its :data:`TORQUE_PIECE_SAMPLES` samples need.
 
         A candidate spline of the construction (not the path) that strays
         into a pose where gravity alone exceeds a limit needs an infinite
         factor there: that candidate is not taken, and the path itself,
         checked when its constraints are built, is not refused for it.
         """
-        count = PIECE_SAMPLES
+        count = TORQUE_PIECE_SAMPLES
         samples = sample_segments(coeffs, pieces, count, (0, 1, 2))
         n = coeffs.shape[2]
         # A knot ends one piece and starts the next (the spline is C4): sampled once.

@@ -37,6 +37,7 @@ from .figures import plt
 from .in_process import InProcessSystem
 from ..cartesian.tool_paths import plan_tool_path
 from ..nodes.diagnostics import status_values
+from ..planning.torque import CHECK_PERIOD
 from ..robot import rotations as rot
 from ..robot.inverse_kinematics import ModelKinematics
 from ..robot.joint_limits_file import read_joint_limits_file, resolve_limits
@@ -45,7 +46,6 @@ from ..robot.robot_model import load_robot_model
 TOLERANCE = 1e-3                    # m
 ANGLE_TOLERANCE = math.radians(1.0)
 RUNS = tuple((m, t) for m in ('555', '434', '445') for t in ('uniform', 'optimal'))
-CHECK_PERIOD = 1e-3
 UNIFORM_REPEATS = 5
 MAX_INSERTED = 2000
 LAST_EDGE_TURN = math.radians(60.0)

@@ -24,6 +24,7 @@ import numpy as np
 from .figures import plt
 from ..cartesian.tool_paths import plan_tool_path
 from ..planning import METHODS
+from ..planning.torque import CHECK_PERIOD
 from ..robot import paper_example as pe
 from ..robot.kinematics import PlanarArm
 
@@ -32,7 +33,6 @@ TIMINGS = ('uniform', 'optimal')
 # 445 needs far more knots than 434 and 555 (its disturbances do not decay):
 # the cap is set high enough for it to get there with uniform timing.
 MAX_INSERTED = 1000
-CHECK_PERIOD = 1e-3
 UNIFORM_REPEATS = 5
 
 

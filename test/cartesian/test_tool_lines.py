@@ -375,7 +375,7 @@ def test_the_final_check_holds_the_speed_where_the_piece_samples_miss_it(arms, r
     test's own FK, and the plan reports the slow-down in its speeds.
     """
     from splines445_ros.cartesian import tool_lines
-    monkeypatch.setattr(tool_lines, 'PIECE_SAMPLES', 2)
+    monkeypatch.setattr(tool_lines, 'TOOL_SPEED_PIECE_SAMPLES', 2)
     monkeypatch.setattr(tool_lines, 'SPEED_MARGIN', 1.0)
     arm = arms[robot]
     poses = random_lines(np.random.default_rng(11), arm, 4)

@@ -378,12 +378,12 @@ def test_an_acceleration_limit_the_torque_keeps_below_does_not_change_the_plan(s
 @given(seed=st.integers(0, 2**32 - 1))
 def test_piece_factors_are_the_need_at_each_pieces_samples_both_ends_included(seed):
     """
-    piece_factors against the need computed here at PIECE_SAMPLES even times of every piece.
+    piece_factors against the need computed here at TORQUE_PIECE_SAMPLES even times of every piece.
 
     The times include both ends of every piece: a knot is sampled once and
     counts for both of its pieces.
     """
-    from splines445_ros.planning.torque import PIECE_SAMPLES
+    from splines445_ros.planning.torque import TORQUE_PIECE_SAMPLES
     rng = np.random.default_rng(seed)
     points, limit = random_request(rng)
     traj = plan(points, '555', 'fixed', durations=rng.uniform(0.1, 0.5, len(points) - 1))
@@ -391,7 +391,7 @@ def test_piece_factors_are_the_need_at_each_pieces_samples_both_ends_included(se
                                                                     traj.durations)
     expected = []
     for start, length in zip(traj.breakpoints[:-1], traj.durations):
-        t = np.minimum(start + np.linspace(0.0, length, PIECE_SAMPLES), traj.duration)
+        t = np.minimum(start + np.linspace(0.0, length, TORQUE_PIECE_SAMPLES), traj.duration)
         q, qd, qdd = (traj.evaluate(t, d) for d in range(3))
         gravity = two_link_torques(q, 0 * q, 0 * q)
         dynamic = two_link_torques(q, qd, qdd) - gravity
