@@ -15,16 +15,9 @@ import numpy as np
 import pytest
 from splines445_ros.robot import paper_example as pe
 from splines445_ros.tools.demo import RECORDED_TOPICS, run_paper_example
+from test_recording import SCHEMAS as TYPES  # the expected type of every recorded topic
 
 RUNS = (('555', 'optimal'), ('445', 'uniform'))
-TYPES = {
-    '/waypoints': 'trajectory_msgs/msg/JointTrajectory',
-    '/joint_trajectory': 'trajectory_msgs/msg/JointTrajectory',
-    '/joint_states': 'sensor_msgs/msg/JointState',
-    '/planner_node/planned_path': 'visualization_msgs/msg/MarkerArray',
-    '/planner_node/status': 'diagnostic_msgs/msg/DiagnosticStatus',
-    '/arm_sim_node/status': 'diagnostic_msgs/msg/DiagnosticStatus',
-}
 
 
 @pytest.fixture(scope='module')
