@@ -89,7 +89,7 @@ from .path_velocity import (joint_acceleration_peaks, path_position, PathLimits,
                             traversal_times)
 from .peaks import row_max, velocity_ratios_above
 from .timing import closed_form_scale, rest_to_rest_durations
-from .trajectory import _check_finite, REBUILD_RTOL, representable_durations, Trajectory
+from .trajectory import REBUILD_RTOL, representable_durations, require_finite, Trajectory
 
 # Largest number of inner knots per segment accepted by plan().
 MAX_INNER_KNOTS = 8
@@ -128,7 +128,7 @@ SMOOTHINGS = ('auto', 'windows', 'none')
 MAX_VIBRATION_FREQUENCY = 1000.0
 # Grid steps per segment of the speed profile (step 2).
 GRID_STEPS = 24
-# _Timing.time_at: safeguarded Newton steps (issue 23, the planning time of
+# AveragedTiming.time_at: safeguarded Newton steps (issue 23, the planning time of
 # small requests; they replaced a table of the averaged profile at the grid
 # points and 5 regula falsi steps within its brackets, 0.2 ms of a 3 x 3
 # candidate's 0.8): most steps, and the largest position error accepted
@@ -314,8 +314,9 @@ def smoothing_windows(vibration_frequency, smoothing='windows', torque_limited=F
 @lru_cache(maxsize=64)
 def _window_shifts(widths):
     """
-    Return the shifts and signs (2**k,) and the product of the ``widths`` of :class:`_Timing`.
+    Return the shifts and signs (2**k,) and the product of the window ``widths``.
 
+    The windows are those of :class:`AveragedTiming`.
     Every profile of a request has the same windows: computed once (read-only).
     """
     n = len(widths)
@@ -326,7 +327,7 @@ def _window_shifts(widths):
     return shifts, signs, np.prod(widths)
 
 
-class _Timing:
+class AveragedTiming:
     """
     The profile's path position in time, ``s(t)``, averaged over moving windows (step 2).
 
@@ -612,7 +613,7 @@ class _Path:
     :func:`knots_per_segment`, :func:`ramp_accelerations`), the torque's
     ``piece_factors`` (or None) and ``torque_neighbours`` (step 6's power of
     them for the neighbours, 0: none), ``keep_time_scale`` (:func:`plan_with_inner_knots`),
-    step 6's stop ``min_gain`` (:func:`_iterate`) and step 2's averaged
+    step 6's stop ``min_gain`` (:func:`iterate_knots`) and step 2's averaged
     :meth:`timing`.  :class:`path_timing.JointPathSamples`
     has the same, for a path the caller gives.
     """
@@ -679,7 +680,7 @@ class _Path:
     def timing(self, times, x):
         """Return the path position in time of the profile ``x`` (step 2's average, at rest)."""
         rest = not (self.start or self.end)
-        return _Timing(times, x, self.s, self.windows if rest else ())
+        return AveragedTiming(times, x, self.s, self.windows if rest else ())
 
 
 def natural_cubic_spline(knots, points):
@@ -753,7 +754,7 @@ def ramp_accelerations(path_limits, gridded, limits, torque_limited):
     return np.minimum(limits.acceleration, joint_acceleration_peaks(gridded, x))
 
 
-class _Profile:
+class SpeedProfile:
     """
     Step 2 for the local limit factors ``local``: the speed profile and its timing.
 
@@ -778,7 +779,7 @@ class _Profile:
         self.passed = self.timing.time_at(path.waypoint_s)
 
 
-class _Candidate:
+class KnotCandidate:
     """
     One spline of steps 2-5 for the local limit factors ``local``.
 
@@ -788,7 +789,7 @@ class _Candidate:
     not feasible); ``score`` ranks candidates while none is feasible yet
     (the total it would have if scaled as a rest-to-rest one).  The spline
     is the C4 one through the positions (step 4), so they and the pieces
-    define it; ``profile`` is its :class:`_Profile`.
+    define it; ``profile`` is its :class:`SpeedProfile`.
     """
 
     def __init__(self, path, local, counts, boundary, limits, rest, fractions=None,
@@ -799,14 +800,14 @@ class _Candidate:
         ``fractions``, when given, replaces ``counts``: per segment, the
         increasing time fractions in [0, 1) of its knots (the first 0, its
         waypoint), for knots not at equal fractions (:mod:`path_timing`).
-        ``profile``, when given, is the :class:`_Profile` of ``local``,
+        ``profile``, when given, is the :class:`SpeedProfile` of ``local``,
         computed already.
         """
         self.valid = False
         self.local = local
         self.grid_s = path.s
         self.rounding = path.rounding
-        self.profile = _Profile(path, local) if profile is None else profile
+        self.profile = SpeedProfile(path, local) if profile is None else profile
         if not self.profile.valid:
             return
         timing, passed = self.profile.timing, self.profile.passed
@@ -957,11 +958,11 @@ def plan_with_inner_knots(points, boundary, limits, most, dropped_waypoints=(),
         best, iterations = _construct(path, boundary, limits, rest, knots_only, give_up)
         if best is None:
             continue
-        traj = _trajectory(points, boundary, limits, rest, best, dropped_waypoints,
-                           {'inner_knots': most, 'knots': int(best.pieces.size + 1),
-                            'inner_knots_per_segment': best.counts.tolist(),
-                            'iterations': iterations, 'end_segment_share': share,
-                            'smoothing_windows': list(windows) if rest else []})
+        traj = kept_trajectory(points, boundary, limits, rest, best, dropped_waypoints,
+                               {'inner_knots': most, 'knots': int(best.pieces.size + 1),
+                                'inner_knots_per_segment': best.counts.tolist(),
+                                'iterations': iterations, 'end_segment_share': share,
+                                'smoothing_windows': list(windows) if rest else []})
         if traj is not None:
             return traj
     return None
@@ -984,10 +985,10 @@ def _construct(path, boundary, limits, rest, knots_only=True, give_up=None):
         if path.points.shape[0] <= FEW_WAYPOINTS:
             budget.update(iterations=FEW_ITERATIONS, stall=1)
             recounts = FEW_RECOUNTS
-    start = _Profile(path, np.ones(path.s.size))
+    start = SpeedProfile(path, np.ones(path.s.size))
     budget['give_up'] = give_up
-    best, iterations = _iterate(path, start.local, None, boundary, limits, rest, None,
-                                profile=start, **budget)
+    best, iterations = iterate_knots(path, start.local, None, boundary, limits, rest, None,
+                                     profile=start, **budget)
     for _ in range(recounts):
         if best is None:
             break
@@ -998,8 +999,8 @@ def _construct(path, boundary, limits, rest, knots_only=True, give_up=None):
         if not np.any(outliers):
             break
         counts = np.where(outliers, best.counts // 2, best.counts)
-        best, more = _iterate(path, best.local, counts, boundary, limits, rest, best,
-                              profile=best.profile, made=iterations, **budget)
+        best, more = iterate_knots(path, best.local, counts, boundary, limits, rest, best,
+                                   profile=best.profile, made=iterations, **budget)
         iterations += more
     if best is None:
         return None, iterations
@@ -1007,8 +1008,8 @@ def _construct(path, boundary, limits, rest, knots_only=True, give_up=None):
     # (few segments, one joint reversing) where that is shorter: on the
     # profiles of the best factors and of the first ones, both built already.
     for profile in (best.profile, start) if knots_only else ():
-        candidate = _Candidate(path, profile.local, np.zeros_like(best.counts), boundary,
-                               limits, rest, profile=profile)
+        candidate = KnotCandidate(path, profile.local, np.zeros_like(best.counts), boundary,
+                                  limits, rest, profile=profile)
         if candidate.valid and candidate.better_than(best):
             best = candidate
     if not best.feasible:
@@ -1016,9 +1017,9 @@ def _construct(path, boundary, limits, rest, knots_only=True, give_up=None):
     return best, iterations
 
 
-def _iterate(path, local, counts, boundary, limits, rest, best, fractions=None,
-             iterations=ITERATIONS, profile=None, relax=RELAX, min_gain=MIN_GAIN, stall=STALL,
-             give_up=None, made=0):
+def iterate_knots(path, local, counts, boundary, limits, rest, best, fractions=None,
+                  iterations=ITERATIONS, profile=None, relax=RELAX, min_gain=MIN_GAIN, stall=STALL,
+                  give_up=None, made=0):
     """
     Run steps 2-6 from the local factors ``local``; return (best candidate or None, iterations).
 
@@ -1027,15 +1028,15 @@ def _iterate(path, local, counts, boundary, limits, rest, best, fractions=None,
     ``best`` (the best so far); ``relax`` is step 6's exponent
     (:data:`REST_RELAX`, :data:`WINDOWS_RELAX` and the iterations for
     rest-to-rest requests of plan(): :func:`_construct`).
-    ``fractions`` as for :class:`_Candidate`; ``profile``, when given, is
-    the :class:`_Profile` of ``local`` (the first candidate's).  With
+    ``fractions`` as for :class:`KnotCandidate`; ``profile``, when given, is
+    the :class:`SpeedProfile` of ``local`` (the first candidate's).  With
     ``give_up`` (a total to beat), (None, iterations) once the best
     candidate is above it by more than :data:`GIVE_UP_GAINS` says the
     iterations could still gain after ``made`` + these candidates.
     """
     stalled, most = 0, iterations
     for iterations in range(1, most + 1):
-        candidate = _Candidate(path, local, counts, boundary, limits, rest, fractions, profile)
+        candidate = KnotCandidate(path, local, counts, boundary, limits, rest, fractions, profile)
         profile = None
         if not candidate.valid:
             break
@@ -1063,7 +1064,7 @@ def _with_margin(path, best, boundary, limits):
     every limit; the shortest of those is returned.
     """
     def attempt(g):
-        candidate = _Candidate(path, best.local * g, best.counts, boundary, limits, False)
+        candidate = KnotCandidate(path, best.local * g, best.counts, boundary, limits, False)
         return candidate if candidate.valid and candidate.feasible else None
 
     found = attempt(MIN_MARGIN)
@@ -1082,7 +1083,7 @@ def _with_margin(path, best, boundary, limits):
     return found
 
 
-def _trajectory(points, boundary, limits, rest, best, dropped, optimizer):
+def kept_trajectory(points, boundary, limits, rest, best, dropped, optimizer):
     """
     Return the Trajectory of the kept spline, on the widths the PPoly really has.
 
@@ -1123,7 +1124,7 @@ def _trajectory(points, boundary, limits, rest, best, dropped, optimizer):
     traj = Trajectory('555', 'optimal', points, pieces, coeffs, boundary, limits, None,
                       dropped, ratios=ratios)
     try:
-        _check_finite(traj)
+        require_finite(traj)
     except ValueError:
         return None
     traj.waypoint_times = traj.breakpoints[best.waypoint_knots]

@@ -46,9 +46,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from .inner_knots import (_Candidate, _iterate, _Profile, _Timing, _trajectory, DEFAULT_SMOOTHING,
-                          end_ramps, equal_fractions, knot_times, knots_per_segment,
-                          ramp_accelerations, regula_falsi, shortest_piece)
+from .inner_knots import (AveragedTiming, DEFAULT_SMOOTHING, end_ramps, equal_fractions,
+                          iterate_knots, kept_trajectory, knot_times, KnotCandidate,
+                          knots_per_segment, ramp_accelerations, regula_falsi,
+                          shortest_piece, SpeedProfile)
 from .path_constraints import GriddedPath, JointAcceleration, JointTorque, JointVelocity
 from .path_velocity import path_position, PathLimits
 
@@ -250,7 +251,7 @@ class _SpanTiming:
         self.spans, offsets = [], [0.0]
         for a, b in zip(stops[:-1], stops[1:]):
             args = (times[a:b + 1] - times[a], x[a:b + 1], s[a:b + 1] - s[a])
-            span = _RoundedTiming(*args, rounding) if rounding else _Timing(*args, windows)
+            span = _RoundedTiming(*args, rounding) if rounding else AveragedTiming(*args, windows)
             self.spans.append(span)
             offsets.append(offsets[-1] + span.duration)
         self.offsets = np.array(offsets)
@@ -282,7 +283,7 @@ class _SpanTiming:
         return out
 
 
-class _RoundedTiming(_Timing):
+class _RoundedTiming(AveragedTiming):
     """
     A span's path position in time with its corners rounded: a centred average, blended.
 
@@ -342,7 +343,7 @@ class _RoundedTiming(_Timing):
         """Return the path position at the times ``t``."""
         t = np.clip(np.asarray(t, float), 0.0, self.duration)
         plain = path_position(self.times, self.x, self.s, t)
-        mean = _Timing.position_at(self, t + 0.5 * self.width)
+        mean = AveragedTiming.position_at(self, t + 0.5 * self.width)
         d = np.clip(np.minimum(t, self.duration - t) / self.width, 0.0, 1.0)
         blend = d * d * d * (10.0 + d * (6.0 * d - 15.0))
         return np.clip(plain + blend * (mean - plain), 0.0, self.s[-1])
@@ -381,14 +382,15 @@ def plan_along_path(path, limits, fractions=None, local=None, iterations=None):
               'relax': PATH_RELAX, 'min_gain': PATH_MIN_GAIN}
     if fractions is None and path.rounding:
         fractions, kwargs['profile'] = _transition_fractions(path, limits, start)
-    best, count = _iterate(path, start, None, boundary, limits, True, None, fractions, **kwargs)
+    best, count = iterate_knots(path, start, None, boundary, limits, True, None, fractions,
+                                **kwargs)
     if best is None:
         raise ValueError('no spline along the path meets the limits')
     best, more = _polish(path, best, boundary, limits, fractions)
     count += more
-    traj = _trajectory(path.points, boundary, limits, True, best, (),
-                       {'knots': int(best.pieces.size + 1), 'iterations': count,
-                        'smoothing_windows': list(path.windows)})
+    traj = kept_trajectory(path.points, boundary, limits, True, best, (),
+                           {'knots': int(best.pieces.size + 1), 'iterations': count,
+                           'smoothing_windows': list(path.windows)})
     if traj is None:
         raise ValueError('no spline along the path meets the limits')
     times = best.knot_times
@@ -418,7 +420,7 @@ def _transition_fractions(path, limits, local):
     at 0.05 s on the first profile, 0.3 s on the last; 0.89 of its length at
     >= 99 % of v without that split, 0.95 with it).
     """
-    profile = _Profile(path, local)
+    profile = SpeedProfile(path, local)
     if not profile.valid:
         return None, profile
     passed = profile.passed
@@ -460,7 +462,7 @@ def _polish(path, best, boundary, limits, fractions):
         if float(np.max(best.factors)) <= 1.0:
             break
         local = best.relaxed(best.local, POLISH_RELAX, floor=1.0)
-        candidate = _Candidate(path, local, None, boundary, limits, True, fractions)
+        candidate = KnotCandidate(path, local, None, boundary, limits, True, fractions)
         count += 1
         if not (candidate.valid and candidate.better_than(best)):
             break
@@ -495,15 +497,15 @@ def rescaled(traj, factor):
     if not factor > 1.0:
         return traj
     candidate = _Scaled(traj, factor)
-    scaled = _trajectory(traj.waypoints, [np.zeros(traj.waypoints.shape[1])] * 4, traj.limits,
-                         True, candidate, (), dict(traj.optimizer, time_scale=float(factor)))
+    scaled = kept_trajectory(traj.waypoints, [np.zeros(traj.waypoints.shape[1])] * 4, traj.limits,
+                             True, candidate, (), dict(traj.optimizer, time_scale=float(factor)))
     if scaled is None:
         raise ValueError('slowing the spline down failed')
     return scaled
 
 
 class _Scaled:
-    """The knots of ``traj`` on pieces ``factor`` times longer: what _trajectory reads."""
+    """The knots of ``traj`` on pieces ``factor`` times longer: what kept_trajectory reads."""
 
     def __init__(self, traj, factor):
         self.pieces = np.diff(traj.breakpoints) * factor
@@ -511,7 +513,7 @@ class _Scaled:
         self.positions[-1] = traj.waypoints[-1]
         self.waypoint_knots = np.searchsorted(traj.breakpoints, traj.waypoint_times)
         self.positions[self.waypoint_knots] = traj.waypoints
-        self.coeffs = self.ratios = None      # solved on the pieces by _trajectory
+        self.coeffs = self.ratios = None      # solved on the pieces by kept_trajectory
 
 
 __all__ = ['GRID_PER_SAMPLE', 'JointPathSamples', 'midpoint_fractions', 'PathTiming',

@@ -129,7 +129,7 @@ class Trajectory:
                 coefficients, ratios = spline_coefficients(method, points, widths, boundary), None
             traj = cls(method, timing, points, widths, coefficients, boundary, limits,
                        ratios=ratios, **extra)
-            _check_finite(traj)
+            require_finite(traj)
             if timing == 'fixed' or ratios is not None or traj.within_limits(rtol=0.0):
                 return traj
             # At least MIN_STRETCH: a ratio within round-off of 1 would leave
@@ -333,12 +333,12 @@ class Trajectory:
         return np.max(np.abs(right - left), axis=0)
 
 
-# _check_finite's falling factors and exponents of position to jerk (4, 6).
+# require_finite's falling factors and exponents of position to jerk (4, 6).
 _CHECK_FALLING = np.array([falling_factors(d)[0] for d in range(4)])
 _CHECK_EXPONENT = np.array([falling_factors(d)[1] for d in range(4)])
 
 
-def _check_finite(traj):
+def require_finite(traj):
     """
     Raise ValueError unless ``traj`` is finite: breakpoints, coefficients and values.
 

@@ -460,13 +460,13 @@ def test_the_averaged_profile_and_its_inverse(seed, windows):
     profile's positions.  ``time_at`` must invert ``position_at`` to 1e-9 of
     the path, in order, with the ends pinned to 0 and the duration.
     """
-    from splines445_ros.planning.inner_knots import _Timing
+    from splines445_ros.planning.inner_knots import AveragedTiming
     from splines445_ros.planning.path_velocity import path_position
     rng = np.random.default_rng(seed)
     s = np.concatenate([[0.0], np.cumsum(rng.uniform(0.01, 0.1, 60))])
     x = np.concatenate([[0.0], rng.uniform(0.05, 2.0, 59), [0.0]])
     times = traversal_times(x, np.diff(s))
-    timing = _Timing(times, x, s, windows)
+    timing = AveragedTiming(times, x, s, windows)
     assert timing.duration == pytest.approx(times[-1] + sum(windows))
 
     def plain(t):
