@@ -21,8 +21,12 @@ import os
 import sys
 
 # The tests live in folders that mirror the package's rooms (planning/, robot/, ...);
-# their shared helpers (file_tree, reference_spline, ...) stay here, importable from all.
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+# their shared helpers (file_tree, reference_spline, ...) stay here, and a test that
+# builds on another room's test module imports it whichever folder runs first.
+_HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [_HERE] + sorted(
+    os.path.join(_HERE, name) for name in os.listdir(_HERE)
+    if os.path.isdir(os.path.join(_HERE, name)) and not name.startswith(('.', '_')))
 
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 os.environ.setdefault('ROS_DOMAIN_ID', str(1 + os.getpid() % 100))

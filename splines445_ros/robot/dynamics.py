@@ -75,9 +75,9 @@ import math
 import numpy as np
 
 from . import rotations as rot
+from .frame_chain import z_onto
 from .model_drives import model_torque_limits
 from .mujoco_import import import_mujoco
-from .robot_model import z_onto
 from .user_text import show
 from ..planning.validation import non_negative
 

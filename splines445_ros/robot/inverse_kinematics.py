@@ -6,7 +6,7 @@ Tool kinematics of a :class:`~splines445_ros.robot.robot_model.RobotModel`, 6-D;
 ``(x, y, z, qw, qx, qy, qz)`` of the ``tool_frame`` in the ``base_frame``
 (position [m], unit quaternion scalar first):
 
-* ``forward(joints)``: vectorised, by :class:`~splines445_ros.robot.robot_model.FrameChain`;
+* ``forward(joints)``: vectorised, by :class:`~splines445_ros.robot.frame_chain.FrameChain`;
 * ``inverse(poses)``: damped least squares on MuJoCo's Jacobians
   (``mj_jac``), every step kept in the joint ranges (a joint on a limit
   sits out the steps that push it further).
@@ -31,7 +31,7 @@ the caller knows it, else the model's ``home`` keyframe or reference pose);
 when that walk fails, it is solved directly from the seed and from a few
 fixed pseudo-random starts, keeping the solution closest to the seed.
 A pose farther from the chain's first joint than the sum of the lengths
-between its joints (:meth:`~splines445_ros.robot.robot_model.FrameChain.reach`)
+between its joints (:meth:`~splines445_ros.robot.frame_chain.FrameChain.reach`)
 is refused as out of reach, with that distance, before any walk.
 """
 
