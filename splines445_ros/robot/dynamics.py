@@ -64,56 +64,24 @@ less than ``torques``.  An :class:`ArmDynamics` is callable as its
 :func:`~splines445_ros.planning.plan`, which then takes its ``gravity``
 too) and is not thread-safe.
 
-:func:`effort_limits` returns the description's per-joint torque limits,
-resolved as the simulated arm resolves them
-(:func:`~splines445_ros.robot.model_drives.model_torque_limits`).
+:func:`effort_limits` (from :mod:`~splines445_ros.robot.torque_limits`, and
+importable from here too) returns the description's per-joint torque
+limits, read as the simulated arm reads them.
 """
 
 import copy
-import math
 
 import numpy as np
 
 from . import rotations as rot
-from .model_drives import model_torque_limits
 from .mujoco_import import import_mujoco
 from .newton_euler import NewtonEuler
+from .torque_limits import effort_limits  # noqa: F401 - the torque constraint's limits
 from .user_text import show
 from ..planning.validation import non_negative
 
 # Relative slack of the triangle inequality of a payload's principal moments.
 _TRIANGLE_SLACK = 1e-9
-
-
-def effort_limits(robot, joint_names=(), missing='raise'):
-    """
-    Return the torque limits (n,) [N m or N] of ``joint_names`` from the description.
-
-    Resolved as the simulated arm does
-    (:func:`~splines445_ros.robot.model_drives.model_torque_limits`), per
-    joint the first that exists: an MJCF actuator's ``forcerange``, its
-    ``ctrlrange`` times ``|gear|``, the joint's ``actuatorfrcrange`` (a
-    URDF ``<limit effort>``).  ``joint_names`` empty: every actuated joint.
-    A joint without a limit raises a ValueError naming it
-    (``missing='raise'``) or gets ``inf`` (``missing='inf'``).
-    """
-    if missing not in ('raise', 'inf'):
-        raise ValueError(f"missing must be 'raise' or 'inf', not {show(missing)}")
-    joints = robot.select(tuple(joint_names))
-    limits = np.empty(len(joints))
-    for i, joint in enumerate(joints):
-        try:
-            value, _ = model_torque_limits(robot.model, [joint.joint_id], [joint.name])
-        except ValueError:
-            if missing == 'inf':
-                limits[i] = math.inf
-                continue
-            raise ValueError(
-                f'joint {show(joint.name)} of {robot.describe()} has no torque limit (no '
-                'actuator forcerange or ctrlrange, no URDF <limit effort>, no MJCF '
-                'actuatorfrcrange)') from None
-        limits[i] = value[0]
-    return limits
 
 
 def payload_inertia_matrix(inertia):

@@ -1,14 +1,9 @@
 """
-Drives of a user's robot model: torque limits from the description, gains from its inertia.
+Drives of a user's robot model: gains from its inertia.
 
-Pure Python (numpy, MuJoCo), no rclpy.
-
-Torque limits (:func:`model_torque_limits`), per joint, the first that exists:
-
-1. the ``forcerange`` of an MJCF actuator on the joint (when force-limited);
-2. its ``ctrlrange`` times ``|gear|`` (when control-limited: a motor's torque);
-3. the joint's actuator force range: MJCF ``actuatorfrcrange``, or the URDF
-   ``<limit effort>`` (MuJoCo imports it there).
+Pure Python (numpy, MuJoCo), no rclpy.  The drives' torque limits come from
+the description as the planner reads them:
+:func:`~splines445_ros.robot.torque_limits.model_torque_limits`.
 
 Gains (:func:`inertia_gains`): each joint is treated as a second-order loop
 on the diagonal of the joint-space inertia matrix at the initial pose
@@ -52,44 +47,6 @@ DEFAULT_BANDWIDTH = 8.0       # Hz, closed-loop natural frequency of every joint
 DEFAULT_DAMPING_RATIO = 1.0   # critical
 # The joint's own damping may slow the loop's slowest mode to this fraction of the design's.
 SLOWEST_MODE_FRACTION = 0.5
-
-
-def model_torque_limits(model, joint_ids, joint_names, needed=None):
-    """
-    Return torque limits (n,) and their sources; ValueError naming a joint without.
-
-    Joints where ``needed`` (n,) is False are skipped (NaN, source '').
-    """
-    mj = _import_mujoco()
-    limits, sources = [], []
-    needed = [True] * len(joint_names) if needed is None else needed
-    for jid, name, need in zip(joint_ids, joint_names, needed):
-        if not need:
-            limits.append(math.nan)
-            sources.append('')
-            continue
-        found = None
-        for a in range(model.nu):
-            if (int(model.actuator_trntype[a]) != int(mj.mjtTrn.mjTRN_JOINT)
-                    or int(model.actuator_trnid[a, 0]) != jid):
-                continue
-            if model.actuator_forcelimited[a]:
-                found = (float(np.max(np.abs(model.actuator_forcerange[a]))), 'forcerange')
-            elif model.actuator_ctrllimited[a]:
-                gear = abs(float(model.actuator_gear[a, 0]))
-                found = (float(np.max(np.abs(model.actuator_ctrlrange[a]))) * gear,
-                         'ctrlrange x gear')
-            if found is not None:
-                break
-        if found is None and model.jnt_actfrclimited[jid]:
-            found = (float(np.max(np.abs(model.jnt_actfrcrange[jid]))), 'effort')
-        if found is None or not math.isfinite(found[0]) or found[0] <= 0.0:
-            raise ValueError(f'joint {name!r} has no torque limit in the model (no actuator '
-                             'forcerange or ctrlrange, no URDF effort or actuatorfrcrange): '
-                             'set torque_limits')
-        limits.append(found[0])
-        sources.append(found[1])
-    return np.array(limits), tuple(sources)
 
 
 def slowest_decay_rate(bandwidth, damping_ratio):

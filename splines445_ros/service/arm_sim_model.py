@@ -10,7 +10,7 @@ runs with:
   pose moved into the joint ranges;
 * ``torque_limits``: the model's (MJCF actuator ``forcerange``, or
   ``ctrlrange`` x gear; URDF ``effort``), see
-  :func:`~splines445_ros.robot.model_drives.model_torque_limits`;
+  :func:`~splines445_ros.robot.torque_limits.model_torque_limits`;
 * ``kp``, ``kd``: from the joint-space inertia at the initial pose, for
   ``control_bandwidth`` [Hz] and ``control_damping_ratio``, see
   :func:`~splines445_ros.robot.model_drives.inertia_gains`.
@@ -28,9 +28,10 @@ import numpy as np
 
 from ..robot import rotations as rot
 from ..robot.dynamics import add_rigid_mass, payload_inertia_matrix
-from ..robot.model_drives import inertia_gains, model_torque_limits
+from ..robot.model_drives import inertia_gains
 from ..robot.mujoco_import import import_mujoco
 from ..robot.robot_model import load_robot_model
+from ..robot.torque_limits import model_torque_limits
 from ..sim.mujoco_model import load_arm_model
 
 

@@ -35,8 +35,8 @@ from ..robot.chain_tip import chain_tips
 from ..robot.dynamics import ArmDynamics
 from ..robot.inverse_kinematics import ModelKinematics
 from ..robot.joint_limits_file import JointLimits, read_joint_limits_file, resolve_limits
-from ..robot.model_drives import model_torque_limits
 from ..robot.robot_model import load_robot_model, MAX_DESCRIPTION_CHARS, RobotModel
+from ..robot.torque_limits import model_torque_limits
 from ..robot.user_text import check_text_file, show, show_path
 
 # The parameters a RobotSetup is built from: a change to any other one (method,

@@ -28,6 +28,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 from splines445_ros.robot.dynamics import ArmDynamics, effort_limits
 from splines445_ros.robot.robot_model import load_robot_model, RobotModel
+from splines445_ros.robot.torque_limits import joint_torque_limit, model_torque_limits
 from splines445_ros.tools import vendor_robots as vr
 
 GRAVITY = 9.81
@@ -807,6 +808,25 @@ def test_effort_limits_from_mjcf_actuators():
     limits = effort_limits(robot, vr.UR5_JOINTS)
     # forcerange 77; ctrlrange [-2, 2.5] x |gear -40| = 100; the others the URDF effort.
     np.testing.assert_array_equal(limits, [77.0, 150.0, 100.0, 28.0, 28.0, 28.0])
+
+
+def test_the_planner_and_the_simulated_arm_read_one_torque_limit():
+    robot = ur5_with_site()
+    ids = [j.joint_id for j in robot.select(vr.UR5_JOINTS)]
+    limits, sources = model_torque_limits(robot.model, ids, vr.UR5_JOINTS)
+    np.testing.assert_array_equal(limits, effort_limits(robot, vr.UR5_JOINTS))
+    assert sources == ('forcerange', 'effort', 'ctrlrange x gear', 'effort', 'effort', 'effort')
+    assert [joint_torque_limit(robot.model, i) for i in ids[:3]] == [
+        (77.0, 'forcerange'), (150.0, 'effort'), (100.0, 'ctrlrange x gear')]
+    # Without a limit: the simulated arm names its parameter; skipped joints are NaN.
+    robot = load_robot_model(urdf_string=MIMIC_URDF)
+    ids = [j.joint_id for j in robot.select(MIMIC_PLANNED)]
+    assert joint_torque_limit(robot.model, ids[-1]) is None
+    with pytest.raises(ValueError, match="joint 's' has no torque limit.*set torque_limits"):
+        model_torque_limits(robot.model, ids, MIMIC_PLANNED)
+    limits, sources = model_torque_limits(robot.model, ids, MIMIC_PLANNED, [True, True, False])
+    np.testing.assert_array_equal(limits, [40.0, 30.0, math.nan])
+    assert sources == ('effort', 'effort', '')
 
 
 def test_effort_limits_missing():
