@@ -2,7 +2,7 @@
 Torque limits with and without the smoothing windows (issue 25 against issue 23), one run.
 
 plan()'s ``smoothing`` "auto" (the default) leaves a torque-limited
-rest-to-rest profile without the windows of ``inner_knots.DEFAULT_SMOOTHING``
+rest-to-rest profile without the windows of ``plan_options.DEFAULT_SMOOTHING``
 (0.3 s and 0.15 s, issue 23's smoothness, about 0.45 s a move); "windows"
 keeps them.  On bench_torque.py's 0.5-3 s moves that is most of the
 distance to issue 25's duration target, and this bench measures what the

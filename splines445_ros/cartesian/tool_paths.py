@@ -83,7 +83,7 @@ knot splits its segment's duration in proportion to the joint-space chord
 lengths of the two halves (eq. 11 of the paper, within the segment).
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 import math
 import numbers
 
@@ -91,12 +91,11 @@ import numpy as np
 
 from .golden_search import golden_maxima
 from .tool_lines import edge_geometry, LineUnreachable, plan_tool_lines
-from ..planning import check_position_limits, JointLimits, merge_duplicates, plan
-from ..planning.inner_knots import (inner_knot_count, smoothing_value, smoothing_windows,
-                                    vibration_frequency_value)
-from ..planning.methods import get_method
+from ..planning import merge_duplicates
 from ..planning.path_constraints import GravityOverload
-from ..planning.torque import TorqueLimit
+from ..planning.plan_options import PlanOptions, smoothing_windows
+from ..planning.planner import plan_with_options, within_position_limits
+from ..planning.validation import waypoint_array
 from ..robot import rotations as rot
 
 GRID = 24
@@ -116,11 +115,6 @@ MIN_EDGE_LENGTH = 1e-9
 # 'tool lines': a tool waypoint within this share of both tolerances of the one
 # before is merged into it (_close_waypoints).
 MERGE_SHARE = 0.1
-BOUNDARY_KEYWORDS = ('start_velocity', 'start_acceleration', 'end_velocity', 'end_acceleration')
-# plan() keywords the 'tool lines' construction understands (boundary values only at rest).
-LINES_KEYWORDS = {'max_velocity', 'max_acceleration', 'max_jerk', 'min_position', 'max_position',
-                  'waypoint_tolerance', 'inner_knots', 'max_torque', 'inverse_dynamics',
-                  *BOUNDARY_KEYWORDS}
 
 
 @dataclass(frozen=True)
@@ -513,17 +507,6 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
     the tolerances (naming the segment and the deviation reached).
 
     """
-    # 555 optimal's inner knots are tried on the refined path at the end (see
-    # _with_inner_knots); the refinement itself keeps knots at the waypoints.
-    inner_knots = inner_knot_count(plan_kwargs.pop('inner_knots', None),
-                                   get_method(method).name, timing)
-    plan_kwargs['inner_knots'] = 0
-    # vibration_frequency shapes the inner-knot timing only.
-    vibration = vibration_frequency_value(plan_kwargs.pop('vibration_frequency', None),
-                                          inner_knots)
-    # smoothing too: the refined path's inner-knot plan follows it (plan()'s); the
-    # tool lines are never averaged.
-    smoothing = smoothing_value(plan_kwargs.pop('smoothing', None), vibration, inner_knots)
     request = tool_pose_array(poses)
     tol_position = _tolerance('max_deviation', max_deviation)
     tol_orientation = _tolerance('max_orientation_deviation', max_orientation_deviation)
@@ -533,10 +516,15 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
         raise ValueError(f'max_inserted = {max_inserted}: must be a non-negative integer')
     speeds = (_speed_limit('max_tool_speed', max_tool_speed),
               _speed_limit('max_tool_angular_speed', max_tool_angular_speed))
-    moving = any(plan_kwargs.get(k) is not None and np.any(plan_kwargs[k])
-                 for k in BOUNDARY_KEYWORDS)
-    lines = (get_method(method).name == '555' and timing == 'optimal' and inner_knots > 0
-             and set(plan_kwargs) <= LINES_KEYWORDS and not moving)
+    # Validated once; the plans below take copies with other knots or tolerances.
+    options = PlanOptions.from_arguments(_joint_count(kinematics, request), method=method,
+                                         timing=timing, **plan_kwargs)
+    # 555 optimal's inner knots are tried on the refined path at the end (see
+    # _with_inner_knots); the refinement itself keeps knots at the waypoints, and
+    # no waypoint tolerance: inserted knots are deliberate, however close.
+    refining = replace(options, waypoint_tolerance=0.0, inner_knots=0, inner_knots_auto=False)
+    lines = (options.method == '555' and options.timing == 'optimal'
+             and options.inner_knots > 0 and options.rest)
     if any(speeds) and not lines:
         raise ValueError('max_tool_speed and max_tool_angular_speed need method "555" with '
                          'timing "optimal" (inner_knots > 0), rest to rest')
@@ -551,8 +539,8 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
         close = _close_waypoints(edge_poses, tol_position, tol_orientation)
         try:
             found = _tool_lines(edge_poses[close], (np.cumsum(close) - 1)[waypoint_knots],
-                                kinematics, (tol_position, tol_orientation), speeds, vibration,
-                                max_inserted, plan_kwargs)
+                                kinematics, (tol_position, tol_orientation), speeds,
+                                max_inserted, options)
         except LineUnreachable as exc:
             # A tool waypoint out of reach is named as such (as the refinement does).
             _inverse(kinematics, request, lambda k: f'tool waypoint {k}')
@@ -583,9 +571,7 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
     initial = None
     for iteration in range(1, max_inserted + 2):
         try:
-            # Inserted knots are deliberate, however close: no waypoint tolerance.
-            traj = plan(knot_joints, method=method, timing=timing, durations=seg_durations,
-                        waypoint_tolerance=0.0, **plan_kwargs)
+            traj = plan_with_options(waypoint_array(knot_joints), refining, seg_durations)
         except ValueError as exc:
             if not inserted:
                 raise
@@ -602,18 +588,19 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
         excess = _excess(deviation, (tol_position, tol_orientation))
         bad = np.flatnonzero(excess > 1.0)
         if bad.size == 0:
-            if inner_knots:
+            if options.inner_knots:
                 traj, deviation = _with_inner_knots(
                     traj, deviation, knot_joints, kinematics, edge_poses, segment_edges,
-                    (tol_position, tol_orientation), method, timing, inner_knots,
-                    dict(plan_kwargs, vibration_frequency=vibration, smoothing=smoothing))
+                    (tol_position, tol_orientation),
+                    replace(options, waypoint_tolerance=0.0, inner_knots_auto=False))
             return ToolPath(traj, knots, knot_joints, _knot_of_waypoint(
                 waypoint_knots, segment_edges, len(knots)), segment_edges, inserted,
                 deviation, initial[0], initial[1], iteration)
         budget = max_inserted - inserted
         if budget <= 0:
             raise ValueError(_not_within(deviation, excess, segment_edges, kept_index,
-                                         tol_position, tol_orientation, max_inserted, method))
+                                         tol_position, tol_orientation, max_inserted,
+                                         options.method))
         if bad.size > budget:
             bad = np.sort(bad[np.argsort(excess[bad])[::-1][:budget]])
         midpoints = _midpoints(knots[bad], knots[bad + 1])
@@ -694,8 +681,8 @@ def _speed_limit(name, value):
     return value
 
 
-def _tool_lines(edge_poses, waypoint_knots, kinematics, tolerances, speeds, vibration,
-                max_inserted, plan_kwargs):
+def _tool_lines(edge_poses, waypoint_knots, kinematics, tolerances, speeds, max_inserted,
+                options):
     """
     Return the :class:`ToolPath` of :func:`tool_lines.plan_tool_lines`, or None to refine instead.
 
@@ -703,26 +690,17 @@ def _tool_lines(edge_poses, waypoint_knots, kinematics, tolerances, speeds, vibr
     refinement then names the problem); with one its error is raised, a
     line out of reach as the :class:`tool_lines.LineUnreachable`.
     """
-    n_joints = _joint_count(kinematics, edge_poses)
-    limits = JointLimits.from_user(n_joints, plan_kwargs.get('max_velocity'),
-                                   plan_kwargs.get('max_acceleration'),
-                                   plan_kwargs.get('max_jerk'))
-    torque = None
-    if plan_kwargs.get('max_torque') is not None or \
-            plan_kwargs.get('inverse_dynamics') is not None:
-        if plan_kwargs.get('max_torque') is None or plan_kwargs.get('inverse_dynamics') is None:
-            raise ValueError('max_torque and inverse_dynamics must be given together')
-        torque = TorqueLimit(plan_kwargs['max_torque'], plan_kwargs['inverse_dynamics'],
-                             n_joints)
     segment_edges = np.arange(len(edge_poses) - 1)
 
     def measure(traj, edges):
         return _PathMeasure(traj, kinematics, edge_poses, edges).deviation(tolerances)
 
+    vibration = options.vibration_frequency
     windows = smoothing_windows(vibration) if vibration else ()
     try:
-        found = plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, *speeds,
-                                windows=windows, max_inserted=max_inserted, torque=torque)
+        found = plan_tool_lines(edge_poses, kinematics, options.limits, measure, tolerances,
+                                *speeds, windows=windows, max_inserted=max_inserted,
+                                torque=options.torque)
     except LineUnreachable:
         if not any(speeds):
             return None
@@ -733,8 +711,7 @@ def _tool_lines(edge_poses, waypoint_knots, kinematics, tolerances, speeds, vibr
         if any(speeds):
             raise
         return None
-    check_position_limits(found.trajectory, plan_kwargs.get('min_position'),
-                          plan_kwargs.get('max_position'))
+    within_position_limits(found.trajectory, options.min_position, options.max_position)
     return ToolPath(found.trajectory, edge_poses, found.joints, waypoint_knots, segment_edges,
                     found.inserted, found.deviation, found.initial_deviation,
                     found.initial_duration, found.rounds, 'tool lines', found.tool_speed,
@@ -742,7 +719,7 @@ def _tool_lines(edge_poses, waypoint_knots, kinematics, tolerances, speeds, vibr
 
 
 def _with_inner_knots(traj, deviation, joints, kinematics, edge_poses, segment_edges,
-                      tolerances, method, timing, inner_knots, plan_kwargs):
+                      tolerances, options):
     """
     Return (trajectory, deviation): the refined path planned with inner knots when better.
 
@@ -753,8 +730,7 @@ def _with_inner_knots(traj, deviation, joints, kinematics, edge_poses, segment_e
     faster; it is kept when it is shorter and still within the tolerances.
     """
     try:
-        refined = plan(joints, method=method, timing=timing, waypoint_tolerance=0.0,
-                       **dict(plan_kwargs, inner_knots=inner_knots))
+        refined = plan_with_options(waypoint_array(joints), options)
     except ValueError:
         return traj, deviation
     if not refined.duration < traj.duration:

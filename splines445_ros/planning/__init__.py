@@ -16,13 +16,14 @@ checks this).
 
 from .limits import BindingLimit, JointLimits
 from .methods import get_method, Method, METHOD_DEFINITIONS, METHODS
-from .planner import (check_position_limits, DEFAULT_WAYPOINT_TOLERANCE, merge_duplicates,
-                      plan, TIMINGS)
+from .plan_options import DEFAULT_WAYPOINT_TOLERANCE, PlanOptions, TIMINGS
+from .planner import check_position_limits, merge_duplicates, plan, plan_with_options
 from .timing import chord_durations
 from .trajectory import Samples, Trajectory
 
 __all__ = [
     'BindingLimit', 'check_position_limits', 'chord_durations', 'DEFAULT_WAYPOINT_TOLERANCE',
     'get_method', 'JointLimits', 'merge_duplicates',
-    'Method', 'METHOD_DEFINITIONS', 'METHODS', 'plan', 'Samples', 'TIMINGS', 'Trajectory',
+    'Method', 'METHOD_DEFINITIONS', 'METHODS', 'plan', 'plan_with_options', 'PlanOptions',
+    'Samples', 'TIMINGS', 'Trajectory',
 ]

@@ -88,44 +88,17 @@ from .path_constraints import GravityOverload, GriddedPath, JointAcceleration, J
 from .path_velocity import (joint_acceleration_peaks, path_position, PathLimits,
                             traversal_times)
 from .peaks import row_max, velocity_ratios_above
+from .plan_options import DEFAULT_SMOOTHING
 from .timing import closed_form_scale, rest_to_rest_durations
 from .trajectory import REBUILD_RTOL, representable_durations, require_finite, Trajectory
 
-# Largest number of inner knots per segment accepted by plan().
-MAX_INNER_KNOTS = 8
-# The count used when plan() is not given one (555 optimal): with the
-# default smoothing, 4 is as short as 6 and 8 on the benchmark's random paths
-# and shakes the arm least (bench_inner_knots.py, issue 23).
-DEFAULT_INNER_KNOTS = 4
-# With torque limits and no smoothing windows (issue 25): the count, step 2's
-# grid steps per segment and step 6's stop (relative gain over STALL
-# iterations).  On bench_torque.py's 10 paths per row 6 knots took Panda 3 kg
-# from 1.055 to 1.042 x TOPP-RA (median); the coarser grid and stop (with
-# torque.PIECE_SAMPLES 5) paid for them.
-TORQUE_INNER_KNOTS = 6
+# With torque limits and no smoothing windows (issue 25; plan_options.
+# TORQUE_INNER_KNOTS is their count): step 2's grid steps per segment and step
+# 6's stop (relative gain over STALL iterations).  On bench_torque.py's 10 paths
+# per row 6 knots took Panda 3 kg from 1.055 to 1.042 x TOPP-RA (median); the
+# coarser grid and stop (with torque.PIECE_SAMPLES 5) paid for them.
 TORQUE_GRID_STEPS = 20
 TORQUE_MIN_GAIN = 1e-2
-# Step 2's moving windows [s] when no vibration frequency is given: boxes of
-# 0.3 s and 0.15 s, which together pass at most 9 % of any frequency from
-# 3 Hz up (one box of 0.25 s, the default before: 30 %), the range where
-# arms' first structural modes sit; they make a plan 0.45 s longer.  With
-# the natural cubic path of step 1 they gave bench_inner_knots.py's
-# requests a shorter median duration than one box of 0.25 s on the 555
-# path (1.045 against 1.050 x TOPP-RA; 4 Hz residual 0.12 against 0.33 x
-# TOPP-RA's) and met bench_smoothness.py's 4 Hz arm (issue 23).
-DEFAULT_SMOOTHING = (0.3, 0.15)
-# plan()'s ``smoothing`` (issue 25): "windows" averages a rest-to-rest
-# profile over DEFAULT_SMOOTHING, "none" does not; "auto" (the default) is
-# "windows" except with torque limits.  A torque-limited move is short (0.5-3
-# s on bench_torque.py's paths) and the windows' 0.45 s made it 1.23-1.30
-# times TOPP-RA's duration, shaking a 4 Hz mode half as much as TOPP-RA;
-# without them 1.01-1.04 times (with 6 inner knots), shaking about as much as TOPP-RA
-# (bench_torque_windows.py).  A user who limits the torque asks for what
-# the motors can do; vibration_frequency or "windows" smooths it again.
-SMOOTHINGS = ('auto', 'windows', 'none')
-# A vibration frequency above this [Hz] is refused (its window would be
-# shorter than a servo cycle of 1 ms).
-MAX_VIBRATION_FREQUENCY = 1000.0
 # Grid steps per segment of the speed profile (step 2).
 GRID_STEPS = 24
 # AveragedTiming.time_at: safeguarded Newton steps (issue 23, the planning time of
@@ -244,71 +217,6 @@ PRUNE_ROWS = 512
 ROUNDED_REACH = 0.1
 # Safety factor on exact restoring factors against round-off.
 _ROUNDOFF = 1.0 + 1e-12
-
-
-def vibration_frequency_value(value, inner_knots):
-    """
-    Validate the ``vibration_frequency`` argument of plan() [Hz]; return it as a float.
-
-    None and 0 mean "not given" (the default smoothing).  Otherwise a finite
-    number in (0, :data:`MAX_VIBRATION_FREQUENCY`], which needs inner knots
-    (555 optimal): the other timings have no profile to shape.
-    """
-    if value is None:
-        return 0.0
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise ValueError(f'vibration_frequency must be a number [Hz], got {type(value).__name__}')
-    value = float(value)
-    if not (np.isfinite(value) and 0.0 <= value <= MAX_VIBRATION_FREQUENCY):
-        raise ValueError(f'vibration_frequency must be between 0 (not used) and '
-                         f'{MAX_VIBRATION_FREQUENCY:g} Hz, got {value:.6g}')
-    if value and not inner_knots:
-        raise ValueError('vibration_frequency needs method "555" with timing "optimal" and '
-                         'inner_knots > 0: the other timings have no speed profile to shape')
-    return value
-
-
-def smoothing_value(value, vibration_frequency, inner_knots):
-    """
-    Validate the ``smoothing`` argument of plan(); return one of :data:`SMOOTHINGS`.
-
-    None means "auto".  "windows" and "none" need inner knots (555 optimal:
-    the other timings have no profile to average), and a
-    ``vibration_frequency`` sets its own windows, so it needs "auto": either
-    would otherwise be silently ignored.
-    """
-    if value is None:
-        return 'auto'
-    if not isinstance(value, str) or value not in SMOOTHINGS:
-        shown = repr(value)[:40] if isinstance(value, str) else type(value).__name__
-        raise ValueError(f'smoothing must be one of {list(SMOOTHINGS)}, got {shown}')
-    if value != 'auto' and not inner_knots:
-        raise ValueError(f'smoothing {value!r} needs method "555" with timing "optimal" and '
-                         'inner_knots > 0: the other timings have no speed profile to average')
-    if value != 'auto' and vibration_frequency:
-        raise ValueError(f'smoothing {value!r} with vibration_frequency '
-                         f'{vibration_frequency:g} Hz: the frequency sets the windows itself '
-                         '(two of 1 / f); use smoothing "auto" with it')
-    return value
-
-
-def smoothing_windows(vibration_frequency, smoothing='windows', torque_limited=False):
-    """
-    Return the moving windows [s] of step 2 for a ``vibration_frequency`` [Hz] (0: not given).
-
-    Given ``f``: two boxes of ``1 / f``, a double zero of the path
-    acceleration's spectrum at ``f`` (and at its multiples), so that the zero
-    survives the small change of time scale of step 5 and the mode's
-    damping; it costs about one more period ``1 / f`` than a single box.
-    Not given: the boxes of :data:`DEFAULT_SMOOTHING` for ``smoothing``
-    "windows", and for "auto" unless ``torque_limited``; none otherwise
-    (:data:`SMOOTHINGS`).
-    """
-    if vibration_frequency:
-        return (1.0 / vibration_frequency,) * 2
-    if smoothing == 'none' or (smoothing == 'auto' and torque_limited):
-        return ()
-    return DEFAULT_SMOOTHING
 
 
 @lru_cache(maxsize=64)
@@ -498,28 +406,6 @@ def regula_falsi(position_at, s, lo_t, hi_t, lo_f, hi_f, steps):
             np.multiply(hi_f, 0.5, out=hi_f, where=below & was_below)
         was_above, was_below = above, below
     return np.array(out, float)
-
-
-def inner_knot_count(value, method, timing):
-    """
-    Validate the ``inner_knots`` argument of plan(); return it as an int.
-
-    None (the default) is :data:`DEFAULT_INNER_KNOTS` for method 555 with
-    timing "optimal" and 0 otherwise.  Otherwise an integer from 0 to
-    :data:`MAX_INNER_KNOTS`; a non-zero count needs method 555 with timing
-    "optimal" (the only combination that uses it).
-    """
-    if value is None:
-        return DEFAULT_INNER_KNOTS if (method, timing) == ('555', 'optimal') else 0
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise ValueError(f'inner_knots must be an integer, got {value!r}')
-    value = int(value)
-    if not 0 <= value <= MAX_INNER_KNOTS:
-        raise ValueError(f'inner_knots must be between 0 and {MAX_INNER_KNOTS}, got {value}')
-    if value and (method != '555' or timing != 'optimal'):
-        raise ValueError(f'inner_knots = {value} needs method "555" with timing "optimal", '
-                         f'got method {method!r} with timing {timing!r}')
-    return value
 
 
 def knots_per_segment(segment_times, limits, most, min_piece=0.0, ramp_pieces=RAMP_PIECES,

@@ -2,31 +2,19 @@
 
 import numpy as np
 
-from .inner_knots import (DEFAULT_SMOOTHING, inner_knot_count, plan_with_inner_knots,
-                          smoothing_value, smoothing_windows, TORQUE_INNER_KNOTS,
-                          vibration_frequency_value)
-from .limits import check_boundary_feasible, JointLimits
-from .methods import get_method
+from .inner_knots import plan_with_inner_knots
 from .optimal import optimal_durations, two_segment_plan, two_segment_search
 from .path_timing import rescaled
+from .plan_options import DEFAULT_SMOOTHING, DEFAULT_WAYPOINT_TOLERANCE, PlanOptions
 from .ratio_search import GIVE_UP_PASSES
 from .timing import (chord_durations, rest_to_rest_durations, rest_to_rest_lower_bound,
                      rest_to_rest_scale, scaled_spline, ScaledSpline, uniform_scale)
-from .torque import TorqueLimit
 from .trajectory import Trajectory
-from .validation import (boundary_vector, duration_array, non_negative,
-                         position_limit_vector, waypoint_array)
-
-TIMINGS = ('uniform', 'fixed', 'optimal')
+from .validation import duration_array, position_limit_vector, waypoint_array
 
 # Chords shorter than this (relative to the largest |coordinate|, at least 1)
 # count as zero: such waypoints are exact duplicates, merged whatever the tolerance.
 DUPLICATE_RTOL = 1e-12
-# Default waypoint_tolerance [rad, or m for a prismatic joint]: four times the
-# dead band within which the dynamic arm comes to rest (2.5e-4 rad), so that a
-# request that starts at the commanded pose replans cleanly from the measured
-# one; 0.057 degrees, below anything taught as two distinct points.
-DEFAULT_WAYPOINT_TOLERANCE = 1e-3
 # Position limits are met when no joint passes them by more than this
 # (relative to the limit, at least 1): floating-point round-off.
 POSITION_LIMIT_RTOL = 1e-12
@@ -153,8 +141,8 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         jerk ramp times): the result is still a C4 quintic spline through
         every waypoint, passed at ``waypoint_times``; its ``breakpoints``
         include the inner knots.  None (the default) is
-        :data:`inner_knots.DEFAULT_INNER_KNOTS` for 555 optimal
-        (:data:`inner_knots.TORQUE_INNER_KNOTS` with torque limits and no
+        :data:`plan_options.DEFAULT_INNER_KNOTS` for 555 optimal
+        (:data:`plan_options.TORQUE_INNER_KNOTS` with torque limits and no
         smoothing windows) and 0 otherwise; 0 keeps knots at the waypoints
         only (the optimisation of :mod:`optimal`, which also takes the
         ``durations`` warm start).  When
@@ -164,7 +152,7 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
     vibration_frequency : float >= 0 [Hz], or None
         The arm's lowest structural mode, for 555 optimal with inner knots:
         the speed profile is averaged over two windows of ``1 / f``, so the
-        path acceleration has no content at ``f`` (:func:`inner_knots.
+        path acceleration has no content at ``f`` (:func:`plan_options.
         smoothing_windows`).  None or 0 (the default): as ``smoothing``
         says.  Rest-to-rest requests only:
         with non-zero boundary values the profile is not averaged
@@ -187,30 +175,41 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
     smoothing : "auto" (None, the default), "windows" or "none"
         Without a ``vibration_frequency``, for 555 optimal with inner knots:
         "windows" averages a rest-to-rest speed profile over the windows of
-        :data:`inner_knots.DEFAULT_SMOOTHING` (0.3 s and 0.15 s, 0.45 s
+        :data:`plan_options.DEFAULT_SMOOTHING` (0.3 s and 0.15 s, 0.45 s
         longer: the arm's low modes shake about half as much as with
         TOPP-RA), "none" does not (about TOPP-RA's duration and shaking);
         "auto" is "windows" without torque limits and "none" with them
-        (:data:`inner_knots.SMOOTHINGS` says why).
+        (:data:`plan_options.SMOOTHINGS` says why).
 
     """
-    if not isinstance(timing, str) or timing not in TIMINGS:
-        raise ValueError(f'unknown timing {timing!r}: expected one of {TIMINGS}')
-    given = inner_knots
-    inner_knots = inner_knot_count(inner_knots, get_method(method).name, timing)
-    vibration = vibration_frequency_value(vibration_frequency, inner_knots)
-    if (max_torque is None) != (inverse_dynamics is None):
-        raise ValueError('max_torque and inverse_dynamics must be given together')
-    windows = smoothing_windows(vibration, smoothing_value(smoothing, vibration, inner_knots),
-                                max_torque is not None)
-    if given is None and inner_knots and max_torque is not None and not windows:
-        inner_knots = TORQUE_INNER_KNOTS
+    points = waypoint_array(waypoints)
     with np.errstate(over='ignore', invalid='ignore', divide='ignore', under='ignore'):
-        traj = _plan(waypoints, method, timing, durations, max_velocity, max_acceleration,
-                     max_jerk, (start_velocity, start_acceleration, end_velocity,
-                                end_acceleration), waypoint_tolerance, inner_knots, windows,
-                     (max_torque, inverse_dynamics))
-        check_position_limits(traj, min_position, max_position)
+        options = PlanOptions.from_arguments(
+            points.shape[1], method=method, timing=timing, max_velocity=max_velocity,
+            max_acceleration=max_acceleration, max_jerk=max_jerk,
+            start_velocity=start_velocity, start_acceleration=start_acceleration,
+            end_velocity=end_velocity, end_acceleration=end_acceleration,
+            waypoint_tolerance=waypoint_tolerance, min_position=min_position,
+            max_position=max_position, inner_knots=inner_knots,
+            vibration_frequency=vibration_frequency, max_torque=max_torque,
+            inverse_dynamics=inverse_dynamics, smoothing=smoothing)
+    return plan_with_options(points, options, durations)
+
+
+def plan_with_options(points, options, durations=None):
+    """
+    Plan through ``points`` (N, n), finite, under validated :class:`PlanOptions`.
+
+    What :func:`plan` does once it has validated its arguments; the tool
+    paths of ``cartesian/`` call it with the options they built once.
+    ``durations`` as for :func:`plan` (checked here: they belong to the
+    request, not to its options).
+    """
+    with np.errstate(over='ignore', invalid='ignore', divide='ignore', under='ignore'):
+        traj = _plan_limited(points, durations, options)
+        if options.torque is not None:
+            traj = _torque_limited(traj, options.torque)
+        within_position_limits(traj, options.min_position, options.max_position)
     return traj
 
 
@@ -232,6 +231,17 @@ def check_position_limits(traj, min_position=None, max_position=None, joint_name
     if bad.size:
         j = int(bad[0])
         raise ValueError(f'min_position[{j}] = {low[j]} is above max_position[{j}] = {high[j]}')
+    within_position_limits(traj, low, high, joint_names)
+
+
+def within_position_limits(traj, low, high, joint_names=None):
+    """
+    Raise ValueError when ``traj`` leaves [low, high] (validated (n,) arrays, or both None).
+
+    :func:`check_position_limits` without the checks of its arguments.
+    """
+    if low is None:
+        return
     q_low, q_high, t_low, t_high = traj.position_extrema()
     excess = np.stack([low - q_low, q_high - high])
     # A velocity root a hair inside a segment next to a knot that sits on a
@@ -246,23 +256,6 @@ def check_position_limits(traj, min_position=None, max_position=None, joint_name
                          f'{excess[0, j]:.3g} below min_position[{j}] = {low[j]:g}')
     raise ValueError(f'{joint} goes to {q_high[j]:.6g} at t = {t_high[j]:.6g} s, '
                      f'{excess[1, j]:.3g} above max_position[{j}] = {high[j]:g}')
-
-
-def _plan(waypoints, method, timing, durations, max_velocity, max_acceleration, max_jerk,
-          boundary, waypoint_tolerance, inner_knots, windows, torque=(None, None)):
-    method = get_method(method).name
-    points = waypoint_array(waypoints)
-    n = points.shape[1]
-    boundary = tuple(boundary_vector(name, value, n) for name, value in zip(
-        ('start_velocity', 'start_acceleration', 'end_velocity', 'end_acceleration'),
-        boundary))
-    torque = None if torque[0] is None else TorqueLimit(*torque, n)
-    if torque is not None and any(np.any(b) for b in boundary):
-        raise ValueError('torque limits are planned rest to rest: the boundary velocities '
-                         'and accelerations must be zero')
-    traj = _plan_limited(method, points, timing, durations, max_velocity, max_acceleration,
-                         max_jerk, boundary, waypoint_tolerance, inner_knots, windows, torque)
-    return traj if torque is None else _torque_limited(traj, torque)
 
 
 def _torque_limited(traj, torque, to_beat=None):
@@ -314,20 +307,11 @@ def slowed_down(traj, factor):
     return slow
 
 
-def _plan_limited(method, points, timing, durations, max_velocity, max_acceleration, max_jerk,
-                  boundary, waypoint_tolerance, inner_knots, windows, torque):
+def _plan_limited(points, durations, options):
     """Plan under the v/a/j limits (and, for 555 optimal with inner knots, the torque)."""
-    n = points.shape[1]
-    tolerance = non_negative('waypoint_tolerance', waypoint_tolerance)
-    limits = None
-    if max_velocity is not None or max_acceleration is not None or max_jerk is not None:
-        if max_velocity is None or max_acceleration is None:
-            raise ValueError('max_velocity and max_acceleration must be given together')
-        limits = JointLimits.from_user(n, max_velocity, max_acceleration, max_jerk)
-        check_boundary_feasible(limits, *boundary)
-    elif timing != 'fixed':
-        raise ValueError(f'timing={timing!r} needs max_velocity and max_acceleration')
-
+    method, timing, limits = options.method, options.timing, options.limits
+    boundary, torque = options.boundary, options.torque
+    inner_knots, windows = options.planned_inner_knots, options.windows
     if timing == 'fixed':
         seg_durations = duration_array(durations, points.shape[0] - 1)
         return Trajectory.build(method, timing, points, seg_durations, boundary, limits)
@@ -336,13 +320,13 @@ def _plan_limited(method, points, timing, durations, max_velocity, max_accelerat
         raise ValueError(f'durations are only used with timing "fixed" or "optimal", '
                          f'not {timing!r}')
     start = None if durations is None else duration_array(durations, points.shape[0] - 1)
-    points, dropped = merge_duplicates(points, tolerance)
+    points, dropped = merge_duplicates(points, options.waypoint_tolerance)
     if start is not None and dropped:
         # A dropped waypoint's segment joins the one before it.
         start = np.diff(np.delete(np.concatenate([[0.0], np.cumsum(start)]), dropped))
     search = give_up = None     # two segments: the knots-only optimum's search (below)
     if inner_knots:
-        rest = not any(np.any(b) for b in boundary)
+        rest = options.rest
         shaped = windows not in ((), DEFAULT_SMOOTHING) and rest
         # The knots-only optimum is the rival below: the construction's own
         # knots-only candidates would only repeat it, less well.  With torque

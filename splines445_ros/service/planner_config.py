@@ -13,7 +13,7 @@ from typing import Tuple
 
 from .validated_config import ValidatedConfig
 from ..planning import DEFAULT_WAYPOINT_TOLERANCE, METHODS, TIMINGS
-from ..planning.inner_knots import MAX_INNER_KNOTS, MAX_VIBRATION_FREQUENCY, smoothing_value
+from ..planning.plan_options import MAX_INNER_KNOTS, MAX_VIBRATION_FREQUENCY, smoothing_value
 from ..robot.dynamics import payload_inertia_matrix
 from ..robot.joint_limits_file import check_limit_value
 from ..robot.kinematics import PlanarArm
@@ -44,7 +44,7 @@ TOOL_SPEEDS = (('max_tool_speed', 'm/s'), ('max_tool_angular_speed', 'rad/s'))
 # limits the arm, within the range the planner works in (LIMIT_RANGES).
 TORQUE_STAND_IN_ACCELERATION = 1000.0
 # inner_knots "auto": plan()'s default (inner_knots None), 4, or 6 with torque
-# limits and no smoothing windows (inner_knots.DEFAULT_INNER_KNOTS and
+# limits and no smoothing windows (plan_options.DEFAULT_INNER_KNOTS and
 # TORQUE_INNER_KNOTS).
 AUTO_INNER_KNOTS = -1
 # limit_torque: the share of every torque limit a plan leaves to the controller's

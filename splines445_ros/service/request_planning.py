@@ -11,9 +11,10 @@ from typing import Optional
 
 import numpy as np
 
-from ..cartesian.tool_paths import BOUNDARY_KEYWORDS, plan_tool_path
+from ..cartesian.tool_paths import plan_tool_path
 from ..planning import check_position_limits, plan
 from ..planning.path_constraints import GravityOverload
+from ..planning.plan_options import BOUNDARY_NAMES
 from ..robot.user_text import format_vector
 
 # A fixed-timing request may exceed a limit by this much (round-off of times
@@ -117,7 +118,7 @@ def _named_joint(exc, joint_names):
 
 def _require_rest(config, request):
     """Refuse a request with non-zero boundary values under torque limits (ValueError)."""
-    moving = [(name, value) for name, value in zip(BOUNDARY_KEYWORDS, (
+    moving = [(name, value) for name, value in zip(BOUNDARY_NAMES, (
         request.start_velocity, request.start_acceleration, request.end_velocity,
         request.end_acceleration)) if value is not None and np.any(np.asarray(value) != 0.0)]
     if not moving:

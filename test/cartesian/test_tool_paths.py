@@ -12,7 +12,7 @@ from hypothesis import assume, event, given, settings, strategies as st
 import numpy as np
 import pytest
 from splines445_ros.cartesian.tool_paths import path_deviation, plan_tool_path
-from splines445_ros.planning import METHODS, plan
+from splines445_ros.planning import METHODS
 from splines445_ros.robot import paper_example as pe
 from splines445_ros.robot.kinematics import PlanarArm
 
@@ -126,11 +126,13 @@ def test_optimal_refinement_restarts_from_the_split_optimum(monkeypatch):
     from splines445_ros.cartesian import tool_paths
     calls = []
 
-    def recording(waypoints, **kwargs):
-        traj = plan(waypoints, **kwargs)
-        calls.append((kwargs['durations'], traj.durations))
+    planned = tool_paths.plan_with_options
+
+    def recording(waypoints, options, durations=None):
+        traj = planned(waypoints, options, durations)
+        calls.append((durations, traj.durations))
         return traj
-    monkeypatch.setattr(tool_paths, 'plan', recording)
+    monkeypatch.setattr(tool_paths, 'plan_with_options', recording)
     poses = np.column_stack([pe.triangle_points()[:4], np.zeros(4)])
     result = plan_tool_path(poses, ARM, 5e-3, max_inserted=200, method='555',
                             timing='optimal', inner_knots=0, **LIMITS)

@@ -18,10 +18,11 @@ from reference_spline import exact_peaks
 from scipy.interpolate import make_interp_spline
 from splines445_ros.planning import plan
 from splines445_ros.planning.continuity_system import spline_coefficients
-from splines445_ros.planning.inner_knots import DEFAULT_INNER_KNOTS, plan_with_inner_knots
+from splines445_ros.planning.inner_knots import plan_with_inner_knots
 from splines445_ros.planning.limits import JointLimits
 from splines445_ros.planning.path_constraints import GriddedPath, JointAcceleration, JointVelocity
 from splines445_ros.planning.path_velocity import PathLimits, traversal_times
+from splines445_ros.planning.plan_options import DEFAULT_INNER_KNOTS
 from splines445_ros.planning.planner import SMALL_REQUEST
 
 # The knots-only rival and plan(inner_knots=0) are local optima from other

@@ -15,8 +15,9 @@ import pytest
 from reference_spline import exact_peaks, global_coefficients
 from scipy.interpolate import PPoly
 from splines445_ros.planning import plan
-from splines445_ros.planning.inner_knots import DEFAULT_INNER_KNOTS, plan_with_inner_knots
+from splines445_ros.planning.inner_knots import plan_with_inner_knots
 from splines445_ros.planning.limits import JointLimits
+from splines445_ros.planning.plan_options import DEFAULT_INNER_KNOTS
 from splines445_ros.planning.ratio_search import GIVE_UP_DIP, RatioSearch
 
 
