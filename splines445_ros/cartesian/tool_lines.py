@@ -48,7 +48,7 @@ from .golden_search import golden_maxima
 from ..planning.path_constraints import ToolSpeed
 from ..planning.path_timing import JointPathSamples, midpoint_fractions, plan_along_path, \
     rescaled
-from ..planning.torque import CHECK_PERIOD, check_times
+from ..planning.torque import CHECK_PERIOD, check_times, uniform_slow_down
 from ..robot import rotations as rot
 from ..robot.frame_chain import FrameChain
 
@@ -81,8 +81,6 @@ REFINED_MAXIMA = 8
 # line sets got the same shares and durations (within 0.1 %) from 8 as from
 # 12, in two thirds of the tool-rate evaluations.
 TOOL_SPEED_PIECE_SAMPLES = 8
-# Slack on the final slow-down against round-off.
-_SLOW_DOWN_ROUNDOFF = 1.0 + 1e-9
 # The profile aims at this share of a tool speed limit: the spline follows it
 # within a few tenths of a percent on the lines, so the last step's uniform
 # slow-down stays below the 1 % that "at the programmed speed" allows.
@@ -474,23 +472,24 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
     linear, angular, sampled = tool_speeds(traj, kinematics)
     factor = max(linear / max_tool_speed if max_tool_speed else 0.0,
                  angular / max_tool_angular_speed if max_tool_angular_speed else 0.0)
-    torque_check = None if torque is None else torque.check(traj)
-    checked = None if torque_check is None else torque_check.needs()
-    if torque_check is not None and (factor > 1.0 or checked[0] > 1.0):
+    torque_check = checked = None
+    slow = uniform_slow_down(factor)
+    if torque is not None:
         # Slowed down, the torque is bounded with the gravity's and the
         # dynamic part's excesses between samples apart (TorqueCheck).
-        factor = max(factor, torque_check.required_slow_down())
-    if factor > 1.0:
-        traj = rescaled(traj, factor * _SLOW_DOWN_ROUNDOFF)
+        torque_check = torque.check(traj)
+        checked = torque_check.needs()
+        slow = torque_check.slow_down_with(factor, checked[0])
+    if slow > 1.0:
+        traj = rescaled(traj, slow)
         # Rest to rest, the spline through the same knots on pieces f times
         # longer is this one slowed down by f: every tool speed divided by
         # f, so no second check (it cost 14 ms on the Panda seam); nor of
         # the torque, g + d / f**2 at the same path points.  Its samples are
         # those of a period f times CHECK_PERIOD.
-        linear, angular, sampled = (value / (factor * _SLOW_DOWN_ROUNDOFF)
-                                    for value in (linear, angular, sampled))
+        linear, angular, sampled = (value / slow for value in (linear, angular, sampled))
         if torque_check is not None:
-            checked = torque_check.needs(factor * _SLOW_DOWN_ROUNDOFF)
+            checked = torque_check.needs(slow)
     if checked is not None:
         traj.torque_factor, traj.torque_ratios = checked
     share = 0.0

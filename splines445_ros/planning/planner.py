@@ -41,11 +41,6 @@ RIVAL_STALL_TOLERANCE = 1e-3
 # is not averaged then, and on the paper's example it is 2.8 % shorter for
 # 6 times the jerk's total variation per second (issue 23).
 MOVING_END_GAIN = 0.05
-# A plan slowed down for its torque limits gets this much more than the
-# factor its check says (round-off): the slowed-down plan's check is the
-# same samples rescaled (torque.TorqueCheck; a second 1 kHz check was a
-# seventh of the planning time of bench_torque.py's plans).
-TORQUE_ROUNDOFF = 1e-9
 
 
 def merge_duplicates(waypoints, tolerance=0.0):
@@ -282,8 +277,9 @@ def _torque_limited(traj, torque, to_beat=None):
             j = int(np.argmax(ratios))
             raise ValueError(f'joint {j} needs {ratios[j]:.4g} times its torque limit with '
                              f'the given durations: slow them down by {factor:.4g}')
-        # The slowed-down plan's check is this one's, rescaled (TorqueCheck).
-        slow = check.required_slow_down() * (1.0 + TORQUE_ROUNDOFF)
+        # The slowed-down plan's check is this one's, rescaled (TorqueCheck;
+        # a second 1 kHz check was a seventh of bench_torque.py's planning time).
+        slow = check.slow_down_with(torque_need=factor)
         if to_beat is not None and traj.duration * slow >= to_beat:
             return None
         traj = slowed_down(traj, slow)

@@ -44,6 +44,10 @@ COARSE_PERIOD = 1e-2
 # Most samples of one check (an hour at 1 kHz): a longer plan is refused
 # before anything is allocated for it.
 MAX_CHECK_SAMPLES = 3_600_000
+# A plan slowed down uniformly for a dense check (torque, tool speed) gets this
+# much more than the factor the check says, against round-off: the slowed-down
+# plan is not checked again (its check is the same samples rescaled).
+SLOW_DOWN_ROUNDOFF = 1.0 + 1e-9
 # Samples per spline piece of the inner-knot iteration's torque factor, both
 # knots included (each knot sampled once, shared by its two pieces).  8 before
 # issue 25's last stop: with 5, and 6 inner knots (inner_knots.
@@ -279,6 +283,21 @@ class TorqueCheck:
         """
         return math.sqrt(float(np.max(self._split_needs()[2])))
 
+    def slow_down_with(self, factor=1.0, torque_need=None):
+        """
+        Return the uniform slow-down (>= 1) that holds the torque and another ``factor``.
+
+        ``factor``: what another check of the same trajectory asks (a tool
+        speed's; 1 = nothing); ``torque_need``: ``needs()[0]`` when the caller
+        has it.  When either needs more than 1, the larger of ``factor`` and
+        :meth:`required_slow_down` (ValueError where none holds), through
+        :func:`uniform_slow_down`; 1.0 otherwise.
+        """
+        need = self.needs()[0] if torque_need is None else torque_need
+        if need > 1.0 or factor > 1.0:
+            factor = max(factor, self.required_slow_down())
+        return uniform_slow_down(factor)
+
     def required_slow_down(self):
         """Return :meth:`slow_down`, or raise ValueError naming the joint when it is infinite."""
         slow = self.slow_down()
@@ -298,6 +317,11 @@ class TorqueCheck:
                                   self.limit - bend_gravity)
             self._split = (bend_gravity, bend_dynamic, need)
         return self._split
+
+
+def uniform_slow_down(factor):
+    """Return the slow-down for a check's ``factor``: 1.0, or above 1 with SLOW_DOWN_ROUNDOFF."""
+    return factor * SLOW_DOWN_ROUNDOFF if factor > 1.0 else 1.0
 
 
 def _samples(traj, period):
@@ -330,4 +354,5 @@ def check_times(duration, period, what):
     return np.linspace(0.0, duration, max(3, int(math.ceil(duration / period)) + 1))
 
 
-__all__ = ['check_times', 'CHECK_PERIOD', 'GravityOverload', 'TorqueCheck', 'TorqueLimit']
+__all__ = ['check_times', 'CHECK_PERIOD', 'GravityOverload', 'SLOW_DOWN_ROUNDOFF', 'TorqueCheck',
+           'TorqueLimit', 'uniform_slow_down']
