@@ -88,7 +88,7 @@ from .path_constraints import GravityOverload, GriddedPath, JointAcceleration, J
 from .path_velocity import (joint_acceleration_peaks, path_position, PathLimits,
                             traversal_times)
 from .peaks import row_max, velocity_ratios_above
-from .plan_options import DEFAULT_SMOOTHING
+from .plan_options import DEFAULT_SMOOTHING, torque_without_windows
 from .timing import closed_form_scale, rest_to_rest_durations
 from .trajectory import REBUILD_RTOL, representable_durations, require_finite, Trajectory
 
@@ -514,7 +514,7 @@ class _Path:
         # A torque-limited profile not averaged over windows has jumps of
         # acceleration: shorter pieces follow them (TORQUE_RAMP_PIECES), on a
         # coarser grid with a coarser stop (TORQUE_GRID_STEPS, TORQUE_MIN_GAIN).
-        sharp = torque is not None and not windows
+        sharp = torque_without_windows(torque, windows)
         self.ramp_pieces = TORQUE_RAMP_PIECES if sharp else RAMP_PIECES
         self.torque_neighbours = 0.0 if torque is None else TORQUE_NEIGHBOURS
         self.keep_time_scale = keep_time_scale

@@ -146,6 +146,18 @@ def smoothing_windows(vibration_frequency, smoothing='windows', torque_limited=F
     return DEFAULT_SMOOTHING
 
 
+def torque_without_windows(torque, windows):
+    """
+    Return True for torque limits (``torque`` not None) with no smoothing ``windows``.
+
+    Such a speed profile keeps its jumps of acceleration, and three things
+    follow from that one condition: its own count of inner knots
+    (:data:`TORQUE_INNER_KNOTS`), shorter pieces in the construction
+    (``inner_knots.TORQUE_RAMP_PIECES``), and no knots-only rival in plan().
+    """
+    return torque is not None and not windows
+
+
 @dataclass(frozen=True)
 class PlanOptions:
     """
@@ -242,6 +254,11 @@ class PlanOptions:
         return not any(np.any(b) for b in self.boundary)
 
     @property
+    def torque_without_windows(self):
+        """Return :func:`torque_without_windows` of the options' torque and windows."""
+        return torque_without_windows(self.torque, self.windows)
+
+    @property
     def planned_inner_knots(self):
         """
         Return the inner knots per segment that plan() places.
@@ -249,7 +266,6 @@ class PlanOptions:
         ``inner_knots``; left to plan() (``inner_knots_auto``) with torque
         limits and no smoothing windows, :data:`TORQUE_INNER_KNOTS`.
         """
-        if self.inner_knots_auto and self.inner_knots and self.torque is not None \
-                and not self.windows:
+        if self.inner_knots_auto and self.inner_knots and self.torque_without_windows:
             return TORQUE_INNER_KNOTS
         return self.inner_knots

@@ -332,7 +332,7 @@ def _plan_limited(points, durations, options):
         # 40 plans and took 45 % of their planning time, and the uniform
         # rival and the construction's knots-only candidates none of its 160
         # (about 15 %).
-        torque_only = torque is not None and not windows
+        torque_only = options.torque_without_windows
         optimum_rival = _optimum_rival(points) and not shaped and not torque_only
         if optimum_rival and torque is None and len(points) == 3 and rest:
             # Two segments: the knots-only optimum is a cheap search, whose
