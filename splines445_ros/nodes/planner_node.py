@@ -55,10 +55,10 @@ from .planned_path import planned_path_markers, tool_path_points, tool_position_
 from .ros_conversions import (hold_message, parse_tool_request, parse_waypoint_request,
                               plan_response, trajectory_to_msg)
 from ..planning import DEFAULT_WAYPOINT_TOLERANCE
-from ..robot.robot_model import MAX_DESCRIPTION_CHARS
+from ..robot.robot_model import check_description_file, MAX_DESCRIPTION_CHARS
 from ..service.interface_requests import override_values, request_message
-from ..service.model_planning import (build_robot_setup, check_model_file, description_source,
-                                      load_model, plan_model_tool_request, robot_fields,
+from ..service.model_planning import (build_robot_setup, description_source, load_model,
+                                      plan_model_tool_request, robot_fields,
                                       tool_poses_from_message)
 from ..service.planner_config import (MAX_WAYPOINT_TOLERANCE, PlannerConfig,
                                       TORQUE_STAND_IN_ACCELERATION)
@@ -407,7 +407,7 @@ class PlannerNode(Node):
             self._use_robot(setup, config)
             return
         if source[0] == 'model_file':
-            check_model_file(config.model_file)
+            check_description_file(config.model_file)
         self._robot_config = config
         if source != self._pending:  # the queued compile sets up the latest config
             self._pending = source

@@ -58,7 +58,7 @@ import numpy as np
 
 from .frame_chain import FrameChain
 from .mujoco_import import import_mujoco
-from .user_text import clip, read_text_file, show, show_names, show_path
+from .user_text import check_text_file, clip, read_text_file, show, show_names, show_path
 
 MAX_DESCRIPTION_CHARS = 20_000_000
 MAX_LINKS = 1000    # URDF links, MJCF bodies
@@ -403,7 +403,7 @@ def load_robot_model(model_file='', urdf_string=None, where=None):
         return _from_urdf(mujoco, urdf_string, where, None, where)
     if not model_file:
         raise ValueError('no model: model_file is empty')
-    where = where or f'model_file {show_path(model_file)}'
+    where = where or model_file_where(model_file)
     text = read_description_file(model_file, where)
     if _root_tag(text) == 'robot':
         return _from_urdf(mujoco, text, where, os.path.dirname(os.path.abspath(model_file)),
@@ -412,16 +412,33 @@ def load_robot_model(model_file='', urdf_string=None, where=None):
     return _from_mjcf(mujoco, model_file, where)
 
 
-def read_description_file(path, where):
+def model_file_where(path):
+    """Return how messages name the description file ``path``: ``model_file '<path>'``."""
+    return f'model_file {show_path(path)}'
+
+
+def check_description_file(path, where=None):
+    """
+    Raise ValueError unless ``path`` could be a URDF or MJCF file, without reading it.
+
+    The cheap check before a slow compile: :func:`~.user_text.check_text_file`
+    with :data:`MAX_DESCRIPTION_CHARS`; ``where`` names the file in messages
+    (default :func:`model_file_where`).
+    """
+    check_text_file(path, where or model_file_where(path), MAX_DESCRIPTION_CHARS)
+
+
+def read_description_file(path, where=None):
     """
     Return the text of a URDF or MJCF file (ValueError with the reason).
 
-    Refused: a missing path, a directory, anything but a regular file (a
-    device such as ``/dev/zero``, a named pipe), more than
-    :data:`MAX_DESCRIPTION_CHARS` bytes (never read further), text that is
-    not UTF-8.
+    :func:`~.user_text.read_text_file` with :data:`MAX_DESCRIPTION_CHARS`:
+    refused as by :func:`check_description_file` (a missing path, a
+    directory, anything but a regular file such as ``/dev/zero`` or a named
+    pipe, more than :data:`MAX_DESCRIPTION_CHARS` bytes, never read
+    further), and text that is not UTF-8.  ``where`` as there.
     """
-    return read_text_file(path, where, MAX_DESCRIPTION_CHARS)
+    return read_text_file(path, where or model_file_where(path), MAX_DESCRIPTION_CHARS)
 
 
 def check_mjcf_size(text, where):
@@ -558,7 +575,7 @@ def urdf_spec(mujoco, path, text=None):
     disabled (a URDF arm has no environment, and its collision meshes touch
     between links).
     """
-    where = f'model_file {show_path(path)}'
+    where = model_file_where(path)
     if text is None:
         text = read_description_file(path, where)
     if _root_tag(text) != 'robot':

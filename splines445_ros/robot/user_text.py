@@ -63,17 +63,28 @@ def check_text_file(path, where, max_bytes):
     """
     Raise ValueError unless ``path`` is a regular file of at most ``max_bytes`` bytes.
 
-    The cheap check before a slow load: the path is looked at (``stat``), not
-    opened or read; :func:`read_text_file` checks again what it opens.
+    The one check of a file a user names, with its messages (``where``
+    names the file in them): a missing path, a path that cannot be looked
+    at, a directory, anything that is not a regular file (a device, a named
+    pipe, a socket), a file of more than ``max_bytes`` bytes.  The cheap
+    check before a slow load: the path is looked at (``stat``), not opened
+    or read; :func:`read_text_file` makes the same check of what it opens.
     """
     try:
         status = os.stat(path)
-    except FileNotFoundError:
-        raise ValueError(f'{where}: no such file') from None
     except (OSError, ValueError, TypeError) as exc:
-        reason = exc.strerror if isinstance(exc, OSError) else clip(exc)
-        raise ValueError(f'{where}: cannot open it ({reason})') from None
+        raise _path_error(exc, where) from None
     _check_status(status, where, max_bytes)
+
+
+def _path_error(exc, where):
+    """Return the ValueError for a path that ``os.stat`` or ``os.open`` refused with ``exc``."""
+    if isinstance(exc, FileNotFoundError):
+        return ValueError(f'{where}: no such file')
+    if isinstance(exc, IsADirectoryError):
+        return ValueError(f'{where} is a directory, not a file')
+    reason = exc.strerror if isinstance(exc, OSError) else clip(exc)
+    return ValueError(f'{where}: cannot open it ({reason})')
 
 
 def _check_status(status, where, max_bytes):
@@ -91,21 +102,15 @@ def read_text_file(path, where, max_bytes):
     """
     Return the UTF-8 text of the regular file ``path`` (ValueError with the reason).
 
-    ``where`` names the file in messages.  Refused: a missing path, a
-    directory, anything that is not a regular file (a device, a named pipe,
-    a socket), a file of more than ``max_bytes`` bytes (at most
-    ``max_bytes + 1`` bytes are ever read), text that is not UTF-8.
+    ``where`` names the file in messages.  Refused as by
+    :func:`check_text_file`, with its messages (at most ``max_bytes + 1``
+    bytes are ever read), and text that is not UTF-8.
     """
     try:
         # O_NONBLOCK: opening a named pipe must not wait for a writer.
         fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, 'O_CLOEXEC', 0))
-    except FileNotFoundError:
-        raise ValueError(f'{where}: no such file') from None
-    except IsADirectoryError:
-        raise ValueError(f'{where} is a directory, not a file') from None
     except (OSError, ValueError, TypeError) as exc:
-        reason = exc.strerror if isinstance(exc, OSError) else clip(exc)
-        raise ValueError(f'{where}: cannot open it ({reason})') from None
+        raise _path_error(exc, where) from None
     try:
         _check_status(os.fstat(fd), where, max_bytes)
         chunks, left = [], max_bytes + 1

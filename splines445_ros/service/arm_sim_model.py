@@ -30,7 +30,7 @@ from ..robot import rotations as rot
 from ..robot.dynamics import add_rigid_mass, payload_inertia_matrix
 from ..robot.model_drives import inertia_gains
 from ..robot.mujoco_import import import_mujoco
-from ..robot.robot_model import load_robot_model
+from ..robot.robot_model import load_robot_model, model_file_where
 from ..robot.torque_limits import model_torque_limits
 from ..sim.mujoco_model import load_arm_model
 
@@ -86,7 +86,7 @@ def resolve_model_config(config):
     arm with its payload.
     """
     robot = load_robot_model(config.model_file)
-    where = f'model_file {config.model_file!r}'
+    where = model_file_where(config.model_file)
     if config.all_model_joints:
         joints = robot.joints
         if not joints:

@@ -35,9 +35,9 @@ from ..robot.chain_tip import chain_tips
 from ..robot.dynamics import ArmDynamics
 from ..robot.inverse_kinematics import ModelKinematics
 from ..robot.joint_limits_file import JointLimits, read_joint_limits_file, resolve_limits
-from ..robot.robot_model import load_robot_model, MAX_DESCRIPTION_CHARS, RobotModel
+from ..robot.robot_model import load_robot_model, RobotModel
 from ..robot.torque_limits import model_torque_limits
-from ..robot.user_text import check_text_file, show, show_path
+from ..robot.user_text import show
 
 # The parameters a RobotSetup is built from: a change to any other one (method,
 # timing, ...) never rebuilds the robot.
@@ -162,11 +162,6 @@ def description_source(config, description=None):
     if description is not None:
         return ('robot_description', description)
     return None
-
-
-def check_model_file(path):
-    """Raise ValueError unless ``path`` is a regular file of an acceptable size (cheap)."""
-    check_text_file(path, f'model_file {show_path(path)}', MAX_DESCRIPTION_CHARS)
 
 
 def load_model(source):

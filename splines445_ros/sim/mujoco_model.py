@@ -32,7 +32,8 @@ from typing import Optional, Tuple
 import numpy as np
 
 from ..robot.mujoco_import import import_mujoco
-from ..robot.robot_model import check_mjcf_size, read_description_file, urdf_spec
+from ..robot.robot_model import (check_mjcf_size, model_file_where, read_description_file,
+                                 urdf_spec)
 from ..robot.user_text import clip, show, show_names, show_path
 
 TOOL_SITE = 'tool'
@@ -160,7 +161,7 @@ def _load_spec(mujoco, xml=None, path=None, text=None):
         spec = urdf_spec(mujoco, path, text)
         if spec is not None:
             return spec
-        check_mjcf_size(text, f'model_file {show_path(path)}')
+        check_mjcf_size(text, model_file_where(path))
     try:
         if path is not None:
             return mujoco.MjSpec.from_file(path)
@@ -247,7 +248,7 @@ def load_arm_model(joint_names, torque_limits, actuator_time_constant, timestep=
     mujoco = import_mujoco()
     names = tuple(joint_names)
     if model_file:
-        where = f'model_file {show_path(model_file)}'
+        where = model_file_where(model_file)
         text = read_description_file(model_file, where)
         spec = _load_spec(mujoco, path=model_file, text=text)
         rigid_spec = _load_spec(mujoco, path=model_file, text=text)

@@ -229,6 +229,34 @@ def test_a_path_that_is_not_a_regular_file_is_named_as_such(tmp_path, kind):
         jlf.read_joint_limits_file(path)
     with pytest.raises(ValueError, match=f'model_file .* {match}'):
         load_arm_model(PLANAR_JOINTS, [1.0] * 3, 0.0, model_file=path)
+    with pytest.raises(ValueError, match=f'model_file .* {match}'):
+        rm.check_description_file(path)
+
+
+@pytest.mark.parametrize('kind', ['missing', 'directory', 'device', 'fifo', 'large', 'small'])
+def test_the_cheap_check_and_the_read_refuse_a_file_with_one_message(tmp_path, kind,
+                                                                     monkeypatch):
+    monkeypatch.setattr(rm, 'MAX_DESCRIPTION_CHARS', 100)
+    if kind == 'missing':
+        path = str(tmp_path / 'absent.urdf')
+    elif kind in ('large', 'small'):
+        path = write(tmp_path, '<robot/>' + ' ' * (200 if kind == 'large' else 0), 'r.urdf')
+    else:
+        path = not_a_file(tmp_path, kind)
+    refused = []
+    for call in (rm.check_description_file, rm.read_description_file):
+        try:
+            call(path)
+        except ValueError as error:
+            refused.append(str(error))
+    if kind == 'small':
+        assert refused == [] and rm.read_description_file(path) == '<robot/>'
+        return
+    assert len(refused) == 2 and refused[0] == refused[1], refused
+    expected = {'missing': ': no such file', 'directory': ' is a directory, not a file',
+                'large': ' has 208 bytes, more than the 100 bytes accepted'}.get(
+                    kind, ' is not a regular file (a device, pipe or socket)')
+    assert refused[0] == f'model_file {path!r}{expected}'
 
 
 def test_a_file_larger_than_its_cap_is_refused_unread(tmp_path, monkeypatch):
