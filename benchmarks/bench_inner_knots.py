@@ -1,51 +1,58 @@
 """
 Free inner knots (issue 17): 555 optimal timing against TOPP-RA, one run.
 
-20 random rest-to-rest requests (fixed seed; 5 to 50 waypoints, 3 to 7
-joints, v in [1, 3] rad/s and a in [5, 15] rad/s^2 per joint).  For each:
-TOPP-RA's duration and planning time (toppra, v/a limits only, its own
-spline path through the waypoints, default grid), the lower bound LB of the
-issue, and 555 optimal with knots at the waypoints only (``inner_knots=0``,
-before the issue) and with inner knots (the default), for no jerk limit,
-j = 20 a and j = 5 a, as ratios to TOPP-RA with planning times; then the
-median and worst ratios, planning time against TOPP-RA's, and whether every
-limit held (exact peaks).  Then the paper's example (its boundary values)
-and the planning time at 100 x 7 and 1000 x 7 against TOPP-RA's on the same
-request, each timed in turn in this run; last, the planning time of small
-requests (3 x 3 to 30 x 7) against TOPP-RA's, each the best of several
-calls made in turn.
+20 random rest-to-rest requests (fresh every run, the seed printed first:
+``bench_seeds.py``; 5 to 50 waypoints, 3 to 7 joints, v in [1, 3] rad/s and
+a in [5, 15] rad/s^2 per joint).  For each: TOPP-RA's duration and planning
+time (toppra, v/a limits only, its own spline path through the waypoints,
+default grid), the lower bound LB of the issue, and 555 optimal with knots
+at the waypoints only (``inner_knots=0``, before the issue) and with inner
+knots (the default), for no jerk limit, j = 20 a and j = 5 a, plus the
+default with ``vibration_frequency=4`` at j = 20 a.
 
-Smoothness next to speed (issue 23): for j = 20 a, every plan's shaking of
-a lightly damped mode at 4 and 8 Hz on every joint (``shaking.py``: peak
-while moving and residual after the end, each divided by TOPP-RA's on the
-same case), for the table's two plans and ``vibration_frequency=4``;
-medians over the cases, and the same figures on the 100 x 7 and 1000 x 7
-requests.
+Every plan's figures (issue 38, ``bench_figures.py``), each over TOPP-RA's
+on the same case: the duration; the duration over TOPP-RA's along our own
+path (``own_path.py``: TOPP-RA with the same v/a limits on the geometric
+path of our plan, re-parameterised by arc length: what the speed profile
+alone gives away) and that TOPP-RA over TOPP-RA (what our path gains); the
+shaking of a lightly damped mode at 4 and 8 Hz on every joint
+(``shaking.py``: peak while moving and residual after the end); the
+planning time.  The summary gives medians and worst cases over the cases
+and whether every limit held (exact peaks).  Then the paper's example (its
+boundary values); the same figures at 100 x 7 and 1000 x 7, each timed in
+turn in this run; last, the planning time of small requests (3 x 3 to
+30 x 7) against TOPP-RA's, each the best of several calls made in turn,
+with the durations over TOPP-RA's.
 
-Usage: ``python benchmarks/bench_inner_knots.py [inner_knots]`` (default: plan()'s).
+Usage: ``python benchmarks/bench_inner_knots.py [inner_knots]`` (default:
+plan()'s); ``SPLINES445_BENCH_SEED=<seed>`` repeats a run,
+``SPLINES445_BENCH_CASES=<count>`` draws another number of requests.
 """
 
 import logging
 import os
 import sys
 import time
+from types import SimpleNamespace
 
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but the rule holds
 
-from bench_planning import toppra_trajectory  # noqa: E402, I100
+import bench_figures  # noqa: E402, I100
+from bench_planning import toppra_trajectory  # noqa: E402
+import bench_seeds  # noqa: E402, I100
 import numpy as np  # noqa: E402, I100
-from shaking import (FREQUENCIES, of_toppra, shaking_figures, shaking_header,  # noqa: E402
-                     shaking_ratios)
+import own_path  # noqa: E402, I100
+from shaking import of_toppra, shaking_figures, shaking_ratios  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
 from splines445_ros.robot import paper_example as pe  # noqa: E402
 
-SEED = 17
 N_CASES = 20
 JERK_RATIOS = (None, 20.0, 5.0)
-# Shaking is measured at this jerk ratio: on the two plans of the table,
-# and on one more with this vibration_frequency [Hz].
+# One more plan at this jerk ratio, with this vibration_frequency [Hz].
 SHAKING_JERK = 20.0
 VIBRATION_FREQUENCY = 4.0
+# Random streams of the run's seed (bench_seeds.generator).
+CASES_STREAM, LARGE_STREAM, SMALL_STREAM = 0, 1, 2
 
 
 def shaking_row(traj, elapsed, reference, d_top, t_top, amax):
@@ -103,79 +110,72 @@ def label(ratio):
     return 'no jerk limit' if ratio is None else f'j = {ratio:g} a'
 
 
+def plan_figures(traj, elapsed, case):
+    """Return the :data:`bench_figures.NAMES` figures of one of our plans on ``case``."""
+    own = own_path.toppra_along(traj, own_path.velocity_acceleration(case.vmax, case.amax))
+    return bench_figures.figures(traj.duration, own.duration, case.d_top,
+                                 shaking_ratios(traj, case.reference, case.amax), elapsed,
+                                 case.t_top)
+
+
 def main():
     """Run the comparison and print the tables."""
     logging.getLogger('toppra').setLevel(logging.ERROR)
+    seed = bench_seeds.run_seed()
     inner = int(sys.argv[1]) if len(sys.argv) > 1 else None
     name = 'default' if inner is None else str(inner)
-    rng = np.random.default_rng(SEED)
-    print(f'555 optimal / TOPP-RA, inner_knots=0 -> inner_knots={name} '
-          '(planning time / TOPP-RA planning time)')
+    n_cases = bench_seeds.case_count(N_CASES)
+    rng = bench_seeds.generator(CASES_STREAM)
+    print(f'{n_cases} random requests (seed {seed}, stream {CASES_STREAM}): 555 optimal / '
+          f'TOPP-RA, inner_knots=0 -> inner_knots={name} (planning time / TOPP-RA planning '
+          f'time), and inner_knots={name} / TOPP-RA along our own path')
     print('| case | N x n | TOPP-RA [s] (planning [s]) | LB / TOPP-RA | '
           + ' | '.join(label(r) for r in JERK_RATIOS) + ' |')
-    print('|' + '---|' * (4 + len(JERK_RATIOS)))
-    before = {r: [] for r in JERK_RATIOS}
-    after = {r: [] for r in JERK_RATIOS}
-    speed = {r: [] for r in JERK_RATIOS}
-    held = dict.fromkeys(JERK_RATIOS, True)
-    shaped_name = f'vibration_frequency={VIBRATION_FREQUENCY:g}'
-    shaken = {'inner_knots=0': [], f'inner_knots={name}': [], shaped_name: []}
+    print(bench_figures.rule(4 + len(JERK_RATIOS)))
+    rows = {}
+    for ratio in JERK_RATIOS:
+        rows[f'inner_knots=0, {label(ratio)}'] = []
+        rows[f'inner_knots={name}, {label(ratio)}'] = []
+    shaped_name = f'vibration_frequency={VIBRATION_FREQUENCY:g}, {label(SHAKING_JERK)}'
+    rows[shaped_name] = []
+    held = dict.fromkeys(rows, True)
     bounds = []
-    for case in range(N_CASES):
+    for index in range(n_cases):
         waypoints, vmax, amax = random_case(rng)
         t_top, top = timed(lambda: toppra_trajectory(waypoints, vmax, amax))
-        d_top = top.duration
-        reference = shaking_figures(of_toppra(top), d_top, amax)
-        bounds.append(lower_bound(waypoints, vmax, amax) / d_top)
+        case = SimpleNamespace(vmax=vmax, amax=amax, d_top=top.duration, t_top=t_top,
+                               reference=shaking_figures(of_toppra(top), top.duration, amax))
+        bounds.append(lower_bound(waypoints, vmax, amax) / case.d_top)
         cells = []
         for ratio in JERK_RATIOS:
             kwargs = {'max_velocity': vmax, 'max_acceleration': amax,
                       'max_jerk': None if ratio is None else ratio * amax}
-            t0, knots_only = timed(lambda: plan(waypoints, '555', 'optimal', inner_knots=0,
-                                                **kwargs))
-            t1, traj = timed(lambda: plan(waypoints, '555', 'optimal', inner_knots=inner,
-                                          **kwargs))
-            before[ratio].append(knots_only.duration / d_top)
-            after[ratio].append(traj.duration / d_top)
-            speed[ratio].append(t1 / t_top)
-            held[ratio] &= traj.within_limits(rtol=1e-9)
+            plans = [(f'inner_knots=0, {label(ratio)}',) + timed(
+                lambda: plan(waypoints, '555', 'optimal', inner_knots=0, **kwargs))]
+            plans.append((f'inner_knots={name}, {label(ratio)}',) + timed(
+                lambda: plan(waypoints, '555', 'optimal', inner_knots=inner, **kwargs)))
             if ratio == SHAKING_JERK:
-                t2, shaped = timed(lambda: plan(waypoints, '555', 'optimal',
-                                                vibration_frequency=VIBRATION_FREQUENCY,
-                                                **kwargs))
-                for row, planned, elapsed in (('inner_knots=0', knots_only, t0),
-                                              (f'inner_knots={name}', traj, t1),
-                                              (shaped_name, shaped, t2)):
-                    shaken[row].append(shaking_row(planned, elapsed, reference, d_top, t_top,
-                                                   amax))
-            cells.append(f'{before[ratio][-1]:.3f} ({t0 / t_top:.2f}) -> '
-                         f'{after[ratio][-1]:.3f} ({t1 / t_top:.2f})')
-        print(f'| {case} | {len(waypoints)} x {waypoints.shape[1]} | {d_top:.2f} ({t_top:.3f}) '
-              f'| {bounds[-1]:.3f} | ' + ' | '.join(cells) + ' |')
+                plans.append((shaped_name,) + timed(
+                    lambda: plan(waypoints, '555', 'optimal', inner_knots=inner,
+                                 vibration_frequency=VIBRATION_FREQUENCY, **kwargs)))
+            for row, elapsed, traj in plans:
+                rows[row].append(plan_figures(traj, elapsed, case))
+                held[row] &= traj.within_limits(rtol=1e-9)
+            before, after = rows[plans[0][0]][-1], rows[plans[1][0]][-1]
+            cells.append(f'{before[0]:.3f} ({before[-1]:.2f}) -> {after[0]:.3f} '
+                         f'({after[-1]:.2f}), own path {after[1]:.3f}')
+        print(f'| {index} | {len(waypoints)} x {waypoints.shape[1]} | {case.d_top:.2f} '
+              f'({t_top:.3f}) | {bounds[-1]:.3f} | ' + ' | '.join(cells) + ' |')
         sys.stdout.flush()
     print()
-    print(f'| jerk limit | inner_knots=0: median / worst | inner_knots={name}: median / worst '
-          '| planning time / TOPP-RA planning time: median / worst | all limits held '
-          '| LB / TOPP-RA median |')
-    print('|---|---|---|---|---|---|')
-    for ratio in JERK_RATIOS:
-        print(f'| {label(ratio)} | {np.median(before[ratio]):.3f} / {np.max(before[ratio]):.3f} '
-              f'| {np.median(after[ratio]):.3f} / {np.max(after[ratio]):.3f} '
-              f'| {np.median(speed[ratio]):.2f} / {np.max(speed[ratio]):.2f} '
-              f'| {held[ratio]} | {np.median(bounds):.3f} |')
-    print()
-    print(f'Speed and shaking, j = {SHAKING_JERK:g} a: medians over the cases of each plan / '
-          'TOPP-RA on the same case (shaking: peak while moving, residual after the end; '
-          'benchmarks/shaking.py)')
-    print('| plan | duration: median / worst | ' + shaking_header()
-          + ' | planning time: median / worst |')
-    print('|' + '---|' * (3 + 2 * len(FREQUENCIES)))
-    for shaken_name, rows in shaken.items():
-        rows = np.array(rows)
-        median = np.median(rows, axis=0)
-        print(f'| {shaken_name} | {median[0]:.3f} / {np.max(rows[:, 0]):.3f} | '
-              + ' | '.join(f'{value:.2f}' for value in median[1:-1])
-              + f' | {median[-1]:.2f} / {np.max(rows[:, -1]):.2f} |')
+    print(f'Every plan / TOPP-RA on the same case, medians and worst (largest) over the '
+          f'{n_cases} cases (TOPP-RA: its spline through the waypoints; along our path: '
+          'benchmarks/own_path.py; shaking: peak while moving, residual after the end, '
+          f'benchmarks/shaking.py); LB / TOPP-RA median {np.median(bounds):.3f}')
+    print('| plan | ' + bench_figures.header() + ' | all limits held (exact peaks) |')
+    print(bench_figures.rule(2 + len(bench_figures.NAMES)))
+    for row, figures in rows.items():
+        print(f'| {row} | {bench_figures.summary(figures)} | {held[row]} |')
     print()
     kwargs = pe.plan_kwargs()
     for knots in (0, inner):
@@ -188,28 +188,36 @@ def main():
               f"{'default' if knots is None else knots}: {traj.duration:.4f} s, planned in "
               f'{1e3 * np.median(times):.0f} ms (median of 5), inner knots per segment at '
               f"most: {traj.optimizer['inner_knots']}")
+    large_requests(inner)
+    small_requests(inner)
+    return 0
+
+
+def large_requests(inner):
+    """Print 100 x 7 and 1000 x 7: the figures of every row, one run each in turn."""
     print()
-    print('Random walks x 7 joints, v = 2, a = 10, j = 200 (TOPP-RA: v/a), one run each in turn:')
+    print(f'Random walks x 7 joints (stream {LARGE_STREAM}), v = 2, a = 10, j = 200 (TOPP-RA: '
+          'v/a), one run each in turn; figures of inner_knots=default / TOPP-RA:')
     print('| N x n | TOPP-RA [s] | inner_knots=0 [s] | inner knots [s] | TOPP-RA planning [s] '
-          '| inner knots planning [s] | planning / TOPP-RA planning | '
-          + shaking_header() + ' (/ TOPP-RA) |')
-    print('|' + '---|' * (7 + 2 * len(FREQUENCIES)))
+          '| inner knots planning [s] | ' + bench_figures.header(cases=False)
+          + ' | limits held |')
+    print(bench_figures.rule(7 + len(bench_figures.NAMES)))
+    rng = bench_seeds.generator(LARGE_STREAM)
     for n_points in (100, 1000):
         waypoints = np.cumsum(rng.uniform(-1.0, 1.0, (n_points, 7)), axis=0)
         vmax, amax = np.full(7, 2.0), np.full(7, 10.0)
         kwargs = {'max_velocity': vmax, 'max_acceleration': amax, 'max_jerk': 20.0 * amax}
         t_top, top = timed(lambda: toppra_trajectory(waypoints, vmax, amax))
-        d_top = top.duration
+        case = SimpleNamespace(vmax=vmax, amax=amax, d_top=top.duration, t_top=t_top,
+                               reference=shaking_figures(of_toppra(top), top.duration, amax))
         elapsed, traj = timed(lambda: plan(waypoints, '555', 'optimal', inner_knots=inner,
                                            **kwargs))
         knots_only = plan(waypoints, '555', 'optimal', inner_knots=0, **kwargs)
-        shaking = shaking_ratios(traj, shaking_figures(of_toppra(top), d_top, amax), amax)
-        print(f'| {n_points} x 7 | {d_top:.2f} | {knots_only.duration:.2f} '
-              f'| {traj.duration:.2f} | {t_top:.2f} | {elapsed:.2f} | {elapsed / t_top:.2f} | '
-              + ' | '.join(f'{value:.2f}' for value in shaking) + ' |')
+        print(f'| {n_points} x 7 | {case.d_top:.2f} | {knots_only.duration:.2f} '
+              f'| {traj.duration:.2f} | {t_top:.2f} | {elapsed:.2f} | '
+              + bench_figures.single(plan_figures(traj, elapsed, case))
+              + f' | {traj.within_limits(rtol=1e-9)} |')
         sys.stdout.flush()
-    small_requests(inner)
-    return 0
 
 
 # Planning time by size (issue 23: at most TOPP-RA's from 3 x 3 on): sizes,
@@ -222,12 +230,13 @@ SMALL_REPEATS = 5
 def small_requests(inner):
     """Print 555 optimal's planning time / TOPP-RA's per size: each best of its calls, in turn."""
     print()
-    print(f'Planning time by size (random walks, random v/a, j = 20 a; per request the best of '
+    print(f'Planning time by size (random walks, stream {SMALL_STREAM}, random v/a, j = 20 a; '
+          f'per request the best of '
           f'{SMALL_REPEATS} calls of each planner, alternating; {SMALL_CASES} requests per size):')
-    print('| N x n | TOPP-RA [ms] | 555 optimal [ms] | ratio: median / worst | plans with inner '
-          'knots |')
-    print('|---|---|---|---|---|')
-    rng = np.random.default_rng(SEED + 1)
+    print('| N x n | TOPP-RA [ms] | 555 optimal [ms] | planning / TOPP-RA: median / worst '
+          '| duration / TOPP-RA: median / worst | plans with inner knots |')
+    print('|---|---|---|---|---|---|')
+    rng = bench_seeds.generator(SMALL_STREAM)
     for n_points, n_joints in SMALL_SIZES:
         rows = []
         with_knots = 0
@@ -237,17 +246,18 @@ def small_requests(inner):
             kwargs = {'max_velocity': vmax, 'max_acceleration': amax, 'max_jerk': 20.0 * amax}
             best_top = best_ours = np.inf
             for _ in range(SMALL_REPEATS):
-                elapsed, _ = timed(lambda: toppra_trajectory(waypoints, vmax, amax))
+                elapsed, top = timed(lambda: toppra_trajectory(waypoints, vmax, amax))
                 best_top = min(best_top, elapsed)
                 elapsed, traj = timed(lambda: plan(waypoints, '555', 'optimal',
                                                    inner_knots=inner, **kwargs))
                 best_ours = min(best_ours, elapsed)
             with_knots += traj.optimizer.get('inner_knots', 0) > 0
-            rows.append((best_top, best_ours))
+            rows.append((best_top, best_ours, traj.duration / top.duration))
         rows = np.array(rows)
         ratio = rows[:, 1] / rows[:, 0]
         print(f'| {n_points} x {n_joints} | {1e3 * np.median(rows[:, 0]):.1f} '
               f'| {1e3 * np.median(rows[:, 1]):.1f} | {np.median(ratio):.2f} / {ratio.max():.2f} '
+              f'| {np.median(rows[:, 2]):.3f} / {np.max(rows[:, 2]):.3f} '
               f'| {with_knots}/{SMALL_CASES} |')
         sys.stdout.flush()
 
