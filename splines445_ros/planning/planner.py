@@ -266,7 +266,7 @@ def _torque_limited(traj, torque, to_beat=None):
     bench_torque's paths the knots-only rivals needed factors of 1.1-2.3)
     or its 1 kHz check does, without checking the slowed-down plan.
     """
-    if getattr(traj, 'torque_factor', np.inf) <= 1.0:
+    if traj.torque_factor is not None and traj.torque_factor <= 1.0:
         return traj     # checked already
     if to_beat is not None and traj.duration * torque.factor_at_least(traj) >= to_beat:
         return None
@@ -298,7 +298,7 @@ def slowed_down(traj, factor):
                              traj.end_acceleration), traj.limits,
                             scale=None if traj.scale is None else traj.scale * factor,
                             dropped_waypoints=traj.dropped_waypoints)
-    if hasattr(traj, 'optimizer'):
+    if traj.optimizer is not None:
         slow.optimizer = dict(traj.optimizer, time_scale=float(factor))
     return slow
 
@@ -469,9 +469,7 @@ def _as_optimal(traj, points, boundary, limits, dropped):
                                limits, traj.coefficients, traj.limit_ratios(),
                                dropped_waypoints=dropped)
     optimal.optimizer = {}
-    for name in ('torque_ratios', 'torque_factor'):
-        if hasattr(traj, name):
-            setattr(optimal, name, getattr(traj, name))
+    optimal.torque_ratios, optimal.torque_factor = traj.torque_ratios, traj.torque_factor
     return optimal
 
 

@@ -68,6 +68,15 @@ class Trajectory:
     dropped_waypoints : indices (in the caller's numbering) of consecutive
         duplicate waypoints that were merged away before planning.
     limits : the :class:`JointLimits` it was planned against, or None.
+    optimizer : dict or None
+        How optimal timing found it (iterations, message, inner knots, ...;
+        what ``~/status`` reports), None for the other timings.
+    torque_ratios : (n,) or None
+        With torque limits: each joint's peak torque over its limit (the
+        1 kHz check), else None.
+    torque_factor : float or None
+        With torque limits: the slow-down that check still asks (<= 1: the
+        limits hold), else None.
 
     """
 
@@ -96,6 +105,10 @@ class Trajectory:
         self.limits = limits
         self.scale = scale
         self.dropped_waypoints = tuple(dropped_waypoints)
+        # Set by the planner where they apply (see the class docstring).
+        self.optimizer = None
+        self.torque_ratios = None
+        self.torque_factor = None
         self._ratios = ratios
         self._derivatives = {0: self.ppoly}
         self._segment_peaks = {}

@@ -411,7 +411,7 @@ def summary_values(traj, joint_names):
         values['binding'] = (f'{joint_names[b.joint]} {b.quantity} segment {segment} '
                              f'ratio {b.ratio:.6g}')
         values['duration_lower_bound'] = f'{traj.duration_lower_bound():.9g}'
-    ratios = getattr(traj, 'torque_ratios', None)
+    ratios = traj.torque_ratios
     if ratios is not None:
         values['peak_torque_ratio'] = format_vector(ratios)
         if torque_binds(traj):
@@ -427,7 +427,7 @@ def torque_binds(traj):
     Its largest peak torque over limit reaches :data:`TORQUE_BINDING` and
     exceeds the largest velocity, acceleration or jerk ratio.
     """
-    ratios = getattr(traj, 'torque_ratios', None)
+    ratios = traj.torque_ratios
     if ratios is None or not np.max(ratios) >= TORQUE_BINDING:
         return False
     return traj.limits is None or float(np.max(ratios)) > traj.binding.ratio

@@ -230,7 +230,7 @@ def test_the_paper_example_as_knots(method, timing):
     # One point per knot: the 12 waypoints, and 555 optimal's inner knots when
     # it keeps them (with these moving ends only if they gain 5 %: not here).
     assert len(msg.points) == traj.breakpoints.size
-    inner = getattr(traj, 'optimizer', {}).get('inner_knots', 0)
+    inner = (traj.optimizer or {}).get('inner_knots', 0)
     assert (len(msg.points) > 12) == bool(inner)
     assert not inner or (method, timing) == ('555', 'optimal')
     assert np.all(interpolation_errors(msg, traj) <= 1.0)
