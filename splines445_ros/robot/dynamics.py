@@ -77,7 +77,7 @@ from . import rotations as rot
 from .mujoco_import import import_mujoco
 from .newton_euler import NewtonEuler
 from .torque_limits import effort_limits  # noqa: F401 - the torque constraint's limits
-from .user_text import show
+from .user_text import show, show_names
 from ..planning.validation import non_negative
 
 # Relative slack of the triangle inequality of a payload's principal moments.
@@ -303,7 +303,7 @@ class ArmDynamics:
             array = array[None, :]
         if array.ndim != 2 or array.shape[1] != self.n:
             raise ValueError(f'{name} must have shape (N, {self.n}) (one column per joint of '
-                             f'{list(self.joint_names)}), got shape {array.shape}')
+                             f'{show_names(self.joint_names)}), got shape {array.shape}')
         if not np.all(np.isfinite(array)):
             raise ValueError(f'{name} has values that are not finite numbers')
         return array

@@ -41,6 +41,7 @@ import numpy as np
 
 from . import rotations as rot
 from .robot_model import joint_ranges
+from .user_text import show_names
 
 POSITION_TOLERANCE = 1e-10   # m and rad, what the solver aims at for a pose
 # m and rad, a pose is accepted when the solver's iterations end within it: six
@@ -129,12 +130,12 @@ class ModelKinematics:
         base = robot.frame_chain(base_frame, self.joint_names, 'base_frame')
         if base.moving_joints:
             raise ValueError(f'base_frame {base_frame!r} moves with the joints '
-                             f'{base.moving_joints}: it must be fixed to the world')
+                             f'{show_names(base.moving_joints)}: it must be fixed to the world')
         # Planned joints that move the tool, also through a joint that follows
         # them (URDF <mimic>), which the kinematics drive from their parent.
         if not self.tool.driving_columns:
             raise ValueError(f'tool_frame {tool_frame!r} moves with none of the joints '
-                             f'{list(self.joint_names)}')
+                             f'{show_names(self.joint_names)}')
         n = len(self.joints)
         self.base_pos, self.base_quat = base.pose(np.zeros(n))
         self._base_mat = rot.to_matrix(self.base_quat)

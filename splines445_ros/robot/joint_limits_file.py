@@ -183,9 +183,9 @@ def parse_joint_limits(data, where='joint limits'):
     """Check the parsed YAML of a joint_limits.yaml; see :func:`read_joint_limits_file`."""
     if not isinstance(data, dict) or 'joint_limits' not in data:
         raise ValueError(f'{where} has no top-level "joint_limits" mapping')
-    unknown = [k for k in data if k not in TOP_LEVEL_KEYS]
+    unknown = [str(k) for k in data if k not in TOP_LEVEL_KEYS]
     if unknown:
-        raise ValueError(f'{where} has unknown top-level key(s) {_names(unknown)}; known: '
+        raise ValueError(f'{where} has unknown top-level key(s) {show_names(unknown)}; known: '
                          f'{sorted(TOP_LEVEL_KEYS)}')
     joints = data['joint_limits']
     if not isinstance(joints, dict):
@@ -196,9 +196,9 @@ def parse_joint_limits(data, where='joint limits'):
         name = show(joint)
         if not isinstance(entry, dict):
             raise ValueError(f'{where}: joint {name} must map keys to values')
-        bad = [k for k in entry if k not in known]
+        bad = [str(k) for k in entry if k not in known]
         if bad:
-            raise ValueError(f'{where}: joint {name} has unknown key(s) {_names(bad)}; MoveIt '
+            raise ValueError(f'{where}: joint {name} has unknown key(s) {show_names(bad)}; MoveIt '
                              f'keys are {sorted(known)}')
         limits = {}
         for quantity, (has_key, max_key) in QUANTITY_KEYS.items():
@@ -219,11 +219,6 @@ def parse_joint_limits(data, where='joint limits'):
                                                  f'{where}: joint {name}: {max_key}')
         result[str(joint)] = limits
     return result
-
-
-def _names(keys, most=5):
-    """Return a bounded list of user keys for a message: the first ``most``, each cut short."""
-    return show_names([str(k) for k in keys], most)
 
 
 def _explicit(values, name, n):
@@ -251,7 +246,7 @@ def check_known_joints(file_limits, known_joints):
             continue
         close = difflib.get_close_matches(joint, sorted(known), n=1)
         hint = (f'did you mean {show(close[0])}?' if close else
-                f'its joints: {_names(sorted(known), 12)}')
+                f'its joints: {show_names(sorted(known))}')
         raise ValueError(f'the joint_limits_file gives limits for joint {show(joint)}, but '
                          f'the robot model has no joint of that name ({hint})')
 

@@ -361,9 +361,8 @@ class RobotModel:
         bodies = [mj.mj_id2name(m, mj.mjtObj.mjOBJ_BODY, b) for b in range(m.nbody)]
         sites = [mj.mj_id2name(m, mj.mjtObj.mjOBJ_SITE, s) for s in range(m.nsite)]
         known = [n for n in bodies + sites if n]
-        shown = ', '.join(clip(n) for n in known[:40]) + (' ...' if len(known) > 40 else '')
         raise ValueError(f'{parameter} {show(name)} is not a link, body or site of '
-                         f'{self.describe()}; it has: {shown}')
+                         f'{self.describe()}; it has: {show_names(known)}')
 
     def frame_chain(self, frame, joint_names=(), parameter='frame'):
         """Return a :class:`FrameChain`: the world pose of ``frame`` as a function of joints."""

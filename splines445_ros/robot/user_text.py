@@ -6,8 +6,9 @@ opens the path first and then looks at what it opened, so a directory, a
 device such as ``/dev/zero`` or a named pipe is named as such (never read,
 never waited on), and a regular file is read up to its cap and no further.
 :func:`show` is ``repr`` cut to :data:`SHOWN_CHARS` characters, at a cost
-independent of the value's size (``reprlib``): an error message never
-grows with what the user gave.
+independent of the value's size (``reprlib``), and :func:`show_names` a list
+of names cut to :data:`NAMES_SHOWN` of them: an error message never grows
+with what the user gave.
 """
 
 import os
@@ -16,6 +17,7 @@ import stat
 
 SHOWN_CHARS = 80
 PATH_CHARS = 300  # a file path is shown longer: its end matters
+NAMES_SHOWN = 20  # names of a list in a message: all the joints of two arms with grippers
 
 _REPR = reprlib.Repr()
 _REPR.maxlevel = 2
@@ -47,11 +49,18 @@ def format_vector(values):
     return ', '.join(f'{float(v):.6g}' for v in values)
 
 
-def show_names(names, most=40):
-    """Return names for a message, like ``repr(list)``: the first ``most``, each cut short."""
+def show_names(names):
+    """
+    Return a list of names for a message, like ``repr(list)``, bounded.
+
+    The one format of every list of names (joints, frames, keys) in the
+    package's messages: ``['a', 'b']``, each name as :func:`show` gives it;
+    beyond :data:`NAMES_SHOWN` names the first of them and the count,
+    ``['a', 'b', ... (25 in all)]``.
+    """
     names = list(names)
-    more = f', ... ({len(names)} in all)' if len(names) > most else ''
-    return '[' + ', '.join(show(n) for n in names[:most]) + more + ']'
+    more = f', ... ({len(names)} in all)' if len(names) > NAMES_SHOWN else ''
+    return '[' + ', '.join(show(n) for n in names[:NAMES_SHOWN]) + more + ']'
 
 
 def show_path(path):

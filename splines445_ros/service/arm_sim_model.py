@@ -32,6 +32,7 @@ from ..robot.model_drives import inertia_gains
 from ..robot.mujoco_import import import_mujoco
 from ..robot.robot_model import load_robot_model, model_file_where
 from ..robot.torque_limits import model_torque_limits
+from ..robot.user_text import show_names
 from ..sim.mujoco_model import load_arm_model
 
 
@@ -95,15 +96,15 @@ def resolve_model_config(config):
         known = {j.name: j for j in robot.joints}
         missing = [n for n in config.joint_names if n not in known]
         if missing:
-            raise ValueError(f'{where} has no joint(s) {missing} (joint_names); its joints: '
-                             f'{list(known)}')
+            raise ValueError(f'{where} has no joint(s) {show_names(missing)} (joint_names); its '
+                             f'joints: {show_names(known)}')
         joints = tuple(known[n] for n in config.joint_names)
     names = tuple(j.name for j in joints)
     n = len(names)
     for name in ('initial_positions', 'torque_limits', 'kp', 'kd'):
         values = getattr(config, name)
         if not config.from_model(name) and len(values) != n:
-            raise ValueError(f'{name} must be {n} values (one per joint of {list(names)}), '
+            raise ValueError(f'{name} must be {n} values (one per joint of {show_names(names)}), '
                              f'got {list(values)}')
     initial = (robot.default_seed(joints) if config.from_model('initial_positions')
                else np.asarray(config.initial_positions, dtype=float))

@@ -17,7 +17,7 @@ from ..planning.plan_options import MAX_INNER_KNOTS, MAX_VIBRATION_FREQUENCY, sm
 from ..robot.dynamics import payload_inertia_matrix
 from ..robot.joint_limits_file import check_limit_value
 from ..robot.kinematics import PlanarArm
-from ..robot.user_text import show
+from ..robot.user_text import show, show_names
 
 DEFAULT_JOINTS = ('joint1', 'joint2', 'joint3')
 # The planar arm's (and a joint-space planner's) limits when none are set.
@@ -149,20 +149,20 @@ class PlannerConfig(ValidatedConfig):
         if any(not isinstance(n, str) or not n for n in names):
             raise ValueError('joint_names must be non-empty strings')
         if len(set(names)) != len(names):
-            raise ValueError(f'joint_names has duplicates: {_names(names)}')
+            raise ValueError(f'joint_names has duplicates: {show_names(names)}')
         n = len(names)
         for name in ('max_velocity', 'max_acceleration'):
             if model:
                 require_description_limits(name, getattr(self, name), names)
             elif not any(getattr(self, name)):
                 raise ValueError(
-                    f'{name} is not set for joint_names {_names(names)}: give one value per '
+                    f'{name} is not set for joint_names {show_names(names)}: give one value per '
                     f'joint, e.g. -p {name}:=[{", ".join(["1.0"] * n)}] (the defaults are '
                     "the planar arm's, for joint1..3), or kinematics:=model with a robot "
                     'description to take them from it')
             else:
                 self.require_positive(name, n, f'one value per joint ({n}) of joint_names '
-                                      f'{_names(names)}')
+                                      f'{show_names(names)}')
         for name, quantity in (('max_velocity', 'velocity'),
                                ('max_acceleration', 'acceleration'), ('max_jerk', 'jerk')):
             for i, value in enumerate(getattr(self, name)):
@@ -170,7 +170,7 @@ class PlannerConfig(ValidatedConfig):
                     check_limit_value(quantity, value, f'{name}[{i}]')
         if len(self.max_jerk) not in (0, n) and not model:
             raise ValueError(f'max_jerk needs one value per joint ({n}) of joint_names '
-                             f'{_names(names)}, or [0.0] for no jerk limit; got '
+                             f'{show_names(names)}, or [0.0] for no jerk limit; got '
                              f'{len(self.max_jerk)}')
         for i, v in enumerate(self.max_jerk):
             if math.isnan(v) or v < 0.0:
@@ -309,7 +309,7 @@ class PlannerConfig(ValidatedConfig):
                                  'limit)')
         if self.max_effort and names and len(self.max_effort) != len(names):
             raise ValueError(f'max_effort needs one value per joint ({len(names)}) of '
-                             f'joint_names {_names(names)}, got {len(self.max_effort)}: give '
+                             f'joint_names {show_names(names)}, got {len(self.max_effort)}: give '
                              'them all (0 = from the robot description for that joint), or '
                              '-p max_effort:=[0.0] to take every one from the description')
         if not self.limit_torque:
@@ -421,12 +421,6 @@ def require_description_limits(name, values, names):
                              'robot description)')
     if any(v > 0.0 for v in values) and names and len(values) != len(names):
         raise ValueError(f'{name} needs one value per joint ({len(names)}) of joint_names '
-                         f'{_names(names)}, got {len(values)}: give them all (0 = from the '
+                         f'{show_names(names)}, got {len(values)}: give them all (0 = from the '
                          f'robot description for that joint), or -p {name}:=[0.0] to take '
                          'every one from the description')
-
-
-def _names(names, most=8):
-    """Return joint names as a short list text (at most ``most`` names, each cut to 40)."""
-    shown = [n if len(n) <= 40 else n[:37] + '...' for n in names[:most]]
-    return '[' + ', '.join(shown) + (', ...' if len(names) > most else '') + ']'

@@ -115,7 +115,7 @@ def test_not_set_means_the_planar_arm_without_a_model():
 
 
 def test_other_joints_without_a_model_need_their_limits_named():
-    with pytest.raises(ValueError, match=r'max_velocity is not set for joint_names \[a, b\]: '
+    with pytest.raises(ValueError, match=r"max_velocity is not set for joint_names \['a', 'b'\]: "
                                          r'give one value per joint, e\.g\. -p max_velocity'):
         PlannerConfig.from_values(parameters_as_declared(joint_names=('a', 'b')))
     config = PlannerConfig.from_values(parameters_as_declared(
