@@ -45,12 +45,12 @@ import math
 import numpy as np
 
 from .golden_search import golden_maxima
+from .tool_kinematics import frame_chain, has_transforms, refused_pose, start_walk
 from ..planning.path_constraints import ToolSpeed
 from ..planning.path_timing import JointPathSamples, midpoint_fractions, plan_along_path, \
     rescaled
 from ..planning.torque import CHECK_PERIOD, check_times, uniform_slow_down
 from ..robot import rotations as rot
-from ..robot.frame_chain import FrameChain
 
 # Path length [m] that one radian of tool rotation counts for in s.
 ANGLE_LENGTH = 0.1
@@ -341,7 +341,7 @@ def _speeds(traj, kinematics, times, differences=False):
 
 def _difference(kinematics, before, after, span):
     """Return the tool's (linear, angular) speed between joints ``before`` and ``after``."""
-    if hasattr(kinematics, 'forward_transform'):
+    if has_transforms(kinematics):
         p0, m0 = kinematics.forward_transform(before)
         p1, m1 = kinematics.forward_transform(after)
         d = np.einsum('...ji,...jk->...ik', m0, m1)
@@ -376,8 +376,7 @@ class ToolRates:
     def __init__(self, kinematics):
         """Keep the chain of ``kinematics`` (None: central differences)."""
         self.kinematics = kinematics
-        chain = getattr(kinematics, 'tool', None)
-        self.chain = chain if isinstance(chain, FrameChain) else None
+        self.chain = frame_chain(kinematics)
 
     def __call__(self, q, qdot):
         """Return the linear [m/s] and angular [rad/s] speed (...,) at ``q``, ``qdot`` (..., n)."""
@@ -407,15 +406,14 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
     s, sigma, edge, waypoint_index = sample_edges(edge_poses)
     # One continuous walk through every sample (a redundant arm's joints
     # depend on the walk: none may come from an earlier one).
-    getattr(kinematics, 'forget_walks', lambda: None)()
+    start_walk(kinematics)
     blends = CornerBlends(edge_poses, tolerances[0])
     samples = interpolate_poses(edge_poses, sigma, edge, blends)
     try:
         with np.errstate(over='ignore', invalid='ignore'):
             joints = np.asarray(kinematics.inverse(samples), float)
     except ValueError as exc:
-        k = getattr(exc, 'pose_index', None)
-        reason = getattr(exc, 'reason', None)
+        k, reason = refused_pose(exc)
         if k is None:
             # A kinematics that does not say which pose: the first it refuses alone.
             k, reason = _first_refused(kinematics, samples)

@@ -9,16 +9,10 @@ using Taylor's bounded deviations method" (R. H. Taylor, IBM J. Res. Dev. 23,
 
 Kinematics protocol
 -------------------
-Any object with
-
-* ``forward(joints)``: tool poses (..., P) of joint positions (..., n),
-  vectorised over the leading axes;
-* ``inverse(poses)``: joint positions (K, n) of tool poses (K, P), continuous
-  along K (no 2*pi jumps between consecutive rows), raising ValueError for an
-  unreachable pose (with a ``pose_index`` attribute when it knows which).
-
-Poses are planar, P = 3: (x, y, yaw), or spatial, P = 7: (x, y, z, qw, qx,
-qy, qz), a position and a unit quaternion (scalar first).
+Any object with ``forward(joints)`` and ``inverse(poses)``, planar (P = 3:
+x, y, yaw) or spatial (P = 7: x, y, z, qw, qx, qy, qz):
+:class:`.tool_kinematics.ToolKinematics` says what each must do, and which
+optional parts the tool paths use when a kinematics has them.
 :class:`splines445_ros.robot.kinematics.PlanarArm` implements the planar
 protocol (its ``inverse`` takes the paper's elbow branch, ``elbow=1``, by
 default); :class:`splines445_ros.robot.inverse_kinematics.ModelKinematics` the
@@ -90,6 +84,7 @@ import numbers
 import numpy as np
 
 from .golden_search import golden_maxima
+from .tool_kinematics import declared_joint_count, has_transforms, refused_pose
 from .tool_lines import edge_geometry, LineUnreachable, plan_tool_lines
 from ..planning import merge_duplicates
 from ..planning.path_constraints import GravityOverload
@@ -276,10 +271,10 @@ def _inverse(kinematics, poses, describe):
         with np.errstate(over='ignore', invalid='ignore'):  # huge poses are unreachable
             joints = np.asarray(kinematics.inverse(poses), dtype=float)
     except ValueError as first:
-        k = getattr(first, 'pose_index', None)
+        k, reason = refused_pose(first)
         if k is not None:
             # The kinematics knows which pose (and why: it walks from pose to pose).
-            reason = getattr(first, 'reason', str(first))
+            reason = str(first) if reason is None else reason
             raise ValueError(f'{describe(k)} at {_format_pose(poses[k])} {reason}') from None
         for k, pose in enumerate(poses):
             try:
@@ -311,7 +306,7 @@ class _PathMeasure:
         if self.spatial:
             self.quat0 = a[:, 3:]
             self.quat1 = b[:, 3:]
-            self._matrices = hasattr(kinematics, 'forward_transform')
+            self._matrices = has_transforms(kinematics)
             if self._matrices:
                 # The slerp of edge e at s is R0 Rot(axis, s angle): Rodrigues' terms.
                 turn = rot.multiply(rot.conjugate(self.quat0), self.quat1)
@@ -663,9 +658,9 @@ def _kept(count, dropped):
 
 def _joint_count(kinematics, poses):
     """Return the joints of ``kinematics``: its ``n_joints``, else those of the first pose's IK."""
-    count = getattr(kinematics, 'n_joints', None)
-    if isinstance(count, numbers.Integral) and not isinstance(count, bool):
-        return int(count)
+    count = declared_joint_count(kinematics)
+    if count is not None:
+        return count
     return _inverse(kinematics, poses[:1], lambda k: 'tool waypoint 0').shape[1]
 
 
