@@ -1,12 +1,17 @@
 """
 Torque limits and payload (issue 25): 555 optimal with torque limits against TOPP-RA, one run.
 
-For the UR5 and the Franka Panda (example-robot-data's URDFs), random
-reachable joint paths (fixed seed; 5 to 30 waypoints, a random walk from
-the ready pose with steps uniform in +-0.3 rad per joint, clipped to the
-joint ranges less 0.05 rad), each planned with payload 0 and with the
-rated payload (UR5 5 kg, Panda 3 kg; a point mass 0.1 m from the flange
-along the tool frame's z).  Limits: velocity and torque from the URDF
+For every 6-7-joint arm of example-robot-data (``bench_arms.py``: UR3, UR5,
+UR10, Panda, xArm7, Z1, Kinova, the TALOS arm; the skipped URDFs are listed
+with their reasons), random reachable joint paths (fresh every run, the seed
+printed first: ``bench_seeds.py``; 5 to 30 waypoints, a random walk from the
+ready pose with steps uniform in +-0.3 rad per joint, clipped to the joint
+ranges less 0.05 rad), each planned with payload 0 and with the rated
+payload (the vendor's, but at most :data:`PAYLOAD_SHARE` of what the
+URDF's efforts hold at rest at every waypoint of the arm's paths; a point
+mass 0.1 m from the flange along the tool frame's z).  A path that a
+planner refuses (gravity above an effort somewhere on it) is listed as
+refused, with the reason.  Limits: velocity and torque from the URDF
 (``<limit velocity>``, ``<limit effort>``); no acceleration limit in
 effect (plan() needs one: :data:`NO_ACCELERATION_LIMIT` rad/s^2 on every
 joint); jerk :data:`JERK_RATIO` times a typical acceleration (below).
@@ -36,15 +41,23 @@ pass for the torques at rest), TOPP-RA its ``torques``.
   Collocation holds the torque at its grid points only: checked here at
   1 kHz, and its Interpolation discretisation shown next to it.
 
-Per robot and payload: durations ours / TOPP-RA (median, worst), planning
-times ours / TOPP-RA (each best of :data:`REPEATS`, timed in turn; median ratio), the
-peak 1 kHz torque / limit of both, how much shorter ours is than today's
-practice, and the shaking of a lightly damped 4 and 8 Hz mode
-(``shaking.py``; ours / TOPP-RA, medians).  Targets: duration median at
-most 1.05 x TOPP-RA's; our 1 kHz torque peak at most 1.005 x its limit.
+* TOPP-RA along our path (issue 38, ``own_path.py``): the same velocity
+  and torque constraints on the geometric path of our plan, re-parameterised
+  by arc length: our duration over its is what the speed profile gives away.
+
+Per arm and payload, the figures of issue 38 (``bench_figures.py``; median
+and worst): duration over TOPP-RA's, over TOPP-RA's along our path, that
+one over TOPP-RA's, the shaking of a lightly damped 4 and 8 Hz mode (peak
+and residual, ``shaking.py``), planning times ours / TOPP-RA (each best of
+:data:`REPEATS`, timed in turn); then the peak 1 kHz torque / limit of all,
+how much shorter ours is than today's practice, and whether every v/a/j
+limit held.  Targets: duration median at most 1.05 x TOPP-RA's; our 1 kHz
+torque peak at most 1.005 x its limit.
 
 Usage: ``python benchmarks/bench_torque.py``; SPLINES445_BENCH_FULL=1 for
-:data:`FULL_CASES` paths per robot instead of :data:`CASES`.
+:data:`FULL_CASES` paths per arm instead of :data:`CASES`;
+``SPLINES445_BENCH_CASES=<count>`` any count, ``SPLINES445_BENCH_SEED``
+repeats a run, ``SPLINES445_BENCH_ARMS=UR5,Panda`` only those arms.
 """
 
 import logging
@@ -53,16 +66,17 @@ import sys
 
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but the rule holds
 
-import numpy as np  # noqa: E402
-from shaking import of_toppra, shaking_figures, shaking_header, shaking_ratios  # noqa: E402
+import bench_arms  # noqa: E402, I100
+import bench_figures  # noqa: E402
+import bench_seeds  # noqa: E402
+import numpy as np  # noqa: E402, I100
+import own_path  # noqa: E402, I100
+from shaking import of_toppra, shaking_figures, shaking_ratios  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
 from splines445_ros.planning.torque import CHECK_PERIOD  # noqa: E402 - [s] the 1 kHz torque check
 from splines445_ros.robot.dynamics import ArmDynamics, effort_limits  # noqa: E402, I100
-from splines445_ros.robot.robot_model import load_robot_model  # noqa: E402
-from splines445_ros.tools import vendor_robots as vr  # noqa: E402
 from wall_time import interleaved_best_of  # noqa: E402
 
-SEED = 25
 CASES = 10
 FULL_CASES = 40
 POINTS = (5, 30)
@@ -76,10 +90,7 @@ BINDS = 0.99                    # a limit this close is reported as reached
 REPEATS = 3
 BISECTION_RANGE = (0.1, NO_ACCELERATION_LIMIT)     # [rad/s^2] constant acceleration
 BISECTION_STEPS = 12
-ROBOTS = (
-    ('UR5', vr.ur5_urdf, vr.UR5_JOINTS, vr.UR5_READY, 'tool0', 5.0),
-    ('Panda', vr.panda_urdf, vr.PANDA_ARM_JOINTS, vr.PANDA_READY, 'panda_hand_tcp', 3.0),
-)
+PAYLOAD_SHARE = 0.5             # payload <= this * what the URDF efforts hold on the paths
 
 
 def joint_limits(robot, joints, margin=RANGE_MARGIN):
@@ -109,21 +120,15 @@ def toppra_torque(points, vmax, tau_max, torques, interpolation=False):
     TOPP-RA with velocity and torque limits on its chord-length spline; its trajectory.
 
     ``interpolation``: toppra's Interpolation discretisation of the torque
-    constraint instead of its default Collocation.
+    constraint instead of its default Collocation.  None when it finds none.
     """
-    import toppra
-    import toppra.algorithm
-    import toppra.constraint
     chords = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
-    path = toppra.SplineInterpolator(chords / chords[-1], points)
-    scheme = (toppra.constraint.DiscretizationType.Interpolation if interpolation
-              else toppra.constraint.DiscretizationType.Collocation)
-    constraints = [
-        toppra.constraint.JointVelocityConstraint(np.column_stack([-vmax, vmax])),
-        toppra.constraint.JointTorqueConstraint(torques, np.column_stack([-tau_max, tau_max]),
-                                                np.zeros(len(vmax)), scheme)]
-    instance = toppra.algorithm.TOPPRA(constraints, path, parametrizer='ParametrizeConstAccel')
-    return instance.compute_trajectory()
+    path = own_path.spline_path(chords / chords[-1], points)
+    constraints = own_path.velocity_torque(vmax, tau_max, torques, interpolation)
+    try:
+        return own_path.toppra_on(path, constraints)
+    except RuntimeError:
+        return None
 
 
 def sampled(position, velocity, acceleration, duration):
@@ -196,60 +201,126 @@ def binding(traj, ours_peak):
 
 
 def run_row(name, robot, joints, tool, payload, paths, vmax, tau_max):
-    """Plan every path with one payload, print a line per path; return the figures (C, 13)."""
+    """
+    Plan every path with one payload, print a line per path; return (figures (C, 20), refused).
+
+    ``refused``: a list of (case, reason) where a planner found no plan.
+    """
     dynamics = ArmDynamics(robot, joints, tool, payload_mass=payload,
                            payload_center_of_mass=PAYLOAD_OFFSET)
-    torques = dynamics.torques
     n = len(joints)
-    rows = []
+    rows, refused = [], []
     for case, points in enumerate(paths):
-        typical, slow = bisected_acceleration(points, vmax, torques, tau_max)
-        # TOPP-RA's plan sets our jerk limits; then both are timed in turn.
-        jerk = JERK_RATIO * typical_accelerations(toppra_torque(points, vmax, tau_max, torques))
-        (t_top, top), (t_ours, traj) = interleaved_best_of((
-            lambda: toppra_torque(points, vmax, tau_max, torques),
-            lambda: plan(points, '555', 'optimal', max_velocity=vmax,
-                         max_acceleration=np.full(n, NO_ACCELERATION_LIMIT), max_jerk=jerk,
-                         max_torque=tau_max, inverse_dynamics=dynamics)), REPEATS)
-        knots_only = plan(points, '555', 'optimal', inner_knots=0, max_velocity=vmax,
-                          max_acceleration=np.full(n, NO_ACCELERATION_LIMIT), max_jerk=jerk,
-                          max_torque=tau_max, inverse_dynamics=dynamics)
-        fine = toppra_torque(points, vmax, tau_max, torques, interpolation=True)
-        ours_peak = np.max(peak_torque(ours_samples(traj), torques, tau_max))
-        knots_peak = np.max(peak_torque(ours_samples(knots_only), torques, tau_max))
-        top_peak = np.max(peak_torque(toppra_samples(top), torques, tau_max))
-        fine_peak = np.max(peak_torque(toppra_samples(fine), torques, tau_max))
-        # Shaking in units of the constant acceleration (common to all joints: the
-        # ratios do not depend on it).
-        scale = np.full(n, typical)
-        reference = shaking_figures(of_toppra(top), top.duration, scale)
-        shaking = shaking_ratios(traj, reference, scale)
-        ratio = traj.duration / top.duration
-        binds, vaj = binding(traj, ours_peak)
-        rows.append([ratio, t_ours / t_top, ours_peak, top_peak, fine.duration / top.duration,
-                     fine_peak, 1.0 - traj.duration / slow.duration,
-                     knots_only.duration / top.duration, knots_peak] + shaking)
-        print(f'| {name} | {payload:g} | {case} | {len(points)} | {typical:.1f} '
-              f'| {top.duration:.3f} | {fine.duration:.3f} | {traj.duration:.3f} | {ratio:.3f} '
-              f'| {slow.duration:.3f} | {1e3 * t_top:.0f} | {1e3 * t_ours:.0f} '
-              f'| {knots_only.duration:.3f} | {ours_peak:.4f} / {knots_peak:.4f} '
-              f'| {top_peak:.3f} / {fine_peak:.3f} '
-              f'| {vaj[0]:.2f} / {vaj[1]:.2f} / {vaj[2]:.2f} | {binds} |')
+        try:
+            row, line = run_case(points, vmax, tau_max, dynamics, n)
+        except (ValueError, RuntimeError) as exc:
+            refused.append((case, str(exc).splitlines()[0][:160]))
+            print(f'| {name} | {payload:.2f} | {case} | {len(points)} | refused: '
+                  f'{refused[-1][1]} |')
+            continue
+        rows.append(row)
+        print(f'| {name} | {payload:.2f} | {case} | {len(points)} | ' + line + ' |')
         sys.stdout.flush()
-    return np.array(rows)
+    return np.array(rows).reshape(-1, len(bench_figures.NAMES) + 9), refused
+
+
+def run_case(points, vmax, tau_max, dynamics, n):
+    """Return (figures, table cells) of one path: ours, TOPP-RA, along our path, constant a."""
+    torques = dynamics.torques
+    try:
+        typical, slow = bisected_acceleration(points, vmax, torques, tau_max)
+    except ValueError:
+        typical, slow = np.nan, None    # no constant acceleration holds: shown as nan
+    first = toppra_torque(points, vmax, tau_max, torques)
+    if first is None:
+        raise RuntimeError('TOPP-RA found no parametrisation')
+    # TOPP-RA's plan sets our jerk limits; then both are timed in turn.
+    jerk = JERK_RATIO * typical_accelerations(first)
+    (t_top, top), (t_ours, traj) = interleaved_best_of((
+        lambda: toppra_torque(points, vmax, tau_max, torques),
+        lambda: plan(points, '555', 'optimal', max_velocity=vmax,
+                     max_acceleration=np.full(n, NO_ACCELERATION_LIMIT), max_jerk=jerk,
+                     max_torque=tau_max, inverse_dynamics=dynamics)), REPEATS)
+    if top is None:
+        raise RuntimeError('TOPP-RA found no parametrisation')
+    try:
+        own = own_path.toppra_along(traj, own_path.velocity_torque(vmax, tau_max, torques))
+    except RuntimeError:
+        own = None      # shown as nan: TOPP-RA found no profile along our path
+    knots_only = plan(points, '555', 'optimal', inner_knots=0, max_velocity=vmax,
+                      max_acceleration=np.full(n, NO_ACCELERATION_LIMIT), max_jerk=jerk,
+                      max_torque=tau_max, inverse_dynamics=dynamics)
+    fine = toppra_torque(points, vmax, tau_max, torques, interpolation=True)
+    if fine is None:
+        raise RuntimeError('TOPP-RA (Interpolation) found no parametrisation')
+    ours_peak = np.max(peak_torque(ours_samples(traj), torques, tau_max))
+    knots_peak = np.max(peak_torque(ours_samples(knots_only), torques, tau_max))
+    top_peak = np.max(peak_torque(toppra_samples(top), torques, tau_max))
+    fine_peak = np.max(peak_torque(toppra_samples(fine), torques, tau_max))
+    own_peak = (np.nan if own is None
+                else np.max(peak_torque(toppra_samples(own), torques, tau_max)))
+    own_duration = np.nan if own is None else own.duration
+    # Shaking in units of the constant acceleration (common to all joints: the
+    # ratios do not depend on it).
+    scale = np.full(n, typical if slow is not None else 1.0)
+    reference = shaking_figures(of_toppra(top), top.duration, scale)
+    figures = bench_figures.figures(traj.duration, own_duration, top.duration,
+                                    shaking_ratios(traj, reference, scale), t_ours, t_top)
+    binds, vaj = binding(traj, ours_peak)
+    slow_duration = np.nan if slow is None else slow.duration
+    row = figures + [ours_peak, top_peak, fine.duration / top.duration, fine_peak,
+                     1.0 - traj.duration / slow_duration, knots_only.duration / top.duration,
+                     knots_peak, own_peak, float(traj.within_limits(rtol=1e-9))]
+    line = (f'{typical:.1f} | {top.duration:.3f} | {fine.duration:.3f} | {own_duration:.3f} '
+            f'| {traj.duration:.3f} | {figures[0]:.3f} | {figures[1]:.3f} '
+            f'| {slow_duration:.3f} | {1e3 * t_top:.0f} | {1e3 * t_ours:.0f} '
+            f'| {knots_only.duration:.3f} | {ours_peak:.4f} / {knots_peak:.4f} '
+            f'| {top_peak:.3f} / {fine_peak:.3f} / {own_peak:.3f} '
+            f'| {vaj[0]:.2f} / {vaj[1]:.2f} / {vaj[2]:.2f} | {binds}')
+    return row, line
+
+
+def bench_payload(arm, paths):
+    """
+    Return (payload [kg], what the URDF efforts hold on the paths' waypoints [kg]).
+
+    The payload is the vendor's rated one, but at most :data:`PAYLOAD_SHARE`
+    of the largest point mass (at :data:`PAYLOAD_OFFSET`) whose gravity the
+    URDF's efforts hold at every waypoint of ``paths`` (at rest) where they
+    hold the arm itself: some URDFs' efforts are not the arm's (the TALOS
+    arm's: 22 N m at the shoulder, 3 N m at the wrist), and a payload they
+    cannot hold has no plan.
+    """
+    bare = ArmDynamics(arm.robot, arm.joints, arm.tool)
+    loaded = ArmDynamics(arm.robot, arm.joints, arm.tool, payload_mass=1.0,
+                         payload_center_of_mass=PAYLOAD_OFFSET)
+    held = np.inf
+    for q in np.concatenate(paths):
+        g0 = np.asarray(bare.gravity(q), float)
+        per_kg = np.abs(np.asarray(loaded.gravity(q), float) - g0)
+        room = arm.effort - np.abs(g0)
+        if np.any(room < 0.0):
+            continue    # the arm alone is too heavy here: that path is refused anyway
+        with np.errstate(divide='ignore'):
+            held = min(held, float(np.min(np.where(per_kg > 0.0, room / per_kg, np.inf))))
+    return min(arm.rated_payload, PAYLOAD_SHARE * max(held, 0.0)), held
 
 
 def main():
     """Run the comparison and print the tables."""
     logging.getLogger('toppra').setLevel(logging.ERROR)
+    seed = bench_seeds.run_seed()
     full = os.environ.get('SPLINES445_BENCH_FULL') == '1'
-    cases = FULL_CASES if full else CASES
+    cases = bench_seeds.case_count(FULL_CASES if full else CASES)
+    arms, skipped = bench_arms.vendor_arms()
+    bench_arms.print_arms(arms, skipped)
     print('Command: ' + ('SPLINES445_BENCH_FULL=1 ' if full else '')
-          + 'python benchmarks/bench_torque.py')
-    print(f'Settings: seed {SEED}; {cases} paths per robot, {POINTS[0]}-{POINTS[1]} waypoints '
+          + f'{bench_seeds.VARIABLE}={seed} python benchmarks/bench_torque.py')
+    print(f'Settings: seed {seed}; {cases} paths per arm, {POINTS[0]}-{POINTS[1]} waypoints '
           f'(random walk from the ready pose, steps uniform in +-{STEP} rad, clipped to the '
           f'joint ranges less {RANGE_MARGIN} rad), the same paths for both payloads; payload 0 '
-          f'and rated, a point mass at {PAYLOAD_OFFSET} m in the tool frame; velocity and '
+          f'and rated (at most {PAYLOAD_SHARE:g} of what the URDF efforts hold at rest at '
+          f'every waypoint), a point mass at {PAYLOAD_OFFSET} m in the tool frame; velocity and '
           'torque limits from the URDF; max_acceleration '
           f'{NO_ACCELERATION_LIMIT:g} rad/s^2 on every joint (plan() needs one: no '
           'acceleration limit in effect); max_jerk = '
@@ -260,56 +331,80 @@ def main():
           f'{BISECTION_RANGE} rad/s^2, jerk {JERK_RATIO:g} a); torque checked every '
           f'{1e3 * CHECK_PERIOD:g} ms; planning times best of {REPEATS}, timed in turn; '
           'TOPP-RA: default grid, ParametrizeConstAccel, Collocation (its default; '
-          'Interpolation shown too); '
+          'Interpolation shown too); TOPP-RA along our path: the same velocity and torque '
+          "constraints on our plan's geometric path (own_path.py); "
           "ours: plan(..., '555', 'optimal', max_torque=..., inverse_dynamics=dynamics) (the "
           'ArmDynamics: its gravity pass at rest; TOPP-RA dynamics.torques), default inner '
           'knots (inner_knots=0 shown too).')
     print()
-    print('| robot | payload [kg] | case | N | constant a [rad/s^2] | TOPP-RA [s] '
-          '| TOPP-RA Interpolation [s] | ours [s] | ours / TOPP-RA | constant a [s] '
+    print('| arm | payload [kg] | case | N | constant a [rad/s^2] | TOPP-RA [s] '
+          '| TOPP-RA Interpolation [s] | TOPP-RA along our path [s] | ours [s] '
+          '| ours / TOPP-RA | ours / TOPP-RA along our path | constant a [s] '
           '| TOPP-RA planning [ms] | ours planning [ms] | ours inner_knots=0 [s] '
           '| ours peak torque (default / inner_knots=0) '
-          '| TOPP-RA peak torque (Collocation / Interpolation) | ours v / a / j ratios '
-          f'| ours at (>= {BINDS:g}) |')
-    print('|' + '---|' * 17)
-    rng = np.random.default_rng(SEED)
+          '| TOPP-RA peak torque (Collocation / Interpolation / along our path) '
+          f'| ours v / a / j ratios | ours at (>= {BINDS:g}) |')
+    print(bench_figures.rule(19))
     summary = []
-    for name, urdf, joints, ready, tool, rated in ROBOTS:
-        robot = load_robot_model(urdf())
-        lower, upper, vmax, tau_max = joint_limits(robot, joints)
-        paths = [random_path(rng, ready, lower, upper) for _ in range(cases)]
+    for index, arm in enumerate(arms):
+        rng = bench_seeds.generator(index)
+        lower, upper, vmax, tau_max = joint_limits(arm.robot, arm.joints)
+        paths = [random_path(rng, arm.ready, lower, upper) for _ in range(cases)]
+        rated, held = bench_payload(arm, paths)
         for payload in (0.0, rated):
-            summary.append((name, payload,
-                            run_row(name, robot, joints, tool, payload, paths, vmax, tau_max)))
+            rows, refused = run_row(arm.name, arm.robot, arm.joints, arm.tool, payload, paths,
+                                    vmax, tau_max)
+            summary.append((arm.name, payload, held, rows, refused))
+    print_summary(summary, cases)
+    return 0
+
+
+def print_summary(summary, cases):
+    """Print the summary tables and the targets of :func:`main`'s rows."""
+    k = len(bench_figures.NAMES)
     print()
-    print('Summary (ratios ours / TOPP-RA Collocation unless stated; peak torques / limit at '
-          '1 kHz; shaking: medians, benchmarks/shaking.py):')
-    print('| robot | payload [kg] | cases | duration: median / worst | planning time: median '
-          '| ours peak torque: max | TOPP-RA peak torque: max | TOPP-RA Interpolation: '
-          'duration / Collocation median, peak torque max | shorter than constant a: median '
-          '/ worst | inner_knots=0: duration median / worst, peak torque max | '
-          + shaking_header() + ' |')
-    print('|' + '---|' * 14)
+    print('Summary per arm and payload: the figures of issue 38 (ours / TOPP-RA Collocation on '
+          'its spline, median / worst over the paths planned; along our path: TOPP-RA with '
+          'the same constraints on our path; shaking: benchmarks/shaking.py)')
+    print('| arm | payload [kg] (held at every waypoint) | paths planned / refused | '
+          + bench_figures.header() + ' |')
+    print(bench_figures.rule(3 + k))
+    for name, payload, held, rows, refused in summary:
+        cells = bench_figures.summary(rows[:, :k]) if len(rows) else ' | '.join(['-'] * k)
+        print(f'| {name} | {payload:.2f} ({held:.1f}) | {len(rows)} / {len(refused)} | '
+              + cells + ' |')
+    print()
+    print('Torques and the other plans (peak torques / limit at 1 kHz, max over the paths):')
+    print('| arm | payload [kg] | ours peak torque | TOPP-RA peak torque | TOPP-RA along our '
+          'path peak torque | TOPP-RA Interpolation: duration / Collocation median, peak '
+          'torque | shorter than constant a: median / worst | inner_knots=0: duration / '
+          'TOPP-RA median / worst, peak torque | v/a/j limits held (exact peaks) |')
+    print(bench_figures.rule(9))
     met_duration = met_torque = met_planning = True
-    for name, payload, rows in summary:
+    for name, payload, _, rows, refused in summary:
+        for case, reason in refused:
+            print(f'| {name} | {payload:.2f} | path {case} refused: {reason} | | | | | | |')
+        if not len(rows):
+            continue
+        extra = rows[:, k:]
         median = np.median(rows, axis=0)
         met_duration &= median[0] <= 1.05
-        met_planning &= median[1] <= 1.0
-        met_torque &= max(np.max(rows[:, 2]), np.max(rows[:, 8])) <= 1.005
-        print(f'| {name} | {payload:g} | {len(rows)} | {median[0]:.3f} / {np.max(rows[:, 0]):.3f} '
-              f'| {median[1]:.2f} | {np.max(rows[:, 2]):.4f} | {np.max(rows[:, 3]):.3f} '
-              f'| {median[4]:.3f}, {np.max(rows[:, 5]):.3f} '
-              f'| {100 * median[6]:.1f} % / {100 * np.min(rows[:, 6]):.1f} % '
-              f'| {median[7]:.3f} / {np.max(rows[:, 7]):.3f}, {np.max(rows[:, 8]):.4f} | '
-              + ' | '.join(f'{value:.2f}' for value in median[9:]) + ' |')
+        met_planning &= median[k - 1] <= 1.0
+        met_torque &= max(np.max(extra[:, 0]), np.max(extra[:, 6])) <= 1.005
+        print(f'| {name} | {payload:.2f} | {np.max(extra[:, 0]):.4f} | {np.max(extra[:, 1]):.3f} '
+              f'| {np.max(extra[:, 7]):.3f} '
+              f'| {np.median(extra[:, 2]):.3f}, {np.max(extra[:, 3]):.3f} '
+              f'| {100 * np.nanmedian(extra[:, 4]):.1f} % / {100 * np.nanmin(extra[:, 4]):.1f} % '
+              f'| {np.median(extra[:, 5]):.3f} / {np.max(extra[:, 5]):.3f}, '
+              f'{np.max(extra[:, 6]):.4f} | {bool(np.all(extra[:, 8]))} |')
     print()
+    print(f'({cases} paths drawn per arm.)')
     print("Duration median <= 1.05 x TOPP-RA's on every row: "
           + ('met' if met_duration else 'NOT met'))
     print("Planning time median <= TOPP-RA's on every row: "
           + ('met' if met_planning else 'NOT met'))
     print('Our peak torque <= 1.005 x its limit at 1 kHz on every path: '
           + ('met' if met_torque else 'NOT met'))
-    return 0
 
 
 if __name__ == '__main__':
