@@ -22,8 +22,10 @@ and per quantity, in this order (the first that gives a value wins):
 3. the URDF (velocity only: a URDF has no acceleration or jerk limits).
 
 A joint left without a velocity or an acceleration limit is an error that
-names the joint; a jerk limit is optional.  :class:`JointLimits` keeps where
-each value came from, for the status report.
+names the joint; a jerk limit is optional.  :class:`ResolvedLimits` keeps
+where each value came from, for the status report (the planner's own
+limits, :class:`~splines445_ros.planning.JointLimits`, are the arrays it
+plans with).
 
 Hostile or careless input (issue 22): the file is read with a size bound
 and parsed without YAML anchors and aliases (an alias bomb of a few hundred
@@ -82,7 +84,7 @@ URDF = 'urdf'
 
 
 @dataclass(frozen=True)
-class JointLimits:
+class ResolvedLimits:
     """Per-joint limits in use and their sources ('parameter', 'joint_limits_file', 'urdf')."""
 
     joint_names: Tuple[str, ...]
@@ -254,7 +256,7 @@ def check_known_joints(file_limits, known_joints):
 def resolve_limits(joint_names, urdf_velocity=None, file_limits=None, max_velocity=None,
                    max_acceleration=None, max_jerk=None, *, known_joints=None):
     """
-    Return the :class:`JointLimits` of ``joint_names`` (ValueError naming a joint without).
+    Return the :class:`ResolvedLimits` of ``joint_names`` (ValueError naming a joint without).
 
     ``urdf_velocity``: {joint: velocity or None}; ``file_limits``: the result
     of :func:`read_joint_limits_file`; ``max_*``: explicit per-joint values
@@ -297,8 +299,8 @@ def resolve_limits(joint_names, urdf_velocity=None, file_limits=None, max_veloci
                 raise ValueError(f'joint {shown} has no {quantity} limit: give it in '
                                  f'{where}the joint_limits_file or max_{quantity}')
         values[quantity], sources[quantity] = numbers, tuple(origin)
-    return JointLimits(names, values['velocity'], values['acceleration'], values['jerk'],
-                       sources)
+    return ResolvedLimits(names, values['velocity'], values['acceleration'], values['jerk'],
+                          sources)
 
 
 def _positive(value: Optional[float]):

@@ -34,7 +34,7 @@ from .request_planning import plan_tool_poses
 from ..robot.chain_tip import chain_tips
 from ..robot.dynamics import ArmDynamics
 from ..robot.inverse_kinematics import ModelKinematics
-from ..robot.joint_limits_file import JointLimits, read_joint_limits_file, resolve_limits
+from ..robot.joint_limits_file import read_joint_limits_file, resolve_limits, ResolvedLimits
 from ..robot.robot_model import load_robot_model, RobotModel
 from ..robot.torque_limits import model_torque_limits
 from ..robot.user_text import show
@@ -49,7 +49,7 @@ ROBOT_FIELDS = ('kinematics', 'model_file', 'tool_frame', 'base_frame', 'joint_n
 # hold the wrong limits or payload.
 TORQUE_FIELDS = ('limit_torque', 'max_effort', 'payload_mass', 'payload_center_of_mass',
                  'payload_inertia', 'tool_frame')
-# Source of an acceleration limit that limit_torque stood in for (JointLimits.report).
+# Source of an acceleration limit that limit_torque stood in for (ResolvedLimits.report).
 STAND_IN = 'limit_torque'
 
 
@@ -95,7 +95,7 @@ class RobotSetup:
 
     robot: RobotModel
     kinematics: Optional[ModelKinematics]  # None when the tool frame is not known
-    limits: JointLimits
+    limits: ResolvedLimits
     config: object          # the effective PlannerConfig it was built from
     source: str             # 'model_file ...' or 'robot_description'
     tool_frame: str         # in use: tool_frame, else the tip of the chain; '' = none

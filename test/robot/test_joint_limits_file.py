@@ -64,6 +64,7 @@ def write(tmp_path, text, name='joint_limits.yaml'):
 def test_urdf_velocity_and_moveit_file_combine(tmp_path, ur5_velocity):
     limits = resolve_limits(vr.UR5_JOINTS, ur5_velocity,
                             read_joint_limits_file(write(tmp_path, UR5_LIMITS_YAML)))
+    assert isinstance(limits, jlf.ResolvedLimits)  # not the planner's JointLimits
     # shoulder_pan from the file (2.0 beats the URDF's 3.15), the rest from the URDF.
     np.testing.assert_array_equal(limits.velocity, [2.0, 3.15, 3.15, 3.2, 3.2, 3.2])
     np.testing.assert_array_equal(limits.acceleration, [5.0, 5.0, 6.0, 7.5, 7.5, 7.5])
