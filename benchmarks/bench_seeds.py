@@ -44,7 +44,9 @@ def run_seed():
         seed = secrets.randbits(SEED_BITS)
         origin = 'fresh from the OS'
     _chosen.append(seed)
-    script = os.path.relpath(os.path.abspath(sys.argv[0])) if sys.argv and sys.argv[0] else ''
+    repository = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    script = (os.path.relpath(os.path.abspath(sys.argv[0]), repository)
+              if sys.argv and sys.argv[0] else '')
     print(f'Seed: {seed} ({origin}; repeat this run: {VARIABLE}={seed} python {script})')
     sys.stdout.flush()
     return seed
