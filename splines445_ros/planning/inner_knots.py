@@ -24,7 +24,8 @@ Construction (:func:`plan_with_inner_knots`):
    acceleration limits, each times a local factor ``lambda(s)``
    (:class:`path_velocity.PathLimits`, :data:`GRID_STEPS` grid steps per
    segment).  Rest to rest, the path position ``s(t)`` of that profile is
-   then averaged over moving windows (:func:`smoothing_windows`; issue 23):
+   then averaged over moving windows (:func:`plan_options.smoothing_windows`,
+   :mod:`averaged_timing`; issue 23):
    a box of width ``W`` turns every jump of the path acceleration into a
    ramp lasting ``W`` and removes the frequencies ``k / W`` (k = 1, 2, ...)
    from the path acceleration, so the spline built on it does not ring and
@@ -76,18 +77,15 @@ pieces.  This is not started from the knots-only optimum of
 spline is found.
 """
 
-from functools import lru_cache
-
 import numpy as np
-from scipy.interpolate import PPoly
-from scipy.linalg.lapack import dgtsv
 
+from .averaged_timing import AveragedTiming
 from .continuity_system import spline_coefficients
+from .knot_pieces import equal_fractions, exact_factors, knot_times, knots_per_segment, RAMP_PIECES
 from .limits import limit_ratios
+from .natural_cubic import natural_cubic_spline
 from .path_constraints import GravityOverload, GriddedPath, JointAcceleration, JointVelocity
-from .path_velocity import (joint_acceleration_peaks, path_position, PathLimits,
-                            traversal_times)
-from .peaks import row_max, velocity_ratios_above
+from .path_velocity import joint_acceleration_peaks, PathLimits, traversal_times
 from .plan_options import DEFAULT_SMOOTHING, torque_without_windows
 from .timing import closed_form_scale, rest_to_rest_durations
 from .trajectory import REBUILD_RTOL, representable_durations, require_finite, Trajectory
@@ -101,21 +99,6 @@ TORQUE_GRID_STEPS = 20
 TORQUE_MIN_GAIN = 1e-2
 # Grid steps per segment of the speed profile (step 2).
 GRID_STEPS = 24
-# AveragedTiming.time_at: safeguarded Newton steps (issue 23, the planning time of
-# small requests; they replaced a table of the averaged profile at the grid
-# points and 5 regula falsi steps within its brackets, 0.2 ms of a 3 x 3
-# candidate's 0.8): most steps, and the largest position error accepted
-# (relative to the path's length; the table's regula falsi got within 3e-11
-# on the plans' profiles, and missed 1e-5 on a random one, 4e-5 next to
-# its end).  Targets still further off (where the average flattens, next to
-# a rest end) get regula falsi (Illinois) steps on Newton's brackets, at
-# most INVERSE_STEPS.  Only where the inner knots sit depends on it: the
-# waypoints are knots themselves and the limits are exact.
-NEWTON_STEPS = 6
-NEWTON_TOLERANCE = 1e-12
-INVERSE_STEPS = 20
-# A piece lasts at least this many jerk ramp times a / j (step 3).
-RAMP_PIECES = 1.5
 # With torque limits (issue 25): the same for step 3, whose ramp
 # accelerations are then the fastest profile's peaks (ramp_accelerations),
 # up to twice a joint's typical one; the share of the joints' jerk with which
@@ -204,10 +187,6 @@ END_SEGMENT_SHARES = (0.5, 2.0, 0.25)
 # (REST_ITERATIONS) more.
 RECOUNTS = 2
 OUTLIER = 1.01
-# From this many pieces times joints on, exact_factors skips the velocity
-# peaks that cannot decide a piece's factor (below, the bound costs more than
-# it saves: measured on the 1000 x 7 benchmark's splines, even at about 500).
-PRUNE_ROWS = 512
 # With corner rounding (path_timing), step 6 lowers a grid point by the
 # largest factor of the pieces within this many rounding windows of it in
 # time: the UR5 seam at 0.1 m/s (bench_tool_lines.py) took 26 splines with 0
@@ -217,273 +196,6 @@ PRUNE_ROWS = 512
 ROUNDED_REACH = 0.1
 # Safety factor on exact restoring factors against round-off.
 _ROUNDOFF = 1.0 + 1e-12
-
-
-@lru_cache(maxsize=64)
-def _window_shifts(widths):
-    """
-    Return the shifts and signs (2**k,) and the product of the window ``widths``.
-
-    The windows are those of :class:`AveragedTiming`.
-    Every profile of a request has the same windows: computed once (read-only).
-    """
-    n = len(widths)
-    subsets = [[k for k in range(n) if subset >> k & 1] for subset in range(1 << n)]
-    shifts = np.array([sum(widths[k] for k in ks) for ks in subsets])
-    signs = np.array([(-1.0) ** len(ks) for ks in subsets])
-    shifts.flags.writeable = signs.flags.writeable = False
-    return shifts, signs, np.prod(widths)
-
-
-class AveragedTiming:
-    """
-    The profile's path position in time, ``s(t)``, averaged over moving windows (step 2).
-
-    Within a grid step ``u`` is constant, so ``s(t)`` is a quadratic there
-    (:func:`path_velocity.path_position`), ``s = 0`` before the start and
-    the path's end after it.  One average over ``[t - W, t]`` is
-    ``(S1(t) - S1(t - W)) / W`` with ``S1`` the antiderivative; k windows
-    are the alternating sum of the k-th antiderivative over the 2**k
-    combinations of shifts, divided by the widths' product.  The
-    antiderivatives are exact polynomials per step, so positions are exact
-    to round-off.
-    """
-
-    def __init__(self, times, x, s, widths):
-        self.times, self.x, self.s = times, x, s
-        self.widths = list(widths)
-        self.duration = times[-1] + sum(self.widths)
-        if not self.widths:
-            return
-        # Polynomial coefficients in tau = t - t_i of s and of its k-th
-        # antiderivatives on every step; the last row holds s beyond the end.
-        # (Differences by slices: np.diff's values, without its wrapper.)
-        h = times[1:] - times[:-1]
-        poly = np.zeros((s.size, 3 + len(self.widths)))
-        poly[:-1, 0] = s[:-1]
-        poly[:-1, 1] = np.sqrt(np.maximum(x[:-1], 0.0))
-        poly[:-1, 2] = (x[1:] - x[:-1]) / (4.0 * (s[1:] - s[:-1]))  # u / 2
-        poly[-1, 0] = s[-1]
-        powers = np.arange(poly.shape[1])
-        h_powers = h[:, None] ** powers
-        for _ in self.widths:
-            poly = np.concatenate([np.zeros((s.size, 1)), poly[:, :-1] / powers[1:]], axis=1)
-            ends = np.sum(poly[:-1] * h_powers, axis=1)
-            poly[:, 0] = np.concatenate([[0.0], np.cumsum(ends)])
-        self.poly = poly
-        self._shifts, self._signs, self._product = _window_shifts(tuple(self.widths))
-
-    def _antiderivative(self, t, slope=False):
-        # Few numpy calls: small requests call this thousands of times.
-        i = self.times.searchsorted(t, side='right') - 1
-        np.maximum(i, 0, out=i)
-        tau = t - self.times[i]
-        rows = self.poly[i]
-        value = rows[..., -1] * tau
-        value += rows[..., -2]
-        if slope:
-            # Its derivative by the same Horner steps (velocity of the average).
-            top = self.poly.shape[1] - 1
-            rate = rows[..., -1] * (top * tau)
-            rate += (top - 1) * rows[..., -2]
-        for k in range(self.poly.shape[1] - 3, -1, -1):
-            # In place: the same products and sums without new arrays.
-            if slope and k > 0:
-                rate *= tau
-                rate += k * rows[..., k]
-            value *= tau
-            value += rows[..., k]
-        value[t <= 0.0] = 0.0
-        if not slope:
-            return value
-        rate[t <= 0.0] = 0.0
-        return value, rate
-
-    def position_at(self, t):
-        """Return the path position at the times ``t``."""
-        if not self.widths:
-            return path_position(self.times, self.x, self.s, t)
-        t = np.asarray(t, float)
-        # Repeated moving averages: differences of the k-th antiderivative,
-        # at all 2**k shifts in one call.
-        values = self._antiderivative(t[..., None] - self._shifts)
-        return np.minimum(np.maximum(values @ self._signs / self._product, 0.0), self.s[-1])
-
-    def time_at(self, s):
-        """
-        Return the times at which the path positions ``s`` (from the start to the end) are passed.
-
-        The ends are pinned to 0 and :attr:`duration`: at rest there, the
-        averaged samples repeat the end positions, where interpolation
-        would pick any of their times.
-        """
-        if not self.widths:
-            return np.interp(s, self.s, self.times)
-        s = np.asarray(s, float)
-        if s.ndim == 0:
-            return self.time_at(s.reshape(1)).reshape(())
-        out = np.empty(s.shape)
-        inner = (s > 0.0) & (s < self.s[-1])
-        out[inner] = self._newton(s[inner])
-        out[s <= 0.0] = 0.0
-        out[s >= self.s[-1]] = self.duration
-        return out
-
-    def _newton(self, s):
-        """
-        Return time_at's times of the positions ``s`` strictly inside the path.
-
-        The average of an increasing ``s(t)`` over windows of total width
-        ``W`` is between ``s(t - W)`` and ``s(t)``, so it passes a position
-        between the plain profile's time there and ``W`` later: a bracket.
-        Newton's steps start in its middle with the average's velocity as
-        slope (a step that leaves the bracket is a bisection) and stop once
-        every position is within :data:`NEWTON_TOLERANCE` of the path's
-        length, at most :data:`NEWTON_STEPS` (two or three on the plans'
-        profiles); regula falsi with the Illinois rule takes the targets
-        still further off on from their brackets, where the average is a
-        smooth increasing function (:data:`INVERSE_STEPS`).
-        """
-        lo = np.interp(s, self.s, self.times)
-        hi = lo + sum(self.widths)
-        t = 0.5 * (lo + hi)
-        tolerance = NEWTON_TOLERANCE * self.s[-1]
-        for _ in range(NEWTON_STEPS):
-            values, rates = self._antiderivative(t[..., None] - self._shifts, slope=True)
-            f = values @ self._signs / self._product - s
-            off = np.abs(f) > tolerance
-            if not np.any(off):
-                return t
-            rate = rates @ self._signs / self._product
-            above = f > 0.0
-            np.copyto(hi, t, where=above)
-            np.copyto(lo, t, where=~above)
-            with np.errstate(divide='ignore', invalid='ignore'):
-                step = t - f / rate
-            inside = (step > lo) & (step < hi)
-            t = np.where(inside, step, 0.5 * (lo + hi))
-        # The last step's positions; the targets still off get regula falsi.
-        f = self.position_at(t) - s
-        off = np.abs(f) > tolerance
-        if np.any(off):
-            above = f > 0.0
-            np.copyto(hi, t, where=above)
-            np.copyto(lo, t, where=~above)
-            k = np.flatnonzero(off)
-            ends = self.position_at(np.concatenate([lo[k], hi[k]])) - np.tile(s[k], 2)
-            t[k] = regula_falsi(self.position_at, s[k], lo[k], hi[k], ends[:k.size],
-                                ends[k.size:], INVERSE_STEPS)
-        return t
-
-
-def regula_falsi(position_at, s, lo_t, hi_t, lo_f, hi_f, steps):
-    """
-    Return the times (K,) at which the increasing ``position_at`` passes ``s`` (K,).
-
-    Regula falsi with the Illinois rule (an end kept twice in a row has its
-    value halved), ``steps`` evaluations, from brackets ``lo_t`` < ``hi_t``
-    with ``lo_f`` <= 0 < ``hi_f`` (the positions there less ``s``; updated
-    in place); the last estimate.  The brackets are updated with np.copyto
-    and masked ufuncs: the same values in 18 numpy calls a step instead of
-    24 (a profile calls this once, 5 steps, on a handful of targets; 0.19
-    -> 0.15 ms on 3 x 3).
-    """
-    was_above = was_below = None
-    out = lo_t
-    for _ in range(steps):
-        span = hi_f - lo_f
-        out = lo_t.copy()
-        np.divide(lo_t * hi_f - hi_t * lo_f, span, out=out, where=span > 0.0)
-        f = position_at(out) - s
-        above = f > 0.0
-        below = ~above
-        np.copyto(hi_t, out, where=above)
-        np.copyto(hi_f, f, where=above)
-        np.copyto(lo_t, out, where=below)
-        np.copyto(lo_f, f, where=below)
-        if was_above is not None:
-            np.multiply(lo_f, 0.5, out=lo_f, where=above & was_above)
-            np.multiply(hi_f, 0.5, out=hi_f, where=below & was_below)
-        was_above, was_below = above, below
-    return np.array(out, float)
-
-
-def knots_per_segment(segment_times, limits, most, min_piece=0.0, ramp_pieces=RAMP_PIECES,
-                      acceleration=None):
-    """
-    Inner knots of every segment (S,): ``most``, fewer where pieces would be short (step 3).
-
-    A segment of duration ``T`` gets at most ``T / piece - 1`` inner knots
-    and at least one, ``piece`` the larger of ``min_piece`` and
-    ``ramp_pieces`` times the longest jerk ramp ``a_j / j_j`` of the joints
-    (0 without jerk limits; then ``most`` when ``min_piece`` is 0 too).
-    ``acceleration`` (n,) replaces the limits' in that ramp: the joints'
-    accelerations when the torque limits them
-    (:func:`ramp_accelerations`).
-    """
-    piece = shortest_piece(limits, min_piece, ramp_pieces, acceleration)
-    counts = np.full(segment_times.size, most)
-    if piece > 0.0:
-        fit = np.floor(segment_times / piece) - 1
-        # np.clip(np.nan_to_num(fit, nan=1.0), 1, most)'s values (infinities
-        # clip to the same ends) in a quarter of its time.
-        fit = np.where(np.isnan(fit), 1.0, fit)
-        counts = np.minimum(np.maximum(fit, 1), most).astype(int)
-    return counts
-
-
-def shortest_piece(limits, min_piece=0.0, ramp_pieces=RAMP_PIECES, acceleration=None):
-    """
-    Return step 3's shortest piece [s]: ``min_piece`` or ``ramp_pieces`` longest jerk ramps.
-
-    The jerk ramp of a joint is ``a_j / j_j`` (0 without a jerk limit);
-    ``acceleration`` (n,) replaces the limits' (:func:`ramp_accelerations`).
-    """
-    if acceleration is None:
-        acceleration = limits.acceleration
-    return max(ramp_pieces * float(np.max(acceleration / limits.jerk)), min_piece)
-
-
-def equal_fractions(counts):
-    """Return per segment the time fractions of its waypoint and ``counts`` inner knots."""
-    return [np.arange(c + 1) / (c + 1) for c in counts]
-
-
-def knot_times(passed, fractions):
-    """Return the knot times: per segment its ``fractions`` of the way between ``passed``."""
-    return np.concatenate([passed[k] + f * (passed[k + 1] - passed[k])
-                           for k, f in enumerate(fractions)] + [passed[-1:]])
-
-
-def exact_factors(coeffs, pieces, limits):
-    """
-    Exact restoring factor per piece (P,): ``max(r_v, r_a**(1/2), r_j**(1/3))``, worst joint.
-
-    The ratios are exact peaks from the polynomials, as in
-    :func:`limits.limit_ratios`; a rest-to-rest spline whose durations are
-    all multiplied by ``f`` has ratios ``r_v / f``, ``r_a / f**2``,
-    ``r_j / f**3``.  Steps 5-7 use only the largest factor of a piece, so
-    the peaks are found in fewer passes: all of them in one
-    (:func:`peaks.segment_peaks_of`) for fewer than :data:`PRUNE_ROWS`
-    pieces times joints; above, the acceleration and jerk peaks in one and
-    the velocity peaks, which need the roots of a cubic, only where a bound
-    shows that they can be the piece's largest
-    (:func:`peaks.velocity_ratios_above`: about 1 in 10 on long random
-    paths).  The factors are those of :func:`limits.limit_ratios`' ratios,
-    bit for bit.  Also returns the exact ratios (P, n, 3) when it has all of
-    them (below :data:`PRUNE_ROWS`), or None.
-    """
-    bounds = limits.bounds
-    prune = np.shape(coeffs)[0] * bounds.shape[1] >= PRUNE_ROWS
-    ratios = limit_ratios(coeffs, pieces, limits, velocity=not prune)
-    powered = ratios ** (1.0 / np.arange(1, 4))[None, None, :]
-    # Maxima over short axes, element-wise (numpy's reductions over them are slow).
-    factors = np.maximum(np.maximum(powered[..., 0], powered[..., 1]), powered[..., 2])
-    if prune:
-        velocity = velocity_ratios_above(coeffs, pieces, bounds[0], row_max(factors))
-        factors = np.maximum(factors, velocity)
-        return row_max(factors), None
-    return row_max(factors), ratios
 
 
 class _Path:
@@ -567,37 +279,6 @@ class _Path:
         """Return the path position in time of the profile ``x`` (step 2's average, at rest)."""
         rest = not (self.start or self.end)
         return AveragedTiming(times, x, self.s, self.windows if rest else ())
-
-
-def natural_cubic_spline(knots, points):
-    """
-    Return the natural cubic spline through ``points`` (N, n) at ``knots`` (N,): a PPoly.
-
-    Step 1's path, rest to rest: ``CubicSpline(knots, points,
-    bc_type='natural')``'s spline (zero second derivative at both ends)
-    from its tridiagonal system for the knots' second derivatives, solved
-    by LAPACK's gtsv: 15 us on 3 x 3 against scipy's 165 us (issue 23, the
-    planning time of small requests).
-    """
-    h = knots[1:] - knots[:-1]
-    if not np.all(h > 0.0):
-        raise ValueError('the knots of the path must be strictly increasing')
-    slopes = (points[1:] - points[:-1]) / h[:, None]
-    second = np.zeros_like(points, dtype=float)
-    if knots.size == 3:
-        second[1] = 3.0 * (slopes[1] - slopes[0]) / (h[0] + h[1])
-    elif knots.size > 3:
-        _, _, _, solved, info = dgtsv(h[1:-1], 2.0 * (h[:-1] + h[1:]), h[1:-1],
-                                      6.0 * (slopes[1:] - slopes[:-1]))
-        if info != 0:
-            raise ValueError('the natural cubic spline of the path is singular')
-        second[1:-1] = solved
-    terms = np.empty((4, h.size, points.shape[1]))
-    terms[0] = (second[1:] - second[:-1]) / (6.0 * h[:, None])
-    terms[1] = 0.5 * second[:-1]
-    terms[2] = slopes - h[:, None] * (2.0 * second[:-1] + second[1:]) / 6.0
-    terms[3] = points[:-1]
-    return PPoly.construct_fast(terms, knots)
 
 
 def end_ramps(s, first, jerk, share):

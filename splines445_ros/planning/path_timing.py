@@ -46,12 +46,13 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from .inner_knots import (AveragedTiming, DEFAULT_SMOOTHING, end_ramps, equal_fractions,
-                          iterate_knots, kept_trajectory, knot_times, KnotCandidate,
-                          knots_per_segment, ramp_accelerations, regula_falsi,
-                          shortest_piece, SpeedProfile)
+from .averaged_timing import AveragedTiming, regula_falsi
+from .inner_knots import (end_ramps, iterate_knots, kept_trajectory, KnotCandidate,
+                          ramp_accelerations, SpeedProfile)
+from .knot_pieces import equal_fractions, knot_times, knots_per_segment, shortest_piece
 from .path_constraints import GriddedPath, JointAcceleration, JointTorque, JointVelocity
 from .path_velocity import path_position, PathLimits
+from .plan_options import DEFAULT_SMOOTHING
 
 # Grid steps of the speed profile per interval between two path samples.
 GRID_PER_SAMPLE = 2

@@ -461,7 +461,7 @@ def test_the_averaged_profile_and_its_inverse(seed, windows):
     profile's positions.  ``time_at`` must invert ``position_at`` to 1e-9 of
     the path, in order, with the ends pinned to 0 and the duration.
     """
-    from splines445_ros.planning.inner_knots import AveragedTiming
+    from splines445_ros.planning.averaged_timing import AveragedTiming
     from splines445_ros.planning.path_velocity import path_position
     rng = np.random.default_rng(seed)
     s = np.concatenate([[0.0], np.cumsum(rng.uniform(0.01, 0.1, 60))])
@@ -494,7 +494,7 @@ def test_the_averaged_profile_and_its_inverse(seed, windows):
 def test_the_natural_cubic_path_is_scipys(seed, n_points, n_joints):
     """Step 1's natural cubic spline against scipy's CubicSpline (bc_type 'natural')."""
     from scipy.interpolate import CubicSpline
-    from splines445_ros.planning.inner_knots import natural_cubic_spline
+    from splines445_ros.planning.natural_cubic import natural_cubic_spline
     rng = np.random.default_rng(seed)
     knots = np.concatenate([[0.0], np.cumsum(rng.uniform(0.01, 3.0, n_points - 1))])
     points = np.cumsum(rng.uniform(-1.0, 1.0, (n_points, n_joints)), axis=0)
