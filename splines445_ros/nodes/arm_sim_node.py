@@ -44,62 +44,6 @@ from ..service.arm_sim_model import add_payload, resolve_model_config
 from ..sim.dynamic_sim import DynamicArm, rotation_to_quaternion, TrackingMetrics
 from ..sim.mujoco_model import load_arm_model
 
-PER_JOINT = 'one value per joint, in joint_names order'
-PARAMETER_DESCRIPTIONS = {
-    'joint_names': 'Names of the joints: shoulder, elbow, tool for the built-in arm; the '
-                   'joints of model_file to drive otherwise. Not set ([""], the default): '
-                   'joint1, joint2, joint3 for the built-in arm, every actuated joint of '
-                   'model_file in its order.',
-    'link_lengths': 'Lengths d1, d2 of the two links [m] (paper: 1.1, 0.9).',
-    'initial_positions': f'Joint angles at start-up [rad], {PER_JOINT}.',
-    'publish_rate': 'Rate of joint_states and tool_pose [Hz], in [0.001, 1000]; '
-                    'at least 1 with simulation dynamic (the physics steps with it).',
-    'frame_id': 'Frame of tool_pose.',
-    'simulation': 'kinematic (exact playback of the commanded state) or dynamic (MuJoCo '
-                  'physics with a joint controller).',
-    'model_file': 'dynamic: path of an MJCF file to simulate instead of the built-in planar '
-                  'arm; empty = built-in.',
-    'tool_site': 'dynamic: MJCF site whose pose is published on tool_pose (built-in arm: '
-                 '"tool" when empty; model_file: no tool_pose when empty).',
-    'physics_rate': 'dynamic: physics and controller rate [Hz], in [1000, 20000].',
-    'gravity': 'dynamic, built-in arm: gravity along -y (the arm moves in a vertical plane).',
-    'link_masses': 'dynamic, built-in arm: masses of link 1, link 2 and the tool [kg].',
-    'rotor_inertia': 'dynamic, built-in arm: motor rotor inertia reflected through the gear '
-                     '[kg m^2] per joint (MuJoCo armature).',
-    'joint_damping': 'dynamic, built-in arm: viscous joint friction [N m s/rad] per joint.',
-    'joint_friction': 'dynamic, built-in arm: dry joint friction [N m] per joint.',
-    'joint_stiffness': 'dynamic, built-in arm: spring between motor and link [N m/rad] per '
-                       'joint; 0 = rigid joint.',
-    'spring_damping_ratio': 'dynamic, built-in arm: damping of the joint springs, fraction of '
-                            'critical, in [0, 2].',
-    'torque_limits': f'dynamic: actuator torque limit [N m], {PER_JOINT}.',
-    'actuator_time_constant': 'dynamic: first-order lag of the applied torque behind the '
-                              'command [s], in [0, 1]; 0 = none.',
-    'kp': f'dynamic: position gain of the PD loop [N m/rad], {PER_JOINT}.',
-    'kd': f'dynamic: velocity gain of the PD loop [N m s/rad], {PER_JOINT}.',
-    'tool_frame': 'model_file: link, body or site whose pose is published on tool_pose '
-                  '(overrides tool_site).',
-    'control_bandwidth': 'model_file, dynamic: natural frequency [Hz] of the PD loop that sets '
-                         'kp and kd from the joint inertia when they are not given.',
-    'control_damping_ratio': 'model_file, dynamic: damping ratio of that loop (1 = critical).',
-    'payload_mass': 'dynamic: mass [kg] rigidly held by the tool frame (tool_frame or '
-                    'tool_site; built-in arm: the "tool" site), >= 0; 0 (default) = none. '
-                    'Simulated and known to the controller; refused with simulation kinematic.',
-    'payload_center_of_mass': "dynamic: the payload's centre of mass [m], x, y, z in the tool "
-                              'frame.',
-    'payload_inertia': "dynamic: the payload's inertia [kg m^2] about its centre of mass in "
-                       "the tool frame's axes: empty (default) = a point mass, 3 principal "
-                       'moments, or 6 values ixx, iyy, izz, ixy, ixz, iyz.',
-}
-_FROM_MODEL = (' With model_file, the built-in defaults or zeros = from the model (torque: '
-               'actuator forcerange, ctrlrange x gear, URDF effort; kp, kd: from the joint '
-               'inertia and control_bandwidth; initial_positions: keyframe home or the '
-               'reference pose).')
-for _name in ('initial_positions', 'torque_limits', 'kp', 'kd'):
-    PARAMETER_DESCRIPTIONS[_name] += _FROM_MODEL
-PARAMETER_DESCRIPTIONS['model_file'] = ('path of a URDF or MJCF file to simulate (dynamic) '
-                                        'or play (kinematic) instead of the built-in planar '
-                                        'arm; empty = built-in.')
 SETTLING_TIME = 0.5     # s after the end of a trajectory: settling_error
 MAX_CATCH_UP = 10.0     # s: a larger clock jump is not simulated across
 
@@ -110,8 +54,7 @@ class ArmSimNode(Node):
     def __init__(self, **kwargs):
         """Declare parameters, build the simulation, topics and the publishing timer."""
         super().__init__('arm_sim_node', **kwargs)
-        self.parameters = ConfigParameters(self, ArmSimConfig, PARAMETER_DESCRIPTIONS,
-                                           on_change=self._on_config,
+        self.parameters = ConfigParameters(self, ArmSimConfig, on_change=self._on_config,
                                            on_reject=self._on_parameters_rejected)
         config = self.effective = self._effective(self.parameters.config)
         self.arm = PlanarArm(*config.link_lengths)

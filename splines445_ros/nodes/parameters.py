@@ -1,8 +1,13 @@
 """
 ROS parameters backed by a validated, immutable config dataclass.
 
-Every field of the dataclass becomes a parameter declared with a descriptor
-(type and description).  ``set_parameters`` builds a new config from the
+Every field of the dataclass becomes a parameter declared with a descriptor:
+its type, and the description and validation of the field's row of the
+parameter table (:mod:`..service.parameter_table`), the bounds or choices as
+``additional_constraints`` text (not as ``floating_point_range`` or
+``integer_range``: rclpy would then refuse a value outside them itself, with
+its own reason, and ``~/status`` would not hear of it).  The declared value
+is the row's "not set" value where it has one.  ``set_parameters`` builds a new config from the
 current values overlaid with the request; if the config's ``from_values``
 raises ValueError, the request is rejected with that reason and nothing changes.
 The node's ``on_change(new_config)`` runs before the new config is in force
@@ -22,6 +27,8 @@ from dataclasses import fields
 
 from rcl_interfaces.msg import ParameterDescriptor, ParameterType, SetParametersResult
 from rclpy.parameter import Parameter
+
+from ..service.parameter_table import constraint_text, declared_values, row_of
 
 
 def _parameter_type(default):
@@ -81,7 +88,7 @@ def _normalised(parameter, kind):
 class ConfigParameters:
     """Declare ``config_cls``'s fields on ``node`` and keep ``self.config`` valid."""
 
-    def __init__(self, node, config_cls, descriptions, on_change=None, on_reject=None):
+    def __init__(self, node, config_cls, on_change=None, on_reject=None):
         """
         Declare, read and validate (ValueError on a bad start-up value).
 
@@ -95,10 +102,10 @@ class ConfigParameters:
         self._on_reject = on_reject
         defaults = config_cls()
         self.names = [f.name for f in fields(config_cls)]
+        table = {f.name: row_of(f) for f in fields(config_cls)}
         # Declared defaults: the dataclass's, or a "not set" value the config resolves
         # (e.g. joint_names [''] = the robot model's joints, or the planar arm's).
-        declared = {n: config_cls.PARAMETER_DEFAULTS.get(n, getattr(defaults, n))
-                    for n in self.names}
+        declared = declared_values(config_cls)
         # Strings, doubles and double arrays are declared with dynamic typing,
         # so that values as users type them arrive at all (rclpy would refuse
         # an INTEGER for a DOUBLE, and types an empty array default as a byte
@@ -108,12 +115,13 @@ class ConfigParameters:
                        if _kind(getattr(defaults, n)) is not None}
         for name in self.names:
             default = declared[name]
+            text = {'description': table[name].description,
+                    'additional_constraints': constraint_text(table[name])}
             if name in self._kinds:
-                descriptor = ParameterDescriptor(
-                    name=name, dynamic_typing=True, description=descriptions[name])
+                descriptor = ParameterDescriptor(name=name, dynamic_typing=True, **text)
             else:
                 descriptor = ParameterDescriptor(
-                    name=name, type=_parameter_type(default), description=descriptions[name])
+                    name=name, type=_parameter_type(default), **text)
             node.declare_parameter(
                 name, list(default) if isinstance(default, tuple) else default, descriptor)
         typed = [_normalised(node.get_parameter(n), kind) for n, kind in self._kinds.items()]

@@ -54,145 +54,17 @@ from .parameters import ConfigParameters
 from .planned_path import planned_path_markers, tool_path_points, tool_position_function
 from .ros_conversions import (hold_message, parse_tool_request, parse_waypoint_request,
                               plan_response, trajectory_to_msg)
-from ..planning import DEFAULT_WAYPOINT_TOLERANCE
 from ..robot.robot_model import check_description_file, MAX_DESCRIPTION_CHARS
 from ..service.interface_requests import override_values, request_message
 from ..service.model_planning import (build_robot_setup, description_source, load_model,
                                       plan_model_tool_request, robot_fields,
                                       tool_poses_from_message)
-from ..service.planner_config import (MAX_WAYPOINT_TOLERANCE, PlannerConfig,
-                                      TORQUE_STAND_IN_ACCELERATION)
+from ..service.planner_config import PlannerConfig
 from ..service.request_planning import (gravity_overload, gravity_overload_report, output_samples,
                                         plan_from_running, plan_request, plan_stop,
-                                        plan_tool_request, REPLAN_MAX_DELAY, slow_plan_warning,
-                                        start_from_state, summary_values, tool_summary_values)
+                                        plan_tool_request, slow_plan_warning, start_from_state,
+                                        summary_values, tool_summary_values)
 
-PARAMETER_DESCRIPTIONS = {
-    'joint_names': 'Joints planned, in the order of the limit arrays. Not set ([""], the '
-                   'default): with kinematics "model" every actuated joint of the robot, in '
-                   "its order; otherwise the planar arm's joint1, joint2, joint3.",
-    'max_velocity': 'Per-joint |velocity| limit [rad/s or m/s], > 0. Not set ([0.0], the '
-                    'default): with kinematics "model" from the description (URDF <limit '
-                    'velocity>, joint_limits_file), 0 entries likewise joint by joint; '
-                    "otherwise 2.0 for the planar arm's joints (other joints need it set).",
-    'max_acceleration': 'Per-joint |acceleration| limit [rad/s^2 or m/s^2], > 0. Not set '
-                        '([0.0], the default): with kinematics "model" from '
-                        'joint_limits_file (a URDF has none), 0 entries likewise; otherwise '
-                        "10.0 for the planar arm's joints (other joints need it set).",
-    'max_jerk': 'Per-joint |jerk| limit [rad/s^3 or m/s^3]; 0 = no jerk limit on that '
-                'joint (kinematics "model": from joint_limits_file, else none); [0.0] (the '
-                'default) = none at all.',
-    'method': '"445" (jerk-continuous, Petrinec & Kovacic; default), "434" (Ho & Cook, C2) '
-              'or "555" (C4 quintic spline: jerk-continuous and stable on long paths); '
-              'numbers as typed (-p method:=555) are accepted.',
-    'timing': '"uniform" (chord durations, one common scale factor), "optimal" '
-              '(minimum total time) or "fixed" (durations from time_from_start).',
-    'sample_period': 'Period of the published trajectory points [s], >= 1e-4 (output '
-                     '"sampled").',
-    'start_from_current_state': 'Start every trajectory from the commanded state at '
-                                'now + replan_lead_time (continuous replanning), or up '
-                                f'to {REPLAN_MAX_DELAY:g} s later along the running '
-                                'trajectory when no plan exists from that state.',
-    'replan_lead_time': 'How far ahead of now a replanned trajectory takes over [s]; '
-                        'planning must finish within it.',
-    'max_trajectory_points': 'Largest number of points a published trajectory may have; '
-                             'a longer one is rejected (raise sample_period or use output '
-                             '"knots" instead).',
-    'kinematics': 'Kinematics for tool_waypoints requests: "" (none: joint space only) or '
-                  '"planar_3dof" (the paper\'s arm with link_lengths, elbow branch +1).',
-    'link_lengths': 'd1, d2 of the planar_3dof arm [m], > 0.',
-    'max_path_deviation': 'Largest distance [m] of the tool from the straight lines between '
-                          'tool waypoints; knots are inserted until it holds; 0 = not checked.',
-    'max_orientation_deviation': 'Largest deviation [rad] of the tool yaw from its linear '
-                                 'interpolation between tool waypoints; 0 = not checked.',
-    'max_tool_speed': 'Largest linear speed [m/s] of the tool frame origin on tool_waypoints '
-                      'requests, >= 0 and finite; 0 (default) = no limit. Held within 0.1 % '
-                      '(checked every 1 ms) by timing the straight lines themselves; needs '
-                      'method "555", timing "optimal", inner_knots > 0 and a kinematics '
-                      '(refused otherwise). Joint-space waypoints requests are not limited.',
-    'max_tool_angular_speed': 'Largest angular speed [rad/s] of the tool on tool_waypoints '
-                              'requests, >= 0 and finite; 0 (default) = no limit. Needs what '
-                              'max_tool_speed needs (refused otherwise).',
-    'max_inserted_waypoints': 'Most waypoints the refinement of one tool request may insert '
-                              '(knots, with the tool lines of 555 optimal); '
-                              'a request that needs more is rejected.',
-    'waypoint_tolerance': 'Consecutive waypoints whose every joint differs by at most this '
-                          '[rad or m] are merged (uniform and optimal timing), and a '
-                          'replanning start state this close to the first waypoint replaces '
-                          f'it; default {DEFAULT_WAYPOINT_TOLERANCE:g} (four times the '
-                          "dynamic arm's rest dead band), 0 = exact duplicates only, "
-                          f'at most {MAX_WAYPOINT_TOLERANCE:g}.',
-    'min_position': 'Per-joint lower position limit [rad or m], checked exactly on the '
-                    'plan; empty = none; -.inf for a joint without one.',
-    'max_position': 'Per-joint upper position limit [rad or m], checked exactly on the '
-                    'plan; empty = none; .inf for a joint without one.',
-    'output': '"sampled" (a point every sample_period; default) or "knots" (one point per '
-              'knot of the spline, with its exact position, velocity and acceleration: the '
-              'quintic interpolation of joint_trajectory_controller between them reproduces '
-              'the planned trajectory).',
-    'inner_knots': 'Most inner knots per segment for method "555" with timing "optimal", '
-                   'in [0, 8], or -1 (default) = auto: 4, or 6 for joint-space requests '
-                   'with limit_torque and no smoothing windows (fewer on segments shorter '
-                   'than a few jerk ramp times a/j): a C4 spline with knots between the '
-                   'waypoints too, about the duration of TOPP-RA with the jerk limits '
-                   'held; 0 = knots at the '
-                   'waypoints only (longer). Ignored by other methods and timings.',
-    'vibration_frequency': "The arm's lowest structural mode [Hz] for method 555 with "
-                           'timing "optimal" (inner_knots > 0): the speed profile is '
-                           'averaged over two windows of 1/f so the plan does not excite '
-                           'it (2/f longer; the default windows: 0.45 s). 0 (default) = '
-                           'not used: as smoothing says. Rest-to-rest requests only.',
-    'smoothing': '"auto" (default), "windows" or "none", for method 555 with timing "optimal" '
-                 '(inner_knots > 0) and no vibration_frequency: "windows" averages the speed '
-                 'profile over 0.3 s and 0.15 s (0.45 s longer, low arm modes shake about '
-                 'half as much as with TOPP-RA), "none" does not (about TOPP-RA\'s duration '
-                 'and shaking); "auto" = "windows", or "none" with limit_torque. Rest-to-rest '
-                 'requests; the tool lines of tool requests are never averaged.',
-    'model_file': 'kinematics "model": URDF or MJCF file of the robot; empty = the '
-                  'robot_description topic.',
-    'tool_frame': 'kinematics "model": the tool frame (URDF link, MJCF body or site) of '
-                  'tool_waypoints requests; empty (the default) = the tip of the chain, the '
-                  "one link rigidly attached to the last planned joint (like MoveIt's tip "
-                  'link); when there are several, tool requests are refused naming them.',
-    'base_frame': 'kinematics "model": frame of the tool_waypoints poses (a link or body '
-                  'fixed to the world); empty = the world (the URDF root).',
-    'joint_limits_file': 'kinematics "model": MoveIt joint_limits.yaml; its limits override '
-                         'the URDF velocity, explicit max_* values (non-zero) override both.',
-    'limit_torque': 'kinematics "model": keep the rigid-body torque of every planned joint '
-                    '(the payload included) within max_effort, checked every 1 ms; rest to '
-                    'rest only; tool requests are refined (not timed along the tool lines). '
-                    'A joint without an acceleration limit then gets '
-                    f'{TORQUE_STAND_IN_ACCELERATION:g} rad/s^2: the torque limits it. '
-                    'Default false.',
-    'max_effort': 'limit_torque: per-joint torque limit [N m, or N for a slide], one value per '
-                  'planned joint; 0 entries = from the robot description (URDF <limit '
-                  'effort>, MJCF actuator forcerange or ctrlrange x gear), inf = no limit. '
-                  'Not set ([0.0], the default): all from the description.',
-    'payload_mass': 'limit_torque: mass [kg] held by the tool frame, >= 0; 0 (default) = none.',
-    'torque_headroom': 'limit_torque: the share of every torque limit the plan leaves to the '
-                       "controller's corrections, in [0, 0.5): the plan holds (1 - "
-                       'torque_headroom) x max_effort. Default 0.1: a plan that uses all of a '
-                       "joint's torque leaves the feedback nothing, and the motor saturates.",
-    'payload_center_of_mass': "limit_torque: the payload's centre of mass [m], x, y, z in the "
-                              'tool frame.',
-    'payload_inertia': "limit_torque: the payload's inertia [kg m^2] about its centre of mass "
-                       "in the tool frame's axes: empty (default) = a point mass, 3 principal "
-                       'moments, or 6 values ixx, iyy, izz, ixy, ixz, iyz.',
-    'goal_position_tolerance': 'follow_waypoints goals: the arm has reached the end when every '
-                               'joint of joint_states is within this of it [rad or m], > 0 '
-                               '(default 0.01).',
-    'goal_velocity_tolerance': 'follow_waypoints goals: ... and every joint velocity of '
-                               'joint_states is within this [rad/s or m/s], > 0 (default 0.01; '
-                               "joint_trajectory_controller's stopped_velocity_tolerance).",
-    'goal_time_tolerance': 'follow_waypoints goals: how long after the planned end the arm may '
-                           'take to settle [s], in [0, 3600] (default 2); later the goal is '
-                           'aborted with the remaining error.',
-}
-PARAMETER_DESCRIPTIONS['kinematics'] = (
-    'Kinematics for tool_waypoints requests: "" (none: joint space only), "planar_3dof" (the '
-    'paper\'s arm with link_lengths, elbow branch +1) or "model" (the robot of model_file or '
-    'robot_description: 6-D poses; joint_names, limits and tool_frame not set = from the '
-    'description).')
 ROBOT_DESCRIPTION = 'robot_description'
 PLAN_SERVICE = '~/plan'
 PLAN_INTERFACE = 'plan service'
@@ -260,7 +132,7 @@ class PlannerNode(Node):
         self._description = None  # the latest robot_description string
         self._robot_lock = threading.Lock()
         self._requests = queue.Queue()
-        self.parameters = ConfigParameters(self, PlannerConfig, PARAMETER_DESCRIPTIONS,
+        self.parameters = ConfigParameters(self, PlannerConfig,
                                            on_change=self._on_config_change,
                                            on_reject=self._on_parameters_rejected)
         self._robot_config = self.parameters.config  # the config last accepted

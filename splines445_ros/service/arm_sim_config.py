@@ -4,7 +4,9 @@ from dataclasses import dataclass, replace
 import math
 from typing import Tuple
 
-from .planner_config import check_payload, DEFAULT_JOINTS
+from .parameter_table import parameter
+from .planner_config import (check_payload, DEFAULT_JOINTS, MAX_PAYLOAD_MASS,
+                             MAX_PAYLOAD_OFFSET, NOT_SET_NAMES)
 from .validated_config import ValidatedConfig
 from ..robot.model_drives import DEFAULT_BANDWIDTH, DEFAULT_DAMPING_RATIO
 from ..robot.user_text import show
@@ -32,46 +34,119 @@ def _finite(values, low=-math.inf, high=math.inf, low_open=False):
                for v in values)
 
 
+PER_JOINT = 'one value per joint, in `joint_names` order'
+
+
+def _from_model(source):
+    return (f' With `model_file`, the built-in default or all zeros = {source}, and 0 entries '
+            'likewise, joint by joint.')
+
+
 @dataclass(frozen=True)
 class ArmSimConfig(ValidatedConfig):
-    """Parameters of ``arm_sim_node``."""
+    """
+    Parameters of ``arm_sim_node``.
 
-    joint_names: Tuple[str, ...] = DEFAULT_JOINTS
-    link_lengths: Tuple[float, ...] = (1.1, 0.9)
-    initial_positions: Tuple[float, ...] = (0.0, 0.0, 0.0)
-    publish_rate: float = 50.0
-    frame_id: str = 'base_link'
-    simulation: str = 'kinematic'
-    model_file: str = ''
-    tool_site: str = ''
-    physics_rate: float = 1000.0
-    gravity: bool = BUILT_IN.gravity
-    link_masses: Tuple[float, ...] = BUILT_IN.link_masses
-    rotor_inertia: Tuple[float, ...] = BUILT_IN.rotor_inertia
-    joint_damping: Tuple[float, ...] = BUILT_IN.joint_damping
-    joint_friction: Tuple[float, ...] = BUILT_IN.joint_friction
-    joint_stiffness: Tuple[float, ...] = BUILT_IN.joint_stiffness
-    spring_damping_ratio: float = BUILT_IN.spring_damping_ratio
-    torque_limits: Tuple[float, ...] = (1000.0, 400.0, 30.0)
-    actuator_time_constant: float = 0.002
-    kp: Tuple[float, ...] = (90000.0, 16000.0, 1000.0)
-    kd: Tuple[float, ...] = (4000.0, 700.0, 20.0)
+    Each field is a row of the node's parameter table (see
+    :mod:`.parameter_table`): its default, description, declared "not set"
+    value and bounds or choices, checked by :meth:`check_table`; the
+    per-joint arrays and cross-field checks are :meth:`validate`'s.
+    """
+
+    joint_names: Tuple[str, ...] = parameter(
+        DEFAULT_JOINTS, 'Names of the joints: shoulder, elbow, tool of the built-in arm; the '
+        "joints of `model_file` to drive otherwise (any number). Not set (`['']`, the "
+        'default): `[joint1, joint2, joint3]` for the built-in arm, every actuated joint of '
+        '`model_file` in its order.', declared=NOT_SET_NAMES)
+    link_lengths: Tuple[float, ...] = parameter(
+        (1.1, 0.9), "Lengths d1, d2 of the two links [m] (the paper's arm).")
+    initial_positions: Tuple[float, ...] = parameter(
+        (0.0, 0.0, 0.0), f'Joint angles at start-up [rad], {PER_JOINT}.'
+        + _from_model("the model's keyframe `home`, or its reference pose"))
+    publish_rate: float = parameter(
+        50.0, 'Rate of `joint_states` and `tool_pose` [Hz]; at least '
+        f'{MIN_DYNAMIC_PUBLISH_RATE:g} Hz with `simulation: dynamic` (the physics is stepped '
+        'in the publishing timer).', low=MIN_PUBLISH_RATE, high=MAX_PUBLISH_RATE, unit='Hz')
+    frame_id: str = parameter('base_link', 'Frame of `tool_pose`.')
+    simulation: str = parameter(
+        'kinematic', '`kinematic` (exact playback of the commanded state) or `dynamic` '
+        '(MuJoCo physics with a joint controller); `config/planar_arm.yaml` and the demo use '
+        '`dynamic`.', choices=SIMULATIONS)
+    model_file: str = parameter(
+        '', 'Path of a URDF or MJCF file to simulate (dynamic) or play (kinematic) instead of '
+        'the built-in planar arm; alone it drives every actuated joint and takes torque limits '
+        'and gains from the model; empty = the built-in arm.')
+    tool_site: str = parameter(
+        '', 'dynamic: MJCF site whose pose is published on `tool_pose` (built-in arm: `tool` '
+        'when empty; `model_file`: no `tool_pose` when empty).')
+    physics_rate: float = parameter(
+        1000.0, 'dynamic: physics and controller rate [Hz].',
+        low=MIN_PHYSICS_RATE, high=MAX_PHYSICS_RATE, unit='Hz')
+    gravity: bool = parameter(
+        BUILT_IN.gravity, 'dynamic, built-in arm: gravity along −y (the arm moves in a '
+        'vertical plane).')
+    link_masses: Tuple[float, ...] = parameter(
+        BUILT_IN.link_masses, 'dynamic, built-in arm: masses of link 1, link 2 (uniform rods) '
+        'and the tool (a point mass 0.15 m beyond joint 3) [kg].')
+    rotor_inertia: Tuple[float, ...] = parameter(
+        BUILT_IN.rotor_inertia, 'dynamic, built-in arm: motor rotor inertia reflected through '
+        'the gear [kg m²] per joint (MuJoCo armature).')
+    joint_damping: Tuple[float, ...] = parameter(
+        BUILT_IN.joint_damping, 'dynamic, built-in arm: viscous joint friction [N m s/rad] per '
+        'joint.')
+    joint_friction: Tuple[float, ...] = parameter(
+        BUILT_IN.joint_friction, 'dynamic, built-in arm: dry joint friction [N m] per joint.')
+    joint_stiffness: Tuple[float, ...] = parameter(
+        BUILT_IN.joint_stiffness, 'dynamic, built-in arm: spring between motor and link '
+        '[N m/rad] per joint; 0 = rigid joint.')
+    spring_damping_ratio: float = parameter(
+        BUILT_IN.spring_damping_ratio, 'dynamic, built-in arm: damping of the joint springs, '
+        'as a fraction of critical (not checked with `model_file`).',
+        low=0.0, high=2.0, only_if='built_in')
+    torque_limits: Tuple[float, ...] = parameter(
+        (1000.0, 400.0, 30.0), f'dynamic: actuator torque limit [N m], > 0, {PER_JOINT}.'
+        + _from_model('from the model (actuator `forcerange`, `ctrlrange` × gear, URDF '
+                      '`<limit effort>`)'))
+    actuator_time_constant: float = parameter(
+        0.002, 'dynamic: first-order lag of the applied torque behind the command [s]; 0 = '
+        'none.', low=0.0, high=MAX_TIME_CONSTANT, unit='s')
+    kp: Tuple[float, ...] = parameter(
+        (90000.0, 16000.0, 1000.0), 'dynamic: position gain of the PD loop [N m/rad], in '
+        f'[0, {MAX_KP:g}], {PER_JOINT}.'
+        + _from_model('from the joint inertia and `control_bandwidth`'))
+    kd: Tuple[float, ...] = parameter(
+        (4000.0, 700.0, 20.0), 'dynamic: velocity gain of the PD loop [N m s/rad], in '
+        f'[0, {MAX_KD:g}], {PER_JOINT}.'
+        + _from_model('from the joint inertia and `control_bandwidth`'))
     # model_file: the drives from the model (see nodes/arm_sim_model.py).
-    tool_frame: str = ''
-    control_bandwidth: float = DEFAULT_BANDWIDTH
-    control_damping_ratio: float = DEFAULT_DAMPING_RATIO
+    tool_frame: str = parameter(
+        '', '`model_file`: link, body or site whose pose is published on `tool_pose` '
+        '(overrides `tool_site`).')
+    control_bandwidth: float = parameter(
+        DEFAULT_BANDWIDTH, '`model_file`, dynamic: natural frequency [Hz] of the PD loop that '
+        'sets `kp` and `kd` from the joint inertia at the initial pose when they are not '
+        'given.', low=0.1, high=200.0, unit='Hz')
+    control_damping_ratio: float = parameter(
+        DEFAULT_DAMPING_RATIO, '`model_file`, dynamic: damping ratio of that loop (1 = '
+        'critical).', low=0.05, high=5.0)
     # dynamic: a payload held by the tool frame (see _validate_payload).
-    payload_mass: float = 0.0
-    payload_center_of_mass: Tuple[float, ...] = (0.0, 0.0, 0.0)
-    payload_inertia: Tuple[float, ...] = ()
-
-    # joint_names [''] (not set): every actuated joint of model_file, else the
-    # built-in arm's joint1..3.
-    PARAMETER_DEFAULTS = {'joint_names': ('',)}
+    payload_mass: float = parameter(
+        0.0, f'dynamic: mass [kg] rigidly held by the tool frame, 0 to {MAX_PAYLOAD_MASS:g}; 0 '
+        '(the default) = none. The tool frame is `tool_frame` or `tool_site` (built-in arm: '
+        'the `tool` site on joint 3); a model file without either is refused. Simulated and '
+        'known to the controller; refused with `simulation: kinematic`, which plays the '
+        'commanded state whatever the arm carries.')
+    payload_center_of_mass: Tuple[float, ...] = parameter(
+        (0.0, 0.0, 0.0), "dynamic: the payload's centre of mass [m], x, y, z in the tool "
+        f'frame, each within ±{MAX_PAYLOAD_OFFSET:g} m.')
+    payload_inertia: Tuple[float, ...] = parameter(
+        (), "dynamic: the payload's inertia [kg m²] about its centre of mass in the tool "
+        "frame's axes: empty (the default) = a point mass, 3 principal moments, or 6 values "
+        '`[ixx, iyy, izz, ixy, ixz, iyz]`.')
 
     def with_defaults(self):
         """Return the config with joint_names resolved when not set and no model_file."""
-        if not self.model_file and tuple(self.joint_names) in ((), ('',)):
+        if not self.model_file and tuple(self.joint_names) in ((), NOT_SET_NAMES):
             return replace(self, joint_names=DEFAULT_JOINTS)
         return self
 
@@ -90,7 +165,12 @@ class ArmSimConfig(ValidatedConfig):
     @property
     def all_model_joints(self):
         """Return True when joint_names [''] asks for all of the model's actuated joints."""
-        return bool(self.model_file) and tuple(self.joint_names) in ((), ('',))
+        return bool(self.model_file) and tuple(self.joint_names) in ((), NOT_SET_NAMES)
+
+    @property
+    def built_in(self):
+        """Return True for the built-in planar arm (no model_file)."""
+        return not self.model_file
 
     @property
     def dynamic(self):
@@ -143,21 +223,16 @@ class ArmSimConfig(ValidatedConfig):
         self._validate_discretisation()
 
     def _validate_common(self):
+        # The bounds and choices of the parameter table: publish_rate, simulation,
+        # physics_rate, ..., control_damping_ratio (the fields, in order).
+        self.check_table()
         self.require_positive('link_lengths', 2)
-        self.require_in_range('publish_rate', MIN_PUBLISH_RATE, MAX_PUBLISH_RATE, 'Hz')
         if self.simulation == 'dynamic' and self.publish_rate < MIN_DYNAMIC_PUBLISH_RATE:
             raise ValueError(f'publish_rate = {self.publish_rate}: the dynamic simulation '
                              'steps its physics at every publication, so it needs at least '
                              f'{MIN_DYNAMIC_PUBLISH_RATE:g} Hz')
-        if self.simulation not in SIMULATIONS:
-            raise ValueError(f'simulation must be one of {list(SIMULATIONS)}, got '
-                             f'{show(self.simulation)}')
-        self.require_in_range('physics_rate', MIN_PHYSICS_RATE, MAX_PHYSICS_RATE, 'Hz')
         if not isinstance(self.gravity, bool):
             raise ValueError(f'gravity must be true or false, got {show(self.gravity)}')
-        self.require_in_range('actuator_time_constant', 0.0, MAX_TIME_CONSTANT, 's')
-        self.require_in_range('control_bandwidth', 0.1, 200.0, 'Hz')
-        self.require_in_range('control_damping_ratio', 0.05, 5.0)
         self._validate_payload()
 
     def _validate_payload(self):
@@ -216,7 +291,6 @@ class ArmSimConfig(ValidatedConfig):
             if k > 0.0 and rotor <= 0.0:
                 raise ValueError(f'joint {j + 1} is elastic (joint_stiffness > 0): its '
                                  f'rotor_inertia must be positive, got {rotor}')
-        self.require_in_range('spring_damping_ratio', 0.0, 2.0)
 
     def _validate_discretisation(self):
         """Reject gains and springs the built-in arm's fixed-step physics cannot carry."""

@@ -11,6 +11,8 @@ from dataclasses import dataclass, replace
 import math
 from typing import Tuple
 
+from .parameter_table import parameter
+from .request_planning import REPLAN_MAX_DELAY
 from .validated_config import ValidatedConfig
 from ..planning import DEFAULT_WAYPOINT_TOLERANCE, METHODS, TIMINGS
 from ..planning.plan_options import MAX_INNER_KNOTS, MAX_VIBRATION_FREQUENCY, smoothing_value
@@ -60,57 +62,201 @@ DEFAULT_GOAL_POSITION_TOLERANCE = 0.01
 DEFAULT_GOAL_VELOCITY_TOLERANCE = 0.01
 DEFAULT_GOAL_TIME_TOLERANCE = 2.0
 MAX_GOAL_TIME_TOLERANCE = 3600.0
+# Payloads beyond these are typing errors, not payloads [kg, m]: refused before
+# they reach the dynamics as overflowing torques.
+MAX_PAYLOAD_MASS = 1e4
+MAX_PAYLOAD_OFFSET = 100.0
 
 
 @dataclass(frozen=True)
 class PlannerConfig(ValidatedConfig):
-    """Everything the planner needs besides the request itself."""
+    """
+    Everything the planner needs besides the request itself.
 
-    joint_names: Tuple[str, ...] = DEFAULT_JOINTS
-    max_velocity: Tuple[float, ...] = (2.0, 2.0, 2.0)
-    max_acceleration: Tuple[float, ...] = (10.0, 10.0, 10.0)
-    max_jerk: Tuple[float, ...] = (0.0, 0.0, 0.0)
-    method: str = '445'
-    timing: str = 'uniform'
-    sample_period: float = 0.01
-    start_from_current_state: bool = False
-    replan_lead_time: float = 0.2
-    max_trajectory_points: int = 200000
-    kinematics: str = ''
-    link_lengths: Tuple[float, ...] = (1.1, 0.9)
-    max_path_deviation: float = 0.0
-    max_orientation_deviation: float = 0.0
-    # Tool speed limits [m/s], [rad/s] of tool_waypoints requests; 0 = no limit.
-    max_tool_speed: float = 0.0
-    max_tool_angular_speed: float = 0.0
-    max_inserted_waypoints: int = 200
-    waypoint_tolerance: float = DEFAULT_WAYPOINT_TOLERANCE
-    min_position: Tuple[float, ...] = ()
-    max_position: Tuple[float, ...] = ()
-    output: str = 'sampled'
-    inner_knots: int = AUTO_INNER_KNOTS
-    vibration_frequency: float = 0.0
-    smoothing: str = 'auto'
-    # kinematics "model": a robot description (see nodes/robot_description.py).
-    model_file: str = ''
-    tool_frame: str = ''
-    base_frame: str = ''
-    joint_limits_file: str = ''
-    # Torque limits (kinematics "model"): see _validate_torque.
-    limit_torque: bool = False
-    max_effort: Tuple[float, ...] = NOT_SET_LIMITS
-    payload_mass: float = 0.0
-    payload_center_of_mass: Tuple[float, ...] = (0.0, 0.0, 0.0)
-    payload_inertia: Tuple[float, ...] = ()
-    torque_headroom: float = DEFAULT_TORQUE_HEADROOM
-    # follow_waypoints goals: when the arm has settled at the end.
-    goal_position_tolerance: float = DEFAULT_GOAL_POSITION_TOLERANCE
-    goal_velocity_tolerance: float = DEFAULT_GOAL_VELOCITY_TOLERANCE
-    goal_time_tolerance: float = DEFAULT_GOAL_TIME_TOLERANCE
+    Each field is a row of planner_node's parameter table (see
+    :mod:`.parameter_table`): its default, description, declared "not set"
+    value and bounds or choices, checked by :meth:`check_table`; the
+    cross-field checks are :meth:`validate`'s.
+    """
 
-    PARAMETER_DEFAULTS = {'joint_names': NOT_SET_NAMES, 'max_velocity': NOT_SET_LIMITS,
-                          'max_acceleration': NOT_SET_LIMITS, 'max_jerk': NOT_SET_LIMITS,
-                          'max_effort': NOT_SET_LIMITS}
+    joint_names: Tuple[str, ...] = parameter(
+        DEFAULT_JOINTS, "Joints planned, in the order of the limit arrays. Not set (`['']`, "
+        'the default): with `kinematics: model` every actuated joint of the robot, in its '
+        "order; otherwise the planar arm's `[joint1, joint2, joint3]`.",
+        declared=NOT_SET_NAMES)
+    max_velocity: Tuple[float, ...] = parameter(
+        (PLANAR_VELOCITY,) * 3, 'Per-joint |velocity| limit [rad/s or m/s], > 0. Not set '
+        '(`[0.0]`, the default): with `kinematics: model` from the description (URDF '
+        '`<limit velocity>`, `joint_limits_file`), 0 entries likewise joint by joint; '
+        f"otherwise {PLANAR_VELOCITY:g} for the planar arm's `joint1..3` (other joints need "
+        'it set).', declared=NOT_SET_LIMITS)
+    max_acceleration: Tuple[float, ...] = parameter(
+        (PLANAR_ACCELERATION,) * 3, 'Per-joint |acceleration| limit [rad/s² or m/s²], > 0. '
+        'Not set (`[0.0]`, the default): with `kinematics: model` from `joint_limits_file` (a '
+        'URDF has none), 0 entries likewise joint by joint; otherwise '
+        f"{PLANAR_ACCELERATION:g} for the planar arm's `joint1..3` (other joints need it "
+        'set).', declared=NOT_SET_LIMITS)
+    max_jerk: Tuple[float, ...] = parameter(
+        (0.0, 0.0, 0.0), 'Per-joint |jerk| limit [rad/s³ or m/s³]; 0 = no jerk limit on that '
+        'joint. Not set (`[0.0]`, the default): no jerk limit at all (with `kinematics: '
+        'model`: from `joint_limits_file`, else none).', declared=NOT_SET_LIMITS)
+    method: str = parameter(
+        '445', '`445` (jerk-continuous, the paper: Petrinec & Kovacic; the default), `434` '
+        '(Ho & Cook, the C2 baseline) or `555` (C4 quintic spline: jerk-continuous and stable '
+        'on long paths). Typed as a number (`-p method:=555`) is fine.', choices=METHODS)
+    timing: str = parameter(
+        'uniform', '`uniform` (chord durations × one common scale factor), `optimal` '
+        '(minimum total time) or `fixed` (durations from `time_from_start`).',
+        choices=TIMINGS)
+    sample_period: float = parameter(
+        0.01, '`output: sampled`: period of the published trajectory points [s].',
+        low=MIN_SAMPLE_PERIOD, unit='s')
+    start_from_current_state: bool = parameter(
+        False, 'Start every trajectory from the commanded state at now + `replan_lead_time` '
+        f'(continuous replanning), or up to {REPLAN_MAX_DELAY:g} s later along the running '
+        'trajectory when no plan exists from that state.')
+    replan_lead_time: float = parameter(
+        0.2, 'How far ahead of now a replanned trajectory takes over [s]; planning must '
+        'finish within it.', low=0.0, high=MAX_LEAD_TIME, unit='s')
+    max_trajectory_points: int = parameter(
+        200000, 'Largest number of points a published trajectory may have (at '
+        '`sample_period`, or knots); a longer one is rejected (raise `sample_period` or use '
+        '`output: knots` instead).', low=2)
+    kinematics: str = parameter(
+        '', 'Kinematics for `tool_waypoints` requests: `""` = none (joint space only: tool '
+        "requests get an ERROR), `planar_3dof` = the paper's arm with `link_lengths` (needs 3 "
+        'joints; elbow branch +1), `model` = a robot from its URDF or MJCF (`model_file` or '
+        '`robot_description`: 6-D tool poses; `joint_names`, limits, joint ranges and '
+        '`tool_frame` not set = from its description).', choices=KINEMATICS,
+        choices_note='"" = joint space only')
+    link_lengths: Tuple[float, ...] = parameter(
+        (1.1, 0.9), 'd1, d2 of the `planar_3dof` arm [m], > 0.')
+    max_path_deviation: float = parameter(
+        0.0, 'Largest distance [m] of the tool from the straight lines between tool '
+        'waypoints; knots are inserted until it holds (with both deviations 0: no '
+        'refinement).', low=0.0, special=(0.0, 'not checked'))
+    max_orientation_deviation: float = parameter(
+        0.0, 'Largest deviation [rad] of the tool yaw from its linear interpolation between '
+        'tool waypoints.', low=0.0, special=(0.0, 'not checked'))
+    max_tool_speed: float = parameter(
+        0.0, "Largest linear speed [m/s] of the tool frame's origin on `tool_waypoints` "
+        'requests; 0 (the default) = no limit. Held within 0.1 % at a 1 kHz check by timing '
+        'the straight lines themselves. Needs `method: 555`, `timing: optimal`, `inner_knots` '
+        '> 0 and a `kinematics` (`planar_3dof` or `model`): a non-zero value is refused '
+        'otherwise, with the reason. Joint-space `waypoints` requests have no tool path and '
+        'are planned without it.', low=0.0, unit='m/s', special=(0.0, 'no limit'))
+    max_tool_angular_speed: float = parameter(
+        0.0, 'Largest angular speed [rad/s] of the tool on `tool_waypoints` requests '
+        '(`planar_3dof`: of its yaw); 0 (the default) = no limit. Held and refused like '
+        '`max_tool_speed`.', low=0.0, unit='rad/s', special=(0.0, 'no limit'))
+    max_inserted_waypoints: int = parameter(
+        200, 'Most waypoints the refinement of one tool request may insert (knots, with the '
+        'tool lines of 555 optimal); a request that needs more is rejected.',
+        low=0, high=MAX_INSERTED_WAYPOINTS)
+    waypoint_tolerance: float = parameter(
+        DEFAULT_WAYPOINT_TOLERANCE, 'Consecutive waypoints whose every joint differs by at '
+        'most this [rad or m] are merged (uniform and optimal timing), and a replanning start '
+        'state this close to the first waypoint replaces it; the default '
+        f"{DEFAULT_WAYPOINT_TOLERANCE:g} is four times the dynamic arm's rest dead band; 0 = "
+        'exact duplicates only.', low=0.0, high=MAX_WAYPOINT_TOLERANCE)
+    min_position: Tuple[float, ...] = parameter(
+        (), 'Per-joint lower position limit [rad or m], checked exactly on every plan, which '
+        'is rejected with the joint, time and excess when it leaves them; empty (the '
+        'default) = none; `-.inf` for a joint without one; integers as typed are fine.')
+    max_position: Tuple[float, ...] = parameter(
+        (), 'Per-joint upper position limit [rad or m], as `min_position`; `.inf` for a joint '
+        'without one.')
+    output: str = parameter(
+        'sampled', '`sampled` (the default): a point every `sample_period`; `knots`: one '
+        'point per knot of the spline, with its exact position, velocity and acceleration: '
+        "joint_trajectory_controller's quintic interpolation between them reproduces the "
+        'planned trajectory.', choices=OUTPUTS)
+    inner_knots: int = parameter(
+        AUTO_INNER_KNOTS, 'Most inner knots per segment for `method: 555` with `timing: '
+        'optimal`: a C4 spline with knots between the waypoints too, about the duration of '
+        f'TOPP-RA with the jerk limits held. {AUTO_INNER_KNOTS} (the default) = auto: 4, or 6 '
+        'for joint-space requests with `limit_torque` and no smoothing windows (fewer on '
+        'segments shorter than a few jerk ramp times a/j); 0 = knots at the waypoints only '
+        '(longer). Ignored by other methods and timings.',
+        low=0, high=MAX_INNER_KNOTS, special=(AUTO_INNER_KNOTS, 'auto'))
+    vibration_frequency: float = parameter(
+        0.0, "The arm's lowest structural mode [Hz], for `method: 555` with `timing: optimal` "
+        'and `inner_knots` > 0 (refused otherwise): the speed profile is averaged over two '
+        'windows of 1/f instead of the default 0.3 s and 0.15 s, so that the plan leaves '
+        'little vibration at f (2/f longer; the default windows: 0.45 s). 0 (the default) = '
+        'not used: as `smoothing` says. Rest-to-rest requests only: with a moving start or end '
+        '(replanning) the profile is not averaged and the parameter changes nothing.',
+        low=0.0, high=MAX_VIBRATION_FREQUENCY, unit='Hz')
+    smoothing: str = parameter(
+        'auto', '`auto` (the default), `windows` or `none`, for `method: 555` with `timing: '
+        'optimal`, `inner_knots` > 0 and no `vibration_frequency` (refused otherwise, where it '
+        'would change nothing). `windows` averages the speed profile over 0.3 s and 0.15 s: '
+        "0.45 s longer, and the arm's low modes (4-8 Hz) shake about half as much as with "
+        "TOPP-RA; `none` does not (about TOPP-RA's duration and shaking). `auto` = `windows`, "
+        'or `none` with `limit_torque: true`. Rest-to-rest requests; the tool lines of tool '
+        "requests are never averaged (a refined tool path's inner-knot plan follows it).")
+    model_file: str = parameter(
+        '', '`kinematics: model`: URDF or MJCF file of the robot; empty = the '
+        '`robot_description` topic (std_msgs/String, reliable, transient-local).')
+    tool_frame: str = parameter(
+        '', '`kinematics: model`: the tool frame (URDF link, MJCF body or site) of '
+        '`tool_waypoints` requests; empty (the default) = the tip of the chain, the one link '
+        "rigidly attached to the last planned joint (like MoveIt's tip link); where there are "
+        'several, tool requests are refused, naming them.')
+    base_frame: str = parameter(
+        '', '`kinematics: model`: frame of the `tool_waypoints` poses (a link or body fixed to '
+        'the world); empty = the world (the URDF root).')
+    joint_limits_file: str = parameter(
+        '', "`kinematics: model`: MoveIt `joint_limits.yaml`; its limits override the URDF's "
+        'velocity, explicit (non-zero) `max_*` values override both.')
+    limit_torque: bool = parameter(
+        False, '`kinematics: model` (refused without it): keep the rigid-body torque of every '
+        'planned joint, the payload included, within `max_effort`, checked every 1 ms (within '
+        '0.5 %); rest to rest only; tool requests (555 optimal) are refined (not timed along '
+        'the tool lines) and hold it together with `max_tool_speed` / '
+        '`max_tool_angular_speed`. A joint '
+        f'without an acceleration limit then gets {TORQUE_STAND_IN_ACCELERATION:g} rad/s²: the '
+        'torque limits it.')
+    max_effort: Tuple[float, ...] = parameter(
+        NOT_SET_LIMITS, '`limit_torque`: per-joint torque limit [N m, or N for a slide], one '
+        'value per planned joint, >= 0; 0 entries = from the robot description (as '
+        '`arm_sim_node` reads it: MJCF actuator `forcerange`, `ctrlrange` × gear, URDF `<limit '
+        'effort>`), `.inf` = no limit on that joint. Not set (`[0.0]`, the default): all from '
+        'the description (a joint without one there is refused, naming it).',
+        declared=NOT_SET_LIMITS)
+    payload_mass: float = parameter(
+        0.0, f'`limit_torque`: mass [kg] held by the tool frame, 0 to {MAX_PAYLOAD_MASS:g}; 0 '
+        '(the default) = none. Needs a tool frame (`tool_frame`, or the tip of the chain).')
+    payload_center_of_mass: Tuple[float, ...] = parameter(
+        (0.0, 0.0, 0.0), "`limit_torque`: the payload's centre of mass [m], x, y, z in the "
+        f'tool frame, each within ±{MAX_PAYLOAD_OFFSET:g} m.')
+    payload_inertia: Tuple[float, ...] = parameter(
+        (), "`limit_torque`: the payload's inertia [kg m²] about its centre of mass, in the "
+        "tool frame's axes: empty (the default) = a point mass, 3 principal moments, or 6 "
+        'values `[ixx, iyy, izz, ixy, ixz, iyz]`; positive definite, the triangle inequality '
+        'held.')
+    torque_headroom: float = parameter(
+        DEFAULT_TORQUE_HEADROOM, '`limit_torque`: the share of every torque limit the plan '
+        "leaves to the controller's corrections: the plan holds (1 - `torque_headroom`) × "
+        '`max_effort` (`limit_torque` on the status is that, `peak_torque_ratio` is relative '
+        f"to it). The default {DEFAULT_TORQUE_HEADROOM:g}: a plan that uses all of a joint's "
+        'torque leaves the feedback nothing, and the motor saturates. Refused without '
+        '`limit_torque` unless at its default.', low=0.0, high=MAX_TORQUE_HEADROOM,
+        high_open=True, note="the share of every torque limit left to the controller's "
+        'corrections')
+    goal_position_tolerance: float = parameter(
+        DEFAULT_GOAL_POSITION_TOLERANCE, '`follow_waypoints` goals: the arm has reached the '
+        'end when every joint of `joint_states` is within this of it [rad or m].',
+        low=0.0, low_open=True)
+    goal_velocity_tolerance: float = parameter(
+        DEFAULT_GOAL_VELOCITY_TOLERANCE, '`follow_waypoints` goals: ... and every joint '
+        'velocity of `joint_states` is within this [rad/s or m/s] '
+        "(joint_trajectory_controller's `stopped_velocity_tolerance`).",
+        low=0.0, low_open=True)
+    goal_time_tolerance: float = parameter(
+        DEFAULT_GOAL_TIME_TOLERANCE, '`follow_waypoints` goals: how long after the planned '
+        'end the arm may take to settle [s]; later the goal is aborted with the remaining '
+        'error.', low=0.0, high=MAX_GOAL_TIME_TOLERANCE, unit='s')
 
     def with_defaults(self):
         """
@@ -175,32 +321,11 @@ class PlannerConfig(ValidatedConfig):
         for i, v in enumerate(self.max_jerk):
             if math.isnan(v) or v < 0.0:
                 raise ValueError(f'max_jerk[{i}] = {v}: must be >= 0 (0 = no jerk limit)')
-        if self.method not in METHODS:
-            raise ValueError(f'method must be one of {list(METHODS)}, '
-                             f'got {show(self.method)}')
-        if self.timing not in TIMINGS:
-            raise ValueError(f'timing must be one of {list(TIMINGS)}, '
-                             f'got {show(self.timing)}')
-        if not (math.isfinite(self.sample_period) and self.sample_period >= MIN_SAMPLE_PERIOD):
-            raise ValueError(f'sample_period = {self.sample_period}: must be at least '
-                             f'{MIN_SAMPLE_PERIOD} s')
-        self.require_in_range('replan_lead_time', 0.0, MAX_LEAD_TIME, 's')
-        self.require_in_range('waypoint_tolerance', 0.0, MAX_WAYPOINT_TOLERANCE)
-        for name in ('goal_position_tolerance', 'goal_velocity_tolerance'):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0.0):
-                raise ValueError(f'{name} = {value}: must be positive and finite')
-        self.require_in_range('goal_time_tolerance', 0.0, MAX_GOAL_TIME_TOLERANCE, 's')
         if n or not model:  # with all of a model's joints: checked once it is loaded
             self.validate_position_limits(n)
-        if self.output not in OUTPUTS:
-            raise ValueError(f'output must be one of {list(OUTPUTS)}, '
-                             f'got {show(self.output)}')
-
-        if not AUTO_INNER_KNOTS <= self.inner_knots <= MAX_INNER_KNOTS:
-            raise ValueError(f'inner_knots = {self.inner_knots}: must be in '
-                             f'[0, {MAX_INNER_KNOTS}], or {AUTO_INNER_KNOTS} (auto)')
-        self.require_in_range('vibration_frequency', 0.0, MAX_VIBRATION_FREQUENCY, 'Hz')
+        # The bounds and choices of the parameter table: method, timing,
+        # sample_period, ..., torque_headroom (the fields, in order).
+        self.check_table()
         if self.vibration_frequency and not self.has_inner_knots():
             raise ValueError(f'vibration_frequency = {self.vibration_frequency:g} Hz needs '
                              'method "555" with timing "optimal" and inner_knots > 0 (got '
@@ -209,9 +334,6 @@ class PlannerConfig(ValidatedConfig):
         # The library's own check: one of auto, windows, none; not with a
         # vibration_frequency, and not where no speed profile is averaged.
         smoothing_value(self.smoothing, self.vibration_frequency, self.has_inner_knots())
-        if self.max_trajectory_points < 2:
-            raise ValueError(f'max_trajectory_points = {self.max_trajectory_points}: must be '
-                             'at least 2')
         self._validate_tool_paths()
         self._validate_torque(names)
 
@@ -238,25 +360,15 @@ class PlannerConfig(ValidatedConfig):
                 'joint_names': self.joint_names}
 
     def _validate_tool_paths(self):
-        if self.kinematics not in KINEMATICS:
-            raise ValueError(f'kinematics must be one of {list(KINEMATICS)} ("" = joint space '
-                             f'only), got {show(self.kinematics)}')
         self.require_positive('link_lengths', 2)
         if self.kinematics == 'planar_3dof' and len(self.joint_names) != 3:
             raise ValueError(f'kinematics "planar_3dof" needs 3 joint_names (shoulder, elbow, '
                              f'tool), got {len(self.joint_names)}')
-        for name in ('max_path_deviation', 'max_orientation_deviation'):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value >= 0.0):
-                raise ValueError(f'{name} = {value}: must be >= 0 and finite (0 = not checked)')
-        if not 0 <= self.max_inserted_waypoints <= MAX_INSERTED_WAYPOINTS:
-            raise ValueError(f'max_inserted_waypoints = {self.max_inserted_waypoints}: must be '
-                             f'in [0, {MAX_INSERTED_WAYPOINTS}]')
         self._validate_tool_speeds()
 
     def _validate_tool_speeds(self):
         """
-        Refuse a tool speed limit that is not a finite value >= 0, or that could never apply.
+        Refuse a tool speed limit that could never apply (the table checks >= 0, finite).
 
         A limit (non-zero) is only held by the 'tool lines' construction of
         method 555 with timing "optimal" and inner knots, and only on
@@ -265,11 +377,6 @@ class PlannerConfig(ValidatedConfig):
         ``vibration_frequency``).  Joint-space requests (``waypoints``) have
         no tool path and are planned without it.
         """
-        for name, unit in TOOL_SPEEDS:
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value >= 0.0):
-                raise ValueError(f'{name} = {value}: must be >= 0 and finite ({unit}; '
-                                 '0 = no limit)')
         for name, unit in TOOL_SPEEDS:
             value = getattr(self, name)
             if not value:
@@ -298,10 +405,6 @@ class PlannerConfig(ValidatedConfig):
         a max_effort or a payload would change nothing: refused.
         """
         check_payload(self.payload_mass, self.payload_center_of_mass, self.payload_inertia)
-        if not (0.0 <= self.torque_headroom < MAX_TORQUE_HEADROOM):
-            raise ValueError(f'torque_headroom = {self.torque_headroom}: must be in [0, '
-                             f'{MAX_TORQUE_HEADROOM:g}) (the share of every torque limit left '
-                             "to the controller's corrections)")
         for i, v in enumerate(self.max_effort):
             if math.isnan(v) or v < 0.0:
                 raise ValueError(f'max_effort[{i}] = {v}: must be >= 0 [N m or N] (0 = from '
@@ -365,12 +468,6 @@ class PlannerConfig(ValidatedConfig):
         if not any(v > 0.0 for v in self.max_jerk):
             return None
         return [v if v > 0.0 else math.inf for v in self.max_jerk]
-
-
-# Payloads beyond these are typing errors, not payloads [kg, m]: refused before
-# they reach the dynamics as overflowing torques.
-MAX_PAYLOAD_MASS = 1e4
-MAX_PAYLOAD_OFFSET = 100.0
 
 
 def check_payload(mass, center, inertia):

@@ -1,14 +1,30 @@
-"""Base of the nodes' frozen config dataclasses (pure Python, no rclpy)."""
+"""
+Base of the nodes' frozen config dataclasses (pure Python, no rclpy).
+
+:class:`ValidatedConfig` builds a config from parameter values (type checks
+of the dynamically typed parameters), resolves its "not set" values and
+validates it: the bounds and choices of its parameter table
+(:meth:`~ValidatedConfig.check_table`, see :mod:`.parameter_table`) and the
+subclass's own cross-field checks (``validate``).
+"""
 
 import array
 from dataclasses import fields, replace
 import math
 
+from .parameter_table import not_set_values, rows, table_error
 from ..robot.user_text import show
 
 
 def _is_number(value):
     return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+class _NotSetValues:
+    """A class attribute: the config class's declared "not set" values, by name."""
+
+    def __get__(self, instance, owner):
+        return not_set_values(owner)
 
 
 class ValidatedConfig:
@@ -40,9 +56,9 @@ class ValidatedConfig:
         config.validate()
         return config
 
-    # Parameter defaults that differ from the dataclass's: values that mean "not set",
-    # which :meth:`with_defaults` resolves (see PlannerConfig).
-    PARAMETER_DEFAULTS = {}
+    # The declared "not set" values, read from the parameter table (a derived view,
+    # for callers such as scripts/plan_fingerprint.py).
+    PARAMETER_DEFAULTS = _NotSetValues()
 
     def with_defaults(self):
         """Return the config with "not set" values resolved; the base class has none."""
@@ -52,12 +68,19 @@ class ValidatedConfig:
         """Raise ValueError with the reason when any value is unusable."""
         raise NotImplementedError
 
-    def require_in_range(self, name, low, high, unit=''):
-        """Raise ValueError unless the field ``name`` is finite and in [low, high]."""
-        value = getattr(self, name)
-        if not (math.isfinite(value) and low <= value <= high):
-            raise ValueError(f'{name} = {value}: must be in [{low:g}, {high:g}]'
-                             + (f' {unit}' if unit else ''))
+    def check_table(self):
+        """
+        Raise ValueError unless every value is within its table row's bounds or choices.
+
+        Rows in field order; a row with ``only_if`` is checked when that
+        attribute of the config is true.
+        """
+        for field, row in rows(type(self)):
+            if row.only_if and not getattr(self, row.only_if):
+                continue
+            error = table_error(field.name, getattr(self, field.name), row)
+            if error:
+                raise ValueError(error)
 
     def require_positive(self, name, count, count_text=None):
         """

@@ -23,6 +23,7 @@ from splines445_ros.nodes.diagnostics import status_values
 from splines445_ros.nodes.planner_node import PlannerNode
 from splines445_ros.robot.chain_tip import chain_tips
 from splines445_ros.robot.robot_model import load_robot_model
+from splines445_ros.service.parameter_table import declared_values
 from splines445_ros.service.planner_config import PlannerConfig
 from splines445_ros.tools import vendor_robots as vr
 from splines445_ros.tools.in_process import InProcessSystem, LocalRos, overrides, \
@@ -100,9 +101,7 @@ TWO_BRANCHES = """<robot name="two">
 
 def parameters_as_declared(**values):
     """Return the planner's parameters as declared, overlaid with ``values``."""
-    names = PlannerConfig.__dataclass_fields__
-    declared = {n: PlannerConfig.PARAMETER_DEFAULTS.get(n, getattr(PlannerConfig(), n))
-                for n in names}
+    declared = declared_values(PlannerConfig)
     declared.update(values)
     return declared
 

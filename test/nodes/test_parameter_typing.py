@@ -126,3 +126,29 @@ def test_numbers_as_users_type_them_for_doubles_and_double_arrays():
             result = node.set_parameters([Parameter(name, value=value)])[0]
             assert not result.successful and name in result.reason, (name, result.reason)
         assert node.parameters.config.max_position == (3.0, 3.0, 3.0)
+
+
+def test_descriptors_show_the_table_and_our_reason_rejects():
+    # The range and choices are text (additional_constraints), not rclpy ranges:
+    # an out-of-range value reaches our validation and its reason (issue 37).
+    with LocalRos() as ros:
+        node = _planner(ros, [])
+        lead = node.describe_parameter('replan_lead_time')
+        assert lead.additional_constraints == 'in [0, 10] s'
+        assert list(lead.floating_point_range) == [] and lead.dynamic_typing
+        assert 'planning must finish within it' in lead.description
+        method = node.describe_parameter('method')
+        assert method.additional_constraints == "one of ['445', '434', '555']"
+        knots = node.describe_parameter('inner_knots')
+        assert knots.additional_constraints == 'in [0, 8], or -1 (auto)'
+        assert list(knots.integer_range) == [] and knots.type == ParameterType.PARAMETER_INTEGER
+        assert node.describe_parameter('model_file').additional_constraints == ''
+        result = node.set_parameters([Parameter('replan_lead_time', value=11.0)])[0]
+        assert not result.successful
+        assert result.reason == 'rejected: replan_lead_time = 11.0: must be in [0, 10] s'
+        assert node.parameters.config.replan_lead_time == 0.2
+        arm = ros.add(ArmSimNode(context=ros.context))
+        rate = arm.describe_parameter('publish_rate')
+        assert rate.additional_constraints == 'in [0.001, 1000] Hz'
+        result = arm.set_parameters([Parameter('publish_rate', value=5000.0)])[0]
+        assert result.reason == 'rejected: publish_rate = 5000.0: must be in [0.001, 1000] Hz'
