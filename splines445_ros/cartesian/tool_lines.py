@@ -20,7 +20,7 @@ uses for method 555 with optimal timing, rest to rest:
    (:class:`planning.path_constraints.ToolSpeed`).  The C4 555 spline passes
    its knots (on the path) at the profile's times, every waypoint exactly.
 3. Taylor's test.  The deviation of the timed spline's tool from the lines
-   is measured per piece (:class:`tool_paths._PathMeasure`, exact maxima);
+   is measured per piece (:class:`path_deviation.PathMeasure`, exact maxima);
    every piece beyond a tolerance gets a knot at its time midpoint, and step
    2 is repeated with those knots (at most :data:`MAX_ROUNDS` times).
 4. Tool speed.  The spline follows the profile closely but not exactly: its
@@ -394,7 +394,7 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
 
     ``edge_poses`` (N, P) are the distinct tool waypoints, ``limits`` the
     :class:`planning.JointLimits`, ``measure(traj, segment_edges)`` the
-    :class:`tool_paths.Deviation` of a trajectory whose segments lie on the
+    :class:`path_deviation.Deviation` of a trajectory whose segments lie on the
     given edges, ``tolerances`` (position, orientation), inf for unchecked.
     Speeds 0 mean no limit.  ``torque`` (a :class:`planning.torque.TorqueLimit`)
     adds the joint torque: one more constraint of the timing, one more

@@ -46,27 +46,6 @@ Algorithm
    between and the deviation reached when ``max_inserted`` knots would be
    exceeded, and naming the point when an inserted point is out of reach.
 
-How the deviation between knots is bounded
-------------------------------------------
-The deviation is a smooth function of time on every segment.  It is sampled
-on ``GRID`` points per segment (both knots included), and every grid local
-maximum is refined by a vectorised golden-section search over the bracket
-between its two grid neighbours (``GOLDEN_STEPS`` steps shrink the bracket to
-below 1e-6 of its width), so every maximum the grid brackets is found to
-round-off.  Only grid maxima above a quarter of the tolerance are searched
-(and the largest few, for an exact reported maximum): with 24 points per
-segment the grid misses a smooth bump's height by well under 1 %, so a
-bump below a quarter of the tolerance on the grid cannot exceed it.  A
-maximum the grid does not bracket would have to sit between two grid points
-and exceed the larger of them; since the distance to a segment is
-1-Lipschitz in the tool position, it exceeds it by at most half the tool's
-arc length between the two points (``grid_slack`` of :class:`Deviation`
-reports half the largest chord between grid neighbours, a few millimetres on
-the paper's triangle: that is the bound without the search, not the error of
-the search).  On the paper's triangle a 1000-point grid per segment gives the
-same maxima to 1e-9 m, and the tests check every result independently, by
-forward kinematics of a much finer sampling.
-
 Timing and inserted knots
 -------------------------
 With "uniform" and "optimal" timing the inserted knots simply get their own
@@ -83,8 +62,8 @@ import numbers
 
 import numpy as np
 
-from .golden_search import golden_maxima
-from .tool_kinematics import declared_joint_count, has_transforms, refused_pose
+from .path_deviation import Deviation, PathMeasure, tolerance_excess
+from .tool_kinematics import declared_joint_count, refused_pose
 from .tool_lines import edge_geometry, LineUnreachable, plan_tool_lines
 from ..planning import merge_duplicates
 from ..planning.path_constraints import GravityOverload
@@ -93,50 +72,10 @@ from ..planning.planner import plan_with_options, within_position_limits
 from ..planning.validation import waypoint_array
 from ..robot import rotations as rot
 
-GRID = 24
-# Golden-section steps on each bracket of two grid cells: 10 shrink it to
-# 0.618**10 = 8e-3 of its width, and the maximum found is off by the square
-# of that (second order).  On bench_tool_lines' UR5 and Panda seams the
-# maxima agree with 30 steps to 3e-11 m and 4e-12 rad (16 steps: 2e-13 m,
-# six more evaluations of every bracket).
-GOLDEN_STEPS = 10
-# Grid maxima searched: those above this fraction of the tolerance, and the
-# largest few (so the reported maximum is exact even far below it).
-REFINE_FRACTION = 0.25
-ALWAYS_REFINED = 8
 DEFAULT_MAX_INSERTED = 200
-# Edges shorter than this [m] are pure rotations: parameterised by time.
-MIN_EDGE_LENGTH = 1e-9
 # 'tool lines': a tool waypoint within this share of both tolerances of the one
 # before is merged into it (_close_waypoints).
 MERGE_SHARE = 0.1
-
-
-@dataclass(frozen=True)
-class Deviation:
-    """
-    Largest deviation of the tool from its straight path, per trajectory segment.
-
-    ``position`` [m] and ``orientation`` [rad] are arrays (S,), ``*_time`` the
-    trajectory times [s] where they occur, ``grid_slack`` [m] half the largest
-    tool chord between two grid points (see the module docstring).
-    """
-
-    position: np.ndarray
-    orientation: np.ndarray
-    position_time: np.ndarray
-    orientation_time: np.ndarray
-    grid_slack: float
-
-    @property
-    def max_position(self):
-        """Return the largest position deviation [m] of the whole path."""
-        return float(np.max(self.position))
-
-    @property
-    def max_orientation(self):
-        """Return the largest orientation deviation [rad] of the whole path."""
-        return float(np.max(self.orientation))
 
 
 @dataclass(frozen=True)
@@ -193,10 +132,6 @@ class ToolPath:
     def max_orientation_deviation(self):
         """Return the largest orientation deviation [rad] of the result."""
         return self.deviation.max_orientation
-
-
-def _wrap(angle):
-    return (angle + np.pi) % (2.0 * np.pi) - np.pi
 
 
 def _tolerance(name, value):
@@ -288,168 +223,6 @@ def _inverse(kinematics, poses, describe):
         raise ValueError(f'inverse kinematics returned {joints.shape} non-finite or '
                          f'mis-shaped joints for {len(poses)} poses')
     return joints
-
-
-class _PathMeasure:
-    """Deviation of a planned trajectory's tool from the requested straight edges."""
-
-    def __init__(self, traj, kinematics, edge_poses, segment_edges):
-        self.traj = traj
-        self.kinematics = kinematics
-        self.segment_edges = segment_edges
-        a, b = edge_poses[:-1], edge_poses[1:]
-        self.spatial = edge_poses.shape[1] == 7
-        dims = 3 if self.spatial else 2
-        self.start = a[:, :dims]
-        self.direction = b[:, :dims] - a[:, :dims]
-        self.length2 = np.sum(self.direction**2, axis=1)
-        if self.spatial:
-            self.quat0 = a[:, 3:]
-            self.quat1 = b[:, 3:]
-            self._matrices = has_transforms(kinematics)
-            if self._matrices:
-                # The slerp of edge e at s is R0 Rot(axis, s angle): Rodrigues' terms.
-                turn = rot.multiply(rot.conjugate(self.quat0), self.quat1)
-                turn = np.where(turn[:, :1] < 0.0, -turn, turn)
-                sine = np.linalg.norm(turn[:, 1:], axis=1)
-                self.angle = 2.0 * np.arctan2(sine, turn[:, 0])
-                axis = turn[:, 1:] / np.where(sine > 1e-15, sine, 1.0)[:, None]
-                x, y, z = axis[:, 0], axis[:, 1], axis[:, 2]
-                zero = np.zeros_like(x)
-                self.skew = np.stack([np.stack([zero, -z, y], -1), np.stack([z, zero, -x], -1),
-                                      np.stack([-y, x, zero], -1)], -2)
-                self.skew2 = self.skew @ self.skew
-                self.rot0 = rot.to_matrix(self.quat0)
-        else:
-            self.yaw0 = a[:, 2]
-            self.dyaw = b[:, 2] - a[:, 2]
-        n_edges = len(a)
-        first = np.searchsorted(segment_edges, np.arange(n_edges), side='left')
-        last = np.searchsorted(segment_edges, np.arange(n_edges), side='right')
-        # Segments run between the waypoints (knots of the tool path); a 555
-        # optimal plan has inner knots between them too.
-        self.edge_t0 = traj.waypoint_times[first]
-        self.edge_t1 = traj.waypoint_times[last]
-
-    def __call__(self, t, seg):
-        """Position and orientation deviation (K,) at times ``t`` on segments ``seg``."""
-        e = self.segment_edges[seg]
-        if self.spatial:
-            return self._spatial(t, e)
-        pose = np.asarray(self.kinematics.forward(self.traj.evaluate(t)), dtype=float)
-        p = pose[:, :2] - self.start[e]
-        ab = self.direction[e]
-        s = self._edge_parameter(p, t, e)
-        position = np.hypot(*(p - s[:, None] * ab).T)
-        orientation = np.abs(_wrap(pose[:, 2] - self.yaw0[e] - s * self.dyaw[e]))
-        return position, orientation, pose[:, :2]
-
-    def _edge_parameter(self, p, t, e):
-        """
-        Where on its edge each tool point is, in [0, 1]: ``p`` (K, d) from the edge start.
-
-        The projection on the edge; the fraction of the edge's time on an
-        edge too short to project on.
-        """
-        long_edge = self.length2[e] > MIN_EDGE_LENGTH**2
-        s_line = np.sum(p * self.direction[e], axis=1) / np.where(long_edge, self.length2[e], 1.0)
-        span = self.edge_t1[e] - self.edge_t0[e]
-        s_time = (t - self.edge_t0[e]) / np.where(span > 0.0, span, 1.0)
-        return np.clip(np.where(long_edge, s_line, s_time), 0.0, 1.0)
-
-    def _spatial(self, t, e):
-        joints = self.traj.evaluate(t)
-        if self._matrices:
-            position, mat = self.kinematics.forward_transform(joints)
-        else:
-            pose = np.asarray(self.kinematics.forward(joints), dtype=float)
-            position = pose[:, :3]
-        p = position - self.start[e]
-        ab = self.direction[e]
-        s = self._edge_parameter(p, t, e)
-        deviation = np.linalg.norm(p - s[:, None] * ab, axis=1)
-        if not self._matrices:
-            orientation = rot.angle_between(rot.slerp(self.quat0[e], self.quat1[e], s),
-                                            pose[:, 3:])
-            return deviation, orientation, position
-        # D = (R0 Rot(s angle))^T R: its angle atan2(|vee(D - D^T)| / 2, (tr D - 1) / 2).
-        a = s * self.angle[e]
-        slerp_rel = (np.eye(3) + np.sin(a)[:, None, None] * self.skew[e]
-                     + (1.0 - np.cos(a))[:, None, None] * self.skew2[e])
-        wanted = self.rot0[e] @ slerp_rel
-        d = np.einsum('kji,kjl->kil', wanted, mat)
-        cosine = 0.5 * (d[:, 0, 0] + d[:, 1, 1] + d[:, 2, 2] - 1.0)
-        sine = 0.5 * np.sqrt((d[:, 2, 1] - d[:, 1, 2]) ** 2 + (d[:, 0, 2] - d[:, 2, 0]) ** 2
-                             + (d[:, 1, 0] - d[:, 0, 1]) ** 2)
-        return deviation, np.arctan2(sine, cosine), position
-
-    def deviation(self, tolerances=(0.0, 0.0), grid=GRID, steps=GOLDEN_STEPS):
-        """
-        Return the :class:`Deviation` per segment (grid, then golden-section search).
-
-        Searched are the grid local maxima above ``REFINE_FRACTION`` of their
-        tolerance (position, orientation; 0 = every one) and the
-        ``ALWAYS_REFINED`` largest ones of each quantity; the others keep their
-        grid value (a lower bound, far below the tolerance).
-        """
-        traj = self.traj
-        starts = traj.waypoint_times[:-1]
-        spans = np.diff(traj.waypoint_times)
-        n_seg = spans.size
-        # As many grid points per piece as a knots-only plan has per segment.
-        grid *= -(-(traj.breakpoints.size - 1) // n_seg)
-        u = np.linspace(0.0, 1.0, grid)
-        times = starts[:, None] + spans[:, None] * u[None, :]
-        seg = np.repeat(np.arange(n_seg), grid)
-        pos, ori, xy = self(times.ravel(), seg)
-        if self.spatial:
-            xyz = xy.reshape(n_seg, grid, 3)
-            slack = 0.5 * float(np.max(np.linalg.norm(np.diff(xyz, axis=1), axis=2)))
-        else:
-            xy = xy.reshape(n_seg, grid, 2)
-            slack = 0.5 * float(np.max(np.hypot(*np.diff(xy, axis=1).transpose(2, 0, 1))))
-        best = []
-        for values in (pos.reshape(n_seg, grid), ori.reshape(n_seg, grid)):
-            j = np.argmax(values, axis=1)
-            best.append([values[np.arange(n_seg), j].copy(),
-                         times[np.arange(n_seg), j].copy()])
-        # Brackets around every interior grid local maximum, of either quantity.
-        cand_seg, cand_lo, cand_hi, cand_kind = [], [], [], []
-        for kind, values in enumerate((pos.reshape(n_seg, grid), ori.reshape(n_seg, grid))):
-            mid = values[:, 1:-1]
-            peak = (mid >= values[:, :-2]) & (mid >= values[:, 2:]) & (mid > 0.0)
-            top = np.sort(mid[peak])[-ALWAYS_REFINED:]
-            threshold = min(REFINE_FRACTION * tolerances[kind], top[0] if top.size else 0.0)
-            s_idx, j_idx = np.nonzero(peak & (mid >= threshold))
-            cand_seg.append(s_idx)
-            cand_lo.append(times[s_idx, j_idx])
-            cand_hi.append(times[s_idx, j_idx + 2])
-            cand_kind.append(np.full(s_idx.size, kind))
-        seg_c = np.concatenate(cand_seg)
-        if seg_c.size:
-            lo, hi = np.concatenate(cand_lo), np.concatenate(cand_hi)
-            kind = np.concatenate(cand_kind)
-
-            def value(t):
-                p, o, _ = self(t, seg_c)
-                return np.where(kind == 0, p, o)
-
-            t_c, f_c = golden_maxima(value, lo, hi, steps)
-            for k in (0, 1):
-                mine = kind == k
-                order = np.argsort(f_c[mine])  # larger values assigned last win
-                s_k, f_k, t_k = seg_c[mine][order], f_c[mine][order], t_c[mine][order]
-                better = f_k > best[k][0][s_k]
-                best[k][0][s_k[better]] = f_k[better]
-                best[k][1][s_k[better]] = t_k[better]
-        return Deviation(best[0][0], best[1][0], best[0][1], best[1][1], slack)
-
-
-def path_deviation(tool_path, kinematics, grid=GRID):
-    """Measure a :class:`ToolPath` again, e.g. with a finer ``grid`` (a :class:`Deviation`)."""
-    edge_poses = tool_path.poses[np.unique(tool_path.waypoint_knots)]
-    return _PathMeasure(tool_path.trajectory, kinematics, edge_poses,
-                        tool_path.segment_edges).deviation(grid=grid)
 
 
 def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviation=None,
@@ -576,11 +349,11 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
             raise ValueError(f'the refinement made segments too short to plan (knots '
                              f'{list(traj.dropped_waypoints)} coincide with their predecessors '
                              f'after {inserted} inserted waypoints)')
-        deviation = _PathMeasure(traj, kinematics, edge_poses, segment_edges).deviation(
+        deviation = PathMeasure(traj, kinematics, edge_poses, segment_edges).deviation(
             (tol_position, tol_orientation))
         if initial is None:
             initial = (deviation, traj.duration)
-        excess = _excess(deviation, (tol_position, tol_orientation))
+        excess = tolerance_excess(deviation, (tol_position, tol_orientation))
         bad = np.flatnonzero(excess > 1.0)
         if bad.size == 0:
             if options.inner_knots:
@@ -688,7 +461,7 @@ def _tool_lines(edge_poses, waypoint_knots, kinematics, tolerances, speeds, max_
     segment_edges = np.arange(len(edge_poses) - 1)
 
     def measure(traj, edges):
-        return _PathMeasure(traj, kinematics, edge_poses, edges).deviation(tolerances)
+        return PathMeasure(traj, kinematics, edge_poses, edges).deviation(tolerances)
 
     vibration = options.vibration_frequency
     windows = smoothing_windows(vibration) if vibration else ()
@@ -730,15 +503,10 @@ def _with_inner_knots(traj, deviation, joints, kinematics, edge_poses, segment_e
         return traj, deviation
     if not refined.duration < traj.duration:
         return traj, deviation
-    measured = _PathMeasure(refined, kinematics, edge_poses, segment_edges).deviation(tolerances)
-    if np.any(_excess(measured, tolerances) > 1.0):
+    measured = PathMeasure(refined, kinematics, edge_poses, segment_edges).deviation(tolerances)
+    if np.any(tolerance_excess(measured, tolerances) > 1.0):
         return traj, deviation
     return refined, measured
-
-
-def _excess(deviation, tolerances):
-    """Per segment, the larger of position and orientation deviation over its tolerance."""
-    return np.maximum(deviation.position / tolerances[0], deviation.orientation / tolerances[1])
 
 
 def _knot_of_waypoint(waypoint_knots, segment_edges, n_knots):

@@ -317,7 +317,7 @@ def test_tool_rates_match_central_differences_of_the_tests_own_fk(arms, robot):
 @pytest.mark.parametrize('robot, speed', [('ur5', 0.0), ('panda', 0.2)])
 def test_the_reported_deviation_per_edge_is_the_final_splines(arms, robot, speed):
     """The deviation per edge, from the last measure per piece, as a fresh measure finds it."""
-    from splines445_ros.cartesian.tool_paths import path_deviation
+    from splines445_ros.cartesian.path_deviation import path_deviation
     arm = arms[robot]
     poses = random_lines(np.random.default_rng(3), arm, 4)
     result = plan_tool_path(poses, kinematics(arm), MM, DEG, method='555', timing='optimal',

@@ -11,7 +11,8 @@ from example_counts import examples
 from hypothesis import assume, event, given, settings, strategies as st
 import numpy as np
 import pytest
-from splines445_ros.cartesian.tool_paths import path_deviation, plan_tool_path
+from splines445_ros.cartesian.path_deviation import path_deviation
+from splines445_ros.cartesian.tool_paths import plan_tool_path
 from splines445_ros.planning import METHODS
 from splines445_ros.robot import paper_example as pe
 from splines445_ros.robot.kinematics import PlanarArm
