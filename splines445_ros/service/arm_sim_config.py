@@ -1,4 +1,10 @@
-"""Validated configuration of the simulated arm (pure Python, no rclpy)."""
+"""
+Validated configuration of the simulated arm (pure Python, no rclpy).
+
+:class:`ArmSimConfig`'s fields are arm_sim_node's parameter table (see
+:mod:`.parameter_table`; ``doc/nodes.md`` is generated from them), its
+``validate`` the per-joint and cross-field checks.
+"""
 
 from dataclasses import dataclass, replace
 import math

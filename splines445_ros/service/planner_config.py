@@ -1,10 +1,13 @@
 """
 Validated configuration of the planner node (pure Python, no rclpy).
 
-The node's ROS parameters map one to one onto :class:`PlannerConfig`; every
-``set_parameters`` is checked by building a new config from the current values
-overlaid with the request, so a bad value is rejected with the reason and the
-old configuration stays.
+The node's ROS parameters map one to one onto :class:`PlannerConfig`, whose
+fields are planner_node's parameter table (:mod:`.parameter_table`: default,
+description, "not set" value, bounds or choices; ``doc/nodes.md`` is generated
+from them); every ``set_parameters`` is checked by building a new config from
+the current values overlaid with the request, so a bad value is rejected with
+the reason and the old configuration stays.  Also here: the limits' and the
+payload's checks shared with the simulated arm (:func:`check_payload`).
 """
 
 from dataclasses import dataclass, replace
