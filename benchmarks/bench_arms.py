@@ -42,6 +42,7 @@ import math
 import os
 import re
 from typing import Optional
+import zlib
 
 import numpy as np
 from splines445_ros.robot.chain_tip import chain_tips
@@ -98,6 +99,11 @@ class Arm:
     rated_payload: float            # [kg]
     left_out: tuple = field(default=())     # gripper joints not planned
     notes: Optional[str] = None
+
+    @property
+    def stream(self):
+        """Return the arm's stream of the run's seed (``bench_seeds.generator``): its CRC."""
+        return zlib.crc32(self.name.encode())
 
     def kinematics(self):
         """Return a fresh ModelKinematics of the tool (no IK walk remembered)."""

@@ -1,7 +1,7 @@
 """
 Optimal timing against TOPP-RA: durations and planning times, one run.
 
-20 random rest-to-rest requests (fixed seed; 3 and 7 joints; 5 to 50
+20 random rest-to-rest requests (a fresh seed every run; 3 and 7 joints; 5 to 50
 waypoints; v <= 2, a <= 10 per joint, no jerk limit).  For each: the
 time-optimal duration TOPP-RA (toppra) finds along its spline through the
 same waypoints, and the durations of 445, 434 and 555 with uniform (paper)
@@ -24,12 +24,12 @@ import time
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but the rule holds
 
 from bench_planning import toppra_plan, toppra_trajectory  # noqa: E402, I100
+import bench_seeds  # noqa: E402, I100
 import numpy as np  # noqa: E402, I100
 from shaking import of_toppra, shaking_figures, shaking_header, shaking_ratios  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
 from splines445_ros.robot import paper_example as pe  # noqa: E402
 
-SEED = 2024
 N_CASES = 20
 METHODS = ('445', '434', '555')
 
@@ -50,7 +50,7 @@ def main():
     """Run the comparison and print the tables."""
     logging.getLogger('toppra').setLevel(logging.ERROR)
     quick = os.environ.get('SPLINES445_BENCH_QUICK') == '1'
-    rng = np.random.default_rng(SEED)
+    rng = bench_seeds.generator()
     keys = [f'{m} {t}' for m in METHODS for t in ('uniform', 'optimal')]
     print('Optimal timing vs TOPP-RA: duration ratio to TOPP-RA (planning time [ms])')
     print('| case | N x n | TOPP-RA [s] (ms) | ' + ' | '.join(keys) + ' |')

@@ -3,7 +3,7 @@ planner_node's two outputs: message size and conversion / publishing time.
 
 For the paper's example (445 uniform, the node's default method) and
 random-walk requests of 100x7 and 1000x7 waypoints x joints (555 uniform,
-the method for long paths; v <= 2, a <= 10, fixed seed), the planned
+the method for long paths; v <= 2, a <= 10, fresh seed), the planned
 trajectory is turned into the ``joint_trajectory`` message as planner_node
 does it, with ``output: sampled`` (every 10 ms, the default sample_period)
 and ``output: knots`` (one point per spline knot).  Printed per mode:
@@ -23,7 +23,8 @@ import os
 
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 
-import numpy as np  # noqa: E402
+import bench_seeds  # noqa: E402, I100
+import numpy as np  # noqa: E402, I100
 from rclpy.node import Node  # noqa: E402
 from rclpy.serialization import serialize_message  # noqa: E402
 from splines445_ros.nodes import topics  # noqa: E402
@@ -36,7 +37,6 @@ from splines445_ros.tools.in_process import LocalRos  # noqa: E402
 from trajectory_msgs.msg import JointTrajectory  # noqa: E402
 from wall_time import best_of  # noqa: E402
 
-SEED = 445
 OUTPUTS = ('sampled', 'knots')
 
 
@@ -44,7 +44,7 @@ def cases():
     """Yield (name, joint names, planned Trajectory)."""
     yield ('paper example 12x3, 445', pe.JOINT_NAMES,
            plan(pe.joint_waypoints(), '445', 'uniform', **pe.plan_kwargs()))
-    rng = np.random.default_rng(SEED)
+    rng = bench_seeds.generator()
     for n_points in (100, 1000):
         waypoints = np.cumsum(rng.uniform(-1.0, 1.0, (n_points, 7)), axis=0)
         yield (f'random walk {n_points}x7, 555', [f'joint{i + 1}' for i in range(7)],

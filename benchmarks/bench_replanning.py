@@ -11,7 +11,7 @@ and whether any switch time stays without a plan.
 
 Cases: the paper's example running, a new goal of three waypoints
 (``test_replanning.py``'s), v <= 2 rad/s, a <= 10 rad/s^2, no jerk limit;
-and 6 random running paths (fixed seed) with random new goals.
+and 6 random running paths (a fresh seed every run, printed: bench_seeds.py) with random new goals.
 
 Run: ``make bench`` or ``python benchmarks/bench_replanning.py [method ...]`` (the
 methods' rows only; the optimal rows of 445 and 434 take many minutes).
@@ -24,7 +24,8 @@ import numpy as np
 
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but the rule holds
 
-from splines445_ros.nodes.ros_conversions import WaypointRequest  # noqa: E402
+import bench_seeds  # noqa: E402, I100
+from splines445_ros.nodes.ros_conversions import WaypointRequest  # noqa: E402, I100
 from splines445_ros.planning import METHODS, plan  # noqa: E402
 from splines445_ros.robot import paper_example as pe  # noqa: E402
 from splines445_ros.service.planner_config import PlannerConfig  # noqa: E402
@@ -39,7 +40,7 @@ N_RANDOM = 6
 def cases():
     """(name, running waypoints, new goal waypoints) of the paper and random paths."""
     yield 'paper', pe.joint_waypoints(), SECOND
-    rng = np.random.default_rng(445)
+    rng = bench_seeds.generator()
     for i in range(N_RANDOM):
         running = np.cumsum(rng.uniform(-0.8, 0.8, (int(rng.integers(4, 9)), 3)), axis=0)
         goal = running[-1] + np.cumsum(rng.uniform(-0.8, 0.8, (3, 3)), axis=0)

@@ -6,7 +6,7 @@ accuracy" and "smoothed actuator loads".  This plays every spline method in
 ``splines445_ros.planning.METHODS`` (434, 445, 555, ...) on the simulated arm
 of ``arm_sim_node`` (default model and controller: PD + inverse-dynamics
 feed-forward, 2 ms actuator lag, physics at 1 kHz), on the paper's example
-and on 10 random rest-to-rest paths (fixed seed; 6 to 10 waypoints;
+and on 10 random rest-to-rest paths (fresh seed; 6 to 10 waypoints;
 v <= 2 rad/s, a <= 10 rad/s^2 as in the paper), under two timings:
 
 * (a) same duration: every method on the same segment durations (those of
@@ -62,6 +62,7 @@ import time
 
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but the rule holds
 
+import bench_seeds  # noqa: E402, I100
 import numpy as np  # noqa: E402, I100
 from splines445_ros.planning import METHODS, plan  # noqa: E402
 from splines445_ros.robot import paper_example as pe  # noqa: E402
@@ -70,7 +71,6 @@ from splines445_ros.sim.dynamic_sim import DynamicArm  # noqa: E402
 from splines445_ros.sim.mujoco_model import (  # noqa: E402
     load_arm_model, PlanarArmModel, stiffness_for_frequency)
 
-SEED = 445
 N_RANDOM = 10
 SETTLE = 1.0         # s simulated after the end
 START_SKIP = 0.02    # s: the start transient is common to every method
@@ -109,7 +109,7 @@ def cases():
     """(name, waypoints, boundary kwargs) of the paper's example and the random paths."""
     paper = {k: v for k, v in pe.plan_kwargs().items() if k.startswith(('start', 'end'))}
     found = [('paper', pe.joint_waypoints(), paper)]
-    for k, path in enumerate(random_paths(np.random.default_rng(SEED), N_RANDOM)):
+    for k, path in enumerate(random_paths(bench_seeds.generator(), N_RANDOM)):
         found.append((f'random {k}', path, {}))
     return found
 

@@ -594,12 +594,13 @@ def main():
     arms, skipped = bench_arms.vendor_arms()
     bench_arms.print_arms(arms, skipped)
     print(f'Seams: the demo seam (UR5, Panda) and {count} random seams per arm (seed {seed}, '
-          f'stream = the arm index): sides {SEAM_SIDES} x the reach, turned at random about '
-          f'the vertical, last edge turning the tool up to {math.degrees(SEAM_TURN):g} deg.')
+          f'stream: the CRC of the arm name): sides {SEAM_SIDES} x the reach, turned at '
+          f'random about the vertical, last edge turning the tool up to '
+          f'{math.degrees(SEAM_TURN):g} deg.')
     print()
     every = []
-    for index, arm in enumerate(arms):
-        rng = bench_seeds.generator(index)
+    for arm in arms:
+        rng = bench_seeds.generator(arm.stream)
         rows = []
         for seam, poses in seams(arm, rng, count):
             rows += seam_rows(arm, seam, poses)

@@ -346,8 +346,8 @@ def main():
           f'| ours v / a / j ratios | ours at (>= {BINDS:g}) |')
     print(bench_figures.rule(19))
     summary = []
-    for index, arm in enumerate(arms):
-        rng = bench_seeds.generator(index)
+    for arm in arms:
+        rng = bench_seeds.generator(arm.stream)
         lower, upper, vmax, tau_max = joint_limits(arm.robot, arm.joints)
         paths = [random_path(rng, arm.ready, lower, upper) for _ in range(cases)]
         rated, held = bench_payload(arm, paths)

@@ -12,7 +12,7 @@ those of the arm with its payload (``resolve_model_config``).  The planner's
 inverse dynamics is :class:`splines445_ros.robot.dynamics.ArmDynamics` with
 the same payload.
 
-Paths (fixed seed): random walks from the ready pose, 5 to 15 waypoints,
+Paths (a fresh seed every run): random walks from the ready pose, 5 to 15 waypoints,
 steps uniform in +-0.3 rad per joint, clipped to the joint ranges less
 0.05 rad.  Plans:
 
@@ -55,6 +55,7 @@ import time
 
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but the rule holds
 
+import bench_seeds  # noqa: E402, I100
 import bench_smoothness as smooth  # noqa: E402
 import bench_torque  # noqa: E402
 import numpy as np  # noqa: E402, I100
@@ -69,7 +70,6 @@ from splines445_ros.sim.mujoco_model import load_arm_model  # noqa: E402
 from splines445_ros.tools import robot_seam_demo as seam  # noqa: E402
 from splines445_ros.tools import vendor_robots as vr  # noqa: E402
 
-SEED = 2525
 N_PATHS = 6
 POINTS = (5, 15)
 STEP = 0.3                      # [rad] largest random-walk step per joint
@@ -267,9 +267,10 @@ def main(argv=None):
     print(f'* config/ur5_joint_limits.yaml: a {config_limits["max_acceleration"].tolist()} '
           f'rad/s^2, j {config_limits["max_jerk"].tolist()} rad/s^3, v '
           f'{np.round(config_limits["max_velocity"], 3).tolist()} rad/s')
-    rng = np.random.default_rng(SEED)
+    rng = bench_seeds.generator()
     paths = [random_path(rng, vr.UR5_READY, lower, upper) for _ in range(args.paths)]
-    print(f'* {len(paths)} paths (seed {SEED}), {POINTS[0]}-{POINTS[1]} waypoints, steps '
+    print(f'* {len(paths)} paths (seed {bench_seeds.run_seed()}), {POINTS[0]}-{POINTS[1]} '
+          'waypoints, steps '
           f'+-{STEP} rad; A and C: a {NO_ACCELERATION_LIMIT:g} rad/s^2 (stand-in), jerk '
           f"{JERK_RATIO:g} x the path's typical acceleration (bench_torque.py)")
     planning_started = time.perf_counter()
