@@ -123,6 +123,16 @@ class ContinuitySystem:
         band[pattern.band_index] = vals * self._row_scale[pattern.rows]
         self._band = band.reshape(2 * pattern.bandwidth + 1, pattern.size)
 
+    @property
+    def unknowns(self):
+        """Return the unknowns per interior knot, in their order in the system."""
+        return self._unknowns
+
+    @property
+    def banded(self):
+        """Return (bandwidth, band): the assembled matrix in LAPACK's band storage."""
+        return self._bandwidth, self._band
+
     def solve(self, dP, v_start, a_start, v_end, a_end):
         """
         Return knot velocities and accelerations, each of shape (N, m) or (B, N, m).

@@ -208,12 +208,13 @@ def _batches(n_seg, up, down):
 
 def _undamped_mode(system, n_knots):
     """Return the knot-state shape (N, 2) of a response far downstream of its cause."""
-    rhs = np.zeros((system._band.shape[1], 1))
+    bandwidth, band = system.banded
+    rhs = np.zeros((band.shape[1], 1))
     rhs[0] = 1.0
-    x = banded_solve(system._bandwidth, system._band, rhs)
+    x = banded_solve(bandwidth, band, rhs)
     psi = np.zeros((n_knots, 2))
-    x = x.reshape(n_knots - 2, len(system._unknowns))
-    for ui, comp in enumerate(system._unknowns):
+    x = x.reshape(n_knots - 2, len(system.unknowns))
+    for ui, comp in enumerate(system.unknowns):
         psi[1:-1, comp] = x[:, ui]
     return psi / np.max(np.abs(psi))
 
