@@ -90,7 +90,7 @@ BINDS = 0.99                    # a limit this close is reported as reached
 REPEATS = 3
 BISECTION_RANGE = (0.1, NO_ACCELERATION_LIMIT)     # [rad/s^2] constant acceleration
 BISECTION_STEPS = 12
-PAYLOAD_SHARE = 0.5             # payload <= this * what the URDF efforts hold on the paths
+PAYLOAD_SHARE = 0.9             # payload <= this * what the URDF efforts hold on the paths
 
 
 def joint_limits(robot, joints, margin=RANGE_MARGIN):
