@@ -81,11 +81,14 @@ import numpy as np
 
 from .averaged_timing import AveragedTiming
 from .continuity_system import spline_coefficients
-from .knot_pieces import equal_fractions, exact_factors, knot_times, knots_per_segment, RAMP_PIECES
+from .jerk_profile import ThirdOrderProfile
+from .knot_pieces import (equal_fractions, exact_factors, knot_times, knots_per_segment,
+                          ramp_accelerations, RAMP_PIECES)
 from .limits import limit_ratios
 from .natural_cubic import natural_cubic_spline
-from .path_constraints import GravityOverload, GriddedPath, JointAcceleration, JointVelocity
-from .path_velocity import joint_acceleration_peaks, PathLimits, traversal_times
+from .path_constraints import (GravityOverload, GriddedPath, JointAcceleration, JointJerk,
+                               JointVelocity)
+from .path_velocity import PathLimits, traversal_times
 from .plan_options import DEFAULT_SMOOTHING, torque_without_windows
 from .timing import closed_form_scale, rest_to_rest_durations
 from .trajectory import REBUILD_RTOL, representable_durations, require_finite, Trajectory
@@ -217,8 +220,13 @@ class _Path:
     """
 
     def __init__(self, points, boundary, limits, most, windows, end_share=1.0, torque=None,
-                 keep_time_scale=False):
-        """Build the path through ``points`` with ``boundary`` values (and torque limits)."""
+                 keep_time_scale=False, third_order=False):
+        """
+        Build the path through ``points`` with ``boundary`` values (and torque limits).
+
+        ``third_order``: rest to rest with jerk limits, step 2's profile holds
+        the jerk too (:mod:`jerk_profile`; ``third_order`` is then its LPs).
+        """
         self.points = points
         self.most = most
         self.windows = windows
@@ -265,8 +273,14 @@ class _Path:
             # (medians of UR5 0 / 5 kg, Panda 0 / 3 kg) instead of 1.026 /
             # 1.028 / 1.007 / 1.055, the Panda's worst 1.164 instead of 1.109.
             constraints += (torque.constraint(interpolated=True),)
-        gridded = GriddedPath.of_ppoly(self.ppoly, self.s)
+        third_order = (third_order and not (self.start or self.end)
+                       and bool(np.any(np.isfinite(limits.jerk))))
+        gridded = GriddedPath.of_ppoly(self.ppoly, self.s, third=third_order)
         self.limits = PathLimits(gridded, constraints)
+        self.third_order = None
+        if third_order:
+            self.third_order = ThirdOrderProfile(gridded,
+                                                 constraints + (JointJerk(limits.jerk),))
         if torque is not None and TORQUE_END_RAMPS and not (self.start or self.end):
             self.limits.x_max = np.minimum(self.limits.x_max, end_ramps(
                 self.s, gridded.first, limits.jerk, TORQUE_END_RAMPS))
@@ -302,25 +316,6 @@ def end_ramps(s, first, jerk, share):
     return np.where(np.isnan(cap), np.inf, cap)
 
 
-def ramp_accelerations(path_limits, gridded, limits, torque_limited):
-    """
-    Return the accelerations (n,) of step 3's jerk ramp, or None for the limits' own.
-
-    With torque limits the acceleration limits are a stand-in (a URDF has
-    none; the node puts 1000 rad/s^2) and the torque sets the accelerations:
-    then each joint's largest acceleration on the fastest profile
-    (:func:`path_velocity.joint_acceleration_peaks`), at most its limit.
-    With the stand-in's a / j the pieces had to last seconds, a segment got
-    one inner knot, and bench_torque's plans (no smoothing windows, jerk 50
-    times TOPP-RA's peak accelerations) were 1.01-1.40 times TOPP-RA's
-    duration; with these, 0.98-1.25.
-    """
-    if not torque_limited:
-        return None
-    x = path_limits.profile(np.ones(gridded.s.size))
-    return np.minimum(limits.acceleration, joint_acceleration_peaks(gridded, x))
-
-
 class SpeedProfile:
     """
     Step 2 for the local limit factors ``local``: the speed profile and its timing.
@@ -338,6 +333,10 @@ class SpeedProfile:
         """Build the profile of ``path`` under ``local``."""
         self.local = local
         self.x = path.limits.profile(local, path.start, path.end)
+        if path.third_order is not None:
+            held = path.third_order.profile(local, self.x)
+            if held is not None:
+                self.x = held
         self.times = times = traversal_times(self.x, path.steps)
         self.valid = bool(np.all(np.isfinite(times)) and times[-1] > 0.0)
         if not self.valid:
@@ -488,7 +487,7 @@ class KnotCandidate:
 
 def plan_with_inner_knots(points, boundary, limits, most, dropped_waypoints=(),
                           windows=DEFAULT_SMOOTHING, torque=None, knots_only=True,
-                          keep_time_scale=False, give_up=None):
+                          keep_time_scale=False, give_up=None, third_order=False):
     """
     Return the 555 optimal Trajectory with up to ``most`` inner knots per segment, or None.
 
@@ -509,7 +508,9 @@ def plan_with_inner_knots(points, boundary, limits, most, dropped_waypoints=(),
     spectral zeros up by its inverse: on a short move, far from the
     ``vibration_frequency`` they were chosen for).  ``give_up``, a total
     to beat (another plan's, rest to rest): None also when the construction
-    shows that it will not beat it (:data:`GIVE_UP_GAINS`).
+    shows that it will not beat it (:data:`GIVE_UP_GAINS`).  ``third_order``:
+    step 2's profile holds the jerk limits too (:mod:`jerk_profile`, rest to
+    rest; issue 38's profile, not yet plan()'s).
     """
     if np.all(points == points[0]):
         return None
@@ -517,7 +518,7 @@ def plan_with_inner_knots(points, boundary, limits, most, dropped_waypoints=(),
     for share in (1.0,) if rest else (1.0,) + END_SEGMENT_SHARES:
         try:
             path = _Path(points, boundary, limits, most, windows, share, torque,
-                         keep_time_scale)
+                         keep_time_scale, third_order)
         except GravityOverload:
             raise
         except ValueError:

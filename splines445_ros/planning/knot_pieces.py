@@ -10,6 +10,7 @@ for (the ratios of :mod:`peaks`, ``max(r_v, r_a**(1/2), r_j**(1/3))``).
 import numpy as np
 
 from .limits import limit_ratios
+from .path_velocity import joint_acceleration_peaks
 from .peaks import row_max, velocity_ratios_above
 # A piece lasts at least this many jerk ramp times a / j (step 3).
 RAMP_PIECES = 1.5
@@ -95,3 +96,22 @@ def exact_factors(coeffs, pieces, limits):
         factors = np.maximum(factors, velocity)
         return row_max(factors), None
     return row_max(factors), ratios
+
+
+def ramp_accelerations(path_limits, gridded, limits, torque_limited):
+    """
+    Return the accelerations (n,) of step 3's jerk ramp, or None for the limits' own.
+
+    With torque limits the acceleration limits are a stand-in (a URDF has
+    none; the node puts 1000 rad/s^2) and the torque sets the accelerations:
+    then each joint's largest acceleration on the fastest profile
+    (:func:`path_velocity.joint_acceleration_peaks`), at most its limit.
+    With the stand-in's a / j the pieces had to last seconds, a segment got
+    one inner knot, and bench_torque's plans (no smoothing windows, jerk 50
+    times TOPP-RA's peak accelerations) were 1.01-1.40 times TOPP-RA's
+    duration; with these, 0.98-1.25.
+    """
+    if not torque_limited:
+        return None
+    x = path_limits.profile(np.ones(gridded.s.size))
+    return np.minimum(limits.acceleration, joint_acceleration_peaks(gridded, x))

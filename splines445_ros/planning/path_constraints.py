@@ -24,6 +24,7 @@ and ``hi`` by ``lambda**2``; :class:`path_velocity.PathLimits` applies it.
 """
 
 from dataclasses import dataclass
+from typing import Optional
 
 import numpy as np
 
@@ -34,13 +35,16 @@ class GriddedPath:
     A joint path ``q(s)`` on a grid: what every constraint reads.
 
     ``s`` (M + 1,) grid, ``steps`` (M,) its spacing, ``positions``,
-    ``first``, ``second`` (M + 1, n): ``q``, ``q'`` and ``q''`` at the grid points.
+    ``first``, ``second`` (M + 1, n): ``q``, ``q'`` and ``q''`` at the grid
+    points; ``third``, ``q'''``, only where a third-order constraint needs it
+    (else None).
     """
 
     s: np.ndarray
     positions: np.ndarray
     first: np.ndarray
     second: np.ndarray
+    third: Optional[np.ndarray] = None
 
     @property
     def steps(self):
@@ -48,9 +52,9 @@ class GriddedPath:
         return np.diff(self.s)
 
     @classmethod
-    def of_ppoly(cls, ppoly, s):
+    def of_ppoly(cls, ppoly, s, third=False):
         """Sample a piecewise polynomial path (scipy ``PPoly``) and its derivatives at ``s``."""
-        return cls(s, ppoly(s), ppoly(s, 1), ppoly(s, 2))
+        return cls(s, ppoly(s), ppoly(s, 1), ppoly(s, 2), ppoly(s, 3) if third else None)
 
 
 class SpeedConstraint:
@@ -74,6 +78,41 @@ class AccelerationConstraint:
     def rows(self, path):
         """Return ``(a, b, lo, hi)``, each (M + 1, k), with ``lo <= 0 <= hi``."""
         raise NotImplementedError
+
+
+class JerkConstraint:
+    """
+    A third-order constraint: ``|sdot (c_x x + c_u u + c_du du/ds)| <= bound`` at every grid point.
+
+    The time derivative of a second-order row's ``a u + b x`` along the
+    path, with ``du/dt = sdot du/ds`` and ``dx/dt = 2 sdot u``; a time
+    scaling by ``lambda`` multiplies ``bound`` by ``lambda**3``.
+    """
+
+    order = 3
+
+    def terms(self, path):
+        """Return ``(c_x, c_u, c_du, bound)``, each (M + 1, k), ``bound > 0`` (inf: none)."""
+        raise NotImplementedError
+
+
+class JointJerk(JerkConstraint):
+    """
+    ``|d/dt (q' u + q'' x)| = |sdot (q''' x + 3 q'' u + q' du/ds)| <= j_j`` per joint.
+
+    Joints without a jerk limit (inf) are left out; the path needs ``third``.
+    """
+
+    def __init__(self, max_jerk):
+        """Take the jerk limit per joint (n,), inf for none."""
+        self.max_jerk = np.asarray(max_jerk, float)
+
+    def terms(self, path):
+        """Return ``(q''', 3 q'', q', j)`` of the joints with a jerk limit."""
+        limited = np.isfinite(self.max_jerk)
+        bound = np.broadcast_to(self.max_jerk[limited], (path.s.size, int(limited.sum())))
+        return (path.third[:, limited], 3.0 * path.second[:, limited], path.first[:, limited],
+                bound)
 
 
 class JointVelocity(SpeedConstraint):

@@ -47,9 +47,9 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from .averaged_timing import AveragedTiming, regula_falsi
-from .inner_knots import (end_ramps, iterate_knots, kept_trajectory, KnotCandidate,
-                          ramp_accelerations, SpeedProfile)
-from .knot_pieces import equal_fractions, knot_times, knots_per_segment, shortest_piece
+from .inner_knots import end_ramps, iterate_knots, kept_trajectory, KnotCandidate, SpeedProfile
+from .knot_pieces import (equal_fractions, knot_times, knots_per_segment, ramp_accelerations,
+                          shortest_piece)
 from .path_constraints import GriddedPath, JointAcceleration, JointTorque, JointVelocity
 from .path_velocity import path_position, PathLimits
 from .plan_options import DEFAULT_SMOOTHING
@@ -156,7 +156,7 @@ class JointPathSamples:
     What :class:`inner_knots._Candidate` reads: ``s``, ``steps``,
     ``waypoint_s``, ``points``, ``ppoly``, ``limits`` (a :class:`PathLimits`),
     ``start``, ``end``, ``most``, ``min_piece``, ``ramp_pieces``,
-    ``ramp_acceleration`` (:func:`inner_knots.ramp_accelerations`),
+    ``ramp_acceleration`` (:func:`knot_pieces.ramp_accelerations`),
     ``piece_factors``, ``torque_neighbours`` (0), ``keep_time_scale``
     (False), ``rounding`` and :meth:`timing`.
 
@@ -208,6 +208,8 @@ class JointPathSamples:
         # The centred window of the corner rounding [s] (0: none).
         self.rounding = 0.0
         self.speed_caps = None
+        # Step 2's profile is second order here (inner_knots._Path.third_order).
+        self.third_order = None
         if round_corners and not self.windows:
             # The first-order bounds alone (no stops, no ramps from rest, no
             # acceleration's speed bounds): the caps whose corners are rounded.
