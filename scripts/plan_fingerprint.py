@@ -25,6 +25,7 @@ sys.path.insert(0, os.path.join(HERE, '..'))
 
 from splines445_ros.service.model_planning import (  # noqa: E402
     build_robot_setup, plan_model_tool_request)
+from splines445_ros.service.parameter_table import not_set_values  # noqa: E402
 from splines445_ros.service.planner_config import PlannerConfig  # noqa: E402
 from splines445_ros.service.request_planning import (  # noqa: E402
     plan_request, plan_tool_request, WaypointRequest)
@@ -95,7 +96,7 @@ def planar_tool_cases(rng):
 
 def model_config(urdf, limits_file, **values):
     """Return a kinematics "model" PlannerConfig of a vendor arm."""
-    return PlannerConfig.from_values(dict(PlannerConfig.PARAMETER_DEFAULTS, **{
+    return PlannerConfig.from_values(dict(not_set_values(PlannerConfig), **{
         'kinematics': 'model', 'model_file': urdf, 'joint_limits_file': limits_file,
         'method': '555', 'timing': 'optimal'}, **values))  # as declared
 

@@ -12,19 +12,12 @@ import array
 from dataclasses import fields, replace
 import math
 
-from .parameter_table import not_set_values, rows, table_error
+from .parameter_table import rows, table_error
 from ..robot.user_text import show
 
 
 def _is_number(value):
     return isinstance(value, (int, float)) and not isinstance(value, bool)
-
-
-class _NotSetValues:
-    """A class attribute: the config class's declared "not set" values, by name."""
-
-    def __get__(self, instance, owner):
-        return not_set_values(owner)
 
 
 class ValidatedConfig:
@@ -55,10 +48,6 @@ class ValidatedConfig:
         config = replace(config, **changes).with_defaults()
         config.validate()
         return config
-
-    # The declared "not set" values, read from the parameter table (a derived view,
-    # for callers such as scripts/plan_fingerprint.py).
-    PARAMETER_DEFAULTS = _NotSetValues()
 
     def with_defaults(self):
         """Return the config with "not set" values resolved; the base class has none."""

@@ -15,8 +15,8 @@ from typing import Tuple
 
 import pytest
 from splines445_ros.service.arm_sim_config import ArmSimConfig
-from splines445_ros.service.parameter_table import (markdown_table, parameter, rewrite_tables,
-                                                    row_of)
+from splines445_ros.service.parameter_table import (markdown_table, not_set_values, parameter,
+                                                    rewrite_tables, row_of)
 from splines445_ros.service.planner_config import PlannerConfig
 from splines445_ros.service.validated_config import ValidatedConfig
 
@@ -76,7 +76,7 @@ def test_the_markdown_table_of_a_small_config():
     assert rewrite_tables(page, {'tiny': Tiny}) == (
         'Intro\n<!-- parameters: tiny -->\n\n' + markdown_table(Tiny)
         + '\n\n<!-- end parameters -->\nEnd\n')
-    assert Tiny.PARAMETER_DEFAULTS == {'names': ('',)}
+    assert not_set_values(Tiny) == {'names': ('',)}
     Tiny.from_values({'rate': 1.0, 'count': 8})
     Tiny.from_values({'count': -1})
     for values, message in (({'rate': 0.5}, 'rate = 0.5: must be in [1, 100] Hz'),
