@@ -35,9 +35,9 @@ from ..robot.chain_tip import chain_tips
 from ..robot.dynamics import ArmDynamics
 from ..robot.inverse_kinematics import ModelKinematics
 from ..robot.joint_limits_file import read_joint_limits_file, resolve_limits, ResolvedLimits
-from ..robot.robot_model import load_robot_model, RobotModel
+from ..robot.robot_model import load_robot_model, model_file_where, RobotModel
 from ..robot.torque_limits import model_torque_limits
-from ..robot.user_text import show
+from ..robot.user_text import show, show_names
 
 # The parameters a RobotSetup is built from: a change to any other one (method,
 # timing, ...) never rebuilds the robot.
@@ -115,7 +115,7 @@ class RobotSetup:
         if self.torque is not None:
             mass = self.torque.dynamics.payload_mass
             torque = ', torque limited' + (f' with a {mass:g} kg payload' if mass else '')
-        return (f'{self.source}: {len(names)} joints {list(names)}, {tool} in base_frame '
+        return (f'{self.source}: {len(names)} joints {show_names(names)}, {tool} in base_frame '
                 f'{self.config.base_frame or "world"!r}{torque}')
 
     def torque_kwargs(self, config):
@@ -187,7 +187,7 @@ def build_robot_setup(config, description=None, robot=None):
         return None
     if robot is None:
         robot = load_model(source)
-    where = (f'model_file {config.model_file!r}' if source[0] == 'model_file'
+    where = (model_file_where(config.model_file) if source[0] == 'model_file'
              else 'robot_description')
     names = tuple(n for n in config.joint_names if n)  # [''] or [] = all actuated joints
     joints = robot.select(names)
@@ -200,7 +200,7 @@ def build_robot_setup(config, description=None, robot=None):
             tool_frame = tips[0]
         elif tips:
             problem = (f'tool_frame is not set and the chain ends in {len(tips)} links: '
-                       f'{", ".join(tips[:12])}{" ..." if len(tips) > 12 else ""}; '
+                       f'{show_names(tips)}; '
                        'set -p tool_frame:=<one of them> (or any link, body or site)')
         else:
             problem = f'tool_frame is not set and there is no tip: {why}'
@@ -234,7 +234,7 @@ def build_robot_setup(config, description=None, robot=None):
         max_jerk=tuple(float(v) if math.isfinite(v) else 0.0 for v in limits.jerk),
         min_position=lower, max_position=upper)
     effective.validate_position_limits(len(joint_names))
-    source_text = where if source[0] == 'robot_description' else f'model_file {source[1]!r}'
+    source_text = where if source[0] == 'robot_description' else model_file_where(source[1])
     return RobotSetup(robot, kinematics, limits, effective, source_text, tool_frame, problem,
                       torque)
 
@@ -276,7 +276,7 @@ def build_torque_setup(config, robot, joints, tool_frame, tool_problem=''):
                          f'holds the payload: {tool_problem or "set tool_frame"}')
     explicit = np.array(config.max_effort or (0.0,) * n, dtype=float)
     if explicit.size != n:
-        raise ValueError(f'max_effort needs one value per joint ({n}) of {list(names)}, got '
+        raise ValueError(f'max_effort needs one value per joint ({n}) of {show_names(names)}, got '
                          f'{explicit.size}: give them all (0 = from the robot description for '
                          'that joint), or -p max_effort:=[0.0] to take every one from it')
     limits, sources = explicit.copy(), ['max_effort'] * n
@@ -289,8 +289,8 @@ def build_torque_setup(config, robot, joints, tool_frame, tool_problem=''):
             raise ValueError(
                 f'limit_torque: joint {show(joint.name)} has no torque limit in the robot '
                 'description (no URDF <limit effort>, MJCF actuator forcerange or ctrlrange, '
-                f'or actuatorfrcrange): set max_effort, one value per joint of {list(names)} '
-                '(0 = from the description, inf = no limit)') from None
+                f'or actuatorfrcrange): set max_effort, one value per joint of '
+                f'{show_names(names)} (0 = from the description, inf = no limit)') from None
         limits[i], sources[i] = value[0], kind[0]
     dynamics = ArmDynamics(robot, names, tool_frame, **config.torque_payload())
     return TorqueSetup(limits, tuple(sources), dynamics)

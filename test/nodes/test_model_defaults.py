@@ -188,7 +188,7 @@ def test_tool_requests_need_tool_frame_only_where_the_tip_is_ambiguous():
                                    'initial_positions': list(vr.UR5_READY)}) as system:
         status, _ = system.request(pose_array(CORNERS[:2], frame_id=''))
         assert status.level == DiagnosticStatus.ERROR
-        assert 'the chain ends in 2 links: ee_link, tool0' in status.message
+        assert "the chain ends in 2 links: ['ee_link', 'tool0']" in status.message
         assert '-p tool_frame:=' in status.message
         result, = system.set_planner_parameters({'tool_frame': 'tool0'})
         assert result.successful, result.reason

@@ -275,7 +275,7 @@ def test_a_heavier_payload_plans_slower(planner):
      r'torque_headroom is set but limit_torque is false'),
     ({'payload_mass': 1.0, 'tool_frame': ''},
      r'payload_mass = 1 kg needs the tool frame that holds the payload: tool_frame is not '
-     r'set and the chain ends in 2 links: ee_link, tool0'),
+     r"set and the chain ends in 2 links: \['ee_link', 'tool0'\]"),
 ])
 def test_bad_torque_parameters_are_refused_with_the_reason(planner, values, reason):
     result = planner.node.set_parameters_atomically(
