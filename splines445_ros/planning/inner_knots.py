@@ -93,36 +93,18 @@ from .plan_options import DEFAULT_SMOOTHING, torque_without_windows
 from .timing import closed_form_scale, rest_to_rest_durations
 from .trajectory import REBUILD_RTOL, representable_durations, require_finite, Trajectory
 
-# With torque limits and no smoothing windows (issue 25; plan_options.
-# TORQUE_INNER_KNOTS is their count): step 2's grid steps per segment and step
-# 6's stop (relative gain over STALL iterations).  On bench_torque.py's 10 paths
-# per row 6 knots took Panda 3 kg from 1.055 to 1.042 x TOPP-RA (median); the
-# coarser grid and stop (with torque.PIECE_SAMPLES 5) paid for them.
+# The constants of the construction, each with its reason in one line; the
+# measurements behind them are in doc/inner_knots.md ("Where the constants
+# come from").
+# Torque limits without windows: coarser grid and stop pay for 6 inner knots.
 TORQUE_GRID_STEPS = 20
 TORQUE_MIN_GAIN = 1e-2
 # Grid steps per segment of the speed profile (step 2).
 GRID_STEPS = 24
-# With torque limits (issue 25): the same for step 3, whose ramp
-# accelerations are then the fastest profile's peaks (ramp_accelerations),
-# up to twice a joint's typical one; the share of the joints' jerk with which
-# step 2's profile leaves rest and comes to rest (end_ramps; at full
-# acceleration from rest the first piece needed up to 1.4 times its jerk
-# limit and kept its local factor at 0.6); and the power of a piece's torque
-# factor that also divides its two neighbours' local factors in step 6 (the
-# profile brakes for a slowed piece in its neighbours, and the spline
-# carries that braking into the piece: near a joint whose gravity torque is
-# at 95-99 % of its limit the piece's factor did not come down, and the
-# iteration oscillated between factors of 1.7 and 5.3).  On bench_torque.py
-# without smoothing windows (TOPP-RA's duration, medians of UR5 0 / 5 kg,
-# Panda 0 / 3 kg) with step 2's torque rows interpolated (_Path):
-# 1.053 / 1.067 / 1.033 / 1.108 with none of the three,
-# 1.026 / 1.028 / 1.007 / 1.055 with all; ramp pieces 1.5 instead of 0.5:
-# 1.062 / 1.046 / 1.024 / 1.051; no end ramps: 1.036 / 1.033 / 1.012 /
-# 1.057; no neighbours: 1.030 / 1.050 / 1.007 / 1.115; their power 0.3 or
-# 0.7: Panda 3 kg 1.047 and 1.056 (on 40 paths per robot 0.3 and 1.0 gave
-# 1.078 and 1.079, 0.5 1.070).  The shorter pieces only without smoothing
-# windows: with the default ones the 10 UR5 5 kg paths took 0.1 % longer
-# with them and 34 % more inverse-dynamics samples.
+# Torque limits without windows: shorter pieces follow the profile's jumps
+# (step 3), the profile leaves and reaches rest at this share of the jerk
+# (end_ramps), and a slowed piece slows its neighbours by its factor to this
+# power (step 6; without it the iteration oscillated near gravity's limit).
 TORQUE_RAMP_PIECES = 0.5
 TORQUE_END_RAMPS = 0.5
 TORQUE_NEIGHBOURS = 0.5
@@ -134,47 +116,18 @@ MIN_GAIN = 1e-3
 # Exponent of the local factor's update and its range (step 6).
 RELAX = 0.8
 MIN_LOCAL_FACTOR = 0.2
-# The same two for rest-to-rest requests of plan(): a piece's factor divided
-# out fully converges in fewer iterations.  With these instead of the above,
-# 60 random requests of the benchmark's kind (5-50 waypoints; no jerk
-# limit, j = 20 a and j = 5 a) took 12 % less time to plan and were 0.07 %
-# shorter on average (single requests from 5 % shorter to 1.6 % longer, as
-# a heuristic iteration goes), test_shaking's figures as before.  An
-# exponent of 1.2 was a little faster still but smoothed less (the 8 Hz
-# residual with vibration_frequency from 0.33 to 0.45 of the unsmoothed
-# plan's).  With boundary values 1.0 made 40 random requests 0.17 % longer
-# on average and the paper's example 2.5 %; they, and the paths of
-# path_timing (tool lines), keep the values above.
+# Rest to rest: a piece's factor divided out fully converges in fewer iterations.
 REST_ITERATIONS = 8
 REST_RELAX = 1.0
-# The exponent with the default smoothing windows (issue 23): 1.3 overshoots
-# the update a little and converges in fewer iterations.  On
-# bench_inner_knots.py's 20 requests (j = 20 a) the median duration went
-# from 1.047 to 1.043 times TOPP-RA's and the 4 Hz residual from 0.11 to
-# 0.12 of TOPP-RA's; on random 3 x 3 requests, with 3 iterations (below),
-# the inner-knot plans were 0.2 % shorter in 28 % less planning time.  A
-# vibration_frequency keeps REST_RELAX (its residual at the frequency).
+# With the default windows: overshooting the update a little converges sooner.
 WINDOWS_RELAX = 1.3
-# Requests of at most FEW_WAYPOINTS waypoints, rest to rest with the default
-# windows, stop after FEW_ITERATIONS iterations, or one without a gain of
-# MIN_GAIN, and recount once (issue 23: their planning time was above
-# TOPP-RA's).  With 3 iterations random 3 x 3 and 5 x 6 requests took 28 %
-# and 21 % less time, for 0.02 % shorter and 0.17 % longer plans on average
-# (the worst 0.2 % and 0.7 % longer; on 12 x 5 it would have cost 0.4 %);
-# 2 took 14 % and 12 % less again, for plans 0.13 % and 0.16 % longer (the
-# worst 1.9 % and 1.2 %; 150 requests of 3 waypoints, 1-7 joints, j = 5,
-# 20, 100 a; 60 of 5 x 6).  Neither applies with torque limits (their own
-# stop, TORQUE_MIN_GAIN).
+# Requests this small (rest to rest, default windows) stop early: their
+# planning time was above TOPP-RA's, for plans 0.1-0.2 % longer.
 FEW_WAYPOINTS = 5
 FEW_ITERATIONS = 2
 FEW_RECOUNTS = 1
-# With a total to beat (plan_with_inner_knots' give_up): the construction
-# stops once the best candidate after k candidates is above it by more than
-# the k-th of these (the last for more).  On 1000 random 3-waypoint
-# requests (1-7 joints, j = 5-100 a or none, some near-duplicates) the
-# plan was below the best of the first k candidates by at most 21.7 %,
-# 5.9 %, 5.5 % and 2.1 % (k = 1 to 4; with 3 iterations): a construction so
-# stopped would not have won.
+# With a total to beat: the construction stops once its best after k
+# candidates is above it by more than the k-th share (no later one won).
 GIVE_UP_GAINS = (0.3, 0.1, 0.08, 0.05)
 # With non-zero boundary values: the smallest common margin on the local
 # factors tried, and the bisection steps towards the largest feasible one.
@@ -190,12 +143,8 @@ END_SEGMENT_SHARES = (0.5, 2.0, 0.25)
 # (REST_ITERATIONS) more.
 RECOUNTS = 2
 OUTLIER = 1.01
-# With corner rounding (path_timing), step 6 lowers a grid point by the
-# largest factor of the pieces within this many rounding windows of it in
-# time: the UR5 seam at 0.1 m/s (bench_tool_lines.py) took 26 splines with 0
-# (its own piece only), 18 with 0.1, 11 with 0.25, 10 with 0.5; at 0.25 m/s
-# the share of the length at >= 99 % of v was 0.80, 0.80, 0.79, 0.78 (the
-# neighbours lowered more).
+# With corner rounding (path_timing): step 6 lowers a grid point by the
+# largest factor of the pieces within this many rounding windows of it.
 ROUNDED_REACH = 0.1
 # Safety factor on exact restoring factors against round-off.
 _ROUNDOFF = 1.0 + 1e-12
