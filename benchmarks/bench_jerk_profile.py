@@ -1,9 +1,9 @@
 """
 The third-order profile of issue 38 against plan()'s default and TOPP-RA, one run.
 
-Fresh random rest-to-rest requests every run (``bench_seeds``; 5 to 45
-waypoints, 3 to 7 joints, v in [1, 3] rad/s, a in [5, 15] rad/s^2, j = 20 a,
-as ``bench_inner_knots.py`` draws them).  Per request: plan()'s default
+Fresh random rest-to-rest requests every run (``bench_seeds``), drawn as
+``bench_inner_knots.py`` draws them (5 to 50 waypoints, 3 to 7 joints, v in
+[1, 3] rad/s, a in [5, 15] rad/s^2), with j = 20 a.  Per request: plan()'s default
 (555 optimal, inner knots, the second-order profile pulled back by its
 rounds), and ``inner_knots.plan_with_inner_knots(..., third_order=True)``
 with 8 inner knots at most and three choices of smoothing windows: the
@@ -24,6 +24,7 @@ import time
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but the rule holds
 
 import bench_figures  # noqa: E402, I100
+from bench_inner_knots import random_case  # noqa: E402
 from bench_planning import toppra_trajectory  # noqa: E402
 import bench_seeds  # noqa: E402
 import numpy as np  # noqa: E402
@@ -40,14 +41,6 @@ MOST_KNOTS = 8
 # 1/4 s and its half, and plan()'s default.
 WINDOWS = ((0.1, 0.05), (0.25, 0.125), (0.3, 0.15))
 CASES_STREAM = 38
-
-
-def random_case(rng):
-    """One request: waypoints (N, n), v and a limits (n,)."""
-    n_joints = int(rng.integers(3, 8))
-    n_points = int(rng.integers(5, 46))
-    waypoints = np.cumsum(rng.uniform(-1.0, 1.0, (n_points, n_joints)), axis=0)
-    return waypoints, rng.uniform(1.0, 3.0, n_joints), rng.uniform(5.0, 15.0, n_joints)
 
 
 def timed(func):
