@@ -543,7 +543,7 @@ def share_table(rows):
         if r['v'] is None or r['failed']:
             continue
         lines.append(f"| {row_name(r)} | {r['ours_speed'][1]:.2f} "
-                     f"| {r['ours_speed'][1] / r['allowed']:.2f} "
+                     f"| {r['ours_speed'][1] / r['allowed'] if r['allowed'] else math.nan:.2f} "
                      f"| {listed(r['ours_speed'][2])} | {listed(r['edge_plain'])} "
                      f"| {listed(r['edge_jerk'])} |")
     return '\n'.join(lines)
