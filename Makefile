@@ -85,6 +85,7 @@ bench: build
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_tool_lines.py
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_torque.py
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_torque_arm.py
+	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_jerk_profile.py
 
 lint: env
 	$(BIN)ament_flake8 $(LINTED)
