@@ -126,7 +126,7 @@ def model_cases(rng):
             torque_setup = build_robot_setup(config)
             effective = torque_setup.effective(config)
             request = joint_request(rng, len(pose), pose, 0.6)
-            traj = plan_request(effective, request, torque_setup.torque_kwargs(config))
+            traj = plan_request(effective, request, torque_setup.torque_options(config))
             yield f'{name} torque {k} payload={payload}', traj
 
 

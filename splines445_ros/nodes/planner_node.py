@@ -425,7 +425,7 @@ class PlannerNode(Node):
         switch_ns = None
         switch_delay = 0.0
         tool_values = {}
-        torque = {}
+        torque = None
         values = {'request': request_id}
         if job.interface:
             values['interface'] = job.interface
@@ -434,12 +434,12 @@ class PlannerNode(Node):
             robot = None
             if config.kinematics == 'model':
                 robot = self._robot_for(config)
-                torque = robot.torque_kwargs(config)
+                torque = robot.torque_options(config)
                 config = robot.effective(config)  # joint names and limits of the robot
                 tool_values = robot.limits.report()
-                if torque:
+                if torque is not None:
                     # The limits planned to: max_effort less the headroom.
-                    tool_values['limit_torque'] = format_vector(torque['max_torque'])
+                    tool_values['limit_torque'] = format_vector(torque.max_torque)
                     tool_values['torque_headroom'] = f'{config.torque_headroom:g}'
             if isinstance(msg, PoseArray) and robot is not None:
                 tool_path = plan_model_tool_request(
@@ -605,8 +605,8 @@ class PlannerNode(Node):
 
         While the last published trajectory runs, its state is the start (a
         later switch along it when none plans there: see plan_from_running);
-        otherwise the latest joint_states are.  ``torque``: the torque
-        keywords of plan() (rest to rest only).
+        otherwise the latest joint_states are.  ``torque``: the
+        TorqueOptions, or None (rest to rest only).
         """
         if self._active is not None:
             running, start_ns = self._active

@@ -30,7 +30,7 @@ from typing import Optional, Tuple
 import numpy as np
 
 from .planner_config import TORQUE_STAND_IN_ACCELERATION
-from .request_planning import plan_tool_poses
+from .request_planning import plan_tool_poses, TorqueOptions
 from ..robot.chain_tip import chain_tips
 from ..robot.dynamics import ArmDynamics
 from ..robot.inverse_kinematics import ModelKinematics
@@ -66,15 +66,15 @@ class TorqueSetup:
     sources: Tuple[str, ...]     # per joint: 'max_effort', or where the description has it
     dynamics: ArmDynamics        # with the payload; not thread-safe: the planning worker's
 
-    def plan_kwargs(self, headroom=0.0):
+    def options(self, headroom=0.0):
         """
-        Return the torque keywords of ``plan()`` and ``plan_tool_path()``.
+        Return the :class:`~.request_planning.TorqueOptions` of a request.
 
         The limits less the share ``headroom`` (``torque_headroom``) left to
-        the controller's corrections.
+        the controller's corrections; the dynamics gives its torques and its
+        gravity pass.
         """
-        return {'max_torque': self.max_torque * (1.0 - headroom),
-                'inverse_dynamics': self.dynamics}    # its torques, and its gravity pass
+        return TorqueOptions(self.max_torque * (1.0 - headroom), self.dynamics)
 
     def report(self, joint_names):
         """Return status values: the torque limits with their sources, and the payload."""
@@ -118,22 +118,23 @@ class RobotSetup:
         return (f'{self.source}: {len(names)} joints {show_names(names)}, {tool} in base_frame '
                 f'{self.config.base_frame or "world"!r}{torque}')
 
-    def torque_kwargs(self, config):
+    def torque_options(self, config):
         """
-        Return the torque keywords for ``plan()`` under ``config`` ({} without limit_torque).
+        Return the :class:`~.request_planning.TorqueOptions` under ``config``, or None.
 
-        ValueError when ``config`` limits the torque and this setup (built
-        for another config, its new description still compiling) does not.
+        None without ``limit_torque``.  ValueError when ``config`` limits the
+        torque and this setup (built for another config, its new description
+        still compiling) does not.
         """
         if not config.limit_torque:
-            return {}
+            return None
         stale = any(getattr(self.config, name) != getattr(config, name)
                     for name in TORQUE_FIELDS)
         if self.torque is None or stale:
             raise ValueError('limit_torque: the robot is still being set up for the torque '
                              'parameters in force (its description is compiling); send the '
                              'request again')
-        return self.torque.plan_kwargs(config.torque_headroom)
+        return self.torque.options(config.torque_headroom)
 
     def effective(self, config):
         """
@@ -326,7 +327,7 @@ def plan_model_tool_request(setup, rows, seed=None, config=None, torque=None):
     Rest to rest, refined to ``max_path_deviation`` and
     ``max_orientation_deviation`` (the angle from the slerp) of ``config``
     (the node's current PlannerConfig; default: the one the setup was built from).
-    ``torque``: the keywords of :meth:`RobotSetup.torque_kwargs` the caller
+    ``torque``: the :meth:`RobotSetup.torque_options` the caller
     took already, from the user's config (None: taken here from
     ``config``).  Not from ``effective(config)``: that one names the chain
     tip as its tool frame where the user left it empty, and the setup
@@ -339,5 +340,5 @@ def plan_model_tool_request(setup, rows, seed=None, config=None, torque=None):
                        else kinematics.check_seed(seed))
     config = config or setup.config
     if torque is None:
-        torque = setup.torque_kwargs(config)
+        torque = setup.torque_options(config)
     return plan_tool_poses(setup.effective(config), rows, kinematics, torque)

@@ -45,6 +45,20 @@ STOP_METHOD = '555'
 STOP_TIMING = 'optimal'
 
 
+@dataclass(frozen=True)
+class TorqueOptions:
+    """
+    The torque limits a request is planned to (``limit_torque``), as ``plan()`` takes them.
+
+    ``max_torque`` (n,) [N m, or N for a slide; inf = no limit], already less
+    the ``torque_headroom``; ``inverse_dynamics`` gives the torques (an
+    :class:`~splines445_ros.robot.dynamics.ArmDynamics`, with its gravity pass).
+    """
+
+    max_torque: np.ndarray
+    inverse_dynamics: object
+
+
 @dataclass
 class WaypointRequest:
     """A parsed waypoint request, columns in the configured joint order."""
@@ -61,15 +75,13 @@ def plan_request(config, request, torque=None):
     """
     Plan ``request`` (a WaypointRequest) with ``config`` (a PlannerConfig).
 
-    ``torque``: the torque keywords of ``plan()`` (``max_torque``,
-    ``inverse_dynamics``; None or {} = no torque limits), which plan rest to
-    rest only.  Raises ValueError for anything the planning core rejects,
+    ``torque``: the :class:`TorqueOptions` (None = no torque limits), which
+    plan rest to rest only.  Raises ValueError for anything the planning core rejects,
     for a "fixed" request without strictly increasing times, for a "fixed"
     request whose times would exceed a limit (a torque limit named by its
     joint), and with torque limits for a request that starts or ends moving.
     """
-    torque = torque or {}
-    if torque:
+    if torque is not None:
         _require_rest(config, request)
     durations = None
     if config.timing == 'fixed':
@@ -80,7 +92,7 @@ def plan_request(config, request, torque=None):
     try:
         traj = _plan(request, config, durations, torque)
     except ValueError as exc:
-        if not torque or config.timing != 'fixed' or isinstance(exc, GravityOverload):
+        if torque is None or config.timing != 'fixed' or isinstance(exc, GravityOverload):
             raise
         raise _named_joint(exc, config.joint_names) from exc
     check_position_limits(traj, **config.position_limits())
@@ -93,7 +105,7 @@ def plan_request(config, request, torque=None):
 
 
 def _plan(request, config, durations, torque):
-    """Call ``plan()`` with the request, the config's limits and the torque keywords."""
+    """Call ``plan()`` with the request, the config's limits and the torque options."""
     return plan(request.waypoints, method=config.method, timing=config.timing,
                 durations=durations, max_velocity=config.max_velocity,
                 max_acceleration=config.max_acceleration, max_jerk=config.jerk_limits(),
@@ -103,7 +115,14 @@ def _plan(request, config, durations, torque):
                 waypoint_tolerance=config.waypoint_tolerance,
                 inner_knots=config.plan_inner_knots(),
                 vibration_frequency=config.vibration_frequency,
-                smoothing=config.smoothing, **torque)
+                smoothing=config.smoothing, **_torque_arguments(torque))
+
+
+def _torque_arguments(torque):
+    """Return ``plan()``'s ``max_torque`` and ``inverse_dynamics`` of :class:`TorqueOptions`."""
+    if torque is None:
+        return {'max_torque': None, 'inverse_dynamics': None}
+    return {'max_torque': torque.max_torque, 'inverse_dynamics': torque.inverse_dynamics}
 
 
 def _named_joint(exc, joint_names):
@@ -163,7 +182,7 @@ def plan_tool_poses(config, poses, kinematics, torque=None):
     position limits, with ``inner_knots`` (555 optimal) and the tool speed
     limits ``max_tool_speed`` [m/s] and ``max_tool_angular_speed`` [rad/s]
     (0 = no limit; the config refuses them where they cannot apply), and
-    ``torque`` (the torque keywords of ``plan()``; None = none), which the
+    ``torque`` (the :class:`TorqueOptions`; None = none), which the
     'tool lines' construction (555 optimal) holds together with the tool
     speeds, and the refinement (other methods) by slowing each plan down.
     Raises ValueError for "fixed" timing (a PoseArray has no times), for
@@ -187,7 +206,7 @@ def plan_tool_poses(config, poses, kinematics, torque=None):
                                smoothing=config.smoothing,
                                max_tool_speed=config.max_tool_speed,
                                max_tool_angular_speed=config.max_tool_angular_speed,
-                               **(torque or {}))
+                               **_torque_arguments(torque))
     check_position_limits(tool_path.trajectory, **config.position_limits())
     return tool_path
 

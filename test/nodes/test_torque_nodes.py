@@ -336,26 +336,27 @@ def test_a_torque_setup_is_not_used_for_other_torque_parameters():
     from dataclasses import replace
     from splines445_ros.service.model_planning import build_robot_setup
     from splines445_ros.service.planner_config import PlannerConfig
+    from splines445_ros.service.request_planning import TorqueOptions
     config = PlannerConfig(kinematics='model', model_file=vr.ur5_urdf(), tool_frame='tool0',
                            joint_names=tuple(vr.UR5_JOINTS), max_velocity=(0.0,),
                            max_acceleration=(0.0,), max_jerk=(0.0,), max_effort=(0.0,) * 6,
                            limit_torque=True,
                            payload_mass=5.0)
     setup = build_robot_setup(config, robot=load_robot_model(vr.ur5_urdf()))
-    assert set(setup.torque_kwargs(config)) == {'max_torque', 'inverse_dynamics'}
+    assert isinstance(setup.torque_options(config), TorqueOptions)
     # The dynamics itself: plan() takes its gravity pass for the torques at rest.
-    assert setup.torque_kwargs(config)['inverse_dynamics'] is setup.torque.dynamics
+    assert setup.torque_options(config).inverse_dynamics is setup.torque.dynamics
     # The headroom scales the limits planned to, with no new setup.
     for headroom in (config.torque_headroom, 0.0, 0.3):
         np.testing.assert_allclose(
-            setup.torque_kwargs(replace(config, torque_headroom=headroom))['max_torque'],
+            setup.torque_options(replace(config, torque_headroom=headroom)).max_torque,
             EFFORT * (1.0 - headroom), rtol=1e-12)
     assert config.torque_headroom == 0.1    # the default doc/nodes.md states
     for changed in ({'payload_mass': 10.0}, {'max_effort': (100.0,) * 6},
                     {'payload_center_of_mass': (0.0, 0.0, 0.1)}):
         with pytest.raises(ValueError, match='still being set up'):
-            setup.torque_kwargs(replace(config, **changed))
-    assert setup.torque_kwargs(replace(config, limit_torque=False)) == {}
+            setup.torque_options(replace(config, **changed))
+    assert setup.torque_options(replace(config, limit_torque=False)) is None
 
 
 def test_a_tool_request_with_torque_limits_on_an_arm_whose_tool_frame_is_its_chain_tip():
@@ -376,7 +377,7 @@ def test_a_tool_request_with_torque_limits_on_an_arm_whose_tool_frame_is_its_cha
                                         'max_jerk': [0.0], 'limit_torque': True})
     setup = build_robot_setup(config)
     assert config.tool_frame == '' and setup.tool_frame != ''
-    torque = setup.torque_kwargs(config)
+    torque = setup.torque_options(config)
     kinematics = setup.kinematics
     position, quaternion = kinematics.tool.pose(
         kinematics.robot.default_seed(kinematics.joints))
