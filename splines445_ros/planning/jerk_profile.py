@@ -94,12 +94,9 @@ class ThirdOrderProfile:
                            + sp.diags(c_du[inner, k]) @ du_ds)
                     jerk += [row, -row]
                     self._jerk_bounds += [bound[inner, k]] * 2
-        self._second = sp.vstack(blocks, format='csr') if blocks else None
-        self._jerk = sp.vstack(jerk, format='csr') if jerk else None
-        self._matrix = sp.vstack([part for part in (self._second, self._jerk)
-                                  if part is not None], format='csr')
-        self._weights = np.concatenate([[steps[0]], mean_step * 2.0, [steps[-1]]]) * 0.5
-        self.solves = 0
+        self._matrix = sp.vstack(blocks + jerk, format='csr')
+        # Each grid point's share of the path (half a step at either end).
+        self._weights = np.concatenate([[0.5 * steps[0]], mean_step, [0.5 * steps[-1]]])
 
     def profile(self, scale, x_max):
         """
@@ -131,7 +128,6 @@ class ThirdOrderProfile:
             weights = self._weights / np.maximum(bar, MIN_WEIGHT_SHARE * np.max(bar)) ** 1.5
             bounds = np.column_stack([np.zeros(m + 1), bar])
             bounds[[0, -1], 1] = 0.0
-            self.solves += 1
             result = linprog(-weights, A_ub=self._matrix[keep], b_ub=rhs[keep], bounds=bounds,
                              method='highs')
             if result.status != 0:
