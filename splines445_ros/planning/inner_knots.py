@@ -77,6 +77,9 @@ pieces.  This is not started from the knots-only optimum of
 spline is found.
 """
 
+from dataclasses import dataclass
+from typing import Optional
+
 import numpy as np
 
 from .averaged_timing import AveragedTiming
@@ -148,6 +151,49 @@ OUTLIER = 1.01
 ROUNDED_REACH = 0.1
 # Safety factor on exact restoring factors against round-off.
 _ROUNDOFF = 1.0 + 1e-12
+
+
+@dataclass(frozen=True)
+class TimingProblem:
+    """
+    What the construction times: a path with its boundary values and limits.
+
+    ``path`` is step 1's path on step 2's grid (this module's own, or a
+    :class:`path_timing.JointPathSamples`: what :class:`KnotCandidate`
+    reads of it is listed there); ``boundary`` the four boundary vectors
+    (start velocity and acceleration, end velocity and acceleration);
+    ``limits`` the :class:`limits.JointLimits`; ``rest`` whether all four
+    are zero, so that step 5 scales every spline to its limits.
+    """
+
+    path: object
+    boundary: tuple
+    limits: object
+    rest: bool
+
+    @property
+    def points(self):
+        """Return the path's waypoints, which the spline passes: an (N, n) array."""
+        return self.path.points
+
+
+@dataclass(frozen=True)
+class IterationBudget:
+    """
+    How steps 2-6 iterate (:func:`iterate_knots`).
+
+    At most ``iterations`` candidates; a stop after ``stall`` of them in a
+    row without a relative gain of ``min_gain``; ``relax`` is step 6's
+    exponent.  ``give_up``, a total to beat (None: none): the iteration
+    ends without a result once it shows that it will not beat it
+    (:data:`GIVE_UP_GAINS`).
+    """
+
+    iterations: int = ITERATIONS
+    relax: float = RELAX
+    min_gain: float = MIN_GAIN
+    stall: int = STALL
+    give_up: Optional[float] = None
 
 
 class _Path:
@@ -307,17 +353,19 @@ class KnotCandidate:
     define it; ``profile`` is its :class:`SpeedProfile`.
     """
 
-    def __init__(self, path, local, counts, boundary, limits, rest, fractions=None,
-                 profile=None):
+    def __init__(self, problem, local, counts, fractions=None, profile=None):
         """
         Build the candidate; ``counts`` (S,) inner knots per segment, or None to choose them.
 
-        ``fractions``, when given, replaces ``counts``: per segment, the
-        increasing time fractions in [0, 1) of its knots (the first 0, its
-        waypoint), for knots not at equal fractions (:mod:`path_timing`).
+        ``problem`` is the :class:`TimingProblem`.  ``fractions``, when
+        given, replaces ``counts``: per segment, the increasing time
+        fractions in [0, 1) of its knots (the first 0, its waypoint), for
+        knots not at equal fractions (:mod:`path_timing`).
         ``profile``, when given, is the :class:`SpeedProfile` of ``local``,
         computed already.
         """
+        path, boundary, limits, rest = (problem.path, problem.boundary, problem.limits,
+                                        problem.rest)
         self.valid = False
         self.local = local
         self.grid_s = path.s
@@ -472,10 +520,11 @@ def plan_with_inner_knots(points, boundary, limits, most, dropped_waypoints=(),
             raise
         except ValueError:
             continue
-        best, iterations = _construct(path, boundary, limits, rest, knots_only, give_up)
+        problem = TimingProblem(path, boundary, limits, rest)
+        best, iterations = _construct(problem, knots_only, give_up)
         if best is None:
             continue
-        traj = kept_trajectory(points, boundary, limits, rest, best, dropped_waypoints,
+        traj = kept_trajectory(problem, best, dropped_waypoints,
                                {'inner_knots': most, 'knots': int(best.pieces.size + 1),
                                 'inner_knots_per_segment': best.counts.tolist(),
                                 'iterations': iterations, 'end_segment_share': share,
@@ -485,27 +534,28 @@ def plan_with_inner_knots(points, boundary, limits, most, dropped_waypoints=(),
     return None
 
 
-def _construct(path, boundary, limits, rest, knots_only=True, give_up=None):
+def _construct(problem, knots_only=True, give_up=None):
     """
-    Run steps 2-7 on ``path``; return (a candidate within the limits or None, iterations).
+    Run steps 2-7 on ``problem``; return (a candidate within the limits or None, iterations).
 
     ``knots_only`` False leaves out the last candidates of step 7 (knots at
     the waypoints only, on this timing): for a caller that compares with
     the knots-only optimum anyway.  ``give_up`` as for
     :func:`plan_with_inner_knots` (None once the construction cannot beat it).
     """
-    budget = {'iterations': REST_ITERATIONS, 'relax': REST_RELAX} if rest else {}
-    budget['min_gain'] = path.min_gain
+    path, rest = problem.path, problem.rest
+    most = REST_ITERATIONS if rest else ITERATIONS
+    relax = REST_RELAX if rest else RELAX
+    stall = STALL
     recounts = RECOUNTS
     if rest and tuple(path.windows) == DEFAULT_SMOOTHING and path.piece_factors is None:
-        budget['relax'] = WINDOWS_RELAX
+        relax = WINDOWS_RELAX
         if path.points.shape[0] <= FEW_WAYPOINTS:
-            budget.update(iterations=FEW_ITERATIONS, stall=1)
+            most, stall = FEW_ITERATIONS, 1
             recounts = FEW_RECOUNTS
+    budget = IterationBudget(most, relax, path.min_gain, stall, give_up)
     start = SpeedProfile(path, np.ones(path.s.size))
-    budget['give_up'] = give_up
-    best, iterations = iterate_knots(path, start.local, None, boundary, limits, rest, None,
-                                     profile=start, **budget)
+    best, iterations = iterate_knots(problem, start.local, None, None, budget, profile=start)
     for _ in range(recounts):
         if best is None:
             break
@@ -516,8 +566,8 @@ def _construct(path, boundary, limits, rest, knots_only=True, give_up=None):
         if not np.any(outliers):
             break
         counts = np.where(outliers, best.counts // 2, best.counts)
-        best, more = iterate_knots(path, best.local, counts, boundary, limits, rest, best,
-                                   profile=best.profile, made=iterations, **budget)
+        best, more = iterate_knots(problem, best.local, counts, best, budget,
+                                   profile=best.profile, made=iterations)
         iterations += more
     if best is None:
         return None, iterations
@@ -525,35 +575,36 @@ def _construct(path, boundary, limits, rest, knots_only=True, give_up=None):
     # (few segments, one joint reversing) where that is shorter: on the
     # profiles of the best factors and of the first ones, both built already.
     for profile in (best.profile, start) if knots_only else ():
-        candidate = KnotCandidate(path, profile.local, np.zeros_like(best.counts), boundary,
-                                  limits, rest, profile=profile)
+        candidate = KnotCandidate(problem, profile.local, np.zeros_like(best.counts),
+                                  profile=profile)
         if candidate.valid and candidate.better_than(best):
             best = candidate
     if not best.feasible:
-        best = _with_margin(path, best, boundary, limits)
+        best = _with_margin(problem, best)
     return best, iterations
 
 
-def iterate_knots(path, local, counts, boundary, limits, rest, best, fractions=None,
-                  iterations=ITERATIONS, profile=None, relax=RELAX, min_gain=MIN_GAIN, stall=STALL,
-                  give_up=None, made=0):
+def iterate_knots(problem, local, counts, best, budget, fractions=None, profile=None, made=0):
     """
     Run steps 2-6 from the local factors ``local``; return (best candidate or None, iterations).
 
-    Stops after ``iterations``, or ``stall`` (:data:`STALL`) iterations in
-    a row without a relative gain of ``min_gain`` (:data:`MIN_GAIN`) over
-    ``best`` (the best so far); ``relax`` is step 6's exponent
-    (:data:`REST_RELAX`, :data:`WINDOWS_RELAX` and the iterations for
-    rest-to-rest requests of plan(): :func:`_construct`).
-    ``fractions`` as for :class:`KnotCandidate`; ``profile``, when given, is
-    the :class:`SpeedProfile` of ``local`` (the first candidate's).  With
-    ``give_up`` (a total to beat), (None, iterations) once the best
+    ``problem`` is the :class:`TimingProblem`, ``counts`` and ``fractions``
+    as for :class:`KnotCandidate`, ``best`` the best candidate so far (or
+    None).  ``budget`` (an :class:`IterationBudget`) says how it runs: it
+    stops after ``budget.iterations``, or ``budget.stall`` iterations in a
+    row without a relative gain of ``budget.min_gain`` over ``best``;
+    ``budget.relax`` is step 6's exponent (:data:`REST_RELAX`,
+    :data:`WINDOWS_RELAX` and the iterations for rest-to-rest requests of
+    plan(): :func:`_construct`).  ``profile``, when given, is the
+    :class:`SpeedProfile` of ``local`` (the first candidate's).  With
+    ``budget.give_up`` (a total to beat), (None, iterations) once the best
     candidate is above it by more than :data:`GIVE_UP_GAINS` says the
     iterations could still gain after ``made`` + these candidates.
     """
-    stalled, most = 0, iterations
-    for iterations in range(1, most + 1):
-        candidate = KnotCandidate(path, local, counts, boundary, limits, rest, fractions, profile)
+    min_gain, stall, give_up = budget.min_gain, budget.stall, budget.give_up
+    stalled, iterations = 0, budget.iterations
+    for iterations in range(1, budget.iterations + 1):
+        candidate = KnotCandidate(problem, local, counts, fractions, profile)
         profile = None
         if not candidate.valid:
             break
@@ -567,21 +618,22 @@ def iterate_knots(path, local, counts, boundary, limits, rest, best, fractions=N
             return None, iterations
         if stalled >= stall:
             break
-        local = candidate.relaxed(local, relax)
+        local = candidate.relaxed(local, budget.relax)
     return best, iterations
 
 
-def _with_margin(path, best, boundary, limits):
+def _with_margin(problem, best):
     """
     Return a spline within the limits for non-zero boundary values, or None.
 
     Step 5 cannot scale such a spline, so the local factors of ``best`` are
     multiplied by a common margin ``g`` in [:data:`MIN_MARGIN`, 1], bisected
     (:data:`MARGIN_STEPS` steps) for the largest ``g`` whose spline meets
-    every limit; the shortest of those is returned.
+    every limit; the shortest of those is returned (``problem`` has
+    non-zero boundary values: not :attr:`TimingProblem.rest`).
     """
     def attempt(g):
-        candidate = KnotCandidate(path, best.local * g, best.counts, boundary, limits, False)
+        candidate = KnotCandidate(problem, best.local * g, best.counts)
         return candidate if candidate.valid and candidate.feasible else None
 
     found = attempt(MIN_MARGIN)
@@ -600,11 +652,14 @@ def _with_margin(path, best, boundary, limits):
     return found
 
 
-def kept_trajectory(points, boundary, limits, rest, best, dropped, optimizer):
+def kept_trajectory(problem, best, dropped, optimizer):
     """
-    Return the Trajectory of the kept spline, on the widths the PPoly really has.
+    Return the Trajectory of the kept spline ``best`` of ``problem``, on the PPoly's widths.
 
-    Those differ from the pieces by round-off of the cumulative sum: the
+    ``dropped`` are the merged waypoints' indices, ``optimizer`` the
+    trajectory's ``optimizer`` record.  The widths the PPoly really has
+
+    differ from the pieces by round-off of the cumulative sum: the
     candidate's terms and exact ratios, time-scaled to its pieces, are kept
     when they differ by at most :data:`trajectory.REBUILD_RTOL` (its factor
     has a margin of 1e-12 over their round-off), and the spline is solved
@@ -612,6 +667,7 @@ def kept_trajectory(points, boundary, limits, rest, best, dropped, optimizer):
     spline is stretched by its exact factor while one exceeds 1 (at most
     twice), any other must already be within its limits.
     """
+    boundary, limits, rest = problem.boundary, problem.limits, problem.rest
     pieces = best.pieces
     # The candidate's terms, scaled to its pieces (no second solve), unless
     # the PPoly's widths differ from them by more than round-off.
@@ -638,7 +694,7 @@ def kept_trajectory(points, boundary, limits, rest, best, dropped, optimizer):
         pieces, coeffs, ratios = pieces * f, None, None
     else:
         return None
-    traj = Trajectory('555', 'optimal', points, pieces, coeffs, boundary, limits, None,
+    traj = Trajectory('555', 'optimal', problem.points, pieces, coeffs, boundary, limits, None,
                       dropped, ratios=ratios)
     try:
         require_finite(traj)

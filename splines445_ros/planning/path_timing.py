@@ -47,7 +47,8 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from .averaged_timing import AveragedTiming, regula_falsi
-from .inner_knots import end_ramps, iterate_knots, kept_trajectory, KnotCandidate, SpeedProfile
+from .inner_knots import (end_ramps, iterate_knots, IterationBudget, kept_trajectory,
+                          KnotCandidate, SpeedProfile, TimingProblem)
 from .knot_pieces import (equal_fractions, knot_times, knots_per_segment, ramp_accelerations,
                           shortest_piece)
 from .path_constraints import GriddedPath, JointAcceleration, JointTorque, JointVelocity
@@ -127,7 +128,7 @@ SPLIT_CLEARANCE = 0.5
 # Samples per piece of the first profile's state (at its cap or not).
 TRANSITION_SAMPLES = 8
 # Samples of the bracket of _RoundedTiming.time_at, and its regula falsi steps
-# (inner_knots.regula_falsi, Illinois) between the two around the target:
+# (averaged_timing.regula_falsi, Illinois) between the two around the target:
 # with 4 within 6e-9 of the length at every position of 40 ramp-cap-ramp
 # spans (test_path_constraints, which fails with 3: about 2e-7 near the
 # stops).
@@ -153,7 +154,7 @@ class JointPathSamples:
     the smoothing windows average each span between stops on its own, so
     the averaged profile still stops there.
 
-    What :class:`inner_knots._Candidate` reads: ``s``, ``steps``,
+    What :class:`inner_knots.KnotCandidate` reads: ``s``, ``steps``,
     ``waypoint_s``, ``points``, ``ppoly``, ``limits`` (a :class:`PathLimits`),
     ``start``, ``end``, ``most``, ``min_piece``, ``ramp_pieces``,
     ``ramp_acceleration`` (:func:`knot_pieces.ramp_accelerations`),
@@ -166,7 +167,7 @@ class JointPathSamples:
     knots are split where the profile meets its first-order bounds
     ``speed_caps`` (:func:`_transition_fractions`), and step 6 lowers the
     local factors over the window's reach
-    (:meth:`inner_knots._Candidate.relaxed`).
+    (:meth:`inner_knots.KnotCandidate.relaxed`).
     """
 
     def __init__(self, s, q, waypoint_index, limits, constraints=(),
@@ -244,7 +245,7 @@ class JointPathSamples:
 
 class _SpanTiming:
     """
-    :class:`inner_knots._Timing` of every span between stops, one after the other.
+    :class:`averaged_timing.AveragedTiming` of every span between stops, one after the other.
 
     Each span starts and ends at rest, so each is averaged on its own and
     lasts its windows longer; ``time_at`` and ``position_at`` as there.
@@ -292,8 +293,8 @@ class _RoundedTiming(AveragedTiming):
 
     ``position_at(t)`` is ``p + w(t) (a(t) - p)``: ``p`` the plain
     profile's position, ``a`` its average over ``[t - W / 2, t + W / 2]``
-    (the one-window :class:`inner_knots._Timing` at ``t + W / 2``, the
-    span's ends held beyond it) and ``w`` a blend from 0 at each end of the
+    (the one-window :class:`averaged_timing.AveragedTiming` at
+    ``t + W / 2``, the span's ends held beyond it) and ``w`` a blend from 0 at each end of the
     span (a stop, where the profile rests) to 1 one window ``W`` inside it,
     so the stops keep their times and their rest.  The blend
     ``d**3 (10 - 15 d + 6 d**2)`` (``d`` the distance in windows) has no
@@ -318,10 +319,10 @@ class _RoundedTiming(AveragedTiming):
         ``s(t)`` itself: the rounded profile passes ``s`` within half a window
         of the plain one.  That bracket is sampled at
         :data:`INVERSE_SAMPLES` times in one call and the crossing found by
-        :func:`inner_knots.regula_falsi` between the two samples around it,
+        :func:`averaged_timing.regula_falsi` between the two samples around it,
         :data:`INVERSE_REFINEMENTS` steps (five calls of :meth:`position_at`
-        where :class:`inner_knots._Timing`'s table and regula falsi make
-        six, on a longer table).
+        where :class:`averaged_timing.AveragedTiming`'s table and regula falsi
+        make six, on a longer table).
         """
         s = np.asarray(s, float)
         out = np.where(s >= self.s[-1], self.duration, 0.0)
@@ -379,19 +380,19 @@ def plan_along_path(path, limits, fractions=None, local=None, iterations=None):
     from (a previous :attr:`PathTiming.local`).  ValueError when no spline
     within the limits is found.
     """
-    boundary = [np.zeros(path.points.shape[1])] * 4
+    problem = TimingProblem(path, [np.zeros(path.points.shape[1])] * 4, limits, True)
     start = np.ones(path.s.size) if local is None else local
-    kwargs = {'iterations': PATH_ITERATIONS if iterations is None else iterations,
-              'relax': PATH_RELAX, 'min_gain': PATH_MIN_GAIN}
+    budget = IterationBudget(PATH_ITERATIONS if iterations is None else iterations,
+                             PATH_RELAX, PATH_MIN_GAIN)
+    profile = None
     if fractions is None and path.rounding:
-        fractions, kwargs['profile'] = _transition_fractions(path, limits, start)
-    best, count = iterate_knots(path, start, None, boundary, limits, True, None, fractions,
-                                **kwargs)
+        fractions, profile = _transition_fractions(problem, start)
+    best, count = iterate_knots(problem, start, None, None, budget, fractions, profile)
     if best is None:
         raise ValueError('no spline along the path meets the limits')
-    best, more = _polish(path, best, boundary, limits, fractions)
+    best, more = _polish(problem, best, fractions)
     count += more
-    traj = kept_trajectory(path.points, boundary, limits, True, best, (),
+    traj = kept_trajectory(problem, best, (),
                            {'knots': int(best.pieces.size + 1), 'iterations': count,
                            'smoothing_windows': list(path.windows)})
     if traj is None:
@@ -403,12 +404,12 @@ def plan_along_path(path, limits, fractions=None, local=None, iterations=None):
     return PathTiming(traj, best.knot_s, found, count, best.local)
 
 
-def _transition_fractions(path, limits, local):
+def _transition_fractions(problem, local):
     """
     Return the first knots' fractions per segment, split at the speed caps' corners, and a profile.
 
-    The profile is the :class:`inner_knots._Profile` of ``local`` (the first
-    candidate's: the iteration starts from it).
+    The profile is the :class:`inner_knots.SpeedProfile` of ``local`` on
+    ``problem``'s path (the first candidate's: the iteration starts from it).
 
     The knots step 3 places on the profile of ``local`` (equal fractions, as
     many as the jerk ramp allows); a piece where the profile is at
@@ -423,6 +424,7 @@ def _transition_fractions(path, limits, local):
     at 0.05 s on the first profile, 0.3 s on the last; 0.89 of its length at
     >= 99 % of v without that split, 0.95 with it).
     """
+    path, limits = problem.path, problem.limits
     profile = SpeedProfile(path, local)
     if not profile.valid:
         return None, profile
@@ -448,7 +450,7 @@ def _transition_fractions(path, limits, local):
     return midpoint_fractions(fractions, np.flatnonzero(split)), profile
 
 
-def _polish(path, best, boundary, limits, fractions):
+def _polish(problem, best, fractions):
     """
     Return (candidate, splines built): ``best`` with its few binding pieces slowed down harder.
 
@@ -465,7 +467,7 @@ def _polish(path, best, boundary, limits, fractions):
         if float(np.max(best.factors)) <= 1.0:
             break
         local = best.relaxed(best.local, POLISH_RELAX, floor=1.0)
-        candidate = KnotCandidate(path, local, None, boundary, limits, True, fractions)
+        candidate = KnotCandidate(problem, local, None, fractions)
         count += 1
         if not (candidate.valid and candidate.better_than(best)):
             break
@@ -500,17 +502,23 @@ def rescaled(traj, factor):
     if not factor > 1.0:
         return traj
     candidate = _Scaled(traj, factor)
-    scaled = kept_trajectory(traj.waypoints, [np.zeros(traj.waypoints.shape[1])] * 4, traj.limits,
-                             True, candidate, (), dict(traj.optimizer, time_scale=float(factor)))
+    problem = TimingProblem(candidate, [np.zeros(traj.waypoints.shape[1])] * 4, traj.limits, True)
+    scaled = kept_trajectory(problem, candidate, (),
+                             dict(traj.optimizer, time_scale=float(factor)))
     if scaled is None:
         raise ValueError('slowing the spline down failed')
     return scaled
 
 
 class _Scaled:
-    """The knots of ``traj`` on pieces ``factor`` times longer: what kept_trajectory reads."""
+    """
+    The knots of ``traj`` on pieces ``factor`` times longer: what kept_trajectory reads.
+
+    Both of the path (its ``points``) and of the kept candidate.
+    """
 
     def __init__(self, traj, factor):
+        self.points = traj.waypoints
         self.pieces = np.diff(traj.breakpoints) * factor
         self.positions = traj.ppoly(traj.breakpoints)
         self.positions[-1] = traj.waypoints[-1]
