@@ -86,6 +86,7 @@ bench: build
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_torque.py
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_torque_arm.py
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_jerk_profile.py
+	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_time_budget.py
 
 lint: env
 	$(BIN)ament_flake8 $(LINTED)
