@@ -261,12 +261,8 @@ class _Path:
         constraints = (JointVelocity(limits.velocity), JointAcceleration(limits.acceleration))
         if torque is not None:
             # Held between the grid points too (path_velocity): at the grid
-            # points alone the profile passed the torque limit between them
-            # by up to 3 times (bench_torque.py's Panda with 3 kg), and the
-            # spline inherited it.  Without windows that cost the plans
-            # 1.028 / 1.031 / 1.008 / 1.067 times TOPP-RA's duration
-            # (medians of UR5 0 / 5 kg, Panda 0 / 3 kg) instead of 1.026 /
-            # 1.028 / 1.007 / 1.055, the Panda's worst 1.164 instead of 1.109.
+            # points alone the profile passed the torque limit between them,
+            # and the spline inherited it.
             constraints += (torque.constraint(interpolated=True),)
         third_order = (third_order and not (self.start or self.end)
                        and bool(np.any(np.isfinite(limits.jerk))))

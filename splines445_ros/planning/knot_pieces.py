@@ -12,11 +12,14 @@ import numpy as np
 from .limits import limit_ratios
 from .path_velocity import joint_acceleration_peaks
 from .peaks import row_max, velocity_ratios_above
+
+# Each constant with its reason in one line; the measurements behind them are
+# in doc/inner_knots.md ("Where the constants come from").
 # A piece lasts at least this many jerk ramp times a / j (step 3).
 RAMP_PIECES = 1.5
 # From this many pieces times joints on, exact_factors skips the velocity
 # peaks that cannot decide a piece's factor (below, the bound costs more than
-# it saves: measured on the 1000 x 7 benchmark's splines, even at about 500).
+# it saves).
 PRUNE_ROWS = 512
 
 
@@ -106,10 +109,8 @@ def ramp_accelerations(path_limits, gridded, limits, torque_limited):
     none; the node puts 1000 rad/s^2) and the torque sets the accelerations:
     then each joint's largest acceleration on the fastest profile
     (:func:`path_velocity.joint_acceleration_peaks`), at most its limit.
-    With the stand-in's a / j the pieces had to last seconds, a segment got
-    one inner knot, and bench_torque's plans (no smoothing windows, jerk 50
-    times TOPP-RA's peak accelerations) were 1.01-1.40 times TOPP-RA's
-    duration; with these, 0.98-1.25.
+    With the stand-in's a / j the pieces had to last seconds, and a segment
+    got one inner knot.
     """
     if not torque_limited:
         return None

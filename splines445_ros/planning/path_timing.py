@@ -55,6 +55,9 @@ from .path_constraints import GriddedPath, JointAcceleration, JointTorque, Joint
 from .path_velocity import path_position, PathLimits
 from .plan_options import DEFAULT_SMOOTHING
 
+# The constants of the timing along a path, each with its reason in one line;
+# the measurements behind them are in doc/inner_knots.md ("Where the
+# constants come from").
 # Grid steps of the speed profile per interval between two path samples.
 GRID_PER_SAMPLE = 2
 # Most knots per segment between waypoints (inner knots plus the waypoint).
@@ -69,59 +72,27 @@ STOP_RATIO = 0.2
 PATH_RAMP_PIECES = 1.0
 # Start and end ramps (JointPathSamples): from rest the profile's path jerk
 # is at most this share of the joints' (q' s''' alone; the spline's exact
-# factors hold the rest).  A profile that leaves rest at full acceleration
-# puts the first knots where only a jerk over the limit reaches them, and
-# the local factors then slow the whole first piece down: on the UR5 seam
-# of bench_tool_lines.py (no tool speed) the plan took 3.96 s without the
-# ramps, 3.85 s with them at a share of 1.0, 3.84 s at 0.7 and 0.85, 3.86 s
-# at 0.6.  At the inner stops (sharp corners) they made it longer (4.03 s):
-# there the coarse spline rounds the corner within the tolerance instead.
+# factors hold the rest), so the first knots lie where the jerk limit reaches them.
 RAMP_SHARE = 0.7
-# Iterations of the local factors and step 6's exponent per timing: on the
-# same seam 3.84 s with (15, 0.8), 3.80 s with (30, 1.0).
+# Iterations of the local factors and step 6's exponent per timing: more
+# iterations, each dividing the factor out fully, shorten a seam further.
 PATH_ITERATIONS = 30
 PATH_RELAX = 1.0
 # The iteration along a path stops after two candidates in a row that gain
-# less than this share (inner_knots.MIN_GAIN is 1e-3): on bench_tool_lines'
-# Panda seam at 0.1 m/s the four candidates that 1e-3 let through gained
-# 0.005 % together.
+# less than this share (inner_knots.MIN_GAIN is 1e-3): later ones gain next to nothing.
 PATH_MIN_GAIN = 2e-3
 # Polish (_polish): rounds, and the exponent of the factors over 1 that slow
-# the binding pieces down; the UR5 seam at 0.25 m/s went from a largest
-# factor of 1.0046 (the whole spline slowed down by it) to 1.0002 in 4 rounds.
-# A binding piece's excess over 1 shrank by about half a round with 2 (its
-# neighbours pull it back); with 4 the UR5 seam at 0.1 m/s takes 11 splines
-# instead of 15 to the same duration, and on three sets of 20 random line
-# sets the summed durations moved by -0.02 % to +0.04 % and the median
-# shares by at most 0.002.
+# the binding pieces down (beyond what they need: their neighbours pull them back).
 POLISH_ROUNDS = 6
 POLISH_RELAX = 4.0
-# The polish stops after a round that gains less than this share of the
-# total: on bench_tool_lines' Panda seam at 0.1 m/s its last five rounds
-# gained 1e-5 together (10.1838 -> 10.1837 s), a quarter of the planning.
+# The polish stops after a round that gains less than this share of the total.
 POLISH_GAIN = 1e-4
 # Corner rounding (JointPathSamples' ``rounding``, tool lines with a speed
-# limit): inside each span between stops the profile's path position is
-# averaged over a centred window of CORNER_ROUNDING shortest pieces (the
-# larger of the jerk ramp and ``min_piece``, as step 3 spaces the knots),
-# blended into the plain profile over one window from each stop.  A centred
-# box keeps the span's duration and turns every jump of the path
-# acceleration (where a ramp meets a speed cap) into a ramp of the window's
-# length, the jerk-limited corner.  The pieces where the first profile
-# crosses CAP_SHARE of its first-order bounds, and their neighbours, are
-# split in two from the start (:func:`_transition_fractions`): a C4 spline
-# through knots a window apart rings a few percent after such a corner, and
-# the local factors then notch the profile there (UR5 seam at 0.25 m/s:
-# six dips to 0.239-0.246 m/s, 0.68 of the length at >= 99 % of v); through
-# knots half a window apart 0.3 % (a model line reaching 0.25 m/s at
-# 2.3 m/s^2, window 0.1 s).  Not within SPLIT_CLEARANCE windows of a stop
-# (the profile's turn there is not rounded: shorter pieces follow it with
-# more jerk), and not below two shortest pieces.  On bench_tool_lines.py's
-# UR5 seam at 0.25 m/s the share went 0.68 -> 0.79 (windows of 1.1, 1.2,
-# 1.3, 1.4, 1.5 pieces: 0.78, 0.79, 0.79, 0.79, 0.79; with a C1 blend at
-# the stops, 1.3 gave 0.80); on 60 random line sets (test_tool_lines'
-# kind, 0.05-0.3 m/s) 1.2 gave median shares of 0.72 / 0.70 / 0.66 per
-# 20, and 0.2 % shorter plans than 1.3.
+# limit): the centred window in shortest pieces (the larger of the jerk ramp
+# and ``min_piece``); the pieces where the first profile crosses CAP_SHARE of
+# its first-order bounds, and their neighbours, are split in two from the
+# start (:func:`_transition_fractions`), not within SPLIT_CLEARANCE windows
+# of a stop: a C4 spline through knots a window apart rings after such a corner.
 CORNER_ROUNDING = 1.2
 CAP_SHARE = 0.98
 SPLIT_CLEARANCE = 0.5
@@ -129,9 +100,7 @@ SPLIT_CLEARANCE = 0.5
 TRANSITION_SAMPLES = 8
 # Samples of the bracket of _RoundedTiming.time_at, and its regula falsi steps
 # (averaged_timing.regula_falsi, Illinois) between the two around the target:
-# with 4 within 6e-9 of the length at every position of 40 ramp-cap-ramp
-# spans (test_path_constraints, which fails with 3: about 2e-7 near the
-# stops).
+# the fewest that find every position to test_path_constraints' tolerance.
 INVERSE_SAMPLES = 17
 INVERSE_REFINEMENTS = 4
 
@@ -420,9 +389,8 @@ def _transition_fractions(problem, local):
     within :data:`SPLIT_CLEARANCE` rounding windows of a stop or lasts less
     than two shortest pieces.  A crossing next to a stop still has its other
     neighbour split: the local factors usually slow the ramp from rest and
-    move the corner out (test_tool_lines' 0.3 m line at 0.05 m/s on the UR5:
-    at 0.05 s on the first profile, 0.3 s on the last; 0.89 of its length at
-    >= 99 % of v without that split, 0.95 with it).
+    move the corner out (doc/inner_knots.md, "Where the constants come
+    from").
     """
     path, limits = problem.path, problem.limits
     profile = SpeedProfile(path, local)

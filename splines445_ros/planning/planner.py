@@ -12,6 +12,8 @@ from .timing import (chord_durations, rest_to_rest_durations, rest_to_rest_lower
 from .trajectory import Trajectory
 from .validation import duration_array, position_limit_vector, waypoint_array
 
+# The constants of plan(), each with its reason in one line; the measurements
+# behind them are in doc/inner_knots.md ("Where the constants come from").
 # Chords shorter than this (relative to the largest |coordinate|, at least 1)
 # count as zero: such waypoints are exact duplicates, merged whatever the tolerance.
 DUPLICATE_RTOL = 1e-12
@@ -22,24 +24,16 @@ POSITION_LIMIT_RTOL = 1e-12
 # solution when that is this many times longer (see optimal_start).
 ABSURD_UNIFORM = 2.0
 # Requests of at most this many waypoints also get the knots-only optimum,
-# and the shorter plan is returned (see _with_knots_only_rival).  Warm-started
-# and giving up once it cannot win, it adds 10-20 % to the planning time of
-# 12-30 waypoints (still below TOPP-RA's) and wins on short, fast moves,
-# where the smoothing windows are a large share (issue 25's bench: UR5
-# paths of 5-30 waypoints, median 1.15 -> 1.09 x TOPP-RA).
+# and the shorter plan is returned (see _with_knots_only_rival): warm-started
+# and giving up once it cannot win, it is cheap there, and it wins on short,
+# fast moves, where the smoothing windows are a large share.
 SMALL_REQUEST = 30
 # The knots-only optimum of such a rival stops when its total gains less than
-# this over two steps (optimal.STALL_TOLERANCE is 1e-4).  Where the rival
-# wins, its last LPs gain the last 0.1 %: with 1e-3 instead of 1e-4, 30
-# random requests each of 4 x 3, 4 x 6, 5 x 6, 6 x 4 and 8 x 5 (the rival
-# won 19, 9, 4, 7 and 2 of them) took 15, 9, 8, 12 and 3 % less time to plan
-# and were 0.001-0.014 % longer on average, the longest by 0.11 % (issue 23,
-# the planning time of small requests; tests allow the rival 0.5 %).
+# this over two steps (optimal.STALL_TOLERANCE is 1e-4): its last LPs gain little.
 RIVAL_STALL_TOLERANCE = 1e-3
 # With non-zero boundary values the inner-knot plan is returned only when it
 # is more than this share shorter than the knots-only optimum: its profile
-# is not averaged then, and on the paper's example it is 2.8 % shorter for
-# 6 times the jerk's total variation per second (issue 23).
+# is not averaged then, and it pays for its time with jerk.
 MOVING_END_GAIN = 0.05
 
 
@@ -262,9 +256,8 @@ def _torque_limited(traj, torque, to_beat=None):
     and ``torque_factor`` <= 1 (its 1 kHz check).  ``to_beat``, a duration:
     None when slowing down makes ``traj`` at least that long (a rival that
     has lost), as soon as a lower bound of its factor shows it
-    (:meth:`TorqueLimit.factor_at_least`, samples every 10 ms: on
-    bench_torque's paths the knots-only rivals needed factors of 1.1-2.3)
-    or its 1 kHz check does, without checking the slowed-down plan.
+    (:meth:`TorqueLimit.factor_at_least`, samples every 10 ms) or its 1 kHz
+    check does, without checking the slowed-down plan.
     """
     if traj.torque_factor is not None and traj.torque_factor <= 1.0:
         return traj     # checked already
@@ -277,8 +270,8 @@ def _torque_limited(traj, torque, to_beat=None):
             j = int(np.argmax(ratios))
             raise ValueError(f'joint {j} needs {ratios[j]:.4g} times its torque limit with '
                              f'the given durations: slow them down by {factor:.4g}')
-        # The slowed-down plan's check is this one's, rescaled (TorqueCheck;
-        # a second 1 kHz check was a seventh of bench_torque.py's planning time).
+        # The slowed-down plan's check is this one's, rescaled (TorqueCheck):
+        # no second 1 kHz check.
         slow = check.slow_down_with(torque_need=factor)
         if to_beat is not None and traj.duration * slow >= to_beat:
             return None
@@ -327,17 +320,13 @@ def _plan_limited(points, durations, options):
         # The knots-only optimum is the rival below: the construction's own
         # knots-only candidates would only repeat it, less well.  With torque
         # limits and no smoothing windows there is no knots-only plan at all:
-        # the optimum of the velocity, acceleration (a stand-in) and jerk
-        # limits, slowed down for the torque, decided none of bench_torque.py's
-        # 40 plans and took 45 % of their planning time, and the uniform
-        # rival and the construction's knots-only candidates none of its 160
-        # (about 15 %).
+        # slowed down for the torque, such plans do not win and cost time.
         torque_only = options.torque_without_windows
         optimum_rival = _optimum_rival(points) and not shaped and not torque_only
         if optimum_rival and torque is None and len(points) == 3 and rest:
             # Two segments: the knots-only optimum is a cheap search, whose
             # first passes bound it; the construction stops once it cannot
-            # beat that (about 60 % of random 3 x 3 requests).
+            # beat that.
             try:
                 search = two_segment_search(method, points, start, limits)
                 give_up = search.run(GIVE_UP_PASSES).best_total
@@ -388,8 +377,7 @@ def _with_knots_only_rival(refined, method, points, start, boundary, limits, dro
     (:func:`optimal.two_segment_search`, started by the caller; given up
     when its first passes show it cannot beat ``refined``).
 
-    Rest to rest, the optimum is cheaper to find (issue 23: it cost small
-    requests 3 to 6 times TOPP-RA's planning time):
+    Rest to rest, the optimum is cheaper to find:
 
     * one segment: its duration alone is free, so the optimum is the
       uniform solution (the smallest factor that meets the limits), which
@@ -399,10 +387,8 @@ def _with_knots_only_rival(refined, method, points, start, boundary, limits, dro
       gave ``durations``): close to the optimum when the rival can win,
       without :func:`optimal_start`'s uniform and rest-to-rest solutions.
       Not with one joint: from there it often ended in another local
-      optimum (of 22 single-joint requests of 3-30 waypoints, 10 came out
-      longer than plan(inner_knots=0), 4 by 2.5-7 %), so a single joint's
-      rival is that plan, cold-started and run to the end (its LPs are
-      small);
+      optimum, so a single joint's rival is plan(inner_knots=0)'s,
+      cold-started and run to the end (its LPs are small);
     * it stops at a gain of :data:`RIVAL_STALL_TOLERANCE` over two steps
       (a knob: coarser is faster, and longer where the rival wins);
     * it gives up once its restored total is above ``refined``'s duration
@@ -413,10 +399,12 @@ def _with_knots_only_rival(refined, method, points, start, boundary, limits, dro
       inverse dynamics) when it is already longer;
     * a rival that cannot win any more is neither restored nor built, and
       its uniform timing only bounded from below unless it could win
-      (:func:`optimal.optimal_durations` returns None; issue 23: with
+      (:func:`optimal.optimal_durations` returns None; with
       :func:`optimal._beyond_give_up` and the sampled bounds of
-      ``PeakRatios.evaluate``, the rival of a 3 x 3 request took 2.5 ms
-      instead of 4.0 ms, the same plans bit for bit).
+      ``PeakRatios.evaluate``: the same plans bit for bit, sooner).
+
+    The measurements behind these choices are in doc/inner_knots.md
+    ("Where the constants come from").
     """
     rest = not any(np.any(b) for b in boundary)
     small = _optimum_rival(points)
@@ -438,8 +426,7 @@ def _with_knots_only_rival(refined, method, points, start, boundary, limits, dro
             return refined  # it could not beat refined (optimal.CANNOT_WIN_RTOL)
         if torque is not None:
             # Slowed down for the torque the rival only gets longer: once it
-            # is longer, it is not checked (again; a check of a slowed-down
-            # rival that had lost took up to a quarter of the planning time).
+            # is longer, it is not checked (again).
             if rival.duration >= refined.duration:
                 return refined
             rival = _torque_limited(rival, torque, to_beat=refined.duration)
@@ -478,13 +465,11 @@ def _optimum_rival(points):
     Whether the knots-only optimum is the rival of the inner-knot plan of ``points``.
 
     Up to :data:`SMALL_REQUEST` waypoints, and for a single joint at any
-    length.  With uniform timing as the rival, of 40 random requests of
-    31-150 waypoints and 2-7 joints none came out longer than the knots-only
-    optimum (the longest 0.973 times it), but of 6 single-joint ones two
-    did, one by 16 % (76 waypoints, j = 5 a).  A single joint's rival runs
-    to its end (a cold start that gives up loses that one): on those 6 it
-    took 3 to 9 times the planning time (76 waypoints: 65 -> 490 ms, where
-    TOPP-RA takes 140 ms; 1000: 0.7 -> 1.4 s, TOPP-RA 1.5 s).
+    length: with uniform timing as the rival, longer requests of several
+    joints were never longer than the knots-only optimum, single-joint ones
+    were.  A single joint's rival runs to its end (a cold start that gives
+    up loses that one).  The measurements: doc/inner_knots.md ("Where the
+    constants come from").
     """
     return len(points) <= SMALL_REQUEST or points.shape[1] == 1
 
@@ -496,10 +481,10 @@ def _unsmoothed_durations(refined):
     The rival's warm start.  Averaging the profile over windows of total
     width ``W`` lengthens the plan by ``W``, at its ends: the first and last
     segments each get about ``W / 2`` (each keeps at least half of its
-    time).  From the smoothed waypoint times themselves, the knots-only
-    rival of bench_smoothness.py's random path 4 started 12 % above the
-    inner-knot plan, gave up after its first LP and lost to the knots-only
-    optimum by 0.6 %; from these it started 4 % above and won.
+    time).  From the smoothed waypoint times themselves a rival can start
+    too far above the inner-knot plan, give up and lose to the knots-only
+    optimum it would have been (doc/inner_knots.md, "Where the constants
+    come from").
     """
     durations = np.diff(refined.waypoint_times)
     half = 0.5 * sum(refined.optimizer.get('smoothing_windows', ()))
@@ -591,8 +576,8 @@ def optimal_start(method, points, boundary, limits, uniform):
     well scaled whatever the chords; scaled by its own smallest feasible
     common factor, it is used when its total is below uniform's by more
     than :data:`ABSURD_UNIFORM` (a local optimiser need not end better from
-    a start only a little shorter: on the paper's triangle refined to 1 mm,
-    555 optimal ended at 2.853 s from it instead of 2.798 s from uniform).
+    a start only a little shorter: doc/inner_knots.md, "Where the constants
+    come from").
     """
     guess = rest_to_rest_durations(points, limits)
     try:
