@@ -61,6 +61,9 @@ from .sensitivity import PeakRatios
 from .timing import chord_durations, ScaledSpline, uniform_scale
 from .trajectory import Trajectory
 
+# The constants of the optimiser, each with its reason in one line; the
+# measurements behind them are in doc/methods.md ("Where the constants come
+# from").
 # Bounds of every duration relative to its starting (uniform) value.
 MIN_FRACTION = 1e-2
 MAX_FRACTION = 10.0
@@ -85,16 +88,7 @@ STALL_ITERATIONS = 2
 # after every LP (the total falls fastest in the first steps).  A rival
 # that gives up must be one that would lose: the caller keeps the other
 # plan, so a rival given up too early makes plan() longer than the
-# knots-only optimum.  On 1200 random requests of 3-30 waypoints (j = 5,
-# 20, 100 a) run without giving up, the 295 rivals that won were above the
-# total before their first LP by up to 12.4 %, before the second by up to
-# 5.4 %; 0.1 (the setting before) lost 5 of those wins, by up to 2.5 % (and
-# a 3 x 3 request elsewhere by 4.3 %), 0.15 loses 2, by 1.1 and 1.4 %: two
-# rivals that crept down, 2-4 % above for 20 LPs.  A floor of 0.05 under
-# the halving kept those too, but planned bench_inner_knots' 5 x 6 requests
-# 20 % slower (its rivals that lose ran on); 0.25 planned its 3 x 3 ones
-# 10 % slower; with 0.15 their medians moved by -2 % to +8 % (two runs,
-# 3 x 3 to 30 x 7; the worst 3 x 3 request 10-15 % slower).
+# knots-only optimum; one given up too late costs planning time.
 GIVE_UP_MARGIN = 0.15
 # With a total to beat: a rival whose restored total (or uniform duration) is
 # above it by more than this, far above round-off (1e-15), is not going to
@@ -111,8 +105,8 @@ PENALTY = 10.0
 EXACT_MERIT_EXCESS = 1e-4
 # An l1 penalty is exact only above the constraints' multipliers: when the l1
 # iterations still end past a limit by that much, the penalty grows by this
-# factor and they go on, at most this many rounds in all.  (Without it, the
-# repair below lengthened such an end point by up to 18% on random requests.)
+# factor and they go on, at most this many rounds in all (so that the repair
+# below does not have to lengthen such an end point).
 PENALTY_GROWTH = 10.0
 PENALTY_ROUNDS = 3
 # Repair of a final iterate that exceeds a limit (non-zero boundary values):
@@ -126,8 +120,8 @@ REPAIR_MARGIN = 1e-6
 # Growth of the repair's box when its LP cannot reach the limits within it.
 REPAIR_GROWTH = 4.0
 # Requests of at most this many segments solve their LPs with the dense
-# simplex of :mod:`dense_lp`: scipy's milp costs about 0.6 ms a call around
-# HiGHS, more than such an LP takes.
+# simplex of :mod:`dense_lp`: scipy's milp costs more a call around HiGHS
+# than such an LP takes.
 DENSE_LP_SEGMENTS = 12
 # Constraints below this ratio never enter the LP.
 _INACTIVE = 1e-3
@@ -310,8 +304,8 @@ def _beyond_give_up(state, give_up):
     total is ``sum(T) * exp(largest log-ratio)``, which :func:`_iterate`
     gives up on when it is above ``give_up`` by more than
     :data:`GIVE_UP_MARGIN`: with a margin of :data:`CANNOT_WIN_RTOL` for the
-    round-off of that scaling, its evaluation (a third of a small rival's
-    cost: 0.45 ms on 3 x 3) is not needed.
+    round-off of that scaling, its evaluation (a good share of a small
+    rival's cost) is not needed.
     """
     excess = float(np.max(state['log_ratios']))
     if not np.isfinite(excess):
@@ -515,10 +509,9 @@ def _from_uniform_too(method, points, boundary, limits, stall_tolerance, give_up
     After a rival gave up, run it again from the uniform solution where that starts lower.
 
     A warm start far from the optimum (from another plan's durations) can
-    give up on a rival that the uniform solution's start would have let win:
-    a 4 x 2 request whose warm start began 14 % above the plan to beat gave
-    up after one LP, and plan() returned the uniform timing, 6.1 % longer
-    than the knots-only optimum (1.828 against 1.724 s).  Only where the
+    give up on a rival that the uniform solution's start would have let win,
+    and plan() then returns a plan longer than the knots-only optimum
+    (doc/methods.md, "Where the constants come from").  Only where the
     uniform solution (``uniform_at_least`` bounds its duration) is below
     both the restored total given up on and the first give-up threshold:
     rarely, since a rival that loses is mostly above the plan to beat from
@@ -560,7 +553,7 @@ def optimal_durations(method, points, start, boundary, limits, dropped, uniform=
     and the result is None when both the optimum's restored total and the
     uniform duration (or that bound) are above ``give_up`` by more than
     :data:`CANNOT_WIN_RTOL`: the rival has lost, and restoring and building
-    it (0.6 ms of a 3 x 3 request's 12) is skipped.
+    it is skipped.
     """
     name = get_method(method).name
     candidate, info = minimise_total_time(method, points, start, boundary, limits,

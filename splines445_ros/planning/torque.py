@@ -49,12 +49,9 @@ MAX_CHECK_SAMPLES = 3_600_000
 # plan is not checked again (its check is the same samples rescaled).
 SLOW_DOWN_ROUNDOFF = 1.0 + 1e-9
 # Samples per spline piece of the inner-knot iteration's torque factor, both
-# knots included (each knot sampled once, shared by its two pieces).  8 before
-# issue 25's last stop: with 5, and 6 inner knots (inner_knots.
-# TORQUE_INNER_KNOTS), bench_torque.py's plans took 0.88-0.99 of TOPP-RA's
-# planning time instead of 1.0-1.25 (before ArmDynamics.gravity; 0.82-0.95
-# with it), durations within 0.01 (the 1 kHz check
-# and its slow-down hold the limits whatever the count).
+# knots included (each knot sampled once, shared by its two pieces): few, since
+# the 1 kHz check and its slow-down hold the limits whatever the count.  The
+# measurements behind it are in doc/methods.md ("Where the constants come from").
 TORQUE_PIECE_SAMPLES = 5
 
 
