@@ -1,5 +1,7 @@
 """``plan()``: the one entry point of the planning core."""
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from .inner_knots import plan_with_inner_knots
@@ -35,6 +37,25 @@ RIVAL_STALL_TOLERANCE = 1e-3
 # is more than this share shorter than the knots-only optimum: its profile
 # is not averaged then, and it pays for its time with jerk.
 MOVING_END_GAIN = 0.05
+
+
+@dataclass(frozen=True)
+class MergedRequest:
+    """
+    A request with its duplicate waypoints merged: what a knots-only plan of it needs.
+
+    ``method`` ("445", "434" or "555"), the merged waypoints ``points``
+    (N, n) (:func:`merge_duplicates`), the four ``boundary`` vectors (start
+    velocity and acceleration, end velocity and acceleration), the
+    ``limits`` (:class:`limits.JointLimits`) and the indices ``dropped`` of
+    the merged waypoints, which the trajectory reports.
+    """
+
+    method: str
+    points: np.ndarray
+    boundary: tuple
+    limits: object
+    dropped: list
 
 
 def merge_duplicates(waypoints, tolerance=0.0):
@@ -344,10 +365,11 @@ def _plan_limited(points, durations, options):
         if refined is not None and torque_only:
             return _torque_limited(refined, torque)
         if refined is not None:
-            return _with_knots_only_rival(refined, method, points, start, boundary, limits,
-                                          dropped, torque, search)
-    knots_only = _plan_knots_only(method, timing, points, start, boundary, limits, dropped,
-                                  search)
+            return _with_knots_only_rival(
+                refined, MergedRequest(method, points, boundary, limits, dropped), start,
+                torque, search)
+    knots_only = _plan_knots_only(MergedRequest(method, points, boundary, limits, dropped),
+                                  timing, start, search)
     if timing == 'optimal':
         knots_only.optimizer['inner_knots'] = 0
         if inner_knots:
@@ -357,10 +379,12 @@ def _plan_limited(points, durations, options):
     return knots_only
 
 
-def _with_knots_only_rival(refined, method, points, start, boundary, limits, dropped,
-                           torque=None, search=None):
+def _with_knots_only_rival(refined, request, start, torque=None, search=None):
     """
-    Return ``refined`` (inner knots), or a knots-only plan of the request when it is shorter.
+    Return ``refined`` (inner knots), or a knots-only plan of ``request`` when it is shorter.
+
+    ``request`` is the :class:`MergedRequest`, ``start`` the caller's
+    durations (or None).
 
     The rival is the knots-only optimum for requests of at most
     :data:`SMALL_REQUEST` waypoints and of one joint (:func:`_optimum_rival`),
@@ -406,6 +430,7 @@ def _with_knots_only_rival(refined, method, points, start, boundary, limits, dro
     The measurements behind these choices are in doc/inner_knots.md
     ("Where the constants come from").
     """
+    points, boundary = request.points, request.boundary
     rest = not any(np.any(b) for b in boundary)
     small = _optimum_rival(points)
     timing = 'optimal' if small else 'uniform'
@@ -420,8 +445,7 @@ def _with_knots_only_rival(refined, method, points, start, boundary, limits, dro
     if warm:
         options = {'stall_tolerance': RIVAL_STALL_TOLERANCE, 'give_up': refined.duration}
     try:
-        rival = _plan_knots_only(method, timing, points, start, boundary, limits, dropped,
-                                 search, **options)
+        rival = _plan_knots_only(request, timing, start, search, **options)
         if rival is None:
             return refined  # it could not beat refined (optimal.CANNOT_WIN_RTOL)
         if torque is not None:
@@ -441,20 +465,22 @@ def _with_knots_only_rival(refined, method, points, start, boundary, limits, dro
     if refined.duration * premium <= rival.duration:
         return refined
     if timing == 'uniform':
-        rival = _as_optimal(rival, points, boundary, limits, dropped)
+        rival = _as_optimal(rival, request)
     rival.optimizer.update(inner_knots=0, inner_knots_duration=refined.duration)
     return rival
 
 
-def _as_optimal(traj, points, boundary, limits, dropped):
+def _as_optimal(traj, request):
     """
     Return the knots-only ``traj`` of uniform timing as a plan of optimal timing: the same spline.
 
+    ``traj`` plans the :class:`MergedRequest` ``request``.
+
     Its torque check, if any, stands (plan() would run it again).
     """
-    optimal = Trajectory.build(traj.method, 'optimal', points, traj.durations, boundary,
-                               limits, traj.coefficients, traj.limit_ratios(),
-                               dropped_waypoints=dropped)
+    optimal = Trajectory.build(traj.method, 'optimal', request.points, traj.durations,
+                               request.boundary, request.limits, traj.coefficients,
+                               traj.limit_ratios(), dropped_waypoints=request.dropped)
     optimal.optimizer = {}
     optimal.torque_ratios, optimal.torque_factor = traj.torque_ratios, traj.torque_factor
     return optimal
@@ -493,16 +519,19 @@ def _unsmoothed_durations(refined):
     return durations
 
 
-def _plan_knots_only(method, timing, points, start, boundary, limits, dropped, search=None,
-                     **options):
+def _plan_knots_only(request, timing, start, search=None, **options):
     """
     Uniform or optimal timing with knots at the waypoints only (``options``: optimal's).
 
-    With a ``give_up`` total among the options, None when the plan would be
-    longer than it (:func:`optimal.optimal_durations`).  Two segments rest
-    to rest: the search of :func:`optimal.two_segment_search` (``search``,
-    when the caller has started it).
+    ``request`` is the :class:`MergedRequest`, ``start`` the durations
+    optimal timing starts from (None: its own start).  With a ``give_up``
+    total among the options, None when the plan would be longer than it
+    (:func:`optimal.optimal_durations`).  Two segments rest to rest: the
+    search of :func:`optimal.two_segment_search` (``search``, when the
+    caller has started it).
     """
+    method, points, boundary = request.method, request.points, request.boundary
+    limits, dropped = request.limits, request.dropped
     chords = chord_durations(points)
     if not np.all(np.isfinite(chords)):
         raise ValueError('waypoints too large: chord lengths overflow')
@@ -511,8 +540,8 @@ def _plan_knots_only(method, timing, points, start, boundary, limits, dropped, s
         # One segment rest to rest: its duration alone is free, and the
         # smallest factor that meets the limits is the optimum (the SLP came
         # within round-off of it, on either side of uniform timing's).
-        uniform = _plan_knots_only(method, 'uniform', points, None, boundary, limits, dropped)
-        optimum = _as_optimal(uniform, points, boundary, limits, dropped)
+        uniform = _plan_knots_only(request, 'uniform', None)
+        optimum = _as_optimal(uniform, request)
         optimum.optimizer = {'iterations': 0, 'message': 'one segment: the uniform solution',
                              'uniform_duration': uniform.duration}
         return optimum
@@ -558,15 +587,18 @@ def _plan_knots_only(method, timing, points, start, boundary, limits, dropped, s
                                dropped_waypoints=dropped)
     if timing == 'optimal':
         if start is None:
-            start = optimal_start(method, points, boundary, limits, uniform)
+            start = optimal_start(request, uniform)
         return optimal_durations(method, points, start, boundary, limits, dropped, uniform,
                                  **options)
     return uniform
 
 
-def optimal_start(method, points, boundary, limits, uniform):
+def optimal_start(request, uniform):
     """
     Return where optimal timing starts: uniform, or rest-to-rest durations when far better.
+
+    ``request`` is the :class:`MergedRequest`, ``uniform`` its uniform-timing
+    trajectory.
 
     Uniform timing gives a near-duplicate waypoint (above the tolerance) a
     tiny chord duration and then stretches the whole path; the optimiser
@@ -579,10 +611,10 @@ def optimal_start(method, points, boundary, limits, uniform):
     a start only a little shorter: doc/inner_knots.md, "Where the constants
     come from").
     """
-    guess = rest_to_rest_durations(points, limits)
+    guess = rest_to_rest_durations(request.points, request.limits)
     try:
-        spline = ScaledSpline(method, points, guess, boundary)
-        scale = uniform_scale(spline, limits)[0]
+        spline = ScaledSpline(request.method, request.points, guess, request.boundary)
+        scale = uniform_scale(spline, request.limits)[0]
     except (ValueError, np.linalg.LinAlgError):
         return uniform.durations
     if np.isfinite(scale) and ABSURD_UNIFORM * scale * guess.sum() < uniform.duration:
