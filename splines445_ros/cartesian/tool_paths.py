@@ -228,7 +228,7 @@ def _inverse(kinematics, poses, describe):
 def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviation=None,
                    max_inserted=DEFAULT_MAX_INSERTED, method='445', timing='uniform',
                    durations=None, max_tool_speed=None, max_tool_angular_speed=None,
-                   **plan_kwargs):
+                   options=None, **plan_kwargs):
     """
     Plan a joint trajectory whose tool follows the straight lines between ``poses``.
 
@@ -261,6 +261,11 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
         ``inner_knots``, ``vibration_frequency`` and ``smoothing`` shape the
         555 optimal plan as there (the tool lines are never averaged: only
         a refined path's inner-knot plan follows ``smoothing``).
+    options : :class:`~splines445_ros.planning.plan_options.PlanOptions`, or None
+        Instead of ``method``, ``timing`` and ``plan_kwargs``: the options
+        of a caller that validated them once already (the planner node,
+        ``PlanOptions.from_validated``), for the joints of ``kinematics``;
+        used as they are.
 
     Method 555 with optimal timing (inner knots, rest to rest) is timed
     along the inverse kinematics of the lines themselves
@@ -285,8 +290,13 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
     speeds = (_speed_limit('max_tool_speed', max_tool_speed),
               _speed_limit('max_tool_angular_speed', max_tool_angular_speed))
     # Validated once; the plans below take copies with other knots or tolerances.
-    options = PlanOptions.from_arguments(_joint_count(kinematics, request), method=method,
-                                         timing=timing, **plan_kwargs)
+    if options is None:
+        options = PlanOptions.from_arguments(_joint_count(kinematics, request), method=method,
+                                             timing=timing, **plan_kwargs)
+    elif plan_kwargs or (method, timing) != ('445', 'uniform'):
+        raise TypeError('plan_tool_path takes options, or method, timing and the plan() '
+                        'arguments, not both')
+    timing = options.timing
     # 555 optimal's inner knots are tried on the refined path at the end (see
     # _with_inner_knots); the refinement itself keeps knots at the waypoints, and
     # no waypoint tolerance: inserted knots are deliberate, however close.

@@ -59,17 +59,22 @@ SMOOTHINGS = ('auto', 'windows', 'none')
 MAX_VIBRATION_FREQUENCY = 1000.0
 
 
+def default_inner_knots(method, timing):
+    """Return the count ``inner_knots`` None stands for: :data:`DEFAULT_INNER_KNOTS` or 0."""
+    return DEFAULT_INNER_KNOTS if (method, timing) == ('555', 'optimal') else 0
+
+
 def inner_knot_count(value, method, timing):
     """
     Validate the ``inner_knots`` argument of plan(); return it as an int.
 
     None (the default) is :data:`DEFAULT_INNER_KNOTS` for method 555 with
-    timing "optimal" and 0 otherwise.  Otherwise an integer from 0 to
+    timing "optimal" and 0 otherwise (:func:`default_inner_knots`).  Otherwise an integer from 0 to
     :data:`MAX_INNER_KNOTS`; a non-zero count needs method 555 with timing
     "optimal" (the only combination that uses it).
     """
     if value is None:
-        return DEFAULT_INNER_KNOTS if (method, timing) == ('555', 'optimal') else 0
+        return default_inner_knots(method, timing)
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
         raise ValueError(f'inner_knots must be an integer, got {value!r}')
     value = int(value)
@@ -158,13 +163,42 @@ def torque_without_windows(torque, windows):
     return torque is not None and not windows
 
 
+def boundary_vectors(values, n_joints):
+    """
+    Return the four boundary vectors of a request, each (n_joints,) finite (ValueError).
+
+    ``values``: start velocity, start acceleration, end velocity, end
+    acceleration (:data:`BOUNDARY_NAMES`), None for zeros.
+    """
+    return tuple(boundary_vector(name, value, n_joints)
+                 for name, value in zip(BOUNDARY_NAMES, values))
+
+
+def torque_limit(max_torque, inverse_dynamics, n_joints, boundary):
+    """
+    Return the :class:`~.torque.TorqueLimit` of a request, or None (``max_torque`` None).
+
+    ValueError for unusable limits, and for a ``boundary`` (the four
+    vectors) that is not at rest: torque limits are planned rest to rest.
+    """
+    if max_torque is None:
+        return None
+    torque = TorqueLimit(max_torque, inverse_dynamics, n_joints)
+    if any(np.any(b) for b in boundary):
+        raise ValueError('torque limits are planned rest to rest: the boundary velocities '
+                         'and accelerations must be zero')
+    return torque
+
+
 @dataclass(frozen=True)
 class PlanOptions:
     """
     Every option of a ``plan()`` request but the waypoints and durations, validated.
 
-    Build it with :meth:`from_arguments`; the fields are then what the
-    planning code reads, as they are:
+    Build it with :meth:`from_arguments` (``plan()``'s keyword arguments),
+    or with :meth:`from_validated` (settings a caller validated once, such
+    as the planner node); the fields are then what the planning code reads,
+    as they are:
 
     * ``method`` ("445", "434" or "555") and ``timing`` (:data:`TIMINGS`);
     * ``limits``: the :class:`~.limits.JointLimits`, or None (only "fixed"
@@ -219,14 +253,9 @@ class PlanOptions:
             raise ValueError('max_torque and inverse_dynamics must be given together')
         smoothing = smoothing_value(smoothing, vibration, knots)
         windows = smoothing_windows(vibration, smoothing, max_torque is not None)
-        boundary = tuple(boundary_vector(name, value, n_joints) for name, value in zip(
-            BOUNDARY_NAMES, (start_velocity, start_acceleration, end_velocity,
-                             end_acceleration)))
-        torque = None if max_torque is None else TorqueLimit(max_torque, inverse_dynamics,
-                                                             n_joints)
-        if torque is not None and any(np.any(b) for b in boundary):
-            raise ValueError('torque limits are planned rest to rest: the boundary velocities '
-                             'and accelerations must be zero')
+        boundary = boundary_vectors((start_velocity, start_acceleration, end_velocity,
+                                     end_acceleration), n_joints)
+        torque = torque_limit(max_torque, inverse_dynamics, n_joints, boundary)
         tolerance = non_negative('waypoint_tolerance', waypoint_tolerance)
         limits = None
         if max_velocity is not None or max_acceleration is not None or max_jerk is not None:
@@ -246,6 +275,52 @@ class PlanOptions:
                 raise ValueError(f'min_position[{j}] = {low[j]} is above max_position[{j}] = '
                                  f'{high[j]}')
         return cls(method, timing, limits, boundary, tolerance, low, high, knots,
+                   inner_knots is None, vibration, smoothing, windows, torque)
+
+    @classmethod
+    def from_validated(cls, n_joints, method, timing, max_velocity, max_acceleration,
+                       max_jerk=None, boundary=(None,) * 4,
+                       waypoint_tolerance=DEFAULT_WAYPOINT_TOLERANCE, inner_knots=None,
+                       vibration_frequency=0.0, smoothing='auto', max_torque=None,
+                       inverse_dynamics=None):
+        """
+        Build the options of one request whose planner settings were validated once already.
+
+        For a caller with its own boundary that validates its settings
+        once, as :meth:`from_arguments` would (the planner node's parameter
+        layer, ``service/planner_config.py``): ``method`` (a name of
+        :data:`~.methods.METHODS`), ``timing``, the limits (``max_velocity``,
+        ``max_acceleration`` positive and finite, ``max_jerk`` positive, inf
+        for none, or None), ``waypoint_tolerance``, ``inner_knots`` (None =
+        auto: :func:`default_inner_knots`), ``vibration_frequency`` (0 = not
+        given) and ``smoothing`` are taken as they are.  What comes with the
+        request is checked, with :meth:`from_arguments`' texts: the
+        ``boundary`` (start velocity, start acceleration, end velocity, end
+        acceleration; None = zeros) of ``n_joints`` (the request's columns;
+        limits of another length are refused as plan() refuses them), within
+        the limits, and zero with torque limits (``max_torque`` with
+        ``inverse_dynamics``, checked by :class:`~.torque.TorqueLimit`).  No
+        position limits: the caller checks the plan against its own.
+        """
+        with np.errstate(over='ignore', invalid='ignore', divide='ignore', under='ignore'):
+            knots = (default_inner_knots(method, timing) if inner_knots is None
+                     else int(inner_knots))
+            vibration = float(vibration_frequency)
+            windows = smoothing_windows(vibration, smoothing, max_torque is not None)
+            boundary = boundary_vectors(boundary, n_joints)
+            torque = torque_limit(max_torque, inverse_dynamics, n_joints, boundary)
+            jerk = () if max_jerk is None else (max_jerk,)
+            if any(len(values) != n_joints for values in (max_velocity, max_acceleration) + jerk):
+                # A request of another number of joints: plan()'s own refusal.
+                limits = JointLimits.from_user(n_joints, max_velocity, max_acceleration,
+                                               max_jerk)
+            else:
+                limits = JointLimits(np.array(max_velocity, dtype=float),
+                                     np.array(max_acceleration, dtype=float),
+                                     np.full(n_joints, np.inf) if max_jerk is None
+                                     else np.array(max_jerk, dtype=float))
+            check_boundary_feasible(limits, *boundary)
+        return cls(method, timing, limits, boundary, float(waypoint_tolerance), None, None, knots,
                    inner_knots is None, vibration, smoothing, windows, torque)
 
     @property

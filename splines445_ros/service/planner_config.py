@@ -356,12 +356,6 @@ class PlannerConfig(ValidatedConfig):
                     raise ValueError(f'min_position[{i}] = {low} is above '
                                      f'max_position[{i}] = {high}')
 
-    def position_limits(self):
-        """Return the position limits (None where unset) and joint names as keyword arguments."""
-        return {'min_position': list(self.min_position) or None,
-                'max_position': list(self.max_position) or None,
-                'joint_names': self.joint_names}
-
     def _validate_tool_paths(self):
         self.require_positive('link_lengths', 2)
         if self.kinematics == 'planar_3dof' and len(self.joint_names) != 3:

@@ -12,9 +12,10 @@ from typing import Optional
 import numpy as np
 
 from ..cartesian.tool_paths import plan_tool_path
-from ..planning import check_position_limits, plan
 from ..planning.path_constraints import GravityOverload
-from ..planning.plan_options import BOUNDARY_NAMES
+from ..planning.plan_options import BOUNDARY_NAMES, PlanOptions
+from ..planning.planner import plan_with_options, within_position_limits
+from ..planning.validation import waypoint_array
 from ..robot.user_text import format_vector
 
 # A fixed-timing request may exceed a limit by this much (round-off of times
@@ -95,7 +96,7 @@ def plan_request(config, request, torque=None):
         if torque is None or config.timing != 'fixed' or isinstance(exc, GravityOverload):
             raise
         raise _named_joint(exc, config.joint_names) from exc
-    check_position_limits(traj, **config.position_limits())
+    check_config_position_limits(traj, config)
     if not traj.within_limits(rtol=FIXED_TIMING_RTOL):
         b = traj.binding
         raise ValueError(
@@ -105,24 +106,51 @@ def plan_request(config, request, torque=None):
 
 
 def _plan(request, config, durations, torque):
-    """Call ``plan()`` with the request, the config's limits and the torque options."""
-    return plan(request.waypoints, method=config.method, timing=config.timing,
-                durations=durations, max_velocity=config.max_velocity,
-                max_acceleration=config.max_acceleration, max_jerk=config.jerk_limits(),
-                start_velocity=request.start_velocity,
-                start_acceleration=request.start_acceleration,
-                end_velocity=request.end_velocity, end_acceleration=request.end_acceleration,
-                waypoint_tolerance=config.waypoint_tolerance,
-                inner_knots=config.plan_inner_knots(),
-                vibration_frequency=config.vibration_frequency,
-                smoothing=config.smoothing, **_torque_arguments(torque))
+    """Plan the request's waypoints under :func:`plan_options` (their shape checked here)."""
+    points = waypoint_array(request.waypoints)
+    options = plan_options(config, points.shape[1], (
+        request.start_velocity, request.start_acceleration, request.end_velocity,
+        request.end_acceleration), torque)
+    return plan_with_options(points, options, durations)
 
 
-def _torque_arguments(torque):
-    """Return ``plan()``'s ``max_torque`` and ``inverse_dynamics`` of :class:`TorqueOptions`."""
-    if torque is None:
-        return {'max_torque': None, 'inverse_dynamics': None}
-    return {'max_torque': torque.max_torque, 'inverse_dynamics': torque.inverse_dynamics}
+def plan_options(config, n_joints, boundary=(None,) * 4, torque=None):
+    """
+    Return the :class:`~splines445_ros.planning.plan_options.PlanOptions` of one request.
+
+    ``config``: a PlannerConfig its parameter layer validated (method,
+    timing, limits, waypoint_tolerance, inner_knots, vibration_frequency,
+    smoothing: taken as they are, not checked again); ``n_joints`` the
+    request's columns, ``boundary`` its start velocity, start acceleration,
+    end velocity and end acceleration (None: zeros) and ``torque`` its
+    :class:`TorqueOptions` (None = none): these come with the request and
+    are checked (ValueError, with plan()'s texts).  No position limits:
+    the caller checks the plan against the config's, naming the joints.
+    """
+    return PlanOptions.from_validated(
+        n_joints, config.method, config.timing, config.max_velocity, config.max_acceleration,
+        config.jerk_limits(), boundary, waypoint_tolerance=config.waypoint_tolerance,
+        inner_knots=config.plan_inner_knots(), vibration_frequency=config.vibration_frequency,
+        smoothing=config.smoothing,
+        max_torque=None if torque is None else torque.max_torque,
+        inverse_dynamics=None if torque is None else torque.inverse_dynamics)
+
+
+def check_config_position_limits(traj, config):
+    """
+    Raise ValueError when ``traj`` leaves the position limits of ``config`` (a joint named).
+
+    The limits (``min_position``, ``max_position``; empty = none) were
+    validated with the config: they are only compared here.
+    """
+    if not config.min_position and not config.max_position:
+        return
+    n = traj.n_joints
+    low = (np.array(config.min_position, dtype=float) if config.min_position
+           else np.full(n, -np.inf))
+    high = (np.array(config.max_position, dtype=float) if config.max_position
+            else np.full(n, np.inf))
+    within_position_limits(traj, low, high, config.joint_names)
 
 
 def _named_joint(exc, joint_names):
@@ -195,19 +223,13 @@ def plan_tool_poses(config, poses, kinematics, torque=None):
     if config.start_from_current_state:
         raise ValueError('tool_waypoints are planned rest to rest from their first waypoint; '
                          'set start_from_current_state to false for them')
+    options = plan_options(config, len(config.joint_names), torque=torque)
     tool_path = plan_tool_path(poses, kinematics, config.max_path_deviation,
                                config.max_orientation_deviation, config.max_inserted_waypoints,
-                               method=config.method, timing=config.timing,
-                               max_velocity=config.max_velocity,
-                               max_acceleration=config.max_acceleration,
-                               max_jerk=config.jerk_limits(),
-                               inner_knots=config.plan_inner_knots(),
-                               vibration_frequency=config.vibration_frequency,
-                               smoothing=config.smoothing,
                                max_tool_speed=config.max_tool_speed,
                                max_tool_angular_speed=config.max_tool_angular_speed,
-                               **_torque_arguments(torque))
-    check_position_limits(tool_path.trajectory, **config.position_limits())
+                               options=options)
+    check_config_position_limits(tool_path.trajectory, config)
     return tool_path
 
 
