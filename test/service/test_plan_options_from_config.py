@@ -20,7 +20,8 @@ from splines445_ros.planning.plan_options import PlanOptions
 from splines445_ros.service.planner_config import PlannerConfig
 from splines445_ros.service.request_planning import plan_options, TorqueOptions
 
-# 555 optimal (the only one with inner knots, vibration_frequency and smoothing) a third of the time.
+# 555 optimal (the only one with inner knots, vibration_frequency and smoothing):
+# a third of the draws.
 METHOD_TIMINGS = ([(m, t) for m in ('434', '445', '555') for t in ('uniform', 'optimal', 'fixed')]
                   + [('555', 'optimal')] * 4)
 
@@ -38,8 +39,8 @@ def configs(draw):
     n = draw(st.integers(1, 7))
     method, timing = draw(st.sampled_from(METHOD_TIMINGS))
     limit = st.floats(0.1, 50.0)
-    jerk = draw(st.one_of(st.just(()), st.lists(st.one_of(st.just(0.0), st.floats(1.0, 500.0)),
-                                                 min_size=n, max_size=n)))
+    jerk_value = st.one_of(st.just(0.0), st.floats(1.0, 500.0))
+    jerk = draw(st.one_of(st.just(()), st.lists(jerk_value, min_size=n, max_size=n)))
     optimal_555 = (method, timing) == ('555', 'optimal')
     knots = draw(st.sampled_from([-1, 0, 1, 3]) if optimal_555 else st.just(-1))
     vibration = draw(st.sampled_from([0.0, 2.5, 8.0])) if optimal_555 and knots else 0.0
