@@ -39,9 +39,7 @@ from ..robot import rotations as rot
 GRID = 24
 # Golden-section steps on each bracket of two grid cells: 10 shrink it to
 # 0.618**10 = 8e-3 of its width, and the maximum found is off by the square
-# of that (second order).  On bench_tool_lines' UR5 and Panda seams the
-# maxima agree with 30 steps to 3e-11 m and 4e-12 rad (16 steps: 2e-13 m,
-# six more evaluations of every bracket).
+# of that (second order; doc/tool_paths.md, "Where the constants come from").
 GOLDEN_STEPS = 10
 # Grid maxima searched: those above this fraction of the tolerance, and the
 # largest few (so the reported maximum is exact even far below it).

@@ -310,7 +310,7 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
     if lines:
         # The tool lines walk the inverse kinematics along the lines
         # themselves, through every waypoint: the waypoints' own walk would be
-        # a second one (5 ms of bench_tool_lines' 90 on the Panda seam).
+        # a second one (doc/tool_paths.md, "Where the constants come from").
         # Duplicates are merged by pose, which gives them the same joints.
         kept_index, waypoint_knots = _kept(n_req, merge_duplicates(request)[1])
         edge_poses = request[kept_index]

@@ -26,6 +26,8 @@ from .methods import get_method
 from .torque import TorqueLimit
 from .validation import boundary_vector, non_negative, position_limit_vector
 
+# The defaults and bounds of a request, each with its reason; the measurements
+# behind them are in doc/methods.md ("Where the constants come from").
 TIMINGS = ('uniform', 'fixed', 'optimal')
 # Default waypoint_tolerance [rad, or m for a prismatic joint]: four times the
 # dead band within which the dynamic arm comes to rest (2.5e-4 rad), so that a
@@ -35,9 +37,8 @@ DEFAULT_WAYPOINT_TOLERANCE = 1e-3
 BOUNDARY_NAMES = ('start_velocity', 'start_acceleration', 'end_velocity', 'end_acceleration')
 # Largest number of inner knots per segment accepted by plan().
 MAX_INNER_KNOTS = 8
-# The count used when plan() is not given one (555 optimal): with the
-# default smoothing, 4 is as short as 6 and 8 on the benchmark's random paths
-# and shakes the arm least (bench_inner_knots.py, issue 23).
+# The count used when plan() is not given one (555 optimal): with the default
+# smoothing as short as more knots, and it shakes the arm least.
 DEFAULT_INNER_KNOTS = 4
 # The count with torque limits and no smoothing windows (issue 25; see
 # inner_knots.TORQUE_GRID_STEPS and doc/inner_knots.md).
@@ -47,12 +48,10 @@ TORQUE_INNER_KNOTS = 6
 # frequency from 3 Hz up, the range where arms' first structural modes sit;
 # they make a plan 0.45 s longer (doc/inner_knots.md has the measurements).
 DEFAULT_SMOOTHING = (0.3, 0.15)
-# plan()'s ``smoothing`` (issue 25): "windows" averages a rest-to-rest
-# profile over DEFAULT_SMOOTHING, "none" does not; "auto" (the default) is
-# "windows" except with torque limits: a user who limits the torque asks for
-# what the motors can do, and the windows' 0.45 s is a large share of such a
-# short move (bench_torque_windows.py); vibration_frequency or "windows"
-# smooths it again.
+# plan()'s ``smoothing``: "windows" averages a rest-to-rest profile over
+# DEFAULT_SMOOTHING, "none" does not; "auto" (the default) is "windows" except
+# with torque limits, whose short moves the windows' 0.45 s would lengthen
+# much (vibration_frequency or "windows" smooths them again).
 SMOOTHINGS = ('auto', 'windows', 'none')
 # A vibration frequency above this [Hz] is refused (its window would be
 # shorter than a servo cycle of 1 ms).

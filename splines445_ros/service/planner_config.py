@@ -55,7 +55,7 @@ AUTO_INNER_KNOTS = -1
 # limit_torque: the share of every torque limit a plan leaves to the controller's
 # feedback (torque_headroom), by default and at most.  A plan that uses all of a
 # joint's torque leaves the PD loop nothing for its corrections, and the motor
-# saturates (benchmarks/bench_torque_arm.py).
+# saturates (doc/nodes.md, "Where the constants come from").
 DEFAULT_TORQUE_HEADROOM = 0.1
 MAX_TORQUE_HEADROOM = 0.5
 # follow_waypoints goals: the arm has settled when joint_states are this close to the

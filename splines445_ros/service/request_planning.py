@@ -30,10 +30,8 @@ REPLAN_RETRY_STEP = 0.05
 REPLAN_MAX_DELAY = 1.0
 
 # A uniform plan longer than this many times the duration lower bound gets a
-# WARN status.  On 60 random paths (3-50 waypoints, 1-7 joints) the median
-# uniform plan took 2.3 (434, 555) and 6.5 (445) times the bound, at most 19
-# (434, 555) and 41 (445, whose undamped mode makes long paths slow); the
-# near-duplicate plans this guards against took 100 to 1e6 times it.
+# WARN status: above sound paths' plans (long 445 ones aside), far below
+# near-duplicate ones (doc/nodes.md, "Where the constants come from").
 SLOW_PLAN_FACTOR = 20.0
 # Resolution of time_from_start (builtin_interfaces/Duration) [s]: knots are
 # published at their times rounded to it.
