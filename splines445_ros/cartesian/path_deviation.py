@@ -12,8 +12,8 @@ The deviation is a smooth function of time on every segment.  It is sampled
 on ``GRID`` points per segment (both knots included), and every grid local
 maximum is refined by a vectorised golden-section search over the bracket
 between its two grid neighbours (``GOLDEN_STEPS`` steps shrink the bracket to
-below 1e-6 of its width), so every maximum the grid brackets is found to
-round-off.  Only grid maxima above a quarter of the tolerance are searched
+8e-3 of its width), so every maximum the grid brackets is found to within
+about 1e-5 of its height (second order in the bracket).  Only grid maxima above a quarter of the tolerance are searched
 (and the largest few, for an exact reported maximum): with 24 points per
 segment the grid misses a smooth bump's height by well under 1 %, so a
 bump below a quarter of the tolerance on the grid cannot exceed it.  A

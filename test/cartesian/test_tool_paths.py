@@ -56,8 +56,11 @@ def check_result(result, poses, tol_position, tol_orientation, rest_to_rest=True
     position, orientation = measured_deviation(result, poses)
     assert position <= tol_position * (1 + 1e-6) + 1e-12, (position, tol_position)
     assert orientation <= tol_orientation * (1 + 1e-6) + 1e-12, (orientation, tol_orientation)
-    # The library's own maxima are at least what the fine grid sees.
-    assert result.max_deviation >= position - 1e-9
+    # The library's own maxima are at least what the fine grid sees, up to
+    # the golden-section search's own accuracy: GOLDEN_STEPS = 10 leave a
+    # bracket of 0.618**10 = 8e-3 of two grid cells, where a smooth bump is
+    # below its peak by about (8e-3)**2 / 8 = 8e-6 of its height.
+    assert result.max_deviation >= position * (1 - 1e-5) - 1e-12
     # Passes through every tool waypoint (yaw modulo 2 pi).
     at_knots = forward(traj.evaluate(traj.waypoint_times[result.waypoint_knots]))
     np.testing.assert_allclose(at_knots[:, :2], poses[:, :2], atol=1e-9)
