@@ -45,8 +45,10 @@ import math
 import numpy as np
 
 from .golden_search import golden_maxima
+from .tool_acceleration import (acceleration_factor, peak_tool_acceleration,
+                                PieceAccelerations, ToolCurve)
 from .tool_kinematics import frame_chain, has_transforms, refused_pose, start_walk
-from ..planning.path_constraints import ToolSpeed
+from ..planning.path_constraints import ToolAcceleration, ToolSpeed
 from ..planning.path_timing import JointPathSamples, midpoint_fractions, plan_along_path, \
     rescaled
 from ..planning.torque import CHECK_PERIOD, check_times, uniform_slow_down
@@ -100,6 +102,9 @@ UNBOUND_ITERATIONS = 15
 # of the length at >= 99 % of v 0.84 -> 0.87, of what the joints allow 0.93
 # -> 0.96), and planning took 1.25 times dense IK + TOPP-RA (bench_tool_lines).
 UNBOUND_BELOW = 0.99
+# The profile aims at this share of a tool acceleration limit: the piece
+# factors and the final check hold the limit itself.
+ACCELERATION_MARGIN = 0.99
 
 
 class LineUnreachable(ValueError):
@@ -126,6 +131,7 @@ class ToolLines:
     tool_speed: float
     tool_angular_speed: float
     speed_share: float
+    tool_acceleration: float = None
 
 
 def edge_geometry(poses):
@@ -388,7 +394,8 @@ class ToolRates:
 
 
 def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_tool_speed=0.0,
-                    max_tool_angular_speed=0.0, windows=(), max_inserted=None, torque=None):
+                    max_tool_angular_speed=0.0, max_tool_acceleration=0.0, windows=(),
+                    max_inserted=None, torque=None):
     """
     Return the :class:`ToolLines` of the tool path through ``edge_poses`` (module docstring).
 
@@ -396,9 +403,12 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
     :class:`planning.JointLimits`, ``measure(traj, segment_edges)`` the
     :class:`path_deviation.Deviation` of a trajectory whose segments lie on the
     given edges, ``tolerances`` (position, orientation), inf for unchecked.
-    Speeds 0 mean no limit.  ``torque`` (a :class:`planning.torque.TorqueLimit`)
-    adds the joint torque: one more constraint of the timing, one more
-    factor of every piece, and a 1 kHz check at the end (the spline is
+    Speeds 0 mean no limit; so does ``max_tool_acceleration`` 0, the
+    limit [m/s^2] of the tool frame origin's linear acceleration
+    (:mod:`tool_acceleration`: a constraint of the profile, a factor of
+    every piece, and a 1 kHz check at the end).  ``torque`` (a
+    :class:`planning.torque.TorqueLimit`) adds the joint torque: one more
+    constraint of the timing, one more factor of every piece, and a 1 kHz check at the end (the spline is
     slowed down uniformly when it needs it).  ValueError when the inverse
     kinematics fails, no spline meets the limits, or the tolerances are not
     reached.
@@ -431,6 +441,10 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
     check = _PieceSpeeds(kinematics, max_tool_speed, max_tool_angular_speed)
     speeds = bool(constraints)
     factors = [check] if speeds else []
+    if max_tool_acceleration:
+        constraints.append(ToolAcceleration(max_tool_acceleration * ACCELERATION_MARGIN,
+                                            ToolCurve(kinematics)))
+        factors.append(PieceAccelerations(kinematics, max_tool_acceleration))
     if torque is not None:
         constraints.append(torque.constraint())
         factors.append(torque.piece_factors)
@@ -468,8 +482,10 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
             deviation, piece_edges = measured
     traj = timing.trajectory
     linear, angular, sampled = tool_speeds(traj, kinematics)
+    acceleration = peak_tool_acceleration(traj, kinematics) if max_tool_acceleration else None
     factor = max(linear / max_tool_speed if max_tool_speed else 0.0,
-                 angular / max_tool_angular_speed if max_tool_angular_speed else 0.0)
+                 angular / max_tool_angular_speed if max_tool_angular_speed else 0.0,
+                 acceleration_factor(acceleration, max_tool_acceleration))
     torque_check = checked = None
     slow = uniform_slow_down(factor)
     if torque is not None:
@@ -486,6 +502,8 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
         # the torque, g + d / f**2 at the same path points.  Its samples are
         # those of a period f times CHECK_PERIOD.
         linear, angular, sampled = (value / slow for value in (linear, angular, sampled))
+        if acceleration is not None:
+            acceleration /= slow * slow
         if torque_check is not None:
             checked = torque_check.needs(slow)
     if checked is not None:
@@ -497,7 +515,7 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
     return ToolLines(traj, joints[waypoint_index], inserted, initial[1], initial[0],
                      _per_edge(deviation, piece_edges, len(edge_poses) - 1,
                                traj.duration / timing.trajectory.duration),
-                     rounds, int(s.size), linear, angular, share)
+                     rounds, int(s.size), linear, angular, share, acceleration)
 
 
 def _per_edge(deviation, piece_edges, n_edges, time_scale):

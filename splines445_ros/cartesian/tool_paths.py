@@ -105,6 +105,9 @@ class ToolPath:
         (checked every millisecond; ``'tool lines'`` only, else None).
     speed_share : the share of the path's length the tool runs at >= 99 %
         of ``max_tool_speed`` (None without one).
+    tool_acceleration : the largest linear acceleration [m/s^2] of the
+        tool frame's origin (checked every millisecond; with
+        ``max_tool_acceleration`` only, else None).
 
     """
 
@@ -122,6 +125,7 @@ class ToolPath:
     tool_speed: float = None
     tool_angular_speed: float = None
     speed_share: float = None
+    tool_acceleration: float = None
 
     @property
     def max_deviation(self):
@@ -228,7 +232,7 @@ def _inverse(kinematics, poses, describe):
 def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviation=None,
                    max_inserted=DEFAULT_MAX_INSERTED, method='445', timing='uniform',
                    durations=None, max_tool_speed=None, max_tool_angular_speed=None,
-                   options=None, **plan_kwargs):
+                   options=None, max_tool_acceleration=None, **plan_kwargs):
     """
     Plan a joint trajectory whose tool follows the straight lines between ``poses``.
 
@@ -257,6 +261,10 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
         Largest linear speed [m/s] of the tool frame's origin and angular
         speed [rad/s] of the tool; None or 0: no limit.  They need method
         555 with optimal timing, rest to rest (:mod:`tool_lines`).
+    max_tool_acceleration : float
+        Largest linear acceleration [m/s^2] of the tool frame's origin;
+        None or 0: no limit.  Needs what the tool speeds need
+        (:mod:`tool_acceleration`).
     plan_kwargs : limits and boundary values passed on to ``plan()``;
         ``inner_knots``, ``vibration_frequency`` and ``smoothing`` shape the
         555 optimal plan as there (the tool lines are never averaged: only
@@ -288,7 +296,8 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
             or max_inserted < 0):
         raise ValueError(f'max_inserted = {max_inserted}: must be a non-negative integer')
     speeds = (_speed_limit('max_tool_speed', max_tool_speed),
-              _speed_limit('max_tool_angular_speed', max_tool_angular_speed))
+              _speed_limit('max_tool_angular_speed', max_tool_angular_speed),
+              _speed_limit('max_tool_acceleration', max_tool_acceleration))
     # Validated once; the plans below take copies with other knots or tolerances.
     if options is None:
         options = PlanOptions.from_arguments(_joint_count(kinematics, request), method=method,
@@ -304,8 +313,9 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
     lines = (options.method == '555' and options.timing == 'optimal'
              and options.inner_knots > 0 and options.rest)
     if any(speeds) and not lines:
-        raise ValueError('max_tool_speed and max_tool_angular_speed need method "555" with '
-                         'timing "optimal" (inner_knots > 0), rest to rest')
+        raise ValueError('max_tool_speed, max_tool_angular_speed and max_tool_acceleration '
+                         'need method "555" with timing "optimal" (inner_knots > 0), rest to '
+                         'rest')
     n_req = len(request)
     if lines:
         # The tool lines walk the inverse kinematics along the lines
@@ -448,7 +458,7 @@ def _joint_count(kinematics, poses):
 
 
 def _speed_limit(name, value):
-    """Return a tool speed limit: None or 0 -> 0 (no limit); ValueError unless finite, >= 0."""
+    """Return a tool speed or acceleration limit: None, 0 -> 0 (no limit); finite, >= 0."""
     if value is None:
         return 0.0
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
@@ -493,7 +503,8 @@ def _tool_lines(edge_poses, waypoint_knots, kinematics, tolerances, speeds, max_
     return ToolPath(found.trajectory, edge_poses, found.joints, waypoint_knots, segment_edges,
                     found.inserted, found.deviation, found.initial_deviation,
                     found.initial_duration, found.rounds, 'tool lines', found.tool_speed,
-                    found.tool_angular_speed, found.speed_share if speeds[0] else None)
+                    found.tool_angular_speed, found.speed_share if speeds[0] else None,
+                    found.tool_acceleration)
 
 
 def _with_inner_knots(traj, deviation, joints, kinematics, edge_poses, segment_edges,

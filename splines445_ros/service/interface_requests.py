@@ -14,7 +14,8 @@ the same value would be, with the same error text.
 # planned joint), or an array of at most one value standing for an optional scalar.
 STRING_FIELDS = ('method', 'timing', 'output')
 ARRAY_FIELDS = ('max_velocity', 'max_acceleration', 'max_jerk')
-SCALAR_FIELDS = ('max_tool_speed', 'max_tool_angular_speed', 'max_path_deviation')
+SCALAR_FIELDS = ('max_tool_speed', 'max_tool_angular_speed', 'max_tool_acceleration',
+                 'max_path_deviation')
 OVERRIDE_FIELDS = STRING_FIELDS + ARRAY_FIELDS + SCALAR_FIELDS
 
 

@@ -43,7 +43,8 @@ MAX_WAYPOINT_TOLERANCE = 0.1
 # Values of the ``output`` parameter: a point every sample_period, or one per knot.
 OUTPUTS = ('sampled', 'knots')
 # Tool speed limits of tool_waypoints requests and their units (0 = no limit).
-TOOL_SPEEDS = (('max_tool_speed', 'm/s'), ('max_tool_angular_speed', 'rad/s'))
+TOOL_LIMITS = (('max_tool_speed', 'm/s'), ('max_tool_angular_speed', 'rad/s'),
+               ('max_tool_acceleration', 'm/s²'))
 # limit_torque: the acceleration limit [rad/s^2 or m/s^2] of a joint that has none
 # (neither max_acceleration nor the joint_limits_file): high enough that the torque
 # limits the arm, within the range the planner works in (LIMIT_RANGES).
@@ -152,6 +153,12 @@ class PlannerConfig(ValidatedConfig):
         0.0, 'Largest angular speed [rad/s] of the tool on `tool_waypoints` requests '
         '(`planar_3dof`: of its yaw); 0 (the default) = no limit. Held and refused like '
         '`max_tool_speed`.', low=0.0, unit='rad/s', special=(0.0, 'no limit'))
+    max_tool_acceleration: float = parameter(
+        0.0, "Largest linear acceleration [m/s²] of the tool frame's origin on "
+        '`tool_waypoints` requests; 0 (the default) = no limit. A constraint of the speed '
+        'profile along the lines, held at a 1 kHz check (the plan is slowed down uniformly '
+        'when the check finds more). Held and refused like `max_tool_speed`; the angular '
+        'acceleration is not limited.', low=0.0, unit='m/s²', special=(0.0, 'no limit'))
     max_inserted_waypoints: int = parameter(
         200, 'Most waypoints the refinement of one tool request may insert (knots, with the '
         'tool lines of 555 optimal); a request that needs more is rejected.',
@@ -365,7 +372,7 @@ class PlannerConfig(ValidatedConfig):
 
     def _validate_tool_speeds(self):
         """
-        Refuse a tool speed limit that could never apply (the table checks >= 0, finite).
+        Refuse a tool speed or acceleration limit that could never apply (the table checks >= 0).
 
         A limit (non-zero) is only held by the 'tool lines' construction of
         method 555 with timing "optimal" and inner knots, and only on
@@ -374,7 +381,7 @@ class PlannerConfig(ValidatedConfig):
         ``vibration_frequency``).  Joint-space requests (``waypoints``) have
         no tool path and are planned without it.
         """
-        for name, unit in TOOL_SPEEDS:
+        for name, unit in TOOL_LIMITS:
             value = getattr(self, name)
             if not value:
                 continue

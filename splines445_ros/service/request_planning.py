@@ -206,8 +206,9 @@ def plan_tool_poses(config, poses, kinematics, torque=None):
     The part every tool request shares (planar or a robot model): refined to
     ``max_path_deviation`` and ``max_orientation_deviation``, within the
     position limits, with ``inner_knots`` (555 optimal) and the tool speed
-    limits ``max_tool_speed`` [m/s] and ``max_tool_angular_speed`` [rad/s]
-    (0 = no limit; the config refuses them where they cannot apply), and
+    limits ``max_tool_speed`` [m/s], ``max_tool_angular_speed`` [rad/s] and
+    ``max_tool_acceleration`` [m/s^2] (0 = no limit; the config refuses
+    them where they cannot apply), and
     ``torque`` (the :class:`TorqueOptions`; None = none), which the
     'tool lines' construction (555 optimal) holds together with the tool
     speeds, and the refinement (other methods) by slowing each plan down.
@@ -226,6 +227,7 @@ def plan_tool_poses(config, poses, kinematics, torque=None):
                                config.max_orientation_deviation, config.max_inserted_waypoints,
                                max_tool_speed=config.max_tool_speed,
                                max_tool_angular_speed=config.max_tool_angular_speed,
+                               max_tool_acceleration=config.max_tool_acceleration,
                                options=options)
     check_config_position_limits(tool_path.trajectory, config)
     return tool_path
@@ -264,7 +266,9 @@ def tool_summary_values(tool_path):
     speeds reached [m/s], [rad/s] (checked every millisecond) come with the
     'tool lines' construction only, and ``tool_speed_share`` (of the path's
     length at >= 99 % of ``max_tool_speed``) with a linear tool speed limit
-    only: keys without a value are left out, like ``limit_velocity``.
+    only, ``max_tool_acceleration_reached`` [m/s^2] with
+    ``max_tool_acceleration`` only: keys without a value are left out, like
+    ``limit_velocity``.
     """
     values = {
         'tool_waypoints': len(tool_path.waypoint_knots),
@@ -277,7 +281,8 @@ def tool_summary_values(tool_path):
     }
     for key, value in (('max_tool_speed_reached', tool_path.tool_speed),
                        ('max_tool_angular_speed_reached', tool_path.tool_angular_speed),
-                       ('tool_speed_share', tool_path.speed_share)):
+                       ('tool_speed_share', tool_path.speed_share),
+                       ('max_tool_acceleration_reached', tool_path.tool_acceleration)):
         if value is not None:
             values[key] = f'{value:.6g}'
     return values

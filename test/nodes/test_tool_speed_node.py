@@ -1,5 +1,7 @@
 """
-planner_node's ``max_tool_speed`` and ``max_tool_angular_speed`` (issue 24), in process.
+planner_node's tool limits (issues 24 and 38), in process.
+
+``max_tool_speed``, ``max_tool_angular_speed`` and ``max_tool_acceleration``.
 
 Tool requests of the planar arm and of a UR5 (example-robot-data's URDF)
 with a tool speed limit: ``~/status`` reports the construction, the speeds
@@ -123,6 +125,34 @@ def test_the_angular_speed_of_a_turning_tool(system):
     assert linear.max() <= SPEED * (1 + SPEED_RTOL)
 
 
+def test_the_tool_acceleration_is_held_and_reported(system):
+    """max_tool_acceleration 1 m/s² on the triangle, whose corners ask ~10 m/s² without it."""
+    assert system.set_planner_parameters({'max_tool_acceleration': 1.0})[0].successful
+    try:
+        status, msg = system.request(tool_waypoint_message(TRIANGLE))
+    finally:
+        assert system.set_planner_parameters({'max_tool_acceleration': 0.0})[0].successful
+    assert status.level == DiagnosticStatus.OK, status.message
+    values = status_values(status)
+    assert values['tool_construction'] == 'tool lines'
+    reached = float(values['max_tool_acceleration_reached'])
+    assert 0.8 <= reached <= 1.0 + SPEED_RTOL, reached
+    assert float(values['max_tool_speed_reached']) <= SPEED * (1 + SPEED_RTOL)
+    # The played trajectory's tool, by the test's own kinematics: second
+    # differences of 1 ms sample positions (the controller's interpolation
+    # between the published samples adds a few per cent at most).
+    duration = sampled_trajectory_from_msg(msg, pe.JOINT_NAMES).times[-1]
+    h = 1e-3
+    t = np.arange(h, duration - h, 1e-3)
+    before, here, after = (planar_tool(played_positions(msg, pe.JOINT_NAMES, t + d)[0])
+                           for d in (-h, 0.0, h))
+    played = np.hypot(*(after - 2 * here + before)[:, :2].T) / h ** 2
+    assert played.max() <= 1.1, played.max()
+    # Without it the same lines ask far more: the limit was binding.
+    status, _ = system.request(tool_waypoint_message(TRIANGLE))
+    assert 'max_tool_acceleration_reached' not in status_values(status)
+
+
 def test_other_constructions_report_no_speed_and_joint_requests_ignore_it(system):
     # 555 uniform: knots inserted into a plan through the waypoints (no tool speed).
     result = system.planner.set_parameters_atomically(overrides(
@@ -164,6 +194,12 @@ def test_other_constructions_report_no_speed_and_joint_requests_ignore_it(system
                          'which need kinematics "planar_3dof" or "model"'),
     ({'max_tool_speed': 0.0, 'max_tool_angular_speed': 1.0, 'method': '434'},
      'max_tool_angular_speed = 1 rad/s needs method "555"'),
+    ({'max_tool_acceleration': -1}, 'max_tool_acceleration = -1.0: must be >= 0'),
+    ({'max_tool_acceleration': math.inf}, 'max_tool_acceleration = inf'),
+    ({'max_tool_speed': 0.0, 'max_tool_acceleration': 2.0, 'method': '434'},
+     'max_tool_acceleration = 2 m/s² needs method "555"'),
+    ({'max_tool_speed': 0.0, 'max_tool_acceleration': 2.0, 'kinematics': ''},
+     'max_tool_acceleration = 2 m/s² limits the tool of tool_waypoints requests'),
 ])
 def test_bad_values_are_refused_with_the_reason(system, values, reason):
     before = system.planner.parameters.config
