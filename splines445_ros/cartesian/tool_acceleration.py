@@ -29,7 +29,7 @@ import math
 
 import numpy as np
 
-from .golden_search import golden_maxima
+from .golden_search import CHECK_MAXIMA, refined_peak
 from .tool_kinematics import has_transforms
 from ..planning.torque import CHECK_PERIOD, check_times
 
@@ -42,9 +42,6 @@ TIME_STEP = 1e-4
 # Samples per spline piece of the construction's piece factors (the 1 kHz
 # check holds the limit; as the tool speed's TOOL_SPEED_PIECE_SAMPLES).
 PIECE_SAMPLES = 8
-# Golden-section steps and local maxima refined by the final check (as the tool speed's).
-GOLDEN_STEPS = 10
-REFINED_MAXIMA = 8
 
 
 def tool_positions(kinematics, joints):
@@ -97,22 +94,15 @@ def peak_tool_acceleration(traj, kinematics, period=CHECK_PERIOD):
     """
     Return the largest tool acceleration [m/s^2] of ``traj``: sampled, local maxima refined.
 
-    Sampled every ``period``; the :data:`REFINED_MAXIMA` largest local
-    maxima are refined in their brackets by :data:`GOLDEN_STEPS` steps of
-    golden-section search.  A polynomial spline's acceleration rises and
+    Sampled every ``period``; the largest local maxima are refined in their
+    brackets by golden-section search (:func:`golden_search.refined_peak`,
+    :data:`~.golden_search.CHECK_MAXIMA` of them).  A polynomial spline's acceleration rises and
     falls between two samples only with a tool jerk of order
     ``A / period``: far beyond what the joint limits allow.
     """
     t = check_times(traj.duration, period, 'the tool acceleration')
-    sampled = tool_accelerations(traj, kinematics, t)
-    mid = sampled[1:-1]
-    peak = np.flatnonzero((mid >= sampled[:-2]) & (mid >= sampled[2:]))
-    top = peak[np.argsort(mid[peak])[-REFINED_MAXIMA:]]
-    if top.size == 0:
-        return float(np.max(sampled))
-    _, best = golden_maxima(lambda x: tool_accelerations(traj, kinematics, x),
-                            t[top], t[top + 2], GOLDEN_STEPS)
-    return max(float(np.max(sampled)), float(np.max(best)))
+    return refined_peak(lambda x: tool_accelerations(traj, kinematics, x), t,
+                        tool_accelerations(traj, kinematics, t), CHECK_MAXIMA)
 
 
 class PieceAccelerations:

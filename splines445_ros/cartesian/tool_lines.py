@@ -44,7 +44,7 @@ import math
 
 import numpy as np
 
-from .golden_search import golden_maxima
+from .golden_search import CHECK_MAXIMA, CHECK_STEPS, golden_maxima, sampled_maxima
 from .tool_acceleration import (acceleration_factor, peak_tool_acceleration,
                                 PieceAccelerations, ToolCurve)
 from .tool_kinematics import frame_chain, has_transforms, refused_pose, start_walk
@@ -71,13 +71,6 @@ MAX_BLEND_TURN = math.radians(60.0)
 MAX_ROUNDS = 10
 # The central-difference half step [s] of the tool speed (checked every CHECK_PERIOD).
 _DIFFERENCE_STEP = 1e-5
-# Golden-section steps refining a sampled local maximum of the tool speed:
-# its 2 ms bracket shrinks to 2 ms * 0.618**10 = 16 us, where a speed whose
-# second time derivative is below 1e3 m/s^3 is within 1.3e-7 m/s of its
-# peak (16 steps, 0.9 us, cost 6 more speed evaluations per check).
-_GOLDEN_STEPS = 10
-# Local maxima of each speed refined by the search (the largest ones).
-REFINED_MAXIMA = 8
 # Samples per spline piece of the tool speed seen by the timing's iteration
 # (the 1 kHz check holds the limit).  bench_tool_lines' seams and 40 random
 # line sets got the same shares and durations (within 0.1 %) from 8 as from
@@ -310,19 +303,17 @@ def tool_speeds(traj, kinematics, period=CHECK_PERIOD, differences=False):
     sampled = _speeds(traj, kinematics, t, differences)
     lo, hi, kind = [], [], []
     for k, values in enumerate(sampled):
-        mid = values[1:-1]
-        peak = np.flatnonzero((mid >= values[:-2]) & (mid >= values[2:]))
-        top = peak[np.argsort(mid[peak])[-REFINED_MAXIMA:]]
-        lo.append(t[top])
-        hi.append(t[top + 2])
-        kind.append(np.full(top.size, k))
+        below, above = sampled_maxima(values, CHECK_MAXIMA)
+        lo.append(t[below])
+        hi.append(t[above])
+        kind.append(np.full(below.size, k))
     lo, hi, kind = np.concatenate(lo), np.concatenate(hi), np.concatenate(kind)
 
     def value(times):
         linear, angular = _speeds(traj, kinematics, times, differences)
         return np.where(kind == 0, linear, angular)
 
-    _, best = golden_maxima(value, lo, hi, _GOLDEN_STEPS)
+    _, best = golden_maxima(value, lo, hi, CHECK_STEPS)
     return (max(float(np.max(sampled[0])), float(np.max(best[kind == 0], initial=0.0))),
             max(float(np.max(sampled[1])), float(np.max(best[kind == 1], initial=0.0))),
             sampled[0])
@@ -408,10 +399,10 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
     (:mod:`tool_acceleration`: a constraint of the profile, a factor of
     every piece, and a 1 kHz check at the end).  ``torque`` (a
     :class:`planning.torque.TorqueLimit`) adds the joint torque: one more
-    constraint of the timing, one more factor of every piece, and a 1 kHz check at the end (the spline is
-    slowed down uniformly when it needs it).  ValueError when the inverse
-    kinematics fails, no spline meets the limits, or the tolerances are not
-    reached.
+    constraint of the timing, one more factor of every piece, and a 1 kHz
+    check at the end (the spline is slowed down uniformly when it needs
+    it).  ValueError when the inverse kinematics fails, no spline meets the
+    limits, or the tolerances are not reached.
     """
     s, sigma, edge, waypoint_index = sample_edges(edge_poses)
     # One continuous walk through every sample (a redundant arm's joints
