@@ -117,7 +117,7 @@ class Arm:
 
 def robots_folder():
     """Return the absolute path of example-robot-data's ``robots`` folder."""
-    return str(importlib.metadata.distribution(vr.DISTRIBUTION).locate_file(vr.ROBOTS))
+    return str(importlib.metadata.distribution(vr.DISTRIBUTION).locate_file(vr.ROBOTS_FOLDER))
 
 
 def _candidates(folder):

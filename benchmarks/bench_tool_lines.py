@@ -367,7 +367,8 @@ def seams(arm, rng, count):
     """Return [(seam name, poses)] of ``arm``: the demo's (UR5, Panda), ``count`` random ones."""
     out = []
     key = arm.name.lower()
-    if key in rsd.ROBOTS and arm.file.endswith(os.path.basename(rsd.ROBOTS[key]['urdf']())):
+    if key in rsd.SEAM_ROBOTS and arm.file.endswith(
+            os.path.basename(rsd.SEAM_ROBOTS[key]['urdf']())):
         out.append(('demo', rsd.setup(key)[2]))
     for k in range(count):
         poses, tries, reason = reachable_seam(rng, arm)
@@ -404,7 +405,7 @@ def seam_rows(arm, seam, poses):
                     dense_ik, lambda: toppra_plan(s, joints, kin, vmax, amax, v),
                     lambda: plan_tool_path(
                         poses, arm.kinematics(), rsd.TOLERANCE, rsd.ANGLE_TOLERANCE,
-                        max_inserted=rsd.MAX_INSERTED, method='555', timing='optimal',
+                        max_inserted=rsd.SEAM_MAX_INSERTED, method='555', timing='optimal',
                         max_tool_speed=v, **kwargs)], REPEATS)
         except (ValueError, RuntimeError) as exc:
             rows.append(dict(head, failed=str(exc).splitlines()[0][:160]))

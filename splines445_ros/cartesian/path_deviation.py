@@ -9,11 +9,12 @@ How far a planned tool path leaves the straight lines between its tool waypoints
 How the deviation between knots is bounded
 ------------------------------------------
 The deviation is a smooth function of time on every segment.  It is sampled
-on ``GRID`` points per segment (both knots included), and every grid local
-maximum is refined by a vectorised golden-section search over the bracket
-between its two grid neighbours (``GOLDEN_STEPS`` steps shrink the bracket to
-8e-3 of its width), so every maximum the grid brackets is found to within
-about 1e-5 of its height (second order in the bracket).  Only grid maxima above a quarter of the tolerance are searched
+on ``SEGMENT_GRID_POINTS`` points per segment (both knots included), and
+every grid local maximum is refined by a vectorised golden-section search
+over the bracket between its two grid neighbours (``GOLDEN_STEPS`` steps
+shrink the bracket to 8e-3 of its width), so every maximum the grid brackets
+is found to within about 1e-5 of its height (second order in the bracket).
+Only grid maxima above a quarter of the tolerance are searched
 (and the largest few, for an exact reported maximum): with 24 points per
 segment the grid misses a smooth bump's height by well under 1 %, so a
 bump below a quarter of the tolerance on the grid cannot exceed it.  A
@@ -36,7 +37,8 @@ from .golden_search import golden_maxima
 from .tool_kinematics import has_transforms
 from ..robot import rotations as rot
 
-GRID = 24
+# Deviation samples per segment, both knots included (the docstring: why 24 suffice).
+SEGMENT_GRID_POINTS = 24
 # Golden-section steps on each bracket of two grid cells: 10 shrink it to
 # 0.618**10 = 8e-3 of its width, and the maximum found is off by the square
 # of that (second order; doc/tool_paths.md, "Where the constants come from").
@@ -178,7 +180,7 @@ class PathMeasure:
                              + (d[:, 1, 0] - d[:, 0, 1]) ** 2)
         return deviation, np.arctan2(sine, cosine), position
 
-    def deviation(self, tolerances=(0.0, 0.0), grid=GRID, steps=GOLDEN_STEPS):
+    def deviation(self, tolerances=(0.0, 0.0), grid=SEGMENT_GRID_POINTS, steps=GOLDEN_STEPS):
         """
         Return the :class:`Deviation` per segment (grid, then golden-section search).
 
@@ -240,7 +242,7 @@ class PathMeasure:
         return Deviation(best[0][0], best[1][0], best[0][1], best[1][1], slack)
 
 
-def path_deviation(tool_path, kinematics, grid=GRID):
+def path_deviation(tool_path, kinematics, grid=SEGMENT_GRID_POINTS):
     """Measure a :class:`ToolPath` again, e.g. with a finer ``grid`` (a :class:`Deviation`)."""
     edge_poses = tool_path.poses[np.unique(tool_path.waypoint_knots)]
     return PathMeasure(tool_path.trajectory, kinematics, edge_poses,

@@ -14,7 +14,7 @@ of ``x = log(T_1 / T_2)`` alone, and the problem that
 :func:`optimal.minimise_total_time` solves by sequential linear programs is
 one-dimensional.  Here ``R`` is evaluated exactly (the method's continuity
 system and the exact polynomial peaks of :func:`limits.limit_ratios`) at
-:data:`GRID` values of ``x`` in one batched pass, and the grid is refined
+:data:`RATIO_GRID_POINTS` values of ``x`` in one batched pass, and the grid is refined
 around its best point until its spacing is below :data:`X_TOLERANCE`.  A
 pass costs about one evaluation of the SLP, which on 3 x 3 requests took
 3-8 LPs (each with its Jacobian) and 5-15 evaluations.  The first pass
@@ -29,7 +29,7 @@ from .continuity_system import ContinuitySystem
 from .limits import limit_ratios
 
 # Values of x per pass (odd: the best point's neighbours bracket the next pass).
-GRID = 33
+RATIO_GRID_POINTS = 33
 # First pass: x within this of the start's (duration ratios 1/400 to 400 times its).
 X_RANGE = 6.0
 # Passes go on until the grid's spacing in x is below this.  The total at
@@ -95,7 +95,8 @@ class RatioSearch:
         self.method, self.points, self.limits = method, points, limits
         self.total = float(start[0] + start[1])
         centre = float(np.log(start[0] / start[1]))
-        self._x = np.concatenate([np.linspace(centre - X_RANGE, centre + X_RANGE, GRID), also])
+        self._x = np.concatenate(
+            [np.linspace(centre - X_RANGE, centre + X_RANGE, RATIO_GRID_POINTS), also])
         self.passes = 0
         self.done = False
         # The best total so far, its durations and factor.
@@ -144,8 +145,8 @@ class RatioSearch:
             return
         # The next pass spans the best point's neighbours on this grid (one
         # side more when it is at an end; an extra point: its grid point's).
-        on_grid = best if best < GRID else int(np.argmin(np.abs(x[:GRID] - x[best])))
-        lo = x[max(on_grid - 1, 0)] - (spacing * (GRID - 1) / 2 if on_grid == 0 else 0.0)
-        hi = x[min(on_grid + 1, GRID - 1)] + (
-            spacing * (GRID - 1) / 2 if on_grid == GRID - 1 else 0.0)
-        self._x = np.linspace(lo, hi, GRID)
+        n = RATIO_GRID_POINTS
+        on_grid = best if best < n else int(np.argmin(np.abs(x[:n] - x[best])))
+        lo = x[max(on_grid - 1, 0)] - (spacing * (n - 1) / 2 if on_grid == 0 else 0.0)
+        hi = x[min(on_grid + 1, n - 1)] + (spacing * (n - 1) / 2 if on_grid == n - 1 else 0.0)
+        self._x = np.linspace(lo, hi, n)

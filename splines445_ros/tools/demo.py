@@ -41,8 +41,8 @@ from ..robot import paper_example as pe
 from ..robot.kinematics import PlanarArm
 from ..service.arm_sim_config import ArmSimConfig
 
-RUNS = (('434', 'uniform'), ('445', 'uniform'), ('445', 'optimal'), ('555', 'uniform'),
-        ('555', 'optimal'))
+PAPER_RUNS = (('434', 'uniform'), ('445', 'uniform'), ('445', 'optimal'), ('555', 'uniform'),
+              ('555', 'optimal'))
 # kinematics planar_3dof: the planned paths are published as markers (and recorded).
 PLANNER_PARAMETERS = {'kinematics': 'planar_3dof', 'max_velocity': pe.MAX_VELOCITY.tolist(),
                       'max_acceleration': pe.MAX_ACCELERATION.tolist(),
@@ -62,7 +62,7 @@ RECORDED_TOPICS = (
 RECORDING = 'demo.mcap'
 
 
-def run_paper_example(runs=RUNS, recording=None):
+def run_paper_example(runs=PAPER_RUNS, recording=None):
     """
     Run every (method, timing) through both nodes; return (one dict per run, counts).
 

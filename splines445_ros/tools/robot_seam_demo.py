@@ -45,12 +45,12 @@ from ..robot.robot_model import load_robot_model
 
 TOLERANCE = 1e-3                    # m
 ANGLE_TOLERANCE = math.radians(1.0)
-RUNS = tuple((m, t) for m in ('555', '434', '445') for t in ('uniform', 'optimal'))
+SEAM_RUNS = tuple((m, t) for m in ('555', '434', '445') for t in ('uniform', 'optimal'))
 UNIFORM_REPEATS = 5
-MAX_INSERTED = 2000
+SEAM_MAX_INSERTED = 2000
 LAST_EDGE_TURN = math.radians(60.0)
 HERE = os.path.dirname(os.path.abspath(__file__))
-ROBOTS = {
+SEAM_ROBOTS = {
     'ur5': {'urdf': vr.ur5_urdf, 'tool': 'tool0', 'base': 'base_link', 'joints': vr.UR5_JOINTS,
             'ready': vr.UR5_READY, 'height': 0.15,
             'corners': ((0.3, -0.2), (0.55, -0.2), (0.55, 0.2), (0.3, 0.2), (0.3, -0.2))},
@@ -79,7 +79,7 @@ def limits_file(robot):
 
 def setup(robot='ur5'):
     """Return (kinematics, limits dict for plan(), seam poses (5, 7)) of a robot."""
-    spec = ROBOTS[robot]
+    spec = SEAM_ROBOTS[robot]
     model = load_robot_model(spec['urdf']())
     kin = ModelKinematics(model, spec['tool'], spec['base'], spec['joints'], seed=spec['ready'])
     limits = resolve_limits(kin.joint_names, {j.name: j.velocity for j in kin.joints},
@@ -107,7 +107,7 @@ def sampled_deviation(result, poses, kinematics, period=CHECK_PERIOD):
     return float(position.max()), float(rot.angle_between(wanted, tool[:, 3:]).max())
 
 
-def seam_table(robot='ur5', runs=RUNS):
+def seam_table(robot='ur5', runs=SEAM_RUNS):
     """Refine the seam for every (method, timing); return one dict per run."""
     kin, kwargs, poses = setup(robot)
     out = []
@@ -116,13 +116,13 @@ def seam_table(robot='ur5', runs=RUNS):
         times, result, error = [], None, None
         for _ in range(repeats):
             # Fresh kinematics every run: no IK walk remembered from the previous one.
-            spec = ROBOTS[robot]
+            spec = SEAM_ROBOTS[robot]
             kin = ModelKinematics(kin.robot, spec['tool'], spec['base'], spec['joints'],
                                   seed=spec['ready'])
             started = time.perf_counter()
             try:
                 result = plan_tool_path(poses, kin, TOLERANCE, ANGLE_TOLERANCE,
-                                        max_inserted=MAX_INSERTED, method=method,
+                                        max_inserted=SEAM_MAX_INSERTED, method=method,
                                         timing=timing, **kwargs)
             except ValueError as exc:
                 error = str(exc)
@@ -160,7 +160,7 @@ def markdown_table(runs):
 
 def play_seam(out_dir, robot='ur5', method='555', timing='optimal'):
     """Plan the seam with planner_node, play it on the dynamic arm; return (values, figure)."""
-    spec = ROBOTS[robot]
+    spec = SEAM_ROBOTS[robot]
     kin, _, poses = setup(robot)
     start = kin.inverse(poses[:1])[0]
     urdf = spec['urdf']()
@@ -170,7 +170,7 @@ def play_seam(out_dir, robot='ur5', method='555', timing='optimal'):
                'max_acceleration': [0.0], 'max_jerk': [0.0], 'method': method,
                'timing': timing, 'max_path_deviation': TOLERANCE,
                'max_orientation_deviation': ANGLE_TOLERANCE,
-               'max_inserted_waypoints': MAX_INSERTED, 'sample_period': 0.002}
+               'max_inserted_waypoints': SEAM_MAX_INSERTED, 'sample_period': 0.002}
     arm = {'simulation': 'dynamic', 'model_file': urdf, 'joint_names': list(spec['joints']),
            'tool_frame': spec['tool'], 'initial_positions': start.tolist(),
            'publish_rate': 200.0}
@@ -245,7 +245,7 @@ def main(argv=None):
     """Run the seam demo, print the table, write the figure and the table to --out."""
     parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument('--out', default='out', help='folder for the figure and the table')
-    parser.add_argument('--robot', default='ur5', choices=sorted(ROBOTS))
+    parser.add_argument('--robot', default='ur5', choices=sorted(SEAM_ROBOTS))
     args = parser.parse_args(argv)
     text, paths = run_robot_seam_demo(args.out, args.robot)
     print(text)

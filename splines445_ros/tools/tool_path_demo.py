@@ -29,10 +29,10 @@ from ..robot import paper_example as pe
 from ..robot.kinematics import PlanarArm
 
 TOLERANCE = 1e-3
-TIMINGS = ('uniform', 'optimal')
+TRIANGLE_TIMINGS = ('uniform', 'optimal')
 # 445 needs far more knots than 434 and 555 (its disturbances do not decay):
 # the cap is set high enough for it to get there with uniform timing.
-MAX_INSERTED = 1000
+TRIANGLE_MAX_INSERTED = 1000
 UNIFORM_REPEATS = 5
 
 
@@ -54,7 +54,7 @@ def sampled_deviation(result, poses, kinematics, period=CHECK_PERIOD):
     return float(np.max(np.linalg.norm(xy - a - s[:, None] * ab, axis=1)))
 
 
-def refine_triangle(methods=METHODS, timings=TIMINGS, tolerance=TOLERANCE):
+def refine_triangle(methods=METHODS, timings=TRIANGLE_TIMINGS, tolerance=TOLERANCE):
     """Refine the triangle for every (method, timing); return one dict per run."""
     arm = PlanarArm()
     poses = triangle_poses()
@@ -68,7 +68,8 @@ def refine_triangle(methods=METHODS, timings=TIMINGS, tolerance=TOLERANCE):
             for _ in range(repeats):
                 started = time.perf_counter()
                 try:
-                    result = plan_tool_path(poses, arm, tolerance, max_inserted=MAX_INSERTED,
+                    result = plan_tool_path(poses, arm, tolerance,
+                                            max_inserted=TRIANGLE_MAX_INSERTED,
                                             method=method, timing=timing, **kwargs)
                 except ValueError as exc:
                     error = str(exc)

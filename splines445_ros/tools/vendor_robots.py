@@ -11,7 +11,7 @@ import importlib.metadata
 import os
 
 DISTRIBUTION = 'example-robot-data'
-ROBOTS = 'cmeel.prefix/share/example-robot-data/robots'
+ROBOTS_FOLDER = 'cmeel.prefix/share/example-robot-data/robots'
 UR5_URDF = 'ur_description/urdf/ur5_robot.urdf'
 PANDA_URDF = 'panda_description/urdf/panda.urdf'
 PANDA_ARM_JOINTS = tuple(f'panda_joint{i}' for i in range(1, 8))
@@ -30,7 +30,7 @@ def robot_file(relative):
     except importlib.metadata.PackageNotFoundError:
         raise FileNotFoundError(f'{DISTRIBUTION} is not installed (pip install -r '
                                 'requirements.txt)') from None
-    path = str(dist.locate_file(f'{ROBOTS}/{relative}'))
+    path = str(dist.locate_file(f'{ROBOTS_FOLDER}/{relative}'))
     if not os.path.isfile(path):
         raise FileNotFoundError(f'{DISTRIBUTION} has no {relative} (looked at {path})')
     return path
