@@ -3,8 +3,9 @@ Tool paths, pure Python: joint trajectories whose tool follows straight lines.
 
 Lives here: the bounded-deviation refinement of a tool path (Taylor's
 method), the measurement of its deviation, the tool lines timed along their
-own inverse kinematics within tool speed limits, the kinematics protocol
-they are planned with, and the one-dimensional search they share.
+own inverse kinematics within tool speed and acceleration limits, the
+kinematics protocol they are planned with, and the one-dimensional search
+they share.
 
 May import: numpy/scipy, :mod:`splines445_ros.planning` and
 :mod:`splines445_ros.robot`.  Never rclpy or ROS message packages, never
