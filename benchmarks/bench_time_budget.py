@@ -64,7 +64,7 @@ COLUMNS = ('TOPP-RA own', 'profile v/a', 'profile v/a/j', '+ windows', 'averaged
 
 
 def construction_path(waypoints, limits):
-    """Return the natural cubic on the rest-to-rest times and its grid, as the construction does."""
+    """Return the construction's path (natural cubic on the rest-to-rest times) and grid."""
     knots = np.concatenate([[0.0], np.cumsum(rest_to_rest_durations(waypoints, limits))])
     spline = natural_cubic_spline(knots, waypoints)
     fractions = np.arange(GRID_STEPS) / GRID_STEPS
