@@ -62,7 +62,7 @@ from ..service.model_planning import (build_robot_setup, description_source, loa
 from ..service.planner_config import PlannerConfig
 from ..service.request_planning import (gravity_overload, gravity_overload_report, output_samples,
                                         plan_from_running, plan_request, plan_stop,
-                                        plan_tool_request, slow_plan_warning, start_from_state,
+                                        plan_tool_request, plan_warnings, start_from_state,
                                         summary_values, tool_summary_values)
 
 ROBOT_DESCRIPTION = 'robot_description'
@@ -510,7 +510,7 @@ class PlannerNode(Node):
         if switch_delay > 0.0:
             delayed = (f'; switching {switch_delay:.3f} s after now + replan_lead_time, '
                        'since no plan met the limits from the state there')
-        warning = slow_plan_warning(traj)
+        warning = plan_warnings(traj)
         message = (f'request {request_id}: {traj.method}/{traj.timing} through '
                    f'{through} in {traj.duration:.4f} s{delayed}'
                    + ('' if warning is None else f'; WARNING: {warning}'))

@@ -37,6 +37,9 @@ RIVAL_STALL_TOLERANCE = 1e-3
 # is more than this share shorter than the knots-only optimum: its profile
 # is not averaged then, and it pays for its time with jerk.
 MOVING_END_GAIN = 0.05
+# Trajectory.optimizer['inner_knots_skipped'] when the inner-knot construction
+# found no spline within the limits (the plan has knots at the waypoints only).
+NO_INNER_KNOT_SPLINE = 'no spline with inner knots found'
 
 
 @dataclass(frozen=True)
@@ -374,7 +377,7 @@ def _plan_limited(points, durations, options):
         knots_only.optimizer['inner_knots'] = 0
         if inner_knots:
             knots_only.optimizer['inner_knots_skipped'] = (
-                'no spline with inner knots found' if give_up is None else
+                NO_INNER_KNOT_SPLINE if give_up is None else
                 'no spline with inner knots shorter than the knots-only optimum')
     return knots_only
 

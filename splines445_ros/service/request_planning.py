@@ -14,7 +14,7 @@ import numpy as np
 from ..cartesian.tool_paths import plan_tool_path
 from ..planning.path_constraints import GravityOverload
 from ..planning.plan_options import BOUNDARY_NAMES, PlanOptions
-from ..planning.planner import plan_with_options, within_position_limits
+from ..planning.planner import NO_INNER_KNOT_SPLINE, plan_with_options, within_position_limits
 from ..planning.validation import waypoint_array
 from ..robot.user_text import format_vector
 
@@ -427,6 +427,28 @@ def slow_plan_warning(traj):
             'waypoint_tolerance cause this too')
 
 
+def inner_knots_warning(traj):
+    """
+    Return a warning when 555 optimal's inner knots were asked for and none was found, else None.
+
+    The construction (:mod:`~splines445_ros.planning.inner_knots`) found no
+    spline with inner knots within the limits (boundary values it cannot
+    keep, for one): the plan returned is the knots-only optimum, within
+    every limit but slower and without the smoothing windows.  A knots-only
+    plan that was simply shorter (the rival) is no failure and says nothing.
+    """
+    if (traj.optimizer or {}).get('inner_knots_skipped') != NO_INNER_KNOT_SPLINE:
+        return None
+    return (f'{NO_INNER_KNOT_SPLINE}: planned with knots at the waypoints only (within every '
+            'limit, but slower, and not smoothed)')
+
+
+def plan_warnings(traj):
+    """Return the plan's warnings joined (slow uniform plan, no inner knots found), or None."""
+    found = [w for w in (slow_plan_warning(traj), inner_knots_warning(traj)) if w]
+    return '; '.join(found) or None
+
+
 def summary_values(traj, joint_names):
     """Key/value details of a planned trajectory for the status report."""
     peaks = traj.peaks()
@@ -461,6 +483,9 @@ def summary_values(traj, joint_names):
         if torque_binds(traj):
             j = int(np.argmax(ratios))
             values['binding'] = f'{joint_names[j]} torque ratio {ratios[j]:.6g}'
+    skipped = (traj.optimizer or {}).get('inner_knots_skipped')
+    if skipped:
+        values['inner_knots_skipped'] = skipped
     return values
 
 

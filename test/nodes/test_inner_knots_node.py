@@ -12,7 +12,8 @@ from rclpy.parameter import Parameter
 from splines445_ros.nodes.planner_node import PlannerNode
 from splines445_ros.nodes.ros_conversions import WaypointRequest
 from splines445_ros.service.planner_config import PlannerConfig
-from splines445_ros.service.request_planning import plan_request, start_from_state, summary_values
+from splines445_ros.service.request_planning import (plan_request, plan_warnings, start_from_state,
+                                                     summary_values)
 from splines445_ros.tools.in_process import LocalRos
 
 WAYPOINTS = np.array([[0.0, 0.0, 0.0], [1.0, -0.5, 0.3], [1.5, 0.5, -0.2], [0.5, 1.0, 0.4],
@@ -137,3 +138,44 @@ def test_node_declares_and_validates_inner_knots():
         assert node.parameters.config.inner_knots == 3
         assert node.set_parameters([Parameter('inner_knots', value=0)])[0].successful
         assert node.parameters.config.inner_knots == 0
+
+
+# A short move that starts fast, found by search: the inner-knot construction
+# finds no spline within the limits that keeps this start (it is rare: 2 of
+# 300 random 2-joint moving starts).
+HARD_START = (np.array([[-0.5881802352290555, 0.853233012826621],
+                        [-0.9330973371466107, 1.02063692501268]]),
+              np.array([-1.1904513350556383, 1.4892150511173892]),
+              np.array([1.5414110854238139, -0.3821436653181589]))
+
+
+def test_no_inner_knot_spline_is_a_warning_and_the_plan_still_holds_every_limit():
+    points, start_velocity, start_acceleration = HARD_START
+    names = ('a', 'b')
+    cfg = PlannerConfig(joint_names=names, max_velocity=(2.0, 2.0),
+                        max_acceleration=(10.0, 10.0), method='555', timing='optimal')
+    zero = np.zeros(2)
+    traj = plan_request(cfg, WaypointRequest(points, start_velocity, start_acceleration,
+                                             zero, zero, None))
+    # Knots at the waypoints only, every limit held, the start kept.
+    assert traj.breakpoints.size == len(points)
+    assert traj.within_limits(rtol=1e-9)
+    np.testing.assert_allclose(traj.evaluate([0.0], 1)[0], start_velocity, atol=1e-9)
+    np.testing.assert_allclose(traj.evaluate([0.0], 2)[0], start_acceleration, atol=1e-9)
+    warning = plan_warnings(traj)
+    assert warning is not None and 'no spline with inner knots found' in warning
+    assert 'knots at the waypoints only' in warning
+    assert summary_values(traj, names)['inner_knots_skipped'] == \
+        'no spline with inner knots found'
+    # From rest the same move plans without a warning (one segment: its
+    # knots-only optimum is the shorter plan, which is no failure).
+    rested = plan_request(cfg, WaypointRequest(points, zero, zero, zero, zero, None))
+    assert plan_warnings(rested) is None
+    assert summary_values(rested, names).get('inner_knots_skipped') != \
+        'no spline with inner knots found'
+    # A longer move from rest gets its inner knots.
+    longer = 2.0 * WAYPOINTS[:, :2]
+    knotted = plan_request(cfg, WaypointRequest(longer, zero, zero, zero, zero, None))
+    assert knotted.breakpoints.size > len(longer)
+    assert plan_warnings(knotted) is None
+    assert 'inner_knots_skipped' not in summary_values(knotted, names)
