@@ -88,13 +88,10 @@ MIN_PIECE = 0.03
 SPEED_ROUNDS = 4
 # Iterations of the timing after a round of _unbound (warm-started).
 UNBOUND_ITERATIONS = 15
-# _unbound splits pieces only while the tool's top speed is below this share
-# of SPEED_MARGIN: within 1 % the tool moves at its programmed speed.  It was
-# 0.999: on the Panda seam at 0.25 m/s (top speed 0.9966 v before it) its
-# rounds took 44 of 162 ms for 0.36 % of duration (4.393 -> 4.377 s; share
-# of the length at >= 99 % of v 0.84 -> 0.87, of what the joints allow 0.93
-# -> 0.96), and planning took 1.25 times dense IK + TOPP-RA (bench_tool_lines).
-UNBOUND_BELOW = 0.99
+# A tool at this share of its speed limit or more runs at its programmed
+# speed: speed_share counts it, and _unbound splits pieces until the top
+# speed reaches it (doc/tool_paths.md, "Where the constants come from").
+AT_SPEED = 0.99
 # The profile aims at this share of a tool acceleration limit: the piece
 # factors and the final check hold the limit itself.
 ACCELERATION_MARGIN = 0.99
@@ -502,7 +499,7 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
     share = 0.0
     if max_tool_speed:
         # By length: every sample weighs the distance the tool covers there.
-        share = float(np.sum(sampled[sampled >= 0.99 * max_tool_speed]) / np.sum(sampled))
+        share = float(np.sum(sampled[sampled >= AT_SPEED * max_tool_speed]) / np.sum(sampled))
     return ToolLines(traj, joints[waypoint_index], inserted, initial[1], initial[0],
                      _per_edge(deviation, piece_edges, len(edge_poses) - 1,
                                traj.duration / timing.trajectory.duration),
@@ -553,17 +550,18 @@ def _unbound(timing, path, limits, check, measure, tolerances):
     A rest-to-rest spline is slowed down as a whole by its largest factor,
     so a piece near a stop that needs 1 % more time (its jerk) takes 1 % off
     the tool speed along every line.  While the tool's top speed on the
-    pieces stays below :data:`UNBOUND_BELOW` of :data:`SPEED_MARGIN` times
-    its limits, the pieces whose joint factor binds get a knot at their time
-    midpoint (a spline with more knots there follows the stop more closely),
-    at most :data:`SPEED_ROUNDS` times; a round is kept when the spline gets
+    pieces stays below :data:`AT_SPEED` of its limits (where
+    :attr:`ToolLines.speed_share` would count none of the path), the pieces
+    whose joint factor binds get a knot at their time midpoint (a spline
+    with more knots there follows the stop more closely), at most
+    :data:`SPEED_ROUNDS` times; a round is kept when the spline gets
     shorter and stays within the tolerances.
     """
     added, measured = 0, None
     for _ in range(SPEED_ROUNDS):
         traj = timing.trajectory
         pieces = np.diff(traj.breakpoints)
-        if np.max(check(traj.coefficients, pieces)) >= UNBOUND_BELOW * SPEED_MARGIN:
+        if np.max(check(traj.coefficients, pieces)) >= AT_SPEED:
             break
         joint = np.max(traj.limit_ratios() ** (1.0 / np.arange(1, 4)), axis=(1, 2))
         binding = np.flatnonzero(joint >= 1.0 - 1e-3)
