@@ -74,6 +74,15 @@ def planar_speeds(msg, period=1e-3, h=1e-5):
     return np.hypot(step[:, 0], step[:, 1]) / (2 * h), np.abs(step[:, 2]) / (2 * h)
 
 
+def request_with(system, name, value, reset, message):
+    """Send ``message`` with planner parameter ``name`` at ``value``, then set ``reset``."""
+    assert system.set_planner_parameters({name: value})[0].successful
+    try:
+        return system.request(message)
+    finally:
+        assert system.set_planner_parameters({name: reset})[0].successful
+
+
 def check_reported_speed(values, limit):
     """Check the status: the speed reached, within the limit, and a share of the path."""
     assert values['tool_construction'] == 'tool lines'
@@ -98,11 +107,8 @@ def test_a_planar_tool_request_keeps_the_tool_speed(system):
     assert np.sum(linear[linear >= 0.99 * SPEED]) / np.sum(linear) == pytest.approx(share,
                                                                                     abs=0.05)
     # Without a limit the same lines run far faster: the limit was binding.
-    assert system.set_planner_parameters({'max_tool_speed': 0})[0].successful
-    try:
-        status, _ = system.request(tool_waypoint_message(TRIANGLE))
-    finally:
-        assert system.set_planner_parameters({'max_tool_speed': SPEED})[0].successful
+    status, _ = request_with(system, 'max_tool_speed', 0.0, SPEED,
+                             tool_waypoint_message(TRIANGLE))
     values = status_values(status)
     assert values['tool_construction'] == 'tool lines'
     assert float(values['max_tool_speed_reached']) > 2 * SPEED
@@ -110,11 +116,8 @@ def test_a_planar_tool_request_keeps_the_tool_speed(system):
 
 
 def test_the_angular_speed_of_a_turning_tool(system):
-    assert system.set_planner_parameters({'max_tool_angular_speed': ANGULAR_SPEED})[0].successful
-    try:
-        status, msg = system.request(tool_waypoint_message(TURNING))
-    finally:
-        assert system.set_planner_parameters({'max_tool_angular_speed': 0.0})[0].successful
+    status, msg = request_with(system, 'max_tool_angular_speed', ANGULAR_SPEED, 0.0,
+                               tool_waypoint_message(TURNING))
     assert status.level == DiagnosticStatus.OK, status.message
     values = status_values(status)
     assert float(values['max_tool_angular_speed_reached']) <= ANGULAR_SPEED * (1 + SPEED_RTOL)
@@ -127,11 +130,8 @@ def test_the_angular_speed_of_a_turning_tool(system):
 
 def test_the_tool_acceleration_is_held_and_reported(system):
     """max_tool_acceleration 1 m/s² on the triangle, whose corners ask ~10 m/s² without it."""
-    assert system.set_planner_parameters({'max_tool_acceleration': 1.0})[0].successful
-    try:
-        status, msg = system.request(tool_waypoint_message(TRIANGLE))
-    finally:
-        assert system.set_planner_parameters({'max_tool_acceleration': 0.0})[0].successful
+    status, msg = request_with(system, 'max_tool_acceleration', 1.0, 0.0,
+                               tool_waypoint_message(TRIANGLE))
     assert status.level == DiagnosticStatus.OK, status.message
     values = status_values(status)
     assert values['tool_construction'] == 'tool lines'
