@@ -87,6 +87,7 @@ bench: build
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_torque_arm.py
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_jerk_profile.py
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_time_budget.py
+	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_tool_jerk.py
 
 lint: env
 	$(BIN)ament_flake8 $(LINTED)
