@@ -29,7 +29,7 @@ import math
 
 import numpy as np
 
-from .golden_search import CHECK_MAXIMA, refined_peak
+from .golden_search import refined_peak
 from .tool_kinematics import has_transforms
 from ..planning.torque import CHECK_PERIOD, check_times
 
@@ -96,13 +96,13 @@ def peak_tool_acceleration(traj, kinematics, period=CHECK_PERIOD):
 
     Sampled every ``period``; the largest local maxima are refined in their
     brackets by golden-section search (:func:`golden_search.refined_peak`,
-    :data:`~.golden_search.CHECK_MAXIMA` of them).  A polynomial spline's acceleration rises and
-    falls between two samples only with a tool jerk of order
+    :data:`~.golden_search.CHECK_MAXIMA` of them).  A polynomial spline's
+    acceleration rises and falls between two samples only with a tool jerk of order
     ``A / period``: far beyond what the joint limits allow.
     """
     t = check_times(traj.duration, period, 'the tool acceleration')
     return refined_peak(lambda x: tool_accelerations(traj, kinematics, x), t,
-                        tool_accelerations(traj, kinematics, t), CHECK_MAXIMA)
+                        tool_accelerations(traj, kinematics, t))
 
 
 class PieceAccelerations:
@@ -110,8 +110,9 @@ class PieceAccelerations:
     Per spline piece, the time factor its tool acceleration needs: ``sqrt(peak / A)``.
 
     The peak of each piece is the largest of :data:`PIECE_SAMPLES` samples
-    (both ends included), each by the second difference in time of the
-    piece's own polynomial.
+    (both ends included), each by the second difference in time of a
+    piece's polynomial.  A piece's end is its successor's start (the spline
+    is C4): computed once, as the next piece's first sample.
     """
 
     def __init__(self, kinematics, max_acceleration):
@@ -122,11 +123,14 @@ class PieceAccelerations:
     def __call__(self, coeffs, pieces):
         """Return (P, 1): each piece's ``sqrt(peak / A)`` (coefficients (P, 6, n), ascending)."""
         h = TIME_STEP
-        tau = pieces[:, None] * np.linspace(0.0, 1.0, PIECE_SAMPLES)[None, :]
+        tau = pieces[:, None] * np.linspace(0.0, 1.0, PIECE_SAMPLES)[None, :-1]
         degree = np.arange(coeffs.shape[1])
         joints = [np.einsum('psk,pkn->psn', (tau + d)[..., None] ** degree, coeffs)
                   for d in (-h, 0.0, h)]
-        peak = np.max(_second_difference(self.kinematics, *joints, h), axis=1)
+        sampled = _second_difference(self.kinematics, *joints, h)
+        last = [((pieces[-1] + d) ** degree) @ coeffs[-1] for d in (-h, 0.0, h)]
+        ends = np.append(sampled[1:, 0], _second_difference(self.kinematics, *last, h))
+        peak = np.maximum(np.max(sampled, axis=1), ends)
         return np.sqrt(peak / self.max_acceleration)[:, None]
 
 
