@@ -42,7 +42,8 @@ MAX_INSERTED_WAYPOINTS = 100000
 MAX_WAYPOINT_TOLERANCE = 0.1
 # Values of the ``output`` parameter: a point every sample_period, or one per knot.
 OUTPUTS = ('sampled', 'knots')
-# Tool speed limits of tool_waypoints requests and their units (0 = no limit).
+# Tool speed and acceleration limits of tool_waypoints requests and their units
+# (0 = no limit).
 TOOL_LIMITS = (('max_tool_speed', 'm/s'), ('max_tool_angular_speed', 'rad/s'),
                ('max_tool_acceleration', 'm/s²'))
 # limit_torque: the acceleration limit [rad/s^2 or m/s^2] of a joint that has none
