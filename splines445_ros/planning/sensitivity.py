@@ -45,6 +45,10 @@ NEGLIGIBLE = 1e-6
 # of the restored total over ``above``, far above the round-off of the
 # polynomials' values (1e-13 even where their terms cancel a thousandfold).
 LOWER_BOUND_RTOL = 1e-6
+# A Jacobian of at most this many columns (segments) keeps its band dense as
+# well (PeakJacobian): optimal's dense simplex takes its rows up to as many
+# segments (optimal.DENSE_LP_SEGMENTS).
+DENSE_COLUMNS = 12
 
 
 class PeakRatios:
@@ -138,12 +142,30 @@ class PeakJacobian:
     is ``log T_k``.  The tail (445 only) is ``beta[row] * weight[k, j]`` for
     ``k <= s - lag``, that is ``beta[row] * z[s - lag, j]`` with the running
     sums ``z[m, j] = sum_{k <= m} weight[k, j] * dx_k``.
+
+    The band is kept as CSR arrays (``data``, ``indices``, ``indptr``);
+    scipy's matrix of them (:attr:`band`) is built only when asked for
+    (HiGHS's LPs of long requests).  Issue 38, planning time of small
+    requests: building it, its ``abs`` and its row slices cost about 100 us
+    of each LP step of a 5 x 6 request, more than its LP.  The row sums,
+    products and dense rows here are computed as scipy computes them (the
+    same operations in the same order: the same bits).
     """
 
     def __init__(self, band, n_joints, n_q, beta=None, weight=None, lag=0):
-        """Wrap the (rows, S) CSR ``band`` and the tail ``beta`` (rows,), ``weight`` (S, n)."""
-        self.band = band
-        self.shape = band.shape
+        """
+        Wrap ``band`` and the tail ``beta`` (rows,), ``weight`` (S, n).
+
+        ``band`` is a (rows, S) CSR matrix, or its ``(data, indices, indptr,
+        shape)`` with sorted, unique column indices in every row.
+        """
+        if isinstance(band, tuple):
+            self._data, self._indices, self._indptr, self.shape = band
+            self._band = None
+        else:
+            self._data, self._indices, self._indptr = band.data, band.indices, band.indptr
+            self.shape, self._band = band.shape, band
+        self._dense = None
         self.n_joints = n_joints
         self.n_q = n_q
         self.beta = beta
@@ -156,6 +178,23 @@ class PeakJacobian:
         if self.has_tail:
             self._tail_rows = np.flatnonzero(self.row_segment >= lag)
 
+    @property
+    def band(self):
+        """Return the band as a scipy CSR matrix (rows, S), built the first time."""
+        if self._band is None:
+            self._band = csr_matrix((self._data, self._indices, self._indptr),
+                                    shape=self.shape)
+        return self._band
+
+    def _dense_band(self):
+        """Return the band as a dense (rows, S) array (zeros off it), or None when S is large."""
+        if self._dense is None and self.shape[1] <= DENSE_COLUMNS:
+            dense = np.zeros(self.shape)
+            entry_rows = np.repeat(np.arange(self.shape[0]), np.diff(self._indptr))
+            dense[entry_rows, self._indices] = self._data
+            self._dense = dense
+        return self._dense
+
     def _tail(self, running):
         """Add ``beta * running[s - lag, j]`` over the rows that have a tail."""
         out = np.zeros(self.shape[0])
@@ -165,14 +204,26 @@ class PeakJacobian:
 
     def __matmul__(self, step):
         """Return the Jacobian times ``step`` (S,)."""
-        out = self.band @ step
+        dense = self._dense_band()
+        if dense is None:
+            out = self.band @ step
+        else:
+            # scipy's csr_matvec: every row's products added in column order
+            # to 0.0; the zeros off the band add +-0.0, which changes no sum.
+            out = np.zeros(self.shape[0])
+            for k in range(self.shape[1]):
+                out += dense[:, k] * step[k]
         if self.has_tail:
             out += self._tail(np.cumsum(self.weight * step[:, None], axis=0))
         return out
 
     def abs_row_sums(self):
         """Return the sum of |entries| of every row (rows,)."""
-        out = np.asarray(abs(self.band).sum(axis=1)).ravel()
+        # abs(band).sum(axis=1) as scipy sums a CSR matrix's rows: add.reduceat.
+        out = np.zeros(self.shape[0])
+        filled = np.flatnonzero(np.diff(self._indptr))
+        if filled.size:
+            out[filled] = np.add.reduceat(np.abs(self._data), self._indptr[filled])
         if self.has_tail:
             out += np.abs(self._tail(np.cumsum(np.abs(self.weight), axis=0)))
         return out
@@ -180,7 +231,8 @@ class PeakJacobian:
     def dense_rows(self, rows):
         """Return the rows ``rows`` of the Jacobian as a dense (len(rows), S) array."""
         rows = np.asarray(rows, int)
-        out = self.band[rows].toarray()
+        dense = self._dense_band()
+        out = self.band[rows].toarray() if dense is None else dense[rows]
         if self.has_tail:
             k = np.arange(self.shape[1])
             below = k[None, :] <= self.row_segment[rows, None] - self.lag
@@ -297,8 +349,7 @@ def peak_jacobian(method, dP, state):
     keep = keep.reshape(n_seg * n * n_q, offsets.size)
     indptr = np.concatenate([[0], np.cumsum(keep.sum(axis=1))])
     indices = np.broadcast_to(cols[:, None, None, :], band.shape).reshape(keep.shape)[keep]
-    matrix = csr_matrix((band.reshape(keep.shape)[keep], indices, indptr),
-                        shape=(n_seg * n * n_q, n_seg))
+    matrix = (band.reshape(keep.shape)[keep], indices, indptr, (n_seg * n * n_q, n_seg))
     if with_tail:
         return PeakJacobian(matrix, n, n_q, beta.reshape(-1), weight, lag)
     return PeakJacobian(matrix, n, n_q)
