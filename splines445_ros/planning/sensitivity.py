@@ -65,6 +65,11 @@ class PeakRatios:
         self._quantities = [q for q in range(len(QUANTITIES))
                             if not np.all(np.isinf(bounds[q]))]
         self._bounds = bounds[self._quantities]        # (n_q, n)
+        # Per evaluation the same: the derivatives and the orders q of the
+        # quantities (issue 38, planning time of small requests).
+        self._derivatives = tuple(q + 1 for q in self._quantities)
+        self._order = np.array(self._quantities) + 1.0
+        self._order.flags.writeable = False     # shared by every state
         self.evaluations = 0
 
     def evaluate(self, log_durations, above=None):
@@ -91,16 +96,17 @@ class PeakRatios:
         except ValueError:  # singular for these durations
             return None
         coeffs = system.coefficients(self.points[:-1], self.dP, vel, acc)
-        derivatives = tuple(q + 1 for q in self._quantities)
+        derivatives = self._derivatives
         flat = flat_polynomials(coeffs, durations, derivatives)
         if above is not None and self._restored_above(durations, flat[0], above):
             return None
         candidates = peak_candidates(*flat)
-        peaks = np.moveaxis(peaks_of_candidates(candidates, (len(derivatives),) +
-                                                coeffs.shape[::2]), 0, -1)   # (S, n, n_q)
+        # (S, n, n_q): np.moveaxis(..., 0, -1)'s view, without its wrapper.
+        peaks = peaks_of_candidates(candidates, (len(derivatives),) +
+                                    coeffs.shape[::2]).transpose(1, 2, 0)
         if not np.all(np.isfinite(peaks)):
             return None
-        order = np.array(self._quantities) + 1.0
+        order = self._order
         with np.errstate(divide='ignore'):
             log_ratios = np.log(peaks / self._bounds.T[None]) / order
         # The peaks' sensitivities (weights, slope) wait for a Jacobian
@@ -124,8 +130,7 @@ class PeakRatios:
         n_q, n = self._bounds.shape
         lower = sampled_peaks(flat_p).reshape(n_q, durations.size, n)
         with np.errstate(divide='ignore', invalid='ignore'):
-            log_ratios = np.log(lower / self._bounds[:, None, :]) / (
-                np.array(self._quantities) + 1.0)[:, None, None]
+            log_ratios = np.log(lower / self._bounds[:, None, :]) / self._order[:, None, None]
         bound = float(durations.sum()) * np.exp(max(0.0, float(np.max(log_ratios))))
         return bound > above + LOWER_BOUND_RTOL * abs(above)
 
