@@ -1,0 +1,168 @@
+"""
+Joint moves on every vendor arm (issue 38): plan()'s default against TOPP-RA, one run.
+
+``bench_inner_knots.py`` draws joints and limits at random; a target there
+holds only if it holds on real arms too.  Here, on every 6-7-joint arm of
+example-robot-data (``bench_arms.py``: the skipped URDFs are listed with
+their reasons), random joint paths (fresh every run, the seed printed
+first: ``bench_seeds.py``; :func:`bench_torque.random_path`: 5 to 30
+waypoints, a random walk from the ready pose with steps uniform in
++-0.3 rad per joint, clipped to the joint ranges less 0.05 rad) are planned
+with the arm's own limits (velocity from the URDF, acceleration and jerk
+from its limits file where it has one, else ``bench_arms``' ratios a = 2 v,
+j = 10 a), no torque limit:
+
+* ours: ``plan(points, '555', 'optimal', **arm.plan_limits())``, the
+  default (inner knots, smoothing windows); and the same with
+  ``vibration_frequency=4``;
+* TOPP-RA: as in ``bench_inner_knots`` (``bench_planning.toppra_trajectory``:
+  toppra's spline through the waypoints, v/a, its default grid; no jerk
+  limit).
+
+Every row gives the figures of ``bench_figures.py`` (duration, duration over
+TOPP-RA along our own path, that one over TOPP-RA, shaking at 4 and 8 Hz
+peak and residual, planning time; each over TOPP-RA's on the same path),
+median / worst over the arm's paths.  Planning times: best of
+:data:`REPEATS`, ours and TOPP-RA's in turn.  Then, per arm, what a speed
+profile alone could reach on the path the construction starts from
+(:func:`profile_bounds`: the natural cubic through the waypoints at their
+rest-to-rest times, step 1 of ``planning/inner_knots.py``), over TOPP-RA's
+duration: the fastest v/a profile (``planning/path_velocity.py``), and the
+fastest v/a/j one that the sequential LPs of ``planning/jerk_profile.py``
+find (their jerk rows are conservative: a profile that holds the jerk
+limits on the grid, not a lower bound).  Their ratio is the price of the
+jerk limit on that path; our duration over the v/a/j one is what the
+spline and its rounds give away beyond it.
+
+Usage: ``python benchmarks/bench_arm_moves.py``; ``SPLINES445_BENCH_SEED``
+repeats a run, ``SPLINES445_BENCH_CASES`` sets the paths per arm,
+``SPLINES445_BENCH_ARMS=UR5,Panda`` only those arms.
+"""
+
+import logging
+import os
+import sys
+
+os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but the rule holds
+
+import bench_arms  # noqa: E402, I100
+import bench_figures  # noqa: E402
+from bench_planning import toppra_trajectory  # noqa: E402
+import bench_seeds  # noqa: E402, I100
+from bench_torque import joint_limits, random_path  # noqa: E402
+import numpy as np  # noqa: E402, I100
+import own_path  # noqa: E402, I100
+from shaking import of_toppra, shaking_figures, shaking_ratios  # noqa: E402
+from splines445_ros.planning import plan  # noqa: E402
+from splines445_ros.planning.jerk_profile import ThirdOrderProfile  # noqa: E402
+from splines445_ros.planning.limits import JointLimits  # noqa: E402
+from splines445_ros.planning.natural_cubic import natural_cubic_spline  # noqa: E402
+from splines445_ros.planning.path_constraints import (  # noqa: E402
+    GriddedPath, JointAcceleration, JointJerk, JointVelocity)
+from splines445_ros.planning.path_velocity import PathLimits, traversal_times  # noqa: E402
+from splines445_ros.planning.timing import rest_to_rest_durations  # noqa: E402
+from wall_time import best_of, interleaved_best_of  # noqa: E402
+
+CASES = 10
+REPEATS = 3
+VIBRATION_FREQUENCY = 4.0           # [Hz] the second plan's vibration_frequency
+PLANS = ('default', f'vibration_frequency={VIBRATION_FREQUENCY:g}')
+# Grid steps per segment of profile_bounds' path (inner_knots.GRID_STEPS).
+GRID_STEPS = 24
+
+
+def profile_bounds(points, limits):
+    """
+    Return the durations [s] of the fastest v/a and v/a/j profiles on step 1's path.
+
+    The path: the natural cubic through ``points`` at the cumulative
+    rest-to-rest times of ``limits`` (a JointLimits), on a grid of
+    :data:`GRID_STEPS` steps per segment; rest to rest.
+    """
+    knots = np.concatenate([[0.0], np.cumsum(rest_to_rest_durations(points, limits))])
+    fractions = np.arange(GRID_STEPS) / GRID_STEPS
+    s = np.concatenate([(knots[:-1, None] + fractions * np.diff(knots)[:, None]).ravel(),
+                        knots[-1:]])
+    gridded = GriddedPath.of_ppoly(natural_cubic_spline(knots, points), s, third=True)
+    constraints = (JointVelocity(limits.velocity), JointAcceleration(limits.acceleration))
+    ones = np.ones(s.size)
+    second = PathLimits(gridded, constraints).profile(ones)
+    third = ThirdOrderProfile(gridded, constraints + (JointJerk(limits.jerk),)).profile(
+        ones, second)
+    steps = np.diff(s)
+    return (traversal_times(second, steps)[-1],
+            np.nan if third is None else traversal_times(third, steps)[-1])
+
+
+def run_case(arm, points):
+    """Return {plan name: figures} and whether every plan held its limits, on one path."""
+    limits = arm.plan_limits()
+    vmax, amax = limits['max_velocity'], limits['max_acceleration']
+    (t_top, top), (t_ours, ours) = interleaved_best_of((
+        lambda: toppra_trajectory(points, vmax, amax),
+        lambda: plan(points, '555', 'optimal', **limits)), REPEATS)
+    shaped_time, shaped = best_of(
+        lambda: plan(points, '555', 'optimal', vibration_frequency=VIBRATION_FREQUENCY,
+                     **limits), 1)
+    reference = shaking_figures(of_toppra(top), top.duration, amax)
+    bounds = np.array(profile_bounds(points, JointLimits.from_user(
+        points.shape[1], vmax, amax, limits['max_jerk'])))
+    figures, held = {'bounds': list(bounds / top.duration) + [ours.duration / bounds[1]]}, True
+    for name, traj, elapsed in ((PLANS[0], ours, t_ours), (PLANS[1], shaped, shaped_time)):
+        own = own_path.toppra_along(traj, own_path.velocity_acceleration(vmax, amax))
+        figures[name] = bench_figures.figures(traj.duration, own.duration, top.duration,
+                                              shaking_ratios(traj, reference, amax), elapsed,
+                                              t_top)
+        held &= traj.within_limits(rtol=1e-9)
+    return figures, held
+
+
+def main():
+    """Run every arm and print the tables."""
+    logging.getLogger('toppra').setLevel(logging.ERROR)
+    seed = bench_seeds.run_seed()
+    cases = bench_seeds.case_count(CASES)
+    arms, skipped = bench_arms.vendor_arms()
+    bench_arms.print_arms(arms, skipped)
+    print(f"{cases} random joint paths per arm (seed {seed}, the arm's stream), the arm's "
+          'v/a/j limits, no torque; each plan over TOPP-RA (v/a, no jerk) on the same path; '
+          f'planning times best of {REPEATS}, in turn; median / worst')
+    print('| arm | j / a | plan | ' + bench_figures.header() + ' | limits held |')
+    print(bench_figures.rule(4 + len(bench_figures.NAMES)))
+    bounds = {}
+    for arm in arms:
+        lower, upper, _, _ = joint_limits(arm.robot, arm.joints)
+        rng = bench_seeds.generator(arm.stream)
+        paths = [random_path(rng, arm.ready, lower, upper) for _ in range(cases)]
+        rows = {name: [] for name in PLANS + ('bounds',)}
+        held = True
+        for points in paths:
+            figures, ok = run_case(arm, points)
+            held &= ok
+            for name in rows:
+                rows[name].append(figures[name])
+        bounds[arm.name] = np.array(rows['bounds'])
+        ratio = np.median(arm.jerk / arm.acceleration)
+        for name in PLANS:
+            print(f'| {arm.name} | {ratio:g} | {name} | {bench_figures.summary(rows[name])} '
+                  f'| {held} |')
+        sys.stdout.flush()
+    print()
+    print("Speed profiles alone on the construction's first path (the natural cubic at the "
+          'rest-to-rest times), median / worst over the paths: ÷ TOPP-RA, and the default ÷ '
+          'the v/a/j profile')
+    print('| arm | v/a profile ÷ TOPP-RA | v/a/j profile ÷ TOPP-RA | v/a/j ÷ v/a (the jerk '
+          'limit) | default ÷ v/a/j profile |')
+    print(bench_figures.rule(5))
+    for name, rows in bounds.items():
+        cells = [f'{np.nanmedian(rows[:, k]):.3f} / {np.nanmax(rows[:, k]):.3f}'
+                 for k in range(2)]
+        price = rows[:, 1] / rows[:, 0]
+        cells.append(f'{np.nanmedian(price):.3f} / {np.nanmax(price):.3f}')
+        cells.append(f'{np.nanmedian(rows[:, 2]):.3f} / {np.nanmax(rows[:, 2]):.3f}')
+        print(f'| {name} | ' + ' | '.join(cells) + ' |')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
