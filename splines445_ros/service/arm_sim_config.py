@@ -14,8 +14,8 @@ from .parameter_table import parameter
 from .planner_config import (check_payload, DEFAULT_JOINTS, MAX_PAYLOAD_MASS,
                              MAX_PAYLOAD_OFFSET, NOT_SET_NAMES)
 from .validated_config import ValidatedConfig
-from ..robot.model_drives import DEFAULT_BANDWIDTH, DEFAULT_DAMPING_RATIO
 from ..robot.user_text import show
+from ..sim.model_drives import DEFAULT_BANDWIDTH, DEFAULT_DAMPING_RATIO
 from ..sim.mujoco_model import PlanarArmModel
 
 MIN_PUBLISH_RATE = 0.001

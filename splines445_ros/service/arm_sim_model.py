@@ -13,7 +13,7 @@ runs with:
   :func:`~splines445_ros.robot.torque_limits.model_torque_limits`;
 * ``kp``, ``kd``: from the joint-space inertia at the initial pose, for
   ``control_bandwidth`` [Hz] and ``control_damping_ratio``, see
-  :func:`~splines445_ros.robot.model_drives.inertia_gains`.
+  :func:`~splines445_ros.sim.model_drives.inertia_gains`.
 
 Explicit values (non-zero entries) override, joint by joint.
 
@@ -28,11 +28,11 @@ import numpy as np
 
 from ..robot import rotations as rot
 from ..robot.dynamics import add_rigid_mass, payload_inertia_matrix
-from ..robot.model_drives import inertia_gains
 from ..robot.mujoco_import import import_mujoco
 from ..robot.robot_model import load_robot_model, model_file_where
 from ..robot.torque_limits import model_torque_limits
 from ..robot.user_text import show_names
+from ..sim.model_drives import inertia_gains
 from ..sim.mujoco_model import load_arm_model
 
 

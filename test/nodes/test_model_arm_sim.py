@@ -18,7 +18,7 @@ from scipy.spatial.transform import Rotation
 from splines445_ros.nodes.arm_sim_node import ArmSimNode
 from splines445_ros.nodes.ros_conversions import trajectory_to_msg
 from splines445_ros.planning import plan
-from splines445_ros.robot.model_drives import DEFAULT_BANDWIDTH
+from splines445_ros.sim.model_drives import DEFAULT_BANDWIDTH
 from splines445_ros.tools import vendor_robots as vr
 from splines445_ros.tools.in_process import LocalRos, overrides
 from urdf_reference import BatchedUrdfChain

@@ -41,7 +41,7 @@ import math
 
 import numpy as np
 
-from .mujoco_import import import_mujoco as _import_mujoco
+from ..robot.mujoco_import import import_mujoco as _import_mujoco
 
 DEFAULT_BANDWIDTH = 8.0       # Hz, closed-loop natural frequency of every joint
 DEFAULT_DAMPING_RATIO = 1.0   # critical
