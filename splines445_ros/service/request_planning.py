@@ -14,7 +14,8 @@ import numpy as np
 from ..cartesian.tool_paths import plan_tool_path
 from ..planning.path_constraints import GravityOverload
 from ..planning.plan_options import BOUNDARY_NAMES, PlanOptions
-from ..planning.planner import NO_INNER_KNOT_SPLINE, plan_with_options, within_position_limits
+from ..planning.planner import (check_position_limits, NO_INNER_KNOT_SPLINE,
+                                plan_with_options)
 from ..planning.validation import waypoint_array
 from ..robot.user_text import format_vector
 
@@ -139,16 +140,11 @@ def check_config_position_limits(traj, config):
     Raise ValueError when ``traj`` leaves the position limits of ``config`` (a joint named).
 
     The limits (``min_position``, ``max_position``; empty = none) were
-    validated with the config: they are only compared here.
+    validated with the config; :func:`planner.check_position_limits` fills
+    the unset side with infinities and compares.
     """
-    if not config.min_position and not config.max_position:
-        return
-    n = traj.n_joints
-    low = (np.array(config.min_position, dtype=float) if config.min_position
-           else np.full(n, -np.inf))
-    high = (np.array(config.max_position, dtype=float) if config.max_position
-            else np.full(n, np.inf))
-    within_position_limits(traj, low, high, config.joint_names)
+    check_position_limits(traj, config.min_position or None, config.max_position or None,
+                          config.joint_names)
 
 
 def _named_joint(exc, joint_names):
