@@ -21,6 +21,11 @@ the tableau: the problems are small, and the pivots stay plain.
 
 import numpy as np
 
+# Requests of at most this many segments solve their LPs here (optimal's
+# LP step; sensitivity.PeakJacobian keeps their band dense): scipy's milp
+# costs more a call around HiGHS than such an LP takes.
+DENSE_LP_SEGMENTS = 12
+
 # Pivots before Bland's rule replaces Dantzig's (no cycling), and most pivots.
 BLAND_AFTER = 50
 MAX_PIVOTS = 500

@@ -53,7 +53,7 @@ import numpy as np
 from scipy.optimize import Bounds, LinearConstraint, milp
 from scipy.sparse import csc_array
 
-from .dense_lp import solve_elastic_lp
+from .dense_lp import DENSE_LP_SEGMENTS, solve_elastic_lp
 from .limits import limit_ratios
 from .methods import get_method
 from .ratio_search import RatioSearch
@@ -119,10 +119,6 @@ REPAIR_ITERATIONS = 10
 REPAIR_MARGIN = 1e-6
 # Growth of the repair's box when its LP cannot reach the limits within it.
 REPAIR_GROWTH = 4.0
-# Requests of at most this many segments solve their LPs with the dense
-# simplex of :mod:`dense_lp`: scipy's milp costs more a call around HiGHS
-# than such an LP takes.
-DENSE_LP_SEGMENTS = 12
 # Constraints below this ratio never enter the LP.
 _INACTIVE = 1e-3
 

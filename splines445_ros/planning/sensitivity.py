@@ -33,6 +33,7 @@ import numpy as np
 from scipy.sparse import csr_matrix
 
 from .continuity_system import banded_solve, ContinuitySystem
+from .dense_lp import DENSE_LP_SEGMENTS
 from .limits import QUANTITIES
 from .methods import get_method
 from .peaks import (flat_polynomials, peak_candidates, peak_sensitivities_at,
@@ -45,10 +46,6 @@ NEGLIGIBLE = 1e-6
 # of the restored total over ``above``, far above the round-off of the
 # polynomials' values (1e-13 even where their terms cancel a thousandfold).
 LOWER_BOUND_RTOL = 1e-6
-# A Jacobian of at most this many columns (segments) keeps its band dense as
-# well (PeakJacobian): optimal's dense simplex takes its rows up to as many
-# segments (optimal.DENSE_LP_SEGMENTS).
-DENSE_COLUMNS = 12
 
 
 class PeakRatios:
@@ -192,8 +189,8 @@ class PeakJacobian:
         return self._band
 
     def _dense_band(self):
-        """Return the band as a dense (rows, S) array (zeros off it), or None when S is large."""
-        if self._dense is None and self.shape[1] <= DENSE_COLUMNS:
+        """Return the band as a dense (rows, S) array (zeros off it); None for a long request."""
+        if self._dense is None and self.shape[1] <= DENSE_LP_SEGMENTS:
             dense = np.zeros(self.shape)
             entry_rows = np.repeat(np.arange(self.shape[0]), np.diff(self._indptr))
             dense[entry_rows, self._indices] = self._data
