@@ -35,8 +35,8 @@ def pages(root):
     return found
 
 
-def prose_lines(path):
-    """Yield (line number, text) outside fenced code blocks, code spans removed."""
+def prose_lines(path, keep_code=False):
+    """Yield (line number, text) outside fenced code blocks, code spans removed unless kept."""
     fenced = False
     with open(path, encoding='utf-8') as handle:
         for number, line in enumerate(handle, 1):
@@ -44,13 +44,15 @@ def prose_lines(path):
                 fenced = not fenced
                 continue
             if not fenced:
-                yield number, re.sub(r'`[^`]*`', '', line)
+                yield number, line if keep_code else re.sub(r'`[^`]*`', '', line)
 
 
 def anchors(path):
     """Yield the anchors GitHub makes of the headings of a Markdown file."""
     seen = {}
-    for _, line in prose_lines(path):
+    # A heading's code spans keep their text in GitHub's anchor (their
+    # backticks go with the other punctuation).
+    for _, line in prose_lines(path, keep_code=True):
         match = re.match(r'^#{1,6}\s+(.*?)\s*#*\s*$', line)
         if not match:
             continue
@@ -101,7 +103,10 @@ def test_the_checker_finds_broken_links(tmp_path):
     write_file(root, 'doc/page.md', '# A page\n\n## Connecting to ros2_control\n\n## A page\n'
                'Back to [the README](../README.md) and [here](#a-page-1).\n'
                'Broken: [missing](other.md) and [bad anchor](#nowhere), [a wrapped\n'
-               'link](#wrapped).\n')
+               'link](#wrapped).\n'
+               '## Moves on arms: `bench_arm.py` (issue 38)\n'
+               '[kept code](#moves-on-arms-bench_armpy-issue-38) [dropped code]'
+               '(#moves-on-arms--issue-38)\n')
     write_file(root, 'README.md', '# Title\n\n![figure](doc/figure.png)\n'
                '[ok](doc/page.md#connecting-to-ros2_control) [web](https://example.com/x.md)\n'
                '![no image](doc/missing.png) <img src="doc/gone.png">\n'
@@ -113,7 +118,8 @@ def test_the_checker_finds_broken_links(tmp_path):
                 'README.md:6: doc/page.md#not-there (no such heading)',
                 os.path.join('doc', 'page.md') + ':7: other.md (no such file)',
                 os.path.join('doc', 'page.md') + ':7: #nowhere (no such heading)',
-                os.path.join('doc', 'page.md') + ':8: #wrapped (no such heading)']
+                os.path.join('doc', 'page.md') + ':8: #wrapped (no such heading)',
+                os.path.join('doc', 'page.md') + ':10: #moves-on-arms--issue-38 (no such heading)']
     assert sorted(found) == sorted(expected)
 
 
