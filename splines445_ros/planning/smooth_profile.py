@@ -1,0 +1,382 @@
+"""
+A third-order speed profile that can be followed: ``x(s) = sdot**2`` smooth in ``s`` (issue 38).
+
+:mod:`jerk_profile` bounds the jerk on a grid, but its ``x`` is piecewise
+linear: the path acceleration ``u = x'/2`` jumps at every grid point and at
+the rest ends, so ``q(s(t))`` sampled every 1 ms needs a slow-down of 1.3-4
+to hold the jerk.  Here ``x`` is a C2 function of ``s`` and every row is
+linear in its coefficients ``z``:
+
+* ``x(s) = B(s) + sum_ends [alpha phi_{4/3}(r) + beta phi_{5/3}(r)]``,
+  ``r`` the distance to the end.  ``B`` is a clamped cubic B-spline with a
+  knot every :data:`KNOT_STEPS` grid steps; its first two and last two
+  coefficients are 0, so ``B = B' = 0`` at both ends.
+  ``phi_p(r) = r**p (1 - r/L)**3`` on ``r < L`` (``L`` =
+  :data:`END_STEPS` grid steps), C2 at ``L``.
+* Along the path ``q(s)``, with ``u = x'/2`` and ``du/ds = x''/2``::
+
+      velocity      q' sqrt(x)
+      acceleration  q' x'/2 + q'' x
+      jerk          sqrt(x) (q' x''/2 + 3 q'' x'/2 + q''' x)
+
+  The rows are ``0 <= x <= x_max`` (the fastest v/a profile of
+  :mod:`path_velocity`, which holds the velocity),
+  ``|q' x'/2 + q'' x| <= a`` and the jerk below.  They are applied at
+  :data:`DENSE` points per grid step, :data:`END_DENSE` per step in the end
+  regions, :data:`GEOMETRIC_POINTS` points ``L 2**-m`` from each end and on
+  both sides of every waypoint (the natural cubic's ``q'''`` jumps there).
+* Rest ends.  Near rest ``x ~ alpha s**(4/3)``, which is exactly a constant
+  path jerk ``J`` from rest: ``s = J t**3/6`` gives
+  ``x = (J**2/4) (6 s/J)**(4/3)``, so ``J = (2/9) alpha**1.5``.  The bound
+  ``alpha <= (4.5 min_j j_j / |q'_j(end)|)**(2/3)`` holds the jerk at the
+  end itself, and it is linear.  ``s**(5/3)`` lets the jerk change away
+  from the end.  As ``x``, ``x'`` and ``x''`` are continuous, ``s(t)`` has
+  continuous acceleration and jerk; the jerk of ``q(s(t))`` jumps only at
+  the waypoints, with ``q'''``.
+* The jerk rows, nonlinear through ``sqrt(x)``, written
+  ``|L(z)| <= j / sqrt(x)``.  ``j / sqrt(x)`` is convex in ``x``, so its
+  tangent at the last profile ``x_p`` lies below it for every ``x > 0``:
+  ``|L(z)| + (j/2) x_p**-1.5 x(z) <= 1.5 j / sqrt(x_p)`` is conservative
+  everywhere and exact at ``x_p``, with no trust region.  (jerk_profile's
+  ``j / sqrt(xbar)`` rows need one, and converge in 15+ LPs instead of 3-5.)
+
+Sequential LPs (scipy's HiGHS): each maximises the traversal time
+``sum w x / x_p**1.5`` linearised at ``x_p`` (as jerk_profile), under
+``x <= min(x_max, gamma x_p)`` for the factors :data:`GROWTH`, and stops
+when the time improves by less than :data:`TOLERANCE`.  The acceleration
+and jerk rows (up to ~80 000) enter only where violated (constraint
+generation); rows near binding are kept from one LP to the next.
+
+:class:`SmoothProfile` also gives the exact time law: ``t(s) = int ds /
+sqrt(x)`` by Gauss-Legendre on the spline's pieces, with ``s = h tau**3``
+on the first and last pieces (the integrand ``~ s**(-2/3)`` becomes
+regular), and ``s(t)`` by Newton.
+
+This is issue 38's profile, not yet plan()'s (nothing calls it).  Measured
+(``benchmarks/bench_smooth_profile.py``, doc/benchmarks.md): sampled every
+1 ms, ``q(s(t))`` needs a uniform slow-down of 1.0004 median (1.0018
+worst) on 76 paths of 8 arms, and it lasts 1.025 x TOPP-RA (median)
+against plan()'s default 1.085; but it takes 0.36 s a path (median)
+against 0.03 s for all of plan().
+"""
+
+import numpy as np
+from scipy.interpolate import BSpline, PPoly
+from scipy.optimize import linprog
+import scipy.sparse as sp
+
+from .path_constraints import GriddedPath, JointAcceleration, JointVelocity
+from .path_velocity import PathLimits
+
+# A B-spline knot every this many grid steps: 1 gained < 0.5 %, 3 lost 0.3-1 %.
+KNOT_STEPS = 2
+# Row points per grid step: 2 halved the solve time but lost 0.3-1 % in duration.
+DENSE = 4
+# Length of the end terms, in grid steps: 16 gained nothing measurable.
+END_STEPS = 4
+# Row points per grid step in the end regions, where x'' is largest.
+END_DENSE = 12
+# Points L 2**-m (m = 1 ..) from each end: the rows near rest, where x ~ s**(4/3).
+GEOMETRIC_POINTS = 14
+# Waypoints: rows this share of the path on each side (q''' one-sided).
+WAYPOINT_OFFSET = 1e-9
+# Growth of x <= gamma x_p per LP: large first, then closing in.
+GROWTH = (4.0, 2.0, 1.5, 1.3, 1.2, 1.1, 1.05, 1.05)
+# The bound x <= gamma x_p never falls below (gamma - 1) times this share of x_max.
+RESTART_SHARE = 0.1
+# Linearisation points and weights at least this share of the largest x (0 at rest).
+MIN_WEIGHT_SHARE = 1e-6
+# Stop when an LP shortens the linearised time by less than this share.
+TOLERANCE = 2e-4
+# Rows with lhs above this share of their bound stay in the next LP's working set.
+KEEP = 0.8
+# Constraint-generation rounds per LP (2-3 are usual).
+MAX_ROUNDS = 40
+# A generated row counts as violated above its bound by this share.
+VIOLATION = 1e-9
+# Exact time law: Gauss-Legendre nodes per piece, pieces per spline interval.
+QUADRATURE_NODES = 16
+QUADRATURE_SPLIT = 4
+# Newton steps at most for s(t) (quadratic; it stops when tau moves by < 1e-15).
+NEWTON_STEPS = 30
+# End terms r**p: 4/3 is a constant path jerk from rest, 5/3 lets it change.
+POWERS = (4.0 / 3.0, 5.0 / 3.0)
+
+
+def _end_terms(r, length):
+    """Return [phi_p, phi_p', phi_p''] (3, len(r)) for each power, 0 outside 0 < r < length."""
+    inside = (r > 0.0) & (r < length)
+    rr = np.where(inside, r, 0.5 * length)
+    left = 1.0 - rr / length
+    h, h1, h2 = left ** 3, -3.0 * left ** 2 / length, 6.0 * left / length ** 2
+    terms = []
+    for p in POWERS:
+        g, g1, g2 = rr ** p, p * rr ** (p - 1.0), p * (p - 1.0) * rr ** (p - 2.0)
+        values = np.array([g * h, g1 * h + g * h1, g2 * h + 2.0 * g1 * h1 + g * h2])
+        terms.append(np.where(inside[None], values, 0.0))
+    return terms
+
+
+def _derivative_matrix(knots, degree, count):
+    """Return the (count - 1, count) map from B-spline coefficients to their derivative's."""
+    span = knots[degree + 1:degree + count] - knots[1:count]
+    with np.errstate(divide='ignore', invalid='ignore'):
+        factor = np.where(span > 0.0, degree / span, 0.0)
+    return sp.diags([-factor, factor], [0, 1], shape=(count - 1, count), format='csr')
+
+
+def _limit(value, n_joints, name):
+    """Return a positive finite limit (n_joints,), or raise ValueError."""
+    value = np.asarray(value, float)
+    if value.ndim == 0:
+        value = np.full(n_joints, value)
+    if value.shape != (n_joints,):
+        raise ValueError(f'{name} limit: expected {n_joints} values, got shape {value.shape}')
+    if not np.all(np.isfinite(value)) or np.any(value <= 0.0):
+        raise ValueError(f'{name} limit must be positive and finite, got {value}')
+    return value
+
+
+class SmoothProfile:
+    """
+    ``x(s) = sdot**2`` along ``path``, C2 in ``s``, at rest at both ends; see the module docstring.
+
+    ``path`` is a scipy ``PPoly`` ``q(s)`` (n joints) and ``grid`` its
+    increasing grid from ``path.x[0]`` to ``path.x[-1]`` (e.g. 24 steps a
+    segment); ``velocity``, ``acceleration``, ``jerk`` the joint limits
+    (n,) or scalars.  Solved on construction; raises ValueError on bad input
+    and RuntimeError when the first LP fails.
+
+    Attributes: ``knots``, ``coefficients`` (the B-spline's),
+    ``end_coefficients`` ((alpha, beta) at the start, at the end),
+    ``end_lengths`` (L at each end), ``duration``, ``lps`` (HiGHS solves).
+    """
+
+    def __init__(self, path, grid, velocity, acceleration, jerk):
+        """Check the input, solve the LPs and prepare the time law."""
+        if not isinstance(path, PPoly):
+            raise ValueError(f'path must be a scipy PPoly, got {type(path).__name__}')
+        grid = np.asarray(grid, float)
+        if grid.ndim != 1 or grid.size < 2 * END_STEPS + 1:
+            raise ValueError(f'grid must be 1-D with at least {2 * END_STEPS} steps')
+        if not np.all(np.diff(grid) > 0.0):
+            raise ValueError('grid must be strictly increasing')
+        if not np.allclose(grid[[0, -1]], path.x[[0, -1]], rtol=0.0,
+                           atol=1e-12 * (path.x[-1] - path.x[0])):
+            raise ValueError(f'grid must span the path [{path.x[0]}, {path.x[-1]}], '
+                             f'got [{grid[0]}, {grid[-1]}]')
+        points = np.atleast_2d(path(grid).T).T
+        n_joints = points.shape[1]
+        if not np.any(np.abs(points - points[0]) > 0.0):
+            raise ValueError('the path does not move: no profile to plan')
+        self.path = path
+        self.velocity = _limit(velocity, n_joints, 'velocity')
+        self.acceleration = _limit(acceleration, n_joints, 'acceleration')
+        self.jerk = _limit(jerk, n_joints, 'jerk')
+        self.start, self.end = grid[0], grid[-1]
+        steps = np.diff(grid)
+        self.end_lengths = (grid[END_STEPS] - grid[0], grid[-1] - grid[-1 - END_STEPS])
+        knots = grid[::KNOT_STEPS]
+        if knots[-1] != grid[-1]:
+            # The last knot interval: merged when under half a knot spacing.
+            short = grid.size - 1 - (knots.size - 1) * KNOT_STEPS < KNOT_STEPS / 2
+            knots = np.concatenate([knots[:-1] if short else knots, grid[-1:]])
+        self.knots = np.concatenate([[grid[0]] * 3, knots, [grid[-1]] * 3])
+        self._count = self.knots.size - 4
+        self.lps = 0
+        z = self._solve(grid, steps)
+        self.coefficients = z[:self._count]
+        self.end_coefficients = (tuple(z[self._count:self._count + 2]),
+                                 tuple(z[self._count + 2:]))
+        self._prepare_time_law()
+
+    # The problem.
+
+    def _design(self, s):
+        """Return the sparse (len(s), unknowns) maps from z to x, x', x'' at ``s``."""
+        t, count = self.knots, self._count
+        d1 = _derivative_matrix(t, 3, count)
+        d2 = _derivative_matrix(t[1:-1], 2, count - 1)
+        bases = (BSpline.design_matrix(s, t, 3).tocsr(),
+                 BSpline.design_matrix(s, t[1:-1], 2).tocsr() @ d1,
+                 BSpline.design_matrix(s, t[2:-2], 1).tocsr() @ d2 @ d1)
+        first = _end_terms(s - self.start, self.end_lengths[0])
+        last = _end_terms(self.end - s, self.end_lengths[1])
+        sign = np.array([1.0, -1.0, 1.0])[:, None]     # d/ds = -d/dr at the end
+        ends = np.stack(first + [term * sign for term in last], axis=-1)
+        return [sp.hstack([basis, sp.csr_matrix(ends[order])], format='csr')
+                for order, basis in enumerate(bases)]
+
+    def _points(self, grid, steps):
+        """Return the row points, ends included (sorted, unique)."""
+        fractions = np.arange(DENSE) / DENSE
+        dense = (grid[:-1, None] + fractions * steps[:, None]).ravel()
+        halves = 2.0 ** -np.arange(1, GEOMETRIC_POINTS + 1)
+        ends = np.concatenate([
+            self.start + np.linspace(0.0, self.end_lengths[0], END_DENSE * END_STEPS + 1),
+            self.end - np.linspace(0.0, self.end_lengths[1], END_DENSE * END_STEPS + 1),
+            self.start + self.end_lengths[0] * halves, self.end - self.end_lengths[1] * halves])
+        offset = WAYPOINT_OFFSET * (self.end - self.start)
+        waypoints = self.path.x[1:-1]
+        points = np.unique(np.concatenate([dense, grid[-1:], ends, waypoints - offset,
+                                           waypoints + offset]))
+        return points[(points >= self.start) & (points <= self.end)]
+
+    def _solve(self, grid, steps):
+        """Return the coefficients z of the last feasible LP (sequential LPs, see the module)."""
+        every = self._points(grid, steps)
+        # x_max: the fastest v/a profile on the row points; it holds the velocity.
+        gridded = GriddedPath.of_ppoly(self.path, every)
+        x_max = PathLimits(gridded, (JointVelocity(self.velocity),
+                                     JointAcceleration(self.acceleration))).profile(
+            np.ones(every.size))[1:-1]
+        width = np.zeros(every.size)                # trapezoid weights of the time
+        width[:-1] += 0.5 * np.diff(every)
+        width[1:] += 0.5 * np.diff(every)
+        width = width[1:-1]
+        points = every[1:-1]
+        x, x1, x2 = self._design(points)
+        d1, d2, d3 = (np.atleast_2d(self.path(points, k).T).T for k in (1, 2, 3))
+        acc_rows, jerk_rows = [], []
+        for k in range(d1.shape[1]):
+            row = sp.diags(0.5 * d1[:, k]) @ x1 + sp.diags(d2[:, k]) @ x
+            acc_rows += [row, -row]
+            row = (sp.diags(0.5 * d1[:, k]) @ x2 + sp.diags(1.5 * d2[:, k]) @ x1
+                   + sp.diags(d3[:, k]) @ x)
+            jerk_rows += [row, -row]
+        acc_matrix = sp.vstack(acc_rows, format='csr')
+        acc_bound = np.repeat(np.repeat(self.acceleration, 2), points.size)
+        jerk_matrix = sp.vstack(jerk_rows, format='csr')
+        jerk_bound = np.repeat(np.repeat(self.jerk, 2), points.size)
+        repeats = jerk_bound.size // points.size
+        x_repeated = sp.vstack([x] * repeats, format='csr')
+        bounds = self._bounds()
+        x_p, z_best, last_time, work = x_max.copy(), None, None, None
+        for iteration, growth in enumerate(GROWTH):
+            x_q = np.maximum(x_p, MIN_WEIGHT_SHARE * x_p.max())
+            x_r = np.tile(x_q, repeats)
+            # The tangent of j / sqrt(x) at x_q: conservative for every x > 0.
+            tangent = jerk_matrix + sp.diags(0.5 * jerk_bound * x_r ** -1.5) @ x_repeated
+            rows = sp.vstack([acc_matrix, tangent], format='csr')
+            bound = np.concatenate([acc_bound, 1.5 * jerk_bound / np.sqrt(x_r)])
+            cap = x_max if iteration == 0 else np.minimum(
+                x_max, np.maximum(growth * x_p, (growth - 1.0) * RESTART_SHARE * x_max))
+            fixed = sp.vstack([x, -x], format='csr')
+            fixed_bound = np.concatenate([cap, np.zeros(points.size)])
+            cost = -(x.T @ (width / x_q ** 1.5))
+            work = np.zeros(bound.size, bool) if z_best is None else \
+                rows @ z_best > KEEP * bound
+            result, solved = None, False
+            for _ in range(MAX_ROUNDS):
+                result = linprog(cost, A_ub=sp.vstack([fixed, rows[work]], format='csr'),
+                                 b_ub=np.concatenate([fixed_bound, bound[work]]),
+                                 bounds=bounds, method='highs')
+                self.lps += 1
+                if result.status != 0:
+                    break
+                violated = (rows @ result.x > bound * (1.0 + VIOLATION)) & ~work
+                if not violated.any():
+                    solved = True
+                    break
+                work |= violated
+            if not solved:
+                break                   # keep the last feasible profile
+            z_best = result.x
+            x_p = np.maximum(x @ z_best, 0.0)
+            time = np.sum(width / np.sqrt(np.maximum(x_p, np.finfo(float).tiny)))
+            if last_time is not None and last_time - time < TOLERANCE * time:
+                break
+            last_time = time
+        if z_best is None:
+            raise RuntimeError(f'the first LP of the smooth profile failed: {result.message}')
+        return z_best
+
+    def _bounds(self):
+        """Variable bounds: B = B' = 0 at the rest ends, 0 <= alpha <= the jerk at the end."""
+        count = self._count
+        bounds = [(None, None)] * (count + 4)
+        for i in (0, 1, count - 2, count - 1):
+            bounds[i] = (0.0, 0.0)
+        for column, s in ((count, self.start), (count + 2, self.end)):
+            slope = np.abs(np.atleast_1d(self.path(s, 1)))
+            with np.errstate(divide='ignore'):
+                path_jerk = np.min(self.jerk / slope)
+            bounds[column] = (0.0, None if np.isinf(path_jerk) else
+                              (4.5 * path_jerk) ** (2.0 / 3.0))
+        return bounds
+
+    # The solved profile.
+
+    def x(self, s, order=0):
+        """Return ``x`` (order 0), ``x'`` (1) or ``x''`` (2) at ``s``."""
+        s = np.asarray(s, float)
+        out = self._spline[order](s)
+        first = _end_terms(s - self.start, self.end_lengths[0])
+        last = _end_terms(self.end - s, self.end_lengths[1])
+        sign = (1.0, -1.0, 1.0)[order]
+        for (alpha, beta), terms, factor in ((self.end_coefficients[0], first, 1.0),
+                                             (self.end_coefficients[1], last, sign)):
+            out = out + factor * (alpha * terms[0][order] + beta * terms[1][order])
+        return out
+
+    def _prepare_time_law(self):
+        """Split the path into quadrature pieces and integrate t at their ends."""
+        spline = BSpline(self.knots, self.coefficients, 3)
+        self._spline = (spline, spline.derivative(1), spline.derivative(2))
+        breaks = np.unique(np.concatenate([self.knots, [self.start + self.end_lengths[0],
+                                                        self.end - self.end_lengths[1]]]))
+        fractions = np.arange(QUADRATURE_SPLIT) / QUADRATURE_SPLIT
+        self._breaks = np.concatenate([(breaks[:-1, None] + fractions
+                                        * np.diff(breaks)[:, None]).ravel(), breaks[-1:]])
+        nodes, weights = np.polynomial.legendre.leggauss(QUADRATURE_NODES)
+        self._nodes, self._weights = 0.5 * (nodes + 1.0), 0.5 * weights
+        pieces = self._breaks.size - 1
+        self._times = np.concatenate([[0.0], np.cumsum(
+            self._partial(np.arange(pieces), np.ones(pieces)))])
+        self.duration = self._times[-1]
+
+    def _map(self, piece, tau):
+        """Return s and ds/dtau at ``tau`` in [0, 1] on ``piece`` (cubic on the first and last)."""
+        a, b = self._breaks[piece], self._breaks[piece + 1]
+        h = b - a
+        s, ds = a + h * tau, h * np.ones_like(tau)
+        first, last = piece == 0, piece == self._breaks.size - 2
+        s = np.where(first, a + h * tau ** 3, np.where(last, b - h * (1.0 - tau) ** 3, s))
+        ds = np.where(first, 3.0 * h * tau ** 2,
+                      np.where(last, 3.0 * h * (1.0 - tau) ** 2, ds))
+        return s, ds
+
+    def _rate(self, piece, tau):
+        """Return dt/dtau on ``piece``."""
+        s, ds = self._map(piece, tau)
+        with np.errstate(divide='ignore', invalid='ignore'):
+            return ds / np.sqrt(np.maximum(self.x(s), 0.0))
+
+    def _partial(self, piece, tau):
+        """Return the time from the start of ``piece`` to ``tau`` on it (vectorised)."""
+        pieces = np.repeat(piece[:, None], self._nodes.size, axis=1)
+        at = tau[:, None] * self._nodes[None, :]
+        rate = self._rate(pieces.ravel(), at.ravel()).reshape(pieces.shape)
+        return tau * (rate @ self._weights)
+
+    def s_of_t(self, t):
+        """Return ``s`` at the times ``t`` (``start`` before 0, ``end`` after the duration)."""
+        t = np.atleast_1d(np.asarray(t, float))
+        times = self._times
+        piece = np.clip(np.searchsorted(times, t, side='right') - 1, 0, self._breaks.size - 2)
+        tau = np.clip((t - times[piece]) / (times[piece + 1] - times[piece]), 0.0, 1.0)
+        for _ in range(NEWTON_STEPS):
+            error = times[piece] + self._partial(piece, tau) - t
+            step = error / self._rate(piece, np.maximum(tau, 1e-9))
+            new = np.clip(tau - step, 0.0, 1.0)
+            done = np.max(np.abs(new - tau)) < 1e-15
+            tau = new
+            if done:
+                break
+        s, _ = self._map(piece, tau)
+        return np.where(t >= self.duration, self.end, np.where(t <= 0.0, self.start, s))
+
+    def samples(self, period=1e-3):
+        """Return the times ``k period`` (k = 0, 1, .. up to one past the duration) and s."""
+        t = np.arange(int(np.floor(self.duration / period)) + 2) * period
+        return t, self.s_of_t(t)
