@@ -1,0 +1,135 @@
+"""
+A third-order profile that can be followed (issue 38) on the 6-7-joint arms; not in make bench.
+
+``splines445_ros.planning.smooth_profile`` plans ``x(s) = sdot**2`` as a C2
+function of ``s`` under the v/a/j limits; this bench measures it against
+TOPP-RA (v/a, ``bench_planning.toppra_trajectory``), the grid LP of
+``jerk_profile.ThirdOrderProfile`` (``bench_arm_moves.profile_bounds``:
+it holds the jerk only on its grid, and cannot be followed as it is) and
+plan()'s default (``plan(points, '555', 'optimal', v, a, j)``) on the same
+random joint paths (``bench_torque.random_path``, the arm's stream + 101 of
+the run's seed), on the path of ``profile_bounds`` (the natural cubic
+through the waypoints at their rest-to-rest times, 24 grid steps a
+segment).
+
+Per arm, median / worst over the paths:
+
+* smooth x f / TOPP-RA: the smooth profile's exact duration times its
+  slow-down factor ``f``, over TOPP-RA's.  ``f = max(rv, sqrt(ra),
+  cbrt(rj))`` of ``q(s(t))`` sampled every 1 ms (``SmoothProfile.samples``,
+  exact time law; three rest samples before, four after), v/a/j by finite
+  differences over the limits: the uniform slow-down that makes the
+  samples hold every limit;
+* grid LP / TOPP-RA and default / TOPP-RA;
+* the wall time of the smooth profile (one call), of the grid LP and of
+  plan().
+
+Usage: ``python benchmarks/bench_smooth_profile.py``;
+``SPLINES445_BENCH_SEED=<seed>`` repeats a run,
+``SPLINES445_BENCH_CASES=<count>`` sets the paths per arm (default
+:data:`CASES`), ``SPLINES445_BENCH_ARMS=<names>`` keeps some arms.  Set
+``OPENBLAS_NUM_THREADS=1`` on a shared machine.
+"""
+
+import logging
+import os
+import time
+
+os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but the rule holds
+
+from bench_arm_moves import GRID_STEPS, profile_bounds  # noqa: E402, I100
+import bench_arms  # noqa: E402
+from bench_planning import toppra_trajectory  # noqa: E402
+import bench_seeds  # noqa: E402
+from bench_torque import joint_limits, random_path  # noqa: E402
+import numpy as np  # noqa: E402
+from splines445_ros.planning import plan  # noqa: E402
+from splines445_ros.planning.limits import JointLimits  # noqa: E402
+from splines445_ros.planning.natural_cubic import natural_cubic_spline  # noqa: E402
+from splines445_ros.planning.smooth_profile import SmoothProfile  # noqa: E402
+from splines445_ros.planning.timing import rest_to_rest_durations  # noqa: E402
+
+CASES = 3
+PERIOD = 1e-3           # the controller's: samples every 1 ms
+PATH_STREAM = 101       # the arm's stream + this: the paths (as the prototype's study drew them)
+REST_BEFORE, REST_AFTER = 3, 4
+
+
+def slow_down(path, profile, vmax, amax, jmax):
+    """Return the uniform slow-down factor of ``q(s(t))`` sampled every PERIOD."""
+    _, s = profile.samples(PERIOD)
+    q = path(s)
+    q = np.vstack([np.repeat(q[:1], REST_BEFORE, 0), q, np.repeat(q[-1:], REST_AFTER, 0)])
+    ratios = [np.max(np.abs(np.diff(q, k, axis=0)) / PERIOD ** k / limit)
+              for k, limit in ((1, vmax), (2, amax), (3, jmax))]
+    return max(ratios[0], np.sqrt(ratios[1]), np.cbrt(ratios[2]))
+
+
+def run_case(arm, points):
+    """Return the figures of one path: durations over TOPP-RA's, factor, wall times."""
+    limits = arm.plan_limits()
+    vmax, amax, jmax = (limits[k] for k in ('max_velocity', 'max_acceleration', 'max_jerk'))
+    joint = JointLimits.from_user(points.shape[1], vmax, amax, jmax)
+    top = toppra_trajectory(points, vmax, amax).duration
+    start = time.perf_counter()
+    default = plan(points, '555', 'optimal', **limits).duration
+    t_default = time.perf_counter() - start
+    start = time.perf_counter()
+    grid_lp = profile_bounds(points, joint)[1]
+    t_grid = time.perf_counter() - start
+    knots = np.concatenate([[0.0], np.cumsum(rest_to_rest_durations(points, joint))])
+    fractions = np.arange(GRID_STEPS) / GRID_STEPS
+    grid = np.concatenate([(knots[:-1, None] + fractions * np.diff(knots)[:, None]).ravel(),
+                           knots[-1:]])
+    path = natural_cubic_spline(knots, points)
+    start = time.perf_counter()
+    profile = SmoothProfile(path, grid, vmax, amax, jmax)
+    t_smooth = time.perf_counter() - start
+    factor = slow_down(path, profile, vmax, amax, jmax)
+    return {'smooth': profile.duration * factor / top, 'factor': factor, 'grid': grid_lp / top,
+            'default': default / top, 'lps': profile.lps, 't_smooth': t_smooth,
+            't_grid': t_grid, 't_default': t_default, 'points': len(points)}
+
+
+def cell(values, digits=3):
+    """Return 'median / worst' of ``values``."""
+    return f'{np.median(values):.{digits}f} / {np.max(values):.{digits}f}'
+
+
+def main():
+    """Run every arm and print the table."""
+    logging.getLogger('toppra').setLevel(logging.ERROR)
+    seed = bench_seeds.run_seed()
+    cases = bench_seeds.case_count(CASES)
+    arms, skipped = bench_arms.vendor_arms()
+    bench_arms.print_arms(arms, skipped)
+    print(f"{cases} random joint paths per arm (seed {seed}, the arm's stream + {PATH_STREAM}), "
+          "the arm's v/a/j limits; durations over TOPP-RA's (v/a, no jerk) on the same path; "
+          'median / worst; wall times of one call [s]')
+    names = ('smooth x f / TOPP-RA', 'f (1 kHz)', 'grid LP / TOPP-RA', 'default / TOPP-RA',
+             'smooth / default', 'LPs', 't smooth', 't grid LP', 't default')
+    print('| arm | paths (points) | ' + ' | '.join(names) + ' |')
+    print('|' + '---|' * (len(names) + 2))
+    every = []
+    for arm in arms:
+        lower, upper, _, _ = joint_limits(arm.robot, arm.joints)
+        rng = bench_seeds.generator(arm.stream + PATH_STREAM)
+        rows = [run_case(arm, random_path(rng, arm.ready, lower, upper)) for _ in range(cases)]
+        every += rows
+        print_row(arm.name, rows)
+    print_row('all', every)
+
+
+def print_row(name, rows):
+    """Print one table row of ``rows`` (dicts of run_case)."""
+    get = {key: np.array([row[key] for row in rows]) for key in rows[0]}
+    points = get['points']
+    print(f"| {name} | {len(rows)} ({points.min()}-{points.max()}) | {cell(get['smooth'])} | "
+          f"{cell(get['factor'], 4)} | {cell(get['grid'])} | {cell(get['default'])} | "
+          f"{cell(get['smooth'] / get['default'])} | {cell(get['lps'], 0)} | "
+          f"{cell(get['t_smooth'], 2)} | {cell(get['t_grid'], 2)} | "
+          f"{cell(get['t_default'], 2)} |", flush=True)
+
+
+if __name__ == '__main__':
+    main()
