@@ -251,6 +251,7 @@ class SmoothProfile:
         repeats = jerk_bound.size // points.size
         x_repeated = sp.vstack([x] * repeats, format='csr')
         bounds = self._bounds()
+        fixed = sp.vstack([x, -x], format='csr')       # 0 <= x <= cap
         x_p, z_best, last_time, work = x_max.copy(), None, None, None
         for iteration, growth in enumerate(GROWTH):
             x_q = np.maximum(x_p, MIN_WEIGHT_SHARE * x_p.max())
@@ -261,7 +262,6 @@ class SmoothProfile:
             bound = np.concatenate([acc_bound, 1.5 * jerk_bound / np.sqrt(x_r)])
             cap = x_max if iteration == 0 else np.minimum(
                 x_max, np.maximum(growth * x_p, (growth - 1.0) * RESTART_SHARE * x_max))
-            fixed = sp.vstack([x, -x], format='csr')
             fixed_bound = np.concatenate([cap, np.zeros(points.size)])
             cost = -(x.T @ (width / x_q ** 1.5))
             work = np.zeros(bound.size, bool) if z_best is None else \
