@@ -54,6 +54,7 @@ import numpy as np  # noqa: E402, I100
 import own_path  # noqa: E402, I100
 from shaking import of_toppra, shaking_figures, shaking_ratios  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
+from splines445_ros.planning.inner_knots import GRID_STEPS  # noqa: E402
 from splines445_ros.planning.jerk_profile import ThirdOrderProfile  # noqa: E402
 from splines445_ros.planning.limits import JointLimits  # noqa: E402
 from splines445_ros.planning.natural_cubic import natural_cubic_spline  # noqa: E402
@@ -67,23 +68,35 @@ CASES = 10
 REPEATS = 3
 VIBRATION_FREQUENCY = 4.0           # [Hz] the second plan's vibration_frequency
 PLANS = ('default', f'vibration_frequency={VIBRATION_FREQUENCY:g}')
-# Grid steps per segment of profile_bounds' path (inner_knots.GRID_STEPS).
-GRID_STEPS = 24
 
 
-def profile_bounds(points, limits):
+def construction_path(knots, points, steps=GRID_STEPS):
     """
-    Return the durations [s] of the fastest v/a and v/a/j profiles on step 1's path.
+    Return (q(s), s): the natural cubic through ``points`` at ``knots``, and its grid.
 
-    The path: the natural cubic through ``points`` at the cumulative
-    rest-to-rest times of ``limits`` (a JointLimits), on a grid of
-    :data:`GRID_STEPS` steps per segment; rest to rest.
+    Step 1's path of ``planning/inner_knots.py`` when ``knots`` are the
+    cumulative rest-to-rest times (:func:`rest_to_rest_knots`); the grid has
+    ``steps`` steps per segment (``inner_knots.GRID_STEPS``).
     """
-    knots = np.concatenate([[0.0], np.cumsum(rest_to_rest_durations(points, limits))])
-    fractions = np.arange(GRID_STEPS) / GRID_STEPS
+    fractions = np.arange(steps) / steps
     s = np.concatenate([(knots[:-1, None] + fractions * np.diff(knots)[:, None]).ravel(),
                         knots[-1:]])
-    gridded = GriddedPath.of_ppoly(natural_cubic_spline(knots, points), s, third=True)
+    return natural_cubic_spline(knots, points), s
+
+
+def rest_to_rest_knots(points, limits):
+    """Return the knots (N,) of step 1's path: the cumulative rest-to-rest times of ``limits``."""
+    return np.concatenate([[0.0], np.cumsum(rest_to_rest_durations(points, limits))])
+
+
+def profile_bounds(path, s, limits):
+    """
+    Return the durations [s] of the fastest v/a and v/a/j profiles along ``path`` on ``s``.
+
+    ``path`` and ``s`` from :func:`construction_path` (step 1's path),
+    ``limits`` a JointLimits; rest to rest.
+    """
+    gridded = GriddedPath.of_ppoly(path, s, third=True)
     constraints = (JointVelocity(limits.velocity), JointAcceleration(limits.acceleration))
     ones = np.ones(s.size)
     second = PathLimits(gridded, constraints).profile(ones)
@@ -105,8 +118,9 @@ def run_case(arm, points):
         lambda: plan(points, '555', 'optimal', vibration_frequency=VIBRATION_FREQUENCY,
                      **limits), 1)
     reference = shaking_figures(of_toppra(top), top.duration, amax)
-    bounds = np.array(profile_bounds(points, JointLimits.from_user(
-        points.shape[1], vmax, amax, limits['max_jerk'])))
+    joint = JointLimits.from_user(points.shape[1], vmax, amax, limits['max_jerk'])
+    bounds = np.array(profile_bounds(
+        *construction_path(rest_to_rest_knots(points, joint), points), joint))
     figures, held = {'bounds': list(bounds / top.duration) + [ours.duration / bounds[1]]}, True
     for name, traj, elapsed in ((PLANS[0], ours, t_ours), (PLANS[1], shaped, shaped_time)):
         own = own_path.toppra_along(traj, own_path.velocity_acceleration(vmax, amax))

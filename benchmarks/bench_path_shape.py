@@ -46,6 +46,7 @@ import sys
 
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but the rule holds
 
+from bench_arm_moves import construction_path  # noqa: E402, I100
 from bench_inner_knots import random_case  # noqa: E402, I100
 from bench_planning import toppra_trajectory  # noqa: E402
 import bench_seeds  # noqa: E402
@@ -74,11 +75,8 @@ CASES_STREAM, CHECK_STREAM = 0, 1
 
 def package_time(pieces, points, vmax, amax, grid):
     """Return T of the package's own profile along the natural cubic (pieces, points)."""
-    knots = np.concatenate([[0.0], np.cumsum(pieces)])
-    fractions = np.arange(grid) / grid
-    s = np.concatenate([(knots[:-1, None] + fractions * pieces[:, None]).reshape(-1),
-                        knots[-1:]])
-    path = GriddedPath.of_ppoly(natural_cubic_spline(knots, points), s)
+    cubic, s = construction_path(np.concatenate([[0.0], np.cumsum(pieces)]), points, grid)
+    path = GriddedPath.of_ppoly(cubic, s)
     x = PathLimits(path, (JointVelocity(vmax), JointAcceleration(amax))).profile(np.ones(s.size))
     return traversal_times(x, np.diff(s))[-1]
 

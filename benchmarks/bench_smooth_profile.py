@@ -1,5 +1,5 @@
 """
-A third-order profile that can be followed (issue 38) on the 6-7-joint arms; not in make bench.
+A third-order profile that can be followed (issue 38) on the 6-7-joint arms, one run.
 
 ``splines445_ros.planning.smooth_profile`` plans ``x(s) = sdot**2`` as a C2
 function of ``s`` under the v/a/j limits; this bench measures it against
@@ -8,7 +8,7 @@ TOPP-RA (v/a, ``bench_planning.toppra_trajectory``), the grid LP of
 it holds the jerk only on its grid, and cannot be followed as it is) and
 plan()'s default (``plan(points, '555', 'optimal', v, a, j)``) on the same
 random joint paths (``bench_torque.random_path``, the arm's stream + 101 of
-the run's seed), on the path of ``profile_bounds`` (the natural cubic
+the run's seed), on the path of ``construction_path`` (the natural cubic
 through the waypoints at their rest-to-rest times, 24 grid steps a
 segment).
 
@@ -37,7 +37,8 @@ import time
 
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but the rule holds
 
-from bench_arm_moves import GRID_STEPS, profile_bounds  # noqa: E402, I100
+from bench_arm_moves import (  # noqa: E402, I100
+    construction_path, profile_bounds, rest_to_rest_knots)
 import bench_arms  # noqa: E402
 from bench_planning import toppra_trajectory  # noqa: E402
 import bench_seeds  # noqa: E402
@@ -45,9 +46,7 @@ from bench_torque import joint_limits, random_path  # noqa: E402
 import numpy as np  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
 from splines445_ros.planning.limits import JointLimits  # noqa: E402
-from splines445_ros.planning.natural_cubic import natural_cubic_spline  # noqa: E402
 from splines445_ros.planning.smooth_profile import SmoothProfile  # noqa: E402
-from splines445_ros.planning.timing import rest_to_rest_durations  # noqa: E402
 
 CASES = 3
 PERIOD = 1e-3           # the controller's: samples every 1 ms
@@ -74,14 +73,10 @@ def run_case(arm, points):
     start = time.perf_counter()
     default = plan(points, '555', 'optimal', **limits).duration
     t_default = time.perf_counter() - start
+    path, grid = construction_path(rest_to_rest_knots(points, joint), points)
     start = time.perf_counter()
-    grid_lp = profile_bounds(points, joint)[1]
+    grid_lp = profile_bounds(path, grid, joint)[1]
     t_grid = time.perf_counter() - start
-    knots = np.concatenate([[0.0], np.cumsum(rest_to_rest_durations(points, joint))])
-    fractions = np.arange(GRID_STEPS) / GRID_STEPS
-    grid = np.concatenate([(knots[:-1, None] + fractions * np.diff(knots)[:, None]).ravel(),
-                           knots[-1:]])
-    path = natural_cubic_spline(knots, points)
     start = time.perf_counter()
     profile = SmoothProfile(path, grid, vmax, amax, jmax)
     t_smooth = time.perf_counter() - start

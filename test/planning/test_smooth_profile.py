@@ -2,7 +2,7 @@
 The smooth third-order profile (issue 38), followed in time and checked by formulas of its own.
 
 Each random case builds the natural cubic path as ``bench_arm_moves.
-profile_bounds`` does, computes :class:`smooth_profile.SmoothProfile` and
+construction_path`` does, computes :class:`smooth_profile.SmoothProfile` and
 then, using only its ``x(s)``: integrates ``t(s) = int ds / sqrt(x)`` by
 the trapezoid rule on a fine grid of its own (``s = end -+ sigma**3`` near
 the ends, where ``1 / sqrt(x) ~ s**(-2/3)``), interpolates ``s(t)`` by
