@@ -49,7 +49,7 @@ import bench_arms  # noqa: E402, I100
 import bench_figures  # noqa: E402
 from bench_planning import toppra_trajectory  # noqa: E402
 import bench_seeds  # noqa: E402, I100
-from bench_torque import joint_limits, random_path  # noqa: E402
+from bench_torque import arm_paths  # noqa: E402
 import numpy as np  # noqa: E402, I100
 import own_path  # noqa: E402, I100
 from shaking import of_toppra, shaking_figures, shaking_ratios  # noqa: E402
@@ -145,9 +145,7 @@ def main():
     print(bench_figures.rule(4 + len(bench_figures.NAMES)))
     bounds = {}
     for arm in arms:
-        lower, upper, _, _ = joint_limits(arm.robot, arm.joints)
-        rng = bench_seeds.generator(arm.stream)
-        paths = [random_path(rng, arm.ready, lower, upper) for _ in range(cases)]
+        paths = arm_paths(arm, cases)
         rows = {name: [] for name in PLANS + ('bounds',)}
         held = True
         for points in paths:

@@ -42,7 +42,7 @@ from bench_arm_moves import (  # noqa: E402, I100
 import bench_arms  # noqa: E402
 from bench_planning import toppra_trajectory  # noqa: E402
 import bench_seeds  # noqa: E402
-from bench_torque import joint_limits, random_path  # noqa: E402
+from bench_torque import arm_paths  # noqa: E402
 import numpy as np  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
 from splines445_ros.planning.limits import JointLimits  # noqa: E402
@@ -107,9 +107,7 @@ def main():
     print('|' + '---|' * (len(names) + 2))
     every = []
     for arm in arms:
-        lower, upper, _, _ = joint_limits(arm.robot, arm.joints)
-        rng = bench_seeds.generator(arm.stream + PATH_STREAM)
-        rows = [run_case(arm, random_path(rng, arm.ready, lower, upper)) for _ in range(cases)]
+        rows = [run_case(arm, points) for points in arm_paths(arm, cases, PATH_STREAM)]
         every += rows
         print_row(arm.name, rows)
     print_row('all', every)

@@ -115,6 +115,13 @@ def random_path(rng, ready, lower, upper):
     return np.array(points)
 
 
+def arm_paths(arm, cases, offset=0):
+    """Return ``cases`` random walks of ``arm`` (:func:`random_path`), stream + ``offset``."""
+    lower, upper, _, _ = joint_limits(arm.robot, arm.joints)
+    rng = bench_seeds.generator(arm.stream + offset)
+    return [random_path(rng, arm.ready, lower, upper) for _ in range(cases)]
+
+
 def toppra_torque(points, vmax, tau_max, torques, interpolation=False):
     """
     TOPP-RA with velocity and torque limits on its chord-length spline; its trajectory.
@@ -347,9 +354,8 @@ def main():
     print(bench_figures.rule(19))
     summary = []
     for arm in arms:
-        rng = bench_seeds.generator(arm.stream)
-        lower, upper, vmax, tau_max = joint_limits(arm.robot, arm.joints)
-        paths = [random_path(rng, arm.ready, lower, upper) for _ in range(cases)]
+        _, _, vmax, tau_max = joint_limits(arm.robot, arm.joints)
+        paths = arm_paths(arm, cases)
         rated, held = bench_payload(arm, paths)
         for payload in (0.0, rated):
             rows, refused = run_row(arm.name, arm.robot, arm.joints, arm.tool, payload, paths,

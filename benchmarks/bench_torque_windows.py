@@ -64,9 +64,8 @@ def main():
     print('|' + '---|' * 9)
     for arm in arms:
         name, robot, joints, tool = arm.name, arm.robot, arm.joints, arm.tool
-        rng = bench_seeds.generator(arm.stream)
-        lower, upper, vmax, tau_max = bt.joint_limits(robot, joints)
-        paths = [bt.random_path(rng, arm.ready, lower, upper) for _ in range(cases)]
+        _, _, vmax, tau_max = bt.joint_limits(robot, joints)
+        paths = bt.arm_paths(arm, cases)
         rated, _ = bt.bench_payload(arm, paths)
         n = len(joints)
         for payload in (0.0, rated):
