@@ -21,6 +21,11 @@ Per arm, median / worst over the paths:
   differences over the limits: the uniform slow-down that makes the
   samples hold every limit;
 * grid LP / TOPP-RA and default / TOPP-RA;
+* the shaking of a lightly damped 4 Hz mode (``shaking.py``: peak while
+  moving, residual after the end), over TOPP-RA's, of the slowed-down
+  motion ``q(s(t / f))`` (accelerations by second differences every 1 ms)
+  and of plan()'s default: a faster motion is only better if it is not
+  rougher;
 * the wall time of the smooth profile (one call), of the grid LP and of
   plan().
 
@@ -44,6 +49,7 @@ from bench_planning import toppra_trajectory  # noqa: E402
 import bench_seeds  # noqa: E402
 from bench_torque import arm_paths  # noqa: E402
 import numpy as np  # noqa: E402
+from shaking import FREQUENCIES, of_toppra, shaking_figures, shaking_ratios  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
 from splines445_ros.planning.limits import JointLimits  # noqa: E402
 from splines445_ros.planning.smooth_profile import SmoothProfile  # noqa: E402
@@ -54,24 +60,47 @@ PATH_STREAM = 101       # the arm's stream + this: the paths (as the prototype's
 REST_BEFORE, REST_AFTER = 3, 4
 
 
-def slow_down(path, profile, vmax, amax, jmax):
-    """Return the uniform slow-down factor of ``q(s(t))`` sampled every PERIOD."""
-    _, s = profile.samples(PERIOD)
+def motion(path, profile, period):
+    """Return q(s(t)) at every ``period`` of the profile's time, with rest samples around it."""
+    _, s = profile.samples(period)
     q = path(s)
-    q = np.vstack([np.repeat(q[:1], REST_BEFORE, 0), q, np.repeat(q[-1:], REST_AFTER, 0)])
+    return np.vstack([np.repeat(q[:1], REST_BEFORE, 0), q, np.repeat(q[-1:], REST_AFTER, 0)])
+
+
+def slow_down(q, vmax, amax, jmax):
+    """Return the uniform slow-down factor of the samples ``q`` (every PERIOD) to hold v/a/j."""
     ratios = [np.max(np.abs(np.diff(q, k, axis=0)) / PERIOD ** k / limit)
               for k, limit in ((1, vmax), (2, amax), (3, jmax))]
     return max(ratios[0], np.sqrt(ratios[1]), np.cbrt(ratios[2]))
 
 
+def slowed_shaking(path, profile, factor, reference, amax):
+    """
+    Return :func:`shaking.shaking_ratios`' figures of the profile slowed down by ``factor``.
+
+    The motion followed is ``q(s(t / factor))``: sampled every PERIOD of its
+    own time, its accelerations by second differences.
+    """
+    q = motion(path, profile, PERIOD / factor)
+    acceleration = np.diff(q, 2, axis=0) / PERIOD ** 2
+    times = (np.arange(acceleration.shape[0]) + 1 - REST_BEFORE) * PERIOD
+
+    def acceleration_of(t):
+        return np.column_stack([np.interp(t, times, column) for column in acceleration.T])
+
+    ours = shaking_figures(acceleration_of, profile.duration * factor, amax)
+    return [ours[f][k] / reference[f][k] for f in FREQUENCIES for k in (0, 1)]
+
+
 def run_case(arm, points):
-    """Return the figures of one path: durations over TOPP-RA's, factor, wall times."""
+    """Return the figures of one path: durations over TOPP-RA's, factor, shaking, wall times."""
     limits = arm.plan_limits()
     vmax, amax, jmax = (limits[k] for k in ('max_velocity', 'max_acceleration', 'max_jerk'))
     joint = JointLimits.from_user(points.shape[1], vmax, amax, jmax)
-    top = toppra_trajectory(points, vmax, amax).duration
+    top = toppra_trajectory(points, vmax, amax)
+    reference = shaking_figures(of_toppra(top), top.duration, amax)
     start = time.perf_counter()
-    default = plan(points, '555', 'optimal', **limits).duration
+    default = plan(points, '555', 'optimal', **limits)
     t_default = time.perf_counter() - start
     path, grid = construction_path(rest_to_rest_knots(points, joint), points)
     start = time.perf_counter()
@@ -80,9 +109,13 @@ def run_case(arm, points):
     start = time.perf_counter()
     profile = SmoothProfile(path, grid, vmax, amax, jmax)
     t_smooth = time.perf_counter() - start
-    factor = slow_down(path, profile, vmax, amax, jmax)
-    return {'smooth': profile.duration * factor / top, 'factor': factor, 'grid': grid_lp / top,
-            'default': default / top, 'lps': profile.lps, 't_smooth': t_smooth,
+    factor = slow_down(motion(path, profile, PERIOD), vmax, amax, jmax)
+    shaking = slowed_shaking(path, profile, factor, reference, amax)
+    default_shaking = shaking_ratios(default, reference, amax)
+    return {'smooth': profile.duration * factor / top.duration, 'factor': factor,
+            'grid': grid_lp / top.duration, 'default': default.duration / top.duration,
+            'peak': shaking[0], 'residual': shaking[1], 'default_peak': default_shaking[0],
+            'default_residual': default_shaking[1], 'lps': profile.lps, 't_smooth': t_smooth,
             't_grid': t_grid, 't_default': t_default, 'points': len(points)}
 
 
@@ -102,7 +135,9 @@ def main():
           "the arm's v/a/j limits; durations over TOPP-RA's (v/a, no jerk) on the same path; "
           'median / worst; wall times of one call [s]')
     names = ('smooth x f / TOPP-RA', 'f (1 kHz)', 'grid LP / TOPP-RA', 'default / TOPP-RA',
-             'smooth / default', 'LPs', 't smooth', 't grid LP', 't default')
+             'smooth / default', '4 Hz peak: smooth x f / default',
+             '4 Hz residual: smooth x f / default', 'LPs', 't smooth', 't grid LP',
+             't default')
     print('| arm | paths (points) | ' + ' | '.join(names) + ' |')
     print('|' + '---|' * (len(names) + 2))
     every = []
@@ -119,7 +154,10 @@ def print_row(name, rows):
     points = get['points']
     print(f"| {name} | {len(rows)} ({points.min()}-{points.max()}) | {cell(get['smooth'])} | "
           f"{cell(get['factor'], 4)} | {cell(get['grid'])} | {cell(get['default'])} | "
-          f"{cell(get['smooth'] / get['default'])} | {cell(get['lps'], 0)} | "
+          f"{cell(get['smooth'] / get['default'])} | "
+          f"{cell(get['peak'], 2)} / {cell(get['default_peak'], 2)} | "
+          f"{cell(get['residual'], 2)} / {cell(get['default_residual'], 2)} | "
+          f"{cell(get['lps'], 0)} | "
           f"{cell(get['t_smooth'], 2)} | {cell(get['t_grid'], 2)} | "
           f"{cell(get['t_default'], 2)} |", flush=True)
 
