@@ -376,6 +376,21 @@ class SmoothProfile:
         s, _ = self._map(piece, tau)
         return np.where(t >= self.duration, self.end, np.where(t <= 0.0, self.start, s))
 
+    def time_at(self, s):
+        """Return the time ``t(s)`` at the path positions ``s`` (clipped to the path)."""
+        s = np.clip(np.atleast_1d(np.asarray(s, float)), self.start, self.end)
+        breaks = self._breaks
+        piece = np.clip(np.searchsorted(breaks, s, side='right') - 1, 0, breaks.size - 2)
+        a, b = breaks[piece], breaks[piece + 1]
+        share = np.clip((s - a) / (b - a), 0.0, 1.0)
+        # The inverse of _map: s = a + h tau**3 on the first piece, b - h (1 - tau)**3 on the last.
+        tau = np.where(piece == 0, np.cbrt(share),
+                       np.where(piece == breaks.size - 2, 1.0 - np.cbrt(1.0 - share), share))
+        moved = tau > 0.0           # the integrand is 0 / 0 at rest, its integral 0
+        partial = np.zeros_like(tau)
+        partial[moved] = self._partial(piece[moved], tau[moved])
+        return self._times[piece] + partial
+
     def samples(self, period=1e-3):
         """Return the times ``k period`` (k = 0, 1, .. up to one past the duration) and s."""
         t = np.arange(int(np.floor(self.duration / period)) + 2) * period

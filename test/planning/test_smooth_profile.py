@@ -101,6 +101,20 @@ def test_followed_every_millisecond_within_the_limits(solved):
     assert max(np.max(velocity / v), np.max(acceleration / a)) >= 0.9
 
 
+def test_time_at_inverts_the_time_law(solved):
+    """time_at(s) matches the test's own quadrature, and s_of_t(time_at(s)) gives s back."""
+    path, grid, v, a, j, profile = solved
+    s_of_t, duration = time_law(profile, grid[0], grid[-1])
+    s = np.concatenate([grid, np.random.default_rng(0).uniform(grid[0], grid[-1], 200)])
+    t = profile.time_at(s)
+    assert t[0] == pytest.approx(0.0, abs=1e-12)
+    assert t[grid.size - 1] == pytest.approx(duration, rel=1e-6)
+    assert np.all(np.diff(t[:grid.size]) > 0.0)
+    # The test's law in reverse at the same times: s within a micro-step of the path.
+    assert np.allclose(s_of_t(t), s, rtol=0.0, atol=1e-6 * (grid[-1] - grid[0]))
+    assert np.allclose(profile.s_of_t(t), s, rtol=0.0, atol=1e-9 * (grid[-1] - grid[0]))
+
+
 def test_at_rest_at_both_ends(solved):
     """At rest at both ends (x = 0, x > 0 inside), left and reached with no acceleration step."""
     path, grid, v, a, j, profile = solved
