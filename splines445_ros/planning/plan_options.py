@@ -53,6 +53,14 @@ DEFAULT_SMOOTHING = (0.3, 0.15)
 # with torque limits, whose short moves the windows' 0.45 s would lengthen
 # much (vibration_frequency or "windows" smooths them again).
 SMOOTHINGS = ('auto', 'windows', 'none')
+# plan()'s ``speed_profile``: "smoothed" (the default) is the construction of
+# inner_knots (the profile averaged over the smoothing windows, or the
+# knots-only optimum when shorter); "time_optimal" the third-order profile of
+# time_optimal.py, followed by a C4 spline: shorter, and it shakes the arm more.
+SPEED_PROFILES = ('smoothed', 'time_optimal')
+# "time_optimal" plans at most this many waypoints (after merging): its
+# sequential LPs grow with the path (about 3 s for 100 waypoints of 7 joints).
+MAX_TIME_OPTIMAL_WAYPOINTS = 200
 # A vibration frequency above this [Hz] is refused (its window would be
 # shorter than a servo cycle of 1 ms).
 MAX_VIBRATION_FREQUENCY = 1000.0
@@ -129,6 +137,66 @@ def smoothing_value(value, vibration_frequency, inner_knots):
                          f'{vibration_frequency:g} Hz: the frequency sets the windows itself '
                          '(two of 1 / f); use smoothing "auto" with it')
     return value
+
+
+def speed_profile_value(value, method, timing, inner_knots_given=False,
+                        vibration_frequency=0.0, smoothing='auto'):
+    """
+    Validate the ``speed_profile`` argument of plan(); return one of :data:`SPEED_PROFILES`.
+
+    None means "smoothed".  "time_optimal" needs method 555 with timing
+    "optimal", and no option it would silently ignore: an ``inner_knots``
+    count (its knots follow the profile), a ``vibration_frequency`` or a
+    ``smoothing`` other than "auto" (it has no smoothing windows).  What
+    depends on the request (rest to rest, jerk limits, no torque limits,
+    the waypoint count) is :func:`check_time_optimal_request`'s.
+    """
+    if value is None:
+        return 'smoothed'
+    if not isinstance(value, str) or value not in SPEED_PROFILES:
+        shown = repr(value)[:40] if isinstance(value, str) else type(value).__name__
+        raise ValueError(f'speed_profile must be one of {list(SPEED_PROFILES)}, got {shown}')
+    if value == 'smoothed':
+        return value
+    if (method, timing) != ('555', 'optimal'):
+        raise ValueError(f'speed_profile {value!r} needs method "555" with timing "optimal", '
+                         f'got method {method!r} with timing {timing!r}')
+    if inner_knots_given:
+        raise ValueError(f'speed_profile {value!r} places its own knots (every '
+                         'few milliseconds of its profile): leave inner_knots unset (auto)')
+    if vibration_frequency:
+        raise ValueError(f'speed_profile {value!r} has no smoothing windows: '
+                         f'vibration_frequency {vibration_frequency:g} Hz would be ignored; '
+                         'use speed_profile "smoothed" with it')
+    if smoothing != 'auto':
+        raise ValueError(f'speed_profile {value!r} has no smoothing windows: smoothing '
+                         f'{smoothing!r} would be ignored; use speed_profile "smoothed" with it')
+    return value
+
+
+def check_time_optimal_request(n_points, limits, boundary, torque):
+    """
+    Raise ValueError unless speed_profile "time_optimal" can plan this request.
+
+    ``n_points`` merged waypoints (at most :data:`MAX_TIME_OPTIMAL_WAYPOINTS`),
+    ``limits`` with a finite jerk limit on every joint (the profile is
+    third order), the four ``boundary`` vectors all zero (rest to rest) and
+    no ``torque`` limits (not yet constraints of that profile).
+    """
+    if limits is None or not np.all(np.isfinite(limits.jerk)):
+        joints = [] if limits is None else np.flatnonzero(~np.isfinite(limits.jerk)).tolist()
+        raise ValueError('speed_profile "time_optimal" needs a jerk limit on every joint '
+                         f'(none on joints {joints})')
+    if any(np.any(b) for b in boundary):
+        raise ValueError('speed_profile "time_optimal" is planned rest to rest: the start '
+                         'and end velocities and accelerations must be zero')
+    if torque is not None:
+        raise ValueError('speed_profile "time_optimal" does not hold torque limits yet: '
+                         'use speed_profile "smoothed" with them')
+    if n_points > MAX_TIME_OPTIMAL_WAYPOINTS:
+        raise ValueError(f'speed_profile "time_optimal" plans at most '
+                         f'{MAX_TIME_OPTIMAL_WAYPOINTS} waypoints, got {n_points}: its linear '
+                         'programs grow with the path; use speed_profile "smoothed"')
 
 
 def smoothing_windows(vibration_frequency, smoothing='windows', torque_limited=False):
@@ -213,7 +281,9 @@ class PlanOptions:
     * ``vibration_frequency`` [Hz] (0: not given), ``smoothing``
       (:data:`SMOOTHINGS`) and ``windows`` [s], the speed profile's moving
       windows they give (:func:`smoothing_windows`);
-    * ``torque``: the :class:`~.torque.TorqueLimit`, or None.
+    * ``torque``: the :class:`~.torque.TorqueLimit`, or None;
+    * ``speed_profile`` (:data:`SPEED_PROFILES`): "time_optimal" was checked
+      against the request too (:func:`check_time_optimal_request`).
     """
 
     method: str
@@ -229,6 +299,7 @@ class PlanOptions:
     smoothing: str
     windows: Tuple[float, ...]
     torque: Optional[TorqueLimit]
+    speed_profile: str = 'smoothed'
 
     @classmethod
     def from_arguments(cls, n_joints, method='445', timing='uniform', max_velocity=None,
@@ -236,7 +307,8 @@ class PlanOptions:
                        start_acceleration=None, end_velocity=None, end_acceleration=None,
                        waypoint_tolerance=DEFAULT_WAYPOINT_TOLERANCE, min_position=None,
                        max_position=None, inner_knots=None, vibration_frequency=None,
-                       max_torque=None, inverse_dynamics=None, smoothing=None):
+                       max_torque=None, inverse_dynamics=None, smoothing=None,
+                       speed_profile=None):
         """
         Validate ``plan()``'s keyword arguments for ``n_joints`` joints (ValueError: the reason).
 
@@ -251,6 +323,8 @@ class PlanOptions:
         if (max_torque is None) != (inverse_dynamics is None):
             raise ValueError('max_torque and inverse_dynamics must be given together')
         smoothing = smoothing_value(smoothing, vibration, knots)
+        profile = speed_profile_value(speed_profile, method, timing, inner_knots is not None,
+                                      vibration, smoothing)
         windows = smoothing_windows(vibration, smoothing, max_torque is not None)
         boundary = boundary_vectors((start_velocity, start_acceleration, end_velocity,
                                      end_acceleration), n_joints)
@@ -273,15 +347,17 @@ class PlanOptions:
                 j = int(bad[0])
                 raise ValueError(f'min_position[{j}] = {low[j]} is above max_position[{j}] = '
                                  f'{high[j]}')
+        if profile != 'smoothed':
+            check_time_optimal_request(0, limits, boundary, torque)
         return cls(method, timing, limits, boundary, tolerance, low, high, knots,
-                   inner_knots is None, vibration, smoothing, windows, torque)
+                   inner_knots is None, vibration, smoothing, windows, torque, profile)
 
     @classmethod
     def from_validated(cls, n_joints, method, timing, max_velocity, max_acceleration,
                        max_jerk=None, boundary=(None,) * 4,
                        waypoint_tolerance=DEFAULT_WAYPOINT_TOLERANCE, inner_knots=None,
                        vibration_frequency=0.0, smoothing='auto', max_torque=None,
-                       inverse_dynamics=None):
+                       inverse_dynamics=None, speed_profile='smoothed'):
         """
         Build the options of one request whose planner settings were validated once already.
 
@@ -292,7 +368,7 @@ class PlanOptions:
         ``max_acceleration`` positive and finite, ``max_jerk`` positive, inf
         for none, or None), ``waypoint_tolerance``, ``inner_knots`` (None =
         auto: :func:`default_inner_knots`), ``vibration_frequency`` (0 = not
-        given) and ``smoothing`` are taken as they are.  What comes with the
+        given), ``smoothing`` and ``speed_profile`` are taken as they are.  What comes with the
         request is checked, with :meth:`from_arguments`' texts: the
         ``boundary`` (start velocity, start acceleration, end velocity, end
         acceleration; None = zeros) of ``n_joints`` (the request's columns;
@@ -319,8 +395,10 @@ class PlanOptions:
                                      np.full(n_joints, np.inf) if max_jerk is None
                                      else np.array(max_jerk, dtype=float))
             check_boundary_feasible(limits, *boundary)
+        if speed_profile != 'smoothed':
+            check_time_optimal_request(0, limits, boundary, torque)
         return cls(method, timing, limits, boundary, float(waypoint_tolerance), None, None, knots,
-                   inner_knots is None, vibration, smoothing, windows, torque)
+                   inner_knots is None, vibration, smoothing, windows, torque, speed_profile)
 
     @property
     def rest(self):

@@ -1,0 +1,135 @@
+"""
+plan()'s ``speed_profile`` "time_optimal": a C4 spline that follows the third-order profile.
+
+The default speed profile of 555 optimal (:mod:`inner_knots`) is the
+fastest velocity/acceleration (bang-bang) profile, averaged over smoothing
+windows and pulled back where the spline overshoots it, or the knots-only
+optimum when that is shorter.  Here the profile itself holds the jerk
+(issue 38), and the spline only follows it:
+
+1. Path.  The natural cubic spline through the waypoints on each segment's
+   jerk-limited rest-to-rest time of its slowest joint (``inner_knots``
+   step 1), on :data:`inner_knots.GRID_STEPS` grid steps a segment.
+2. Profile.  :class:`smooth_profile.SmoothProfile`: ``x(s) = sdot**2``, C2
+   in ``s``, time-optimal under every joint's velocity, acceleration and
+   :data:`JERK_MARGIN` times its jerk limit, at rest at both ends (the
+   equations are in that module).  Its exact time law gives the time at
+   which every waypoint is passed.
+3. Knots.  At the waypoints, at those times, and at equal time fractions
+   of each segment, about :data:`KNOT_PERIOD` apart; each inner knot at
+   ``q(s(t))``, the path's position at its time.
+4. Spline and exact limits.  The C4 quintic spline through those knots
+   (the banded system of 555, :mod:`continuity_system`), scaled in time by
+   its exact factor ``max(r_v, r_a**(1/2), r_j**(1/3))`` (:mod:`peaks`): one
+   limit binding, none exceeded (``inner_knots`` steps 4 and 5, the same
+   code: :class:`inner_knots.KnotCandidate`, :func:`inner_knots.kept_trajectory`).
+
+No windows, relaxation or outlier rounds: the profile is already
+followable (sampled every 1 ms it needs a slow-down of 1.0004 median), so
+one spline is enough.  Rest to rest, joint v/a/j limits only (plan_options
+refuses the rest).  Measured on the vendor arms (doc/benchmarks.md,
+``bench_arm_moves.py``): about 0.96 of the default's duration, with a 4 Hz
+peak of about 1.6 times the default's (still half of TOPP-RA's); planning
+takes the profile's sequential LPs, 10-20 times the default's time.
+"""
+
+import numpy as np
+
+from .inner_knots import GRID_STEPS, kept_trajectory, KnotCandidate, TimingProblem
+from .natural_cubic import natural_cubic_spline
+from .smooth_profile import SmoothProfile
+from .timing import rest_to_rest_durations
+
+# The profile is planned with this share of each jerk limit: the spline
+# through its knots overshoots the profile's jerk corners, and the exact
+# factor of step 4 would otherwise slow the whole plan down for them
+# (1.0: 1.058 x TOPP-RA on the arms, 0.9: 1.039-1.040; 0.85 no better).
+JERK_MARGIN = 0.9
+# Inner knots about this far apart [s]: 30 ms gave 1.050-1.052 x TOPP-RA,
+# 15 ms 1.039-1.040 (exact factor 1.001 median), 10 ms no better.
+KNOT_PERIOD = 0.015
+# The name of this construction in Trajectory.optimizer['speed_profile'].
+NAME = 'time_optimal'
+
+
+class FollowedPath:
+    """
+    What :class:`inner_knots.KnotCandidate` reads of the path of steps 1-2.
+
+    The grid ``s``, the ``ppoly`` ``q(s)``, the waypoints ``points``; no
+    corner rounding, no limits beyond v/a/j, scaled to its limits.
+    """
+
+    rounding = 0.0
+    piece_factors = None
+    keep_time_scale = False
+
+    def __init__(self, s, ppoly, points):
+        """Keep the grid, the path and its waypoints."""
+        self.s, self.ppoly, self.points = s, ppoly, points
+
+
+class FollowedProfile:
+    """
+    Step 2's profile as :class:`inner_knots.KnotCandidate` reads it.
+
+    ``timing.position_at(t)`` is the profile's exact ``s(t)``, ``passed``
+    the waypoints' times, ``local`` the (unused) local factors.
+    """
+
+    valid = True
+
+    def __init__(self, profile, waypoint_s, grid_size):
+        """Keep the profile; find the waypoints' times by its exact time law."""
+        self.timing = self
+        self.profile = profile
+        self.passed = profile.time_at(waypoint_s)
+        self.local = np.ones(grid_size)
+
+    def position_at(self, t):
+        """Return the path position at the times ``t``."""
+        return self.profile.s_of_t(t)
+
+
+def knot_fractions(segment_times, period=KNOT_PERIOD):
+    """Return per segment the time fractions [0, 1) of its knots, about ``period`` apart."""
+    counts = np.maximum(1, np.ceil(np.asarray(segment_times) / period).astype(int))
+    return [np.arange(m) / m for m in counts]
+
+
+def plan_time_optimal(points, limits, dropped=()):
+    """
+    Return the rest-to-rest Trajectory of steps 1-4 through ``points`` (N, n), or None.
+
+    ``limits`` are the :class:`limits.JointLimits` (every jerk finite),
+    ``dropped`` the merged waypoints' indices.  None when the profile's
+    first LP fails, when the profile stops inside the path, or when no
+    spline is found (the caller falls back to the default construction).
+    """
+    boundary = tuple(np.zeros(points.shape[1]) for _ in range(4))
+    knots = np.concatenate([[0.0], np.cumsum(rest_to_rest_durations(points, limits))])
+    ppoly = natural_cubic_spline(knots, points)
+    fractions = np.arange(GRID_STEPS) / GRID_STEPS
+    grid = np.concatenate([(knots[:-1, None] + fractions * np.diff(knots)[:, None]).ravel(),
+                           knots[-1:]])
+    try:
+        profile = SmoothProfile(ppoly, grid, limits.velocity, limits.acceleration,
+                                JERK_MARGIN * limits.jerk)
+    except RuntimeError:
+        return None     # its first LP failed: no profile to follow
+    followed = FollowedProfile(profile, knots, grid.size)
+    if not np.all(np.isfinite(followed.passed)):
+        # x reached 0 between its row points (a joint reversing alone): the
+        # profile stops there, and a stop takes its C2 x(s) forever.
+        return None
+    problem = TimingProblem(FollowedPath(grid, ppoly, points), boundary, limits, True)
+    candidate = KnotCandidate(problem, followed.local, None,
+                              knot_fractions(np.diff(followed.passed)), followed)
+    if not candidate.valid:
+        return None
+    return kept_trajectory(problem, candidate, dropped, {
+        'speed_profile': NAME, 'inner_knots': int(np.max(candidate.counts)),
+        'knots': int(candidate.pieces.size + 1),
+        'inner_knots_per_segment': candidate.counts.tolist(), 'profile_lps': profile.lps,
+        'profile_duration': float(profile.duration), 'time_scale': float(candidate.scale),
+        'smoothing_windows': []})

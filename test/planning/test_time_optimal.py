@@ -1,0 +1,177 @@
+"""
+plan(speed_profile="time_optimal"): the third-order profile followed by a C4 spline (issue 38).
+
+Checked against what the implementation does not compute itself: peaks
+from ``numpy.roots`` (``reference_spline.exact_peaks``), the unique C4
+quintic spline through the same knots (``scipy.interpolate.
+make_interp_spline(k=5)``), 1 kHz samples differenced by numpy, and the
+default plan of the same request.
+"""
+
+from example_counts import examples
+from hypothesis import given, settings, strategies as st
+import numpy as np
+import pytest
+from reference_spline import exact_peaks
+from scipy.interpolate import make_interp_spline
+from splines445_ros.planning import plan
+from splines445_ros.planning import planner, time_optimal
+from splines445_ros.planning.plan_options import MAX_TIME_OPTIMAL_WAYPOINTS
+
+PERIOD = 1e-3
+# 1 ms finite differences see a mean over 1-3 ms of a plan exactly at its
+# limits: within 1 % of them (they are checked exactly by the peaks).
+SAMPLED_TOLERANCE = 1.01
+
+
+def random_request(seed, max_points=9, joints=(3, 7)):
+    """2-9 waypoints, 3-7 joints (``joints``), v in [1, 3], a in [5, 15], j = 10-20 a."""
+    rng = np.random.default_rng(seed)
+    n_points, n_joints = int(rng.integers(2, max_points + 1)), int(rng.integers(*joints))
+    points = np.cumsum(rng.uniform(-0.6, 0.6, (n_points, n_joints)), axis=0)
+    v, a = rng.uniform(1.0, 3.0, n_joints), rng.uniform(5.0, 15.0, n_joints)
+    return points, {'max_velocity': v, 'max_acceleration': a,
+                    'max_jerk': rng.uniform(10.0, 20.0) * a}
+
+
+def time_optimal_plan(points, limits):
+    return plan(points, '555', 'optimal', speed_profile='time_optimal', **limits)
+
+
+@settings(max_examples=examples(12), deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_through_every_waypoint_c4_and_within_every_limit(seed):
+    """Waypoints at their knots, the C4 quintic through its knots, exact peaks at the limits."""
+    points, limits = random_request(seed)
+    traj = time_optimal_plan(points, limits)
+    assert traj.optimizer['speed_profile'] == 'time_optimal'
+    # Every waypoint is a knot, passed exactly, at rest at both ends.
+    assert np.all(np.isin(traj.waypoint_times, traj.breakpoints))
+    scale = max(1.0, float(np.max(np.abs(points))))
+    assert np.max(np.abs(traj.ppoly(traj.waypoint_times) - points)) <= 1e-9 * scale
+    for t in (0.0, traj.duration):
+        for order, name in ((1, 'max_velocity'), (2, 'max_acceleration')):
+            assert np.max(np.abs(traj.ppoly(t, nu=order)) / limits[name]) <= 1e-9
+    # C4: the PPoly is scipy's C4 quintic spline through the same knot values.
+    knots = traj.breakpoints
+    zero = np.zeros(points.shape[1])
+    reference = make_interp_spline(knots, traj.ppoly(knots), k=5,
+                                   bc_type=([(1, zero), (2, zero)], [(1, zero), (2, zero)]))
+    fine = np.linspace(0.0, traj.duration, 4001)
+    for order in range(5):
+        ours, theirs = traj.ppoly(fine, nu=order), reference(fine, nu=order)
+        assert np.max(np.abs(ours - theirs)) <= 1e-6 * max(1.0, float(np.max(np.abs(theirs))))
+    # Exact peaks within the limits, one of them binding.
+    ratios = [exact_peaks(traj.ppoly, k).max(axis=0) / limits[name] for k, name in
+              ((1, 'max_velocity'), (2, 'max_acceleration'), (3, 'max_jerk'))]
+    assert max(np.max(r) for r in ratios) <= 1.0 + 1e-9
+    assert max(np.max(r) for r in ratios) >= 1.0 - 1e-6
+
+
+@pytest.mark.parametrize('seed', range(4))
+def test_sampled_every_millisecond_within_the_limits(seed):
+    """1 kHz samples, differenced by numpy, hold v/a/j within SAMPLED_TOLERANCE."""
+    points, limits = random_request(100 + seed)
+    traj = time_optimal_plan(points, limits)
+    t = np.arange(-3, int(np.ceil(traj.duration / PERIOD)) + 4) * PERIOD
+    q = traj.ppoly(np.clip(t, 0.0, traj.duration))
+    for k, name in ((1, 'max_velocity'), (2, 'max_acceleration'), (3, 'max_jerk')):
+        sampled = np.max(np.abs(np.diff(q, k, axis=0)), axis=0) / PERIOD ** k
+        assert np.all(sampled <= SAMPLED_TOLERANCE * limits[name]), (k, sampled / limits[name])
+
+
+def test_shorter_than_the_default_on_typical_requests():
+    """The default averages its profile over 0.45 s of windows: the followed profile is shorter."""
+    ratios = []
+    for seed in range(8):
+        points, limits = random_request(200 + seed)
+        ours = time_optimal_plan(points, limits)
+        default = plan(points, '555', 'optimal', **limits)
+        assert ours.duration >= ours.duration_lower_bound() * (1.0 - 1e-9)
+        ratios.append(ours.duration / default.duration)
+    assert np.median(ratios) < 0.95, ratios
+    assert max(ratios) < 1.0, ratios
+
+
+def test_merged_waypoints_are_reported():
+    """A near-duplicate waypoint is merged and reported, as with the default."""
+    points = np.array([[0.0, 0.0], [0.5, 1.0], [0.5 + 1e-9, 1.0], [1.0, 0.2]])
+    limits = {'max_velocity': [1.0, 2.0], 'max_acceleration': [5.0, 5.0],
+              'max_jerk': [100.0, 100.0]}
+    traj = time_optimal_plan(points, limits)
+    assert traj.dropped_waypoints == (2,)
+    assert traj.waypoint_times.size == 3
+
+
+@pytest.mark.parametrize('kwargs, message', [
+    ({'speed_profile': 'fastest'}, 'speed_profile must be one of'),
+    ({'inner_knots': 4}, 'leave inner_knots unset'),
+    ({'vibration_frequency': 4.0}, 'vibration_frequency 4 Hz would be ignored'),
+    ({'smoothing': 'none'}, "smoothing 'none' would be ignored"),
+    ({'start_velocity': [0.1, 0.0]}, 'planned rest to rest'),
+    ({'end_acceleration': [0.0, 0.1]}, 'planned rest to rest'),
+    ({'max_jerk': None}, 'needs a jerk limit on every joint'),
+    ({'max_jerk': [100.0, np.inf]}, 'none on joints [1]'),
+    ({'timing': 'uniform'}, 'needs method "555" with timing "optimal"'),
+    ({'method': '445'}, 'needs method "555" with timing "optimal"'),
+])
+def test_what_it_would_ignore_or_cannot_hold_is_refused(kwargs, message):
+    """Each option it cannot honour is a ValueError with the reason."""
+    args = {'max_velocity': [1.0, 2.0], 'max_acceleration': [5.0, 5.0],
+            'max_jerk': [100.0, 100.0], 'speed_profile': 'time_optimal',
+            'method': '555', 'timing': 'optimal'}
+    args.update(kwargs)
+    method, timing = args.pop('method'), args.pop('timing')
+    with pytest.raises(ValueError) as error:
+        plan(np.array([[0.0, 0.0], [1.0, 0.5]]), method, timing, **args)
+    assert message in str(error.value)
+
+
+def test_torque_limits_and_too_many_waypoints_are_refused():
+    """Torque limits are not constraints of the profile yet; its LPs grow with the path."""
+    limits = {'max_velocity': [1.0], 'max_acceleration': [5.0], 'max_jerk': [100.0]}
+    with pytest.raises(ValueError, match='does not hold torque limits'):
+        plan([[0.0], [1.0]], '555', 'optimal', speed_profile='time_optimal',
+             max_torque=[10.0], inverse_dynamics=lambda q, v, a: a, **limits)
+    many = np.arange(MAX_TIME_OPTIMAL_WAYPOINTS + 1, dtype=float)[:, None] * 0.1
+    with pytest.raises(ValueError, match=f'at most {MAX_TIME_OPTIMAL_WAYPOINTS} waypoints'):
+        plan(many, '555', 'optimal', speed_profile='time_optimal', **limits)
+
+
+class FailingProfile:
+    """A stand-in for SmoothProfile whose first LP fails."""
+
+    def __init__(self, *args):
+        raise RuntimeError('the first LP of the smooth profile failed: infeasible')
+
+
+@pytest.mark.parametrize('failure', ['no spline', 'first LP'])
+def test_no_spline_falls_back_to_the_default_and_says_so(monkeypatch, failure):
+    """No spline found, or the profile's first LP failing: the default plan, flagged."""
+    if failure == 'no spline':
+        monkeypatch.setattr(planner, 'plan_time_optimal', lambda *args: None)
+    else:
+        monkeypatch.setattr(time_optimal, 'SmoothProfile', FailingProfile)
+    points, limits = random_request(7)
+    traj = time_optimal_plan(points, limits)
+    default = plan(points, '555', 'optimal', **limits)
+    assert traj.optimizer['speed_profile_skipped'] == planner.NO_TIME_OPTIMAL_SPLINE
+    assert traj.duration == pytest.approx(default.duration, rel=1e-12)
+
+
+@pytest.mark.parametrize('seed', [2, 3, 11])
+def test_a_joint_reversing_alone_is_followed_or_falls_back_within_the_limits(seed):
+    """
+    One or two joints: followed, or the default's plan, flagged, and still exact.
+
+    A joint reversing alone can make the profile stop between its row
+    points, which its C2 x(s) cannot do in finite time.
+    """
+    points, limits = random_request(seed, joints=(1, 3))
+    traj = time_optimal_plan(points, limits)
+    assert (traj.optimizer.get('speed_profile') == 'time_optimal'
+            or traj.optimizer['speed_profile_skipped'] == planner.NO_TIME_OPTIMAL_SPLINE)
+    scale = max(1.0, float(np.max(np.abs(points))))
+    assert np.max(np.abs(traj.ppoly(traj.waypoint_times) - points)) <= 1e-9 * scale
+    for k, name in ((1, 'max_velocity'), (2, 'max_acceleration'), (3, 'max_jerk')):
+        assert np.all(exact_peaks(traj.ppoly, k).max(axis=0) <= limits[name] * (1.0 + 1e-9))
