@@ -305,6 +305,10 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
     elif plan_kwargs or (method, timing) != ('445', 'uniform'):
         raise TypeError('plan_tool_path takes options, or method, timing and the plan() '
                         'arguments, not both')
+    if options.speed_profile != 'smoothed':
+        # Its profile has no tool rows yet: it would ignore the tool lines' limits.
+        raise ValueError(f'speed_profile {options.speed_profile!r} plans joint-space waypoints '
+                         'only; tool paths use speed_profile "smoothed" (the tool lines)')
     timing = options.timing
     # 555 optimal's inner knots are tried on the refined path at the end (see
     # _with_inner_knots); the refinement itself keeps knots at the waypoints, and

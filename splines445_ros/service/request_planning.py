@@ -15,7 +15,7 @@ from ..cartesian.tool_paths import plan_tool_path
 from ..planning.path_constraints import GravityOverload
 from ..planning.plan_options import BOUNDARY_NAMES, PlanOptions
 from ..planning.planner import (check_position_limits, NO_INNER_KNOT_SPLINE,
-                                plan_with_options)
+                                NO_TIME_OPTIMAL_SPLINE, plan_with_options)
 from ..planning.validation import waypoint_array
 from ..robot.user_text import format_vector
 
@@ -119,7 +119,7 @@ def plan_options(config, n_joints, boundary=(None,) * 4, torque=None):
 
     ``config``: a PlannerConfig its parameter layer validated (method,
     timing, limits, waypoint_tolerance, inner_knots, vibration_frequency,
-    smoothing: taken as they are, not checked again); ``n_joints`` the
+    smoothing, speed_profile: taken as they are, not checked again); ``n_joints`` the
     request's columns, ``boundary`` its start velocity, start acceleration,
     end velocity and end acceleration (None: zeros) and ``torque`` its
     :class:`TorqueOptions` (None = none): these come with the request and
@@ -130,7 +130,7 @@ def plan_options(config, n_joints, boundary=(None,) * 4, torque=None):
         n_joints, config.method, config.timing, config.max_velocity, config.max_acceleration,
         config.jerk_limits(), boundary, waypoint_tolerance=config.waypoint_tolerance,
         inner_knots=config.plan_inner_knots(), vibration_frequency=config.vibration_frequency,
-        smoothing=config.smoothing,
+        smoothing=config.smoothing, speed_profile=config.speed_profile,
         max_torque=None if torque is None else torque.max_torque,
         inverse_dynamics=None if torque is None else torque.inverse_dynamics)
 
@@ -439,9 +439,18 @@ def inner_knots_warning(traj):
             'limit, but slower, and not smoothed)')
 
 
+def speed_profile_warning(traj):
+    """Return a warning when speed_profile "time_optimal" found no spline, else None."""
+    if (traj.optimizer or {}).get('speed_profile_skipped') != NO_TIME_OPTIMAL_SPLINE:
+        return None
+    return (f'{NO_TIME_OPTIMAL_SPLINE}: planned with speed_profile "smoothed" instead (within '
+            'every limit, but slower)')
+
+
 def plan_warnings(traj):
-    """Return the plan's warnings joined (slow uniform plan, no inner knots found), or None."""
-    found = [w for w in (slow_plan_warning(traj), inner_knots_warning(traj)) if w]
+    """Return the plan's warnings joined (slow, no inner-knot or time-optimal spline), or None."""
+    found = [w for w in (slow_plan_warning(traj), inner_knots_warning(traj),
+                         speed_profile_warning(traj)) if w]
     return '; '.join(found) or None
 
 
@@ -479,9 +488,9 @@ def summary_values(traj, joint_names):
         if torque_binds(traj):
             j = int(np.argmax(ratios))
             values['binding'] = f'{joint_names[j]} torque ratio {ratios[j]:.6g}'
-    skipped = (traj.optimizer or {}).get('inner_knots_skipped')
-    if skipped:
-        values['inner_knots_skipped'] = skipped
+    for key in ('inner_knots_skipped', 'speed_profile', 'speed_profile_skipped'):
+        if (traj.optimizer or {}).get(key):
+            values[key] = traj.optimizer[key]
     return values
 
 

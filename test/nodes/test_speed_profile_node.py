@@ -1,0 +1,109 @@
+"""
+The planner node's ``speed_profile`` parameter (issue 38).
+
+Declared with its choices, validated on set_parameters with the reason,
+passed to plan() for joint-space requests, refused for what it cannot hold
+(a moving start, tool waypoints, torque limits), and reported on the status.
+"""
+
+import numpy as np
+import pytest
+from rclpy.parameter import Parameter
+from splines445_ros.nodes.planner_node import PlannerNode
+from splines445_ros.nodes.ros_conversions import WaypointRequest
+from splines445_ros.planning import planner
+from splines445_ros.service.planner_config import PlannerConfig
+from splines445_ros.service.request_planning import (plan_request, plan_tool_request,
+                                                     plan_warnings, start_from_state,
+                                                     summary_values)
+from splines445_ros.tools.in_process import LocalRos
+
+WAYPOINTS = np.array([[0.0, 0.0, 0.0], [1.0, -0.5, 0.3], [1.5, 0.5, -0.2], [0.5, 1.0, 0.4],
+                      [-0.5, 0.2, 0.0]])
+NAMES = ('joint1', 'joint2', 'joint3')
+
+
+def request(waypoints=WAYPOINTS):
+    zero = np.zeros(waypoints.shape[1])
+    return WaypointRequest(waypoints, zero, zero, zero, zero, None)
+
+
+def config(**overrides):
+    values = {'method': '555', 'timing': 'optimal', 'max_jerk': (100.0, 100.0, 100.0),
+              'speed_profile': 'time_optimal'}
+    values.update(overrides)
+    return PlannerConfig(**values)
+
+
+def test_the_default_is_smoothed_and_time_optimal_reaches_plan():
+    assert PlannerConfig().speed_profile == 'smoothed'
+    traj = plan_request(config(), request())
+    assert traj.optimizer['speed_profile'] == 'time_optimal'
+    assert summary_values(traj, NAMES)['speed_profile'] == 'time_optimal'
+    assert plan_warnings(traj) is None
+    assert traj.within_limits(rtol=1e-9)
+    assert np.allclose(traj.evaluate(traj.waypoint_times), WAYPOINTS, atol=1e-9)
+    # The same request with the default profile lasts longer (its 0.45 s of windows).
+    smoothed = plan_request(config(speed_profile='smoothed'), request())
+    assert traj.duration < smoothed.duration
+    assert 'speed_profile' not in summary_values(smoothed, NAMES)
+
+
+@pytest.mark.parametrize('overrides, message', [
+    ({'speed_profile': 'fastest'}, 'speed_profile'),
+    ({'method': '445'}, 'needs method "555"'),
+    ({'timing': 'uniform'}, 'needs method "555"'),
+    ({'inner_knots': 4}, 'leave inner_knots unset'),
+    ({'vibration_frequency': 4.0}, 'vibration_frequency 4 Hz would be ignored'),
+    ({'smoothing': 'none'}, "smoothing 'none' would be ignored"),
+    ({'max_jerk': (0.0,)}, 'needs a jerk limit on every joint'),
+    ({'max_jerk': (100.0, 0.0, 100.0)}, 'needs a jerk limit on every joint'),
+])
+def test_config_refuses_what_it_would_ignore_or_cannot_hold(overrides, message):
+    with pytest.raises(ValueError, match='speed_profile') as refused:
+        config(**overrides).with_defaults().validate()
+    assert message in str(refused.value)
+    assert len(str(refused.value)) < 400
+
+
+def test_a_moving_start_is_refused_with_the_reason():
+    moving = start_from_state(request(), WAYPOINTS[0], np.array([0.3, -0.2, 0.1]), np.zeros(3))
+    with pytest.raises(ValueError, match='planned rest to rest'):
+        plan_request(config(), moving)
+
+
+def test_tool_waypoints_are_refused_with_the_reason():
+    cfg = config(kinematics='planar_3dof').with_defaults()
+    cfg.validate()
+    poses = np.array([[1.2, 0.3, 0.0], [1.0, 0.6, 0.2], [0.8, 0.2, -0.1]])
+    with pytest.raises(ValueError, match='plans joint-space waypoints only'):
+        plan_tool_request(cfg, poses)
+
+
+def test_no_spline_is_a_warning_and_the_plan_holds_every_limit(monkeypatch):
+    monkeypatch.setattr(planner, 'plan_time_optimal', lambda *args: None)
+    traj = plan_request(config(), request())
+    warning = plan_warnings(traj)
+    assert warning is not None and 'no time-optimal spline found' in warning
+    assert summary_values(traj, NAMES)['speed_profile_skipped'] == 'no time-optimal spline found'
+    assert traj.within_limits(rtol=1e-9)
+
+
+def test_node_declares_and_validates_speed_profile():
+    with LocalRos() as ros:
+        node = ros.add(PlannerNode(context=ros.context, cli_args=[
+            '--ros-args', '-p', 'method:=555', '-p', 'timing:=optimal']))
+        assert node.parameters.config.speed_profile == 'smoothed'
+        assert 'time_optimal' in node.describe_parameter('speed_profile').description
+        # No jerk limit on the planar default: refused with the reason, the old value kept.
+        bad = node.set_parameters([Parameter('speed_profile', value='time_optimal')])[0]
+        assert not bad.successful and 'jerk limit' in bad.reason
+        assert node.parameters.config.speed_profile == 'smoothed'
+        good = node.set_parameters_atomically([
+            Parameter('max_jerk', value=[100.0, 100.0, 100.0]),
+            Parameter('speed_profile', value='time_optimal')])
+        assert good.successful, good.reason
+        assert node.parameters.config.speed_profile == 'time_optimal'
+        unknown = node.set_parameters([Parameter('speed_profile', value='fast')])[0]
+        assert not unknown.successful and 'speed_profile' in unknown.reason
+        assert node.parameters.config.speed_profile == 'time_optimal'
