@@ -13,8 +13,10 @@ from its limits file where it has one, else ``bench_arms``' ratios a = 2 v,
 j = 10 a), no torque limit:
 
 * ours: ``plan(points, '555', 'optimal', **arm.plan_limits())``, the
-  default (inner knots, smoothing windows); and the same with
-  ``vibration_frequency=4``;
+  default (inner knots, smoothing windows); the same with
+  ``vibration_frequency=4``; and with ``speed_profile='time_optimal'``
+  (``planning/time_optimal.py``: the third-order profile followed by a C4
+  spline);
 * TOPP-RA: as in ``bench_inner_knots`` (``bench_planning.toppra_trajectory``:
   toppra's spline through the waypoints, v/a, its default grid; no jerk
   limit).
@@ -67,7 +69,8 @@ from wall_time import best_of, interleaved_best_of  # noqa: E402
 CASES = 10
 REPEATS = 3
 VIBRATION_FREQUENCY = 4.0           # [Hz] the second plan's vibration_frequency
-PLANS = ('default', f'vibration_frequency={VIBRATION_FREQUENCY:g}')
+PLANS = ('default', f'vibration_frequency={VIBRATION_FREQUENCY:g}',
+         'speed_profile=time_optimal')
 
 
 def construction_path(knots, points, steps=GRID_STEPS):
@@ -117,12 +120,15 @@ def run_case(arm, points):
     shaped_time, shaped = best_of(
         lambda: plan(points, '555', 'optimal', vibration_frequency=VIBRATION_FREQUENCY,
                      **limits), 1)
+    optimal_time, optimal = best_of(
+        lambda: plan(points, '555', 'optimal', speed_profile='time_optimal', **limits), 1)
     reference = shaking_figures(of_toppra(top), top.duration, amax)
     joint = JointLimits.from_user(points.shape[1], vmax, amax, limits['max_jerk'])
     bounds = np.array(profile_bounds(
         *construction_path(rest_to_rest_knots(points, joint), points), joint))
     figures, held = {'bounds': list(bounds / top.duration) + [ours.duration / bounds[1]]}, True
-    for name, traj, elapsed in ((PLANS[0], ours, t_ours), (PLANS[1], shaped, shaped_time)):
+    for name, traj, elapsed in ((PLANS[0], ours, t_ours), (PLANS[1], shaped, shaped_time),
+                                (PLANS[2], optimal, optimal_time)):
         own = own_path.toppra_along(traj, own_path.velocity_acceleration(vmax, amax))
         figures[name] = bench_figures.figures(traj.duration, own.duration, top.duration,
                                               shaking_ratios(traj, reference, amax), elapsed,

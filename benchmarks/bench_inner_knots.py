@@ -8,7 +8,8 @@ time (toppra, v/a limits only, its own spline path through the waypoints,
 default grid), the lower bound LB of the issue, and 555 optimal with knots
 at the waypoints only (``inner_knots=0``, before the issue) and with inner
 knots (the default), for no jerk limit, j = 20 a and j = 5 a, plus the
-default with ``vibration_frequency=4`` at j = 20 a.
+default with ``vibration_frequency=4`` and ``speed_profile='time_optimal'``
+(``planning/time_optimal.py``) at j = 20 a.
 
 Every plan's figures (issue 38, ``bench_figures.py``), each over TOPP-RA's
 on the same case: the duration; the duration over TOPP-RA's along our own
@@ -138,6 +139,8 @@ def main():
         rows[f'inner_knots={name}, {label(ratio)}'] = []
     shaped_name = f'vibration_frequency={VIBRATION_FREQUENCY:g}, {label(SHAKING_JERK)}'
     rows[shaped_name] = []
+    optimal_name = f'speed_profile=time_optimal, {label(SHAKING_JERK)}'
+    rows[optimal_name] = []
     held = dict.fromkeys(rows, True)
     bounds = []
     for index in range(n_cases):
@@ -158,6 +161,9 @@ def main():
                 plans.append((shaped_name,) + timed(
                     lambda: plan(waypoints, '555', 'optimal', inner_knots=inner,
                                  vibration_frequency=VIBRATION_FREQUENCY, **kwargs)))
+                plans.append((optimal_name,) + timed(
+                    lambda: plan(waypoints, '555', 'optimal', speed_profile='time_optimal',
+                                 **kwargs)))
             for row, elapsed, traj in plans:
                 rows[row].append(plan_figures(traj, elapsed, case))
                 held[row] &= traj.within_limits(rtol=1e-9)
