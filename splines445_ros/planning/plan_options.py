@@ -148,7 +148,7 @@ def speed_profile_value(value, method, timing, inner_knots_given=False,
     "optimal", and no option it would silently ignore: an ``inner_knots``
     count (its knots follow the profile), a ``vibration_frequency`` or a
     ``smoothing`` other than "auto" (it has no smoothing windows).  What
-    depends on the request (rest to rest, jerk limits, no torque limits,
+    depends on the request (rest to rest, jerk limits,
     the waypoint count) is :func:`check_time_optimal_request`'s.
     """
     if value is None:
@@ -174,14 +174,13 @@ def speed_profile_value(value, method, timing, inner_knots_given=False,
     return value
 
 
-def check_time_optimal_request(n_points, limits, boundary, torque):
+def check_time_optimal_request(n_points, limits, boundary):
     """
     Raise ValueError unless speed_profile "time_optimal" can plan this request.
 
     ``n_points`` merged waypoints (at most :data:`MAX_TIME_OPTIMAL_WAYPOINTS`),
     ``limits`` with a finite jerk limit on every joint (the profile is
-    third order), the four ``boundary`` vectors all zero (rest to rest) and
-    no ``torque`` limits (not yet constraints of that profile).
+    third order) and the four ``boundary`` vectors all zero (rest to rest).
     """
     if limits is None or not np.all(np.isfinite(limits.jerk)):
         joints = [] if limits is None else np.flatnonzero(~np.isfinite(limits.jerk)).tolist()
@@ -190,9 +189,6 @@ def check_time_optimal_request(n_points, limits, boundary, torque):
     if any(np.any(b) for b in boundary):
         raise ValueError('speed_profile "time_optimal" is planned rest to rest: the start '
                          'and end velocities and accelerations must be zero')
-    if torque is not None:
-        raise ValueError('speed_profile "time_optimal" does not hold torque limits yet: '
-                         'use speed_profile "smoothed" with them')
     if n_points > MAX_TIME_OPTIMAL_WAYPOINTS:
         raise ValueError(f'speed_profile "time_optimal" plans at most '
                          f'{MAX_TIME_OPTIMAL_WAYPOINTS} waypoints, got {n_points}: its linear '
@@ -348,7 +344,7 @@ class PlanOptions:
                 raise ValueError(f'min_position[{j}] = {low[j]} is above max_position[{j}] = '
                                  f'{high[j]}')
         if profile != 'smoothed':
-            check_time_optimal_request(0, limits, boundary, torque)
+            check_time_optimal_request(0, limits, boundary)
         return cls(method, timing, limits, boundary, tolerance, low, high, knots,
                    inner_knots is None, vibration, smoothing, windows, torque, profile)
 
@@ -396,7 +392,7 @@ class PlanOptions:
                                      else np.array(max_jerk, dtype=float))
             check_boundary_feasible(limits, *boundary)
         if speed_profile != 'smoothed':
-            check_time_optimal_request(0, limits, boundary, torque)
+            check_time_optimal_request(0, limits, boundary)
         return cls(method, timing, limits, boundary, float(waypoint_tolerance), None, None, knots,
                    inner_knots is None, vibration, smoothing, windows, torque, speed_profile)
 

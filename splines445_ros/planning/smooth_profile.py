@@ -20,8 +20,12 @@ linear in its coefficients ``z``:
       jerk          sqrt(x) (q' x''/2 + 3 q'' x'/2 + q''' x)
 
   The rows are ``0 <= x <= x_max`` (the fastest v/a profile of
-  :mod:`path_velocity`, which holds the velocity),
-  ``|q' x'/2 + q'' x| <= a`` and the jerk below.  They are applied at
+  :mod:`path_velocity`, which holds the velocity; its stops at
+  zero-inertia points lifted, :func:`_lift_isolated_stops`),
+  ``|q' x'/2 + q'' x| <= a``, the rows ``lo <= a x'/2 + b x <= hi`` of any
+  more constraint objects (:mod:`path_constraints`: the joint torque
+  ``M q' u + (M q'' + C q') x + g``, linear in ``x`` and ``x'`` like the
+  acceleration) and the jerk below.  They are applied at
   :data:`DENSE` points per grid step, :data:`END_DENSE` per step in the end
   regions, :data:`GEOMETRIC_POINTS` points ``L 2**-m`` from each end and on
   both sides of every waypoint (the natural cubic's ``q'''`` jumps there).
@@ -72,6 +76,10 @@ from scipy.sparse.linalg import lsqr
 from .path_constraints import GriddedPath, JointAcceleration, JointVelocity
 from .path_velocity import PathLimits
 
+# The passes' profile counts as stopped below this share of its largest x (a
+# stop at a zero-inertia point, _lift_isolated_stops; those seen were 1e-7 of it,
+# the waypoints' rows 1e-9 of the path apart leave it little room to brake).
+ISOLATED_STOP = 1e-5
 # A B-spline knot every this many grid steps: 1 gained < 0.5 %, 3 lost 0.3-1 %.
 KNOT_STEPS = 2
 # Row points per grid step: 2 halved the solve time but lost 0.3-1 % in duration.
@@ -134,6 +142,29 @@ def _derivative_matrix(knots, degree, count):
     return sp.diags([-factor, factor], [0, 1], shape=(count - 1, count), format='csr')
 
 
+def _lift_isolated_stops(x):
+    """
+    Return the passes' profile ``x`` with each interior stop between moving points lifted.
+
+    Where every joint's ``q'`` passes 0 at once (a joint reversing alone)
+    the acceleration rows leave ``u`` free at one point: the forward pass
+    jumps up there and must stop at the next point (TOPP's zero-inertia
+    points).  Such a stop is the passes' artefact, and as the cap of the
+    LPs it would make the profile stop there, which its C2 ``x`` cannot do
+    in finite time.  The lower neighbour stands in for it (only a cap and
+    a start: the LP's own rows hold the acceleration there).
+    """
+    x = np.array(x, float)
+    stopped = np.concatenate([[0], x <= ISOLATED_STOP * np.max(x), [0]]).astype(int)
+    edges = np.diff(stopped)
+    # Runs [first, last] of stopped points; those between two moving ones are
+    # lifted (the ends stay at rest).
+    for first, last in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1):
+        if first > 0 and last < x.size - 1:
+            x[first:last + 1] = min(x[first - 1], x[last + 1])
+    return x
+
+
 def _limit(value, n_joints, name):
     """Return a positive finite limit (n_joints,), or raise ValueError."""
     value = np.asarray(value, float)
@@ -153,15 +184,20 @@ class SmoothProfile:
     ``path`` is a scipy ``PPoly`` ``q(s)`` (n joints) and ``grid`` its
     increasing grid from ``path.x[0]`` to ``path.x[-1]`` (e.g. 24 steps a
     segment); ``velocity``, ``acceleration``, ``jerk`` the joint limits
-    (n,) or scalars.  Solved on construction; raises ValueError on bad input
-    and RuntimeError when the first LP fails.
+    (n,) or scalars; ``constraints`` more :mod:`path_constraints` objects,
+    first order (``x`` at most their squared speed) or second order (rows
+    ``lo <= a u + b x <= hi`` with ``u = x'/2``: the joint torque, the tool
+    acceleration), applied at the same row points.  Solved on construction;
+    raises ValueError on bad input (a constraint's own, such as
+    :class:`path_constraints.GravityOverload`) and RuntimeError when the
+    first LP fails.
 
     Attributes: ``knots``, ``coefficients`` (the B-spline's),
     ``end_coefficients`` ((alpha, beta) at the start, at the end),
     ``end_lengths`` (L at each end), ``duration``, ``lps`` (HiGHS solves).
     """
 
-    def __init__(self, path, grid, velocity, acceleration, jerk):
+    def __init__(self, path, grid, velocity, acceleration, jerk, constraints=()):
         """Check the input, solve the LPs and prepare the time law."""
         if not isinstance(path, PPoly):
             raise ValueError(f'path must be a scipy PPoly, got {type(path).__name__}')
@@ -182,6 +218,9 @@ class SmoothProfile:
         self.velocity = _limit(velocity, n_joints, 'velocity')
         self.acceleration = _limit(acceleration, n_joints, 'acceleration')
         self.jerk = _limit(jerk, n_joints, 'jerk')
+        self.constraints = tuple(constraints)
+        if any(c.order not in (1, 2) for c in self.constraints):
+            raise ValueError('constraints must be first or second order (path_constraints)')
         self.start, self.end = grid[0], grid[-1]
         steps = np.diff(grid)
         self.end_lengths = (grid[END_STEPS] - grid[0], grid[-1] - grid[-1 - END_STEPS])
@@ -250,20 +289,45 @@ class SmoothProfile:
         acc = sp.diags(0.5 * d1) @ stacked(x1) + sp.diags(d2) @ stacked(x)
         jerk = (sp.diags(0.5 * d1) @ stacked(x2) + sp.diags(1.5 * d2) @ stacked(x1)
                 + sp.diags(d3) @ stacked(x))
-        rows = sp.vstack([x, -x, acc, -acc, jerk, -jerk], format='csr')
+        more, more_bound = self._constraint_rows(points, x, x1)
+        rows = sp.vstack([x, -x, acc, -acc] + more + [jerk, -jerk], format='csr')
         jerk_bound = np.tile(np.repeat(self.jerk, n), 2)
-        bound = np.concatenate([np.zeros(2 * n), np.tile(np.repeat(self.acceleration, n), 2),
-                                np.zeros(jerk_bound.size)])
+        bound = np.concatenate([np.zeros(2 * n), np.tile(np.repeat(self.acceleration, n), 2)]
+                               + more_bound + [np.zeros(jerk_bound.size)])
         return x, rows, bound, jerk_bound
+
+    def _constraint_rows(self, points, x, x1):
+        """
+        Return the rows and bounds of the second-order ``constraints`` at ``points``.
+
+        ``lo <= a u + b x <= hi`` with ``u = x'/2``: ``+-(a x'/2 + b x)``
+        below ``hi`` and ``-lo``; rows whose bound is infinite are left out.
+        """
+        rows, bounds = [], []
+        if not any(c.order == 2 for c in self.constraints):
+            return rows, bounds
+        gridded = GriddedPath.of_ppoly(self.path, points)
+        for constraint in self.constraints:
+            if constraint.order != 2:
+                continue
+            a, b, lo, hi = constraint.rows(gridded)
+            for k in range(a.shape[1]):
+                row = sp.diags(0.5 * a[:, k]) @ x1 + sp.diags(b[:, k]) @ x
+                for sign, limit in ((1.0, hi[:, k]), (-1.0, -lo[:, k])):
+                    finite = np.isfinite(limit)
+                    if finite.any():
+                        rows.append(sign * row[np.flatnonzero(finite)])
+                        bounds.append(limit[finite])
+        return rows, bounds
 
     def _solve(self, grid, steps):
         """Return the coefficients z of the last feasible LP (sequential LPs, see the module)."""
         every = self._points(grid, steps)
         # x_max: the fastest v/a profile on the row points; it holds the velocity.
         gridded = GriddedPath.of_ppoly(self.path, every)
-        x_max = PathLimits(gridded, (JointVelocity(self.velocity),
-                                     JointAcceleration(self.acceleration))).profile(
-            np.ones(every.size))[1:-1]
+        x_max = _lift_isolated_stops(PathLimits(gridded, (
+            JointVelocity(self.velocity), JointAcceleration(self.acceleration))
+            + self.constraints).profile(np.ones(every.size)))[1:-1]
         width = np.zeros(every.size)                # trapezoid weights of the time
         width[:-1] += 0.5 * np.diff(every)
         width[1:] += 0.5 * np.diff(every)

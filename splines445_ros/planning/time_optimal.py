@@ -26,8 +26,9 @@ optimum when that is shorter.  Here the profile itself holds the jerk
 
 No windows, relaxation or outlier rounds: the profile is already
 followable (sampled every 1 ms it needs a slow-down of 1.0004 median), so
-one spline is enough.  Rest to rest, joint v/a/j limits only (plan_options
-refuses the rest).  Measured on the vendor arms (doc/benchmarks.md,
+one spline is enough.  Rest to rest; the joint torque is one more row of
+the profile (a ``path_constraints.JointTorque``, linear in ``x`` and
+``x'``).  Measured on the vendor arms (doc/benchmarks.md,
 ``bench_arm_moves.py``): about 0.96 of the default's duration, with a 4 Hz
 peak of about 1.6 times the default's (still half of TOPP-RA's); planning
 takes the profile's sequential LPs, 10-20 times the default's time.
@@ -56,17 +57,19 @@ class FollowedPath:
     """
     What :class:`inner_knots.KnotCandidate` reads of the path of steps 1-2.
 
-    The grid ``s``, the ``ppoly`` ``q(s)``, the waypoints ``points``; no
-    corner rounding, no limits beyond v/a/j, scaled to its limits.
+    The grid ``s``, the ``ppoly`` ``q(s)``, the waypoints ``points`` and
+    ``piece_factors``, the torque's per piece (None: no torque limits);
+    no corner rounding, scaled to its limits.
     """
 
     rounding = 0.0
-    piece_factors = None
     keep_time_scale = False
+    torque_neighbours = 0.0
 
-    def __init__(self, s, ppoly, points):
-        """Keep the grid, the path and its waypoints."""
+    def __init__(self, s, ppoly, points, piece_factors=None):
+        """Keep the grid, the path, its waypoints and the torque's piece factors (or None)."""
         self.s, self.ppoly, self.points = s, ppoly, points
+        self.piece_factors = piece_factors
 
 
 class FollowedProfile:
@@ -97,12 +100,15 @@ def knot_fractions(segment_times, period=KNOT_PERIOD):
     return [np.arange(m) / m for m in counts]
 
 
-def plan_time_optimal(points, limits, dropped=()):
+def plan_time_optimal(points, limits, dropped=(), torque=None):
     """
     Return the rest-to-rest Trajectory of steps 1-4 through ``points`` (N, n), or None.
 
     ``limits`` are the :class:`limits.JointLimits` (every jerk finite),
-    ``dropped`` the merged waypoints' indices.  None when the profile's
+    ``dropped`` the merged waypoints' indices, ``torque`` a
+    :class:`torque.TorqueLimit` or None: its rows join the profile's and
+    its per-piece factors step 4's exact ones (plan() checks the result at
+    1 kHz and slows it down uniformly if it must).  None when the profile's
     first LP fails, when the profile stops inside the path, or when no
     spline is found (the caller falls back to the default construction).
     """
@@ -114,7 +120,8 @@ def plan_time_optimal(points, limits, dropped=()):
                            knots[-1:]])
     try:
         profile = SmoothProfile(ppoly, grid, limits.velocity, limits.acceleration,
-                                JERK_MARGIN * limits.jerk)
+                                JERK_MARGIN * limits.jerk,
+                                () if torque is None else (torque.constraint(),))
     except RuntimeError:
         return None     # its first LP failed: no profile to follow
     followed = FollowedProfile(profile, knots, grid.size)
@@ -122,7 +129,8 @@ def plan_time_optimal(points, limits, dropped=()):
         # x reached 0 between its row points (a joint reversing alone): the
         # profile stops there, and a stop takes its C2 x(s) forever.
         return None
-    problem = TimingProblem(FollowedPath(grid, ppoly, points), boundary, limits, True)
+    problem = TimingProblem(FollowedPath(grid, ppoly, points, None if torque is None
+                                         else torque.piece_factors), boundary, limits, True)
     candidate = KnotCandidate(problem, followed.local, None,
                               knot_fractions(np.diff(followed.passed)), followed)
     if not candidate.valid:

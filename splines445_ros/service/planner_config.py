@@ -218,7 +218,7 @@ class PlannerConfig(ValidatedConfig):
         'much (still about half as much as TOPP-RA), and it plans in 10-20 times the time. It '
         'needs a jerk limit on every joint, joint-space `waypoints` requests at rest at both '
         f'ends (no replanning from a moving state), at most {MAX_TIME_OPTIMAL_WAYPOINTS} '
-        'waypoints, and no `limit_torque`, `vibration_frequency`, `smoothing` or '
+        'waypoints, and no `vibration_frequency`, `smoothing` or '
         '`inner_knots` (refused with the reason otherwise).', choices=SPEED_PROFILES)
     model_file: str = parameter(
         '', '`kinematics: model`: URDF or MJCF file of the robot; empty = the '
@@ -385,18 +385,15 @@ class PlannerConfig(ValidatedConfig):
 
         The library's check (:func:`speed_profile_value`: 555 optimal, no
         ``inner_knots``, ``vibration_frequency`` or ``smoothing``), then what
-        the config alone shows: no ``limit_torque``, and a jerk limit on
-        every joint where the limits are the parameters' (not a robot
-        model's, whose description may give them: checked per request).
+        the config alone shows: a jerk limit on every joint where the limits
+        are the parameters' (not a robot model's, whose description may give
+        them: checked per request).  Torque limits are rows of its profile.
         """
         speed_profile_value(self.speed_profile, self.method, self.timing,
                             self.inner_knots != AUTO_INNER_KNOTS, self.vibration_frequency,
                             self.smoothing)
         if self.speed_profile == 'smoothed':
             return
-        if self.limit_torque:
-            raise ValueError('speed_profile "time_optimal" does not hold torque limits yet: '
-                             'set limit_torque:=false, or speed_profile:=smoothed')
         jerk = self.jerk_limits()
         if self.kinematics != 'model' and (jerk is None or not all(map(math.isfinite, jerk))):
             raise ValueError('speed_profile "time_optimal" needs a jerk limit on every joint: '
