@@ -69,9 +69,14 @@ worst, seed 2114261222; 0.30 / 0.94 before the solve's tuning, durations within
 
 import numpy as np
 from scipy.interpolate import BSpline, PPoly
-from scipy.optimize import linprog
+from scipy.optimize import linprog, OptimizeResult
 import scipy.sparse as sp
 from scipy.sparse.linalg import lsqr
+
+try:
+    import highspy
+except ImportError:         # e.g. an apt ROS install: scipy's linprog, cold, instead
+    highspy = None
 
 from .path_constraints import GriddedPath, JointAcceleration, JointVelocity
 from .path_velocity import PathLimits
@@ -111,6 +116,13 @@ VIOLATION = 1e-9
 # HiGHS dual simplex, Dantzig pricing: 1.2-1.3 x faster here than its default (steepest
 # edge), same solutions; IPM was 1.5-2 x slower.
 HIGHS_OPTIONS = {'simplex_dual_edge_weight_strategy': 'dantzig'}
+# Warm-started HiGHS through highspy when it imports (the tests set it False for linprog's).
+HIGHSPY = highspy is not None
+# The same dual simplex through highspy, with no presolve: it would drop the basis.
+HIGHSPY_OPTIONS = {'presolve': 'off', 'solver': 'simplex', 'simplex_strategy': 1,
+                   'simplex_dual_edge_weight_strategy': 0}
+# highspy's passModel: the matrix given by rows.
+ROWWISE = 2
 # Exact time law: Gauss-Legendre nodes per piece, pieces per spline interval.
 QUADRATURE_NODES = 16
 QUADRATURE_SPLIT = 4
@@ -175,6 +187,73 @@ def _limit(value, n_joints, name):
     if not np.all(np.isfinite(value)) or np.any(value <= 0.0):
         raise ValueError(f'{name} limit must be positive and finite, got {value}')
     return value
+
+
+class _WarmHighs:
+    """
+    One HiGHS model for all the LPs of a profile, each solved from the last basis (highspy).
+
+    Within an LP, :meth:`add` appends the violated rows and the dual simplex
+    goes on from its optimal basis (the new rows enter basic, so it stays
+    dual feasible).  A new LP (new cost, caps, jerk rows) is passed whole
+    with the last basis: kept rows keep their status, new rows enter basic,
+    and the rows nonbasic in it stay in the working set, so that the basis
+    stays square.  (Changing the jerk rows' coefficients in place instead,
+    one ``changeCoeff`` a nonzero, was 1.2 x slower.)
+    """
+
+    def __init__(self, bounds):
+        """Open the model with the variable bounds (linprog's)."""
+        self.highs = highspy.Highs()
+        self.highs.silent()
+        for name, value in HIGHSPY_OPTIONS.items():
+            self.highs.setOptionValue(name, value)
+        self.lower = np.array([-np.inf if lo is None else lo for lo, _ in bounds])
+        self.upper = np.array([np.inf if hi is None else hi for _, hi in bounds])
+        self.model = None       # the candidate row of each model row, in the model's order
+        self.rows = self.bound = None
+
+    def start(self, cost, rows, bound, work):
+        """Pass a new LP: its cost, all candidate rows ``A z <= b``, the working ones."""
+        self.rows, self.bound = rows, bound
+        keep = np.flatnonzero(work)
+        basis = None if self.model is None else self.highs.getBasis()
+        if basis is not None and basis.valid:
+            codes = np.array([int(status) for status in basis.row_status])
+            keep = np.union1d(keep, self.model[codes != int(highspy.HighsBasisStatus.kBasic)])
+        block = rows[keep]
+        self.highs.passModel(
+            cost.size, keep.size, block.nnz, ROWWISE, 1, 0.0, cost, self.lower, self.upper,
+            np.full(keep.size, -np.inf), bound[keep], block.indptr[:-1].astype(np.int32),
+            block.indices.astype(np.int32), block.data, np.zeros(cost.size, np.int32))
+        if basis is not None and basis.valid:
+            status = dict(zip(self.model.tolist(), basis.row_status))
+            basic = highspy.HighsBasisStatus.kBasic
+            warm = highspy.HighsBasis()
+            warm.col_status = basis.col_status
+            warm.row_status = [status.get(row, basic) for row in keep.tolist()]
+            warm.valid = True
+            self.highs.setBasis(warm)
+        self.model = keep
+
+    def add(self, new):
+        """Append the candidate rows ``new`` (indices) to the model."""
+        block = self.rows[new]
+        self.highs.addRows(new.size, np.full(new.size, -np.inf), self.bound[new], block.nnz,
+                           block.indptr[:-1].astype(np.int32), block.indices.astype(np.int32),
+                           block.data)
+        self.model = np.concatenate([self.model, new])
+
+    def run(self):
+        """Solve from the current basis (from none if that fails): linprog's result fields."""
+        for _ in range(2):
+            self.highs.run()
+            status = self.highs.getModelStatus()
+            if status == highspy.HighsModelStatus.kOptimal:
+                return OptimizeResult(status=0, x=np.array(self.highs.getSolution().col_value),
+                                      message='')
+            self.highs.clearSolver()
+        return OptimizeResult(status=2, x=None, message=self.highs.modelStatusToString(status))
 
 
 class SmoothProfile:
@@ -343,6 +422,7 @@ class SmoothProfile:
         z_best = np.zeros(x.shape[1])
         z_best[free] = lsqr(x[:, free], x_max)[0]
         x_p, z_feasible, last_time, message = x_max.copy(), None, None, ''
+        warm = _WarmHighs(bounds) if HIGHSPY else None
         for iteration, growth in enumerate(GROWTH):
             x_q = np.maximum(x_p, MIN_WEIGHT_SHARE * x_p.max())
             x_r = np.tile(x_q, jerk.size // n)
@@ -355,7 +435,7 @@ class SmoothProfile:
             cost = -(x.T @ (width / x_q ** 1.5))
             work = rows @ z_best > KEEP * bound
             work[:n:DENSE] = True       # x <= cap about once a grid step: a bounded LP
-            result = self._generate(cost, rows, bound, work, bounds)
+            result = self._generate(cost, rows, bound, work, bounds, warm)
             if result.status != 0:
                 message = result.message
                 break                   # keep the last feasible profile
@@ -369,12 +449,17 @@ class SmoothProfile:
             raise RuntimeError(f'the first LP of the smooth profile failed: {message}')
         return z_feasible
 
-    def _generate(self, cost, rows, bound, work, bounds):
+    def _generate(self, cost, rows, bound, work, bounds, warm=None):
         """Solve the LP on the rows ``work``, adding the violated others until none is."""
+        if warm is not None:
+            warm.start(cost, rows, bound, work)
         result = None
         for _ in range(MAX_ROUNDS):
-            result = linprog(cost, A_ub=rows[work], b_ub=bound[work], bounds=bounds,
-                             method='highs-ds', options=HIGHS_OPTIONS)
+            if warm is None:
+                result = linprog(cost, A_ub=rows[work], b_ub=bound[work], bounds=bounds,
+                                 method='highs-ds', options=HIGHS_OPTIONS)
+            else:
+                result = warm.run()
             self.lps += 1
             if result.status != 0:
                 return result
@@ -382,6 +467,8 @@ class SmoothProfile:
             if not violated.any():
                 return result
             work = work | violated
+            if warm is not None:
+                warm.add(np.flatnonzero(violated))
         result.status, result.message = 1, f'rows still violated after {MAX_ROUNDS} rounds'
         return result
 

@@ -13,6 +13,7 @@ takes velocity, acceleration and jerk by finite differences.
 import numpy as np
 import pytest
 from scipy.interpolate import CubicHermiteSpline
+from splines445_ros.planning import smooth_profile
 from splines445_ros.planning.limits import JointLimits
 from splines445_ros.planning.natural_cubic import natural_cubic_spline
 from splines445_ros.planning.path_constraints import (GriddedPath, JointAcceleration,
@@ -162,3 +163,29 @@ def test_bad_input_is_refused():
         SmoothProfile(path, grid[::-1], v, a, j)
     with pytest.raises(ValueError, match='PPoly'):
         SmoothProfile(lambda s: s, grid, v, a, j)
+
+
+@pytest.mark.parametrize('seed', SEEDS[:4])
+def test_warm_highspy_and_cold_linprog_give_the_same_profile(seed, monkeypatch):
+    """The warm-started highspy path and linprog's fallback (no highspy) agree."""
+    pytest.importorskip('highspy')
+    path, grid, v, a, j = random_case(seed)
+    monkeypatch.setattr(smooth_profile, 'HIGHSPY', True)
+    warm = SmoothProfile(path, grid, v, a, j)
+    monkeypatch.setattr(smooth_profile, 'HIGHSPY', False)
+    cold = SmoothProfile(path, grid, v, a, j)
+    assert warm.duration == pytest.approx(cold.duration, rel=5e-4)
+    s = np.linspace(grid[0], grid[-1], 501)
+    assert np.allclose(warm.x(s), cold.x(s), rtol=0.0, atol=5e-3 * np.max(cold.x(s)))
+
+
+def test_fallback_without_highspy_is_followed(monkeypatch):
+    """With highspy missing (the module's flag off), linprog's profile holds the limits too."""
+    monkeypatch.setattr(smooth_profile, 'HIGHSPY', False)
+    path, grid, v, a, j = random_case(SEEDS[1])
+    profile = SmoothProfile(path, grid, v, a, j)
+    s_of_t, duration = time_law(profile, grid[0], grid[-1])
+    times = np.arange(-3, int(np.ceil(duration / PERIOD)) + 4) * PERIOD
+    q = path(s_of_t(times))
+    for k, limit in ((1, v), (2, a), (3, j)):
+        assert np.max(np.abs(np.diff(q, k, axis=0)) / PERIOD ** k / limit) <= TOLERANCE
