@@ -17,7 +17,9 @@ optimum when that is shorter.  Here the profile itself holds the jerk
    which every waypoint is passed.
 3. Knots.  At the waypoints, at those times, and at equal time fractions
    of each segment, about :data:`KNOT_PERIOD` apart; each inner knot at
-   ``q(s(t))``, the path's position at its time.
+   ``q(s(t))``, the path's position at its time.  A piece that needs more
+   than :data:`SPLIT_FACTOR` (step 4's factor of its own) is halved, for
+   up to :data:`SPLIT_ROUNDS` rounds, while the plan gets shorter.
 4. Spline and exact limits.  The C4 quintic spline through those knots
    (the banded system of 555, :mod:`continuity_system`), scaled in time by
    its exact factor ``max(r_v, r_a**(1/2), r_j**(1/3))`` (:mod:`peaks`): one
@@ -49,6 +51,13 @@ JERK_MARGIN = 0.9
 # Inner knots about this far apart [s]: 30 ms gave 1.050-1.052 x TOPP-RA,
 # 15 ms 1.039-1.040 (exact factor 1.001 median), 10 ms no better.
 KNOT_PERIOD = 0.015
+# Pieces whose own exact factor (v/a/j, torque) is above this get a knot at
+# their midpoint, for at most SPLIT_ROUNDS rounds: with a jerk ramp shorter
+# than KNOT_PERIOD (torque limits, j = 50 times the typical acceleration) the
+# spline could not follow the profile, and one piece slowed a TALOS arm plan
+# down by 1.21.
+SPLIT_FACTOR = 1.005
+SPLIT_ROUNDS = 4
 # The name of this construction in Trajectory.optimizer['speed_profile'].
 NAME = 'time_optimal'
 
@@ -100,6 +109,17 @@ def knot_fractions(segment_times, period=KNOT_PERIOD):
     return [np.arange(m) / m for m in counts]
 
 
+def split_pieces(fractions, pieces):
+    """Return ``fractions`` with the pieces ``pieces`` (indices over all segments) halved."""
+    out, first = [], 0
+    for f in fractions:
+        mine = pieces[(pieces >= first) & (pieces < first + f.size)] - first
+        ends = np.append(f, 1.0)
+        out.append(np.sort(np.concatenate([f, 0.5 * (ends[mine] + ends[mine + 1])])))
+        first += f.size
+    return out
+
+
 def plan_time_optimal(points, limits, dropped=(), torque=None):
     """
     Return the rest-to-rest Trajectory of steps 1-4 through ``points`` (N, n), or None.
@@ -131,10 +151,21 @@ def plan_time_optimal(points, limits, dropped=(), torque=None):
         return None
     problem = TimingProblem(FollowedPath(grid, ppoly, points, None if torque is None
                                          else torque.piece_factors), boundary, limits, True)
-    candidate = KnotCandidate(problem, followed.local, None,
-                              knot_fractions(np.diff(followed.passed)), followed)
+    fractions = knot_fractions(np.diff(followed.passed))
+    candidate = KnotCandidate(problem, followed.local, None, fractions, followed)
     if not candidate.valid:
         return None
+    for _ in range(SPLIT_ROUNDS):
+        # Where the spline does not follow (its piece needs a slow-down), a
+        # knot at the piece's midpoint; kept while the whole gets shorter.
+        slow = np.flatnonzero(candidate.factors > SPLIT_FACTOR)
+        if slow.size == 0:
+            break
+        fractions = split_pieces(fractions, slow)
+        finer = KnotCandidate(problem, followed.local, None, fractions, followed)
+        if not (finer.valid and finer.total < candidate.total):
+            break
+        candidate = finer
     return kept_trajectory(problem, candidate, dropped, {
         'speed_profile': NAME, 'inner_knots': int(np.max(candidate.counts)),
         'knots': int(candidate.pieces.size + 1),
