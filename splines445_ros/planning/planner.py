@@ -204,8 +204,8 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         ``inner_knots``, ``vibration_frequency`` and ``smoothing`` shape it.
         "time_optimal" follows the time-optimal third-order profile of
         :mod:`time_optimal` with a C4 spline (a knot every 15 ms or so): on
-        the vendor arms about 4 % shorter than "smoothed", with about 1.6
-        times its 4 Hz shaking, planned in 10-20 times its time.  It needs
+        the vendor arms 5-7 % shorter than "smoothed", with about 1.6
+        times its 4 Hz shaking, planned in about 5 times its time.  It needs
         a jerk limit on every joint, rest to rest (torque limits are rows of
         its profile), no
         ``inner_knots``, ``vibration_frequency`` or ``smoothing``, and at

@@ -31,9 +31,10 @@ followable (sampled every 1 ms it needs a slow-down of 1.0004 median), so
 one spline is enough.  Rest to rest; the joint torque is one more row of
 the profile (a ``path_constraints.JointTorque``, linear in ``x`` and
 ``x'``).  Measured on the vendor arms (doc/benchmarks.md,
-``bench_arm_moves.py``): about 0.96 of the default's duration, with a 4 Hz
-peak of about 1.6 times the default's (still half of TOPP-RA's); planning
-takes the profile's sequential LPs, 10-20 times the default's time.
+``bench_arm_moves.py``): 0.93-0.95 of the default's duration, with a 4 Hz
+peak of about 1.6 times the default's (still half of TOPP-RA's but on the
+Panda, whose jerk limit is 500 a); planning takes the profile's sequential
+LPs, about 5 times the default's time.
 """
 
 import numpy as np
