@@ -32,7 +32,9 @@ Per arm, median / worst over the paths:
 Usage: ``python benchmarks/bench_smooth_profile.py``;
 ``SPLINES445_BENCH_SEED=<seed>`` repeats a run,
 ``SPLINES445_BENCH_CASES=<count>`` sets the paths per arm (default
-:data:`CASES`), ``SPLINES445_BENCH_ARMS=<names>`` keeps some arms.  Set
+:data:`CASES`), ``SPLINES445_BENCH_ARMS=<names>`` keeps some arms,
+``SPLINES445_BENCH_LINPROG=1`` solves with scipy's cold linprog as when
+highspy is missing (the same profile, slower).  Set
 ``OPENBLAS_NUM_THREADS=1`` on a shared machine.
 """
 
@@ -51,6 +53,7 @@ from bench_torque import arm_paths  # noqa: E402
 import numpy as np  # noqa: E402
 from shaking import FREQUENCIES, of_toppra, shaking_figures, shaking_ratios  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
+from splines445_ros.planning import smooth_profile  # noqa: E402
 from splines445_ros.planning.limits import JointLimits  # noqa: E402
 from splines445_ros.planning.smooth_profile import SmoothProfile  # noqa: E402
 
@@ -131,6 +134,10 @@ def main():
     cases = bench_seeds.case_count(CASES)
     arms, skipped = bench_arms.vendor_arms()
     bench_arms.print_arms(arms, skipped)
+    if os.environ.get('SPLINES445_BENCH_LINPROG', '').strip() not in ('', '0'):
+        smooth_profile.HIGHSPY = False
+    print('smooth profile LPs: ' + ('HiGHS warm (highspy)' if smooth_profile.HIGHSPY
+                                    else "scipy's linprog, cold"))
     print(f"{cases} random joint paths per arm (seed {seed}, the arm's stream + {PATH_STREAM}), "
           "the arm's v/a/j limits; durations over TOPP-RA's (v/a, no jerk) on the same path; "
           'median / worst; wall times of one call [s]')

@@ -44,27 +44,36 @@ linear in its coefficients ``z``:
   everywhere and exact at ``x_p``, with no trust region.  (jerk_profile's
   ``j / sqrt(xbar)`` rows need one, and converge in 15+ LPs instead of 3-5.)
 
-Sequential LPs (scipy's HiGHS): each maximises the traversal time
+Sequential LPs (HiGHS' dual simplex): each maximises the traversal time
 ``sum w x / x_p**1.5`` linearised at ``x_p`` (as jerk_profile), under
 ``x <= min(x_max, gamma x_p)`` for the factors :data:`GROWTH`, and stops
 when the time improves by less than :data:`TOLERANCE`.  All rows (up to
 ~80 000, built once for all joints) enter only where violated (constraint
 generation), but ``x <= cap`` about once a grid step; rows within
 :data:`KEEP` of their bound are kept from one LP to the next, and the first
-LP starts from the rows near binding at a least-squares fit of ``x_max``.
+LP starts from the rows violated (by :data:`FIRST_KEEP`) at a least-squares
+fit of ``x_max``.  With highspy (:class:`_WarmHighs`) one HiGHS model
+serves all the LPs: a round's violated rows are appended and the simplex
+goes on from its basis, and each new LP is passed with the last basis
+(after the first, an LP takes tens of iterations instead of ~4 an
+unknown).  Without highspy (an apt ROS install) each round is a cold
+``scipy.optimize.linprog(method='highs-ds')``: the same profile, to the
+solver's tolerance (durations within 1e-9 on the bench's 72 paths).
 
 :class:`SmoothProfile` also gives the exact time law: ``t(s) = int ds /
 sqrt(x)`` by Gauss-Legendre on the spline's pieces, with ``s = h tau**3``
 on the first and last pieces (the integrand ``~ s**(-2/3)`` becomes
 regular), and ``s(t)`` by Newton.
 
-This is issue 38's profile, not yet plan()'s (nothing calls it).  Measured
-(``benchmarks/bench_smooth_profile.py``, doc/benchmarks.md): sampled every
-1 ms, ``q(s(t))`` needs a uniform slow-down of 1.0004 median (1.0018
-worst) on 76 paths of 8 arms, and it lasts 1.025 x TOPP-RA (median)
-against plan()'s default 1.085; but it takes 0.16 s a path (median, 0.40
-worst, seed 2114261222; 0.30 / 0.94 before the solve's tuning, durations within
-0.03 %) against 0.02 s for all of plan().
+Measured (``benchmarks/bench_smooth_profile.py``, doc/benchmarks.md):
+sampled every 1 ms, ``q(s(t))`` needs a uniform slow-down of 1.0004
+median (1.0018 worst) on 76 paths of 8 arms, and it lasts 1.025 x TOPP-RA
+(median) against plan()'s default 1.085.  It takes 0.05 s a path (median,
+0.10-0.14 worst; seeds 2114261222, 2509197314, 3725442882) with highspy,
+3.5-4.3 x less than linprog's cold solves (0.16-0.27 s), durations within
+1e-9; plan()'s default takes 0.02 s.  ``plan(..., speed_profile=
+'time_optimal')``, which solves it (:mod:`time_optimal`), took 0.07-0.11 s
+a path median with highspy against 0.21-0.36 s (2.5-3.4 x).
 """
 
 import numpy as np
@@ -75,6 +84,7 @@ from scipy.sparse.linalg import lsqr
 
 try:
     import highspy
+    # A row's status in a HiGHS basis: basic (its slack in the basis, the row not binding).
     _BASIC = highspy.HighsBasisStatus.kBasic
     # HighsBasisStatus by its code (0 lower, 1 basic, 2 upper, 3 zero, 4 nonbasic).
     _STATUSES = sorted(highspy.HighsBasisStatus.__members__.values(), key=int)
