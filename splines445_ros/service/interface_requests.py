@@ -12,7 +12,7 @@ the same value would be, with the same error text.
 
 # Override fields by kind: a non-empty string, a non-empty array (one value per
 # planned joint), or an array of at most one value standing for an optional scalar.
-STRING_FIELDS = ('method', 'timing', 'output')
+STRING_FIELDS = ('method', 'timing', 'output', 'speed_profile')
 ARRAY_FIELDS = ('max_velocity', 'max_acceleration', 'max_jerk')
 SCALAR_FIELDS = ('max_tool_speed', 'max_tool_angular_speed', 'max_tool_acceleration',
                  'max_path_deviation')

@@ -144,6 +144,16 @@ def test_overrides_hold_for_one_request_and_are_validated_like_parameters(system
     expected = reference(W, '555', 'optimal')
     assert fast.duration == pytest.approx(expected.duration, rel=1e-6)
     assert fast.duration < default.duration
+    optimal = call(system, plan_request(method='555', timing='optimal',
+                                        speed_profile='time_optimal'))
+    assert optimal.success, optimal.message
+    expected = plan(W, '555', 'optimal', speed_profile='time_optimal', max_velocity=[V] * 3,
+                    max_acceleration=[A] * 3, max_jerk=[J] * 3)
+    assert optimal.duration == pytest.approx(expected.duration, rel=1e-6)
+    assert optimal.duration < fast.duration
+    assert system.planner.get_parameter('speed_profile').value == 'smoothed'
+    ignored = call(system, plan_request(speed_profile='time_optimal'))
+    assert not ignored.success and 'needs method "555"' in ignored.message
     slow = call(system, plan_request(max_velocity=[0.5, 0.5, 0.5]))
     assert slow.success and max(slow.peak_velocity) <= 0.5 * (1 + 1e-9)
     assert slow.duration > default.duration
