@@ -175,21 +175,19 @@ def speed_profile_value(value, method, timing, inner_knots_given=False,
     return value
 
 
-def check_time_optimal_request(n_points, limits, boundary):
+def check_time_optimal_request(n_points, limits):
     """
     Raise ValueError unless speed_profile "time_optimal" can plan this request.
 
     ``n_points`` merged waypoints (at most :data:`MAX_TIME_OPTIMAL_WAYPOINTS`),
     ``limits`` with a finite jerk limit on every joint (the profile is
-    third order) and the four ``boundary`` vectors all zero (rest to rest).
+    third order).  Moving ends are planned too (torque limits, planned rest
+    to rest, refuse them already).
     """
     if limits is None or not np.all(np.isfinite(limits.jerk)):
         joints = [] if limits is None else np.flatnonzero(~np.isfinite(limits.jerk)).tolist()
         raise ValueError('speed_profile "time_optimal" needs a jerk limit on every joint '
                          f'(none on joints {joints})')
-    if any(np.any(b) for b in boundary):
-        raise ValueError('speed_profile "time_optimal" is planned rest to rest: the start '
-                         'and end velocities and accelerations must be zero')
     if n_points > MAX_TIME_OPTIMAL_WAYPOINTS:
         raise ValueError(f'speed_profile "time_optimal" plans at most '
                          f'{MAX_TIME_OPTIMAL_WAYPOINTS} waypoints, got {n_points}: its linear '
@@ -345,7 +343,7 @@ class PlanOptions:
                 raise ValueError(f'min_position[{j}] = {low[j]} is above max_position[{j}] = '
                                  f'{high[j]}')
         if profile != 'smoothed':
-            check_time_optimal_request(0, limits, boundary)
+            check_time_optimal_request(0, limits)
         return cls(method, timing, limits, boundary, tolerance, low, high, knots,
                    inner_knots is None, vibration, smoothing, windows, torque, profile)
 
@@ -393,7 +391,7 @@ class PlanOptions:
                                      else np.array(max_jerk, dtype=float))
             check_boundary_feasible(limits, *boundary)
         if speed_profile != 'smoothed':
-            check_time_optimal_request(0, limits, boundary)
+            check_time_optimal_request(0, limits)
         return cls(method, timing, limits, boundary, float(waypoint_tolerance), None, None, knots,
                    inner_knots is None, vibration, smoothing, windows, torque, speed_profile)
 

@@ -206,8 +206,8 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         :mod:`time_optimal` with a C4 spline (a knot every 15 ms or so): on
         the vendor arms 5-7 % shorter than "smoothed", with about 1.6
         times its 4 Hz shaking, planned in about 5 times its time.  It needs
-        a jerk limit on every joint, rest to rest (torque limits are rows of
-        its profile), no
+        a jerk limit on every joint (moving ends are kept; torque limits are
+        rows of its profile), no
         ``inner_knots``, ``vibration_frequency`` or ``smoothing``, and at
         most :data:`plan_options.MAX_TIME_OPTIMAL_WAYPOINTS` waypoints
         (ValueError otherwise); ``durations`` are not used.  Should it find
@@ -359,8 +359,8 @@ def _plan_limited(points, durations, options):
         # A dropped waypoint's segment joins the one before it.
         start = np.diff(np.delete(np.concatenate([[0.0], np.cumsum(start)]), dropped))
     if options.speed_profile == 'time_optimal':
-        check_time_optimal_request(points.shape[0], limits, boundary)
-        followed = plan_time_optimal(points, limits, dropped, torque)
+        check_time_optimal_request(points.shape[0], limits)
+        followed = plan_time_optimal(points, limits, dropped, torque, boundary)
         if followed is not None:
             return followed
         # No spline found: the default construction's plan, which says so.

@@ -313,7 +313,10 @@ class SmoothProfile:
     (n,) or scalars; ``constraints`` more :mod:`path_constraints` objects,
     first order (``x`` at most their squared speed) or second order (rows
     ``lo <= a u + b x <= hi`` with ``u = x'/2``: the joint torque, the tool
-    acceleration), applied at the same row points.  Solved on construction;
+    acceleration), applied at the same row points; ``ends`` the squared
+    path speeds at the start and the end (0: at rest, the end terms; a
+    moving end has ``x = x_e`` and ``x' = 0``, the path carrying the
+    boundary velocity and acceleration in its own time).  Solved on construction;
     raises ValueError on bad input (a constraint's own, such as
     :class:`path_constraints.GravityOverload`) and RuntimeError when the
     first LP fails.
@@ -323,7 +326,7 @@ class SmoothProfile:
     ``end_lengths`` (L at each end), ``duration``, ``lps`` (HiGHS solves).
     """
 
-    def __init__(self, path, grid, velocity, acceleration, jerk, constraints=()):
+    def __init__(self, path, grid, velocity, acceleration, jerk, constraints=(), ends=(0.0, 0.0)):
         """Check the input, solve the LPs and prepare the time law."""
         if not isinstance(path, PPoly):
             raise ValueError(f'path must be a scipy PPoly, got {type(path).__name__}')
@@ -345,6 +348,9 @@ class SmoothProfile:
         self.acceleration = _limit(acceleration, n_joints, 'acceleration')
         self.jerk = _limit(jerk, n_joints, 'jerk')
         self.constraints = tuple(constraints)
+        self.ends = tuple(float(e) for e in ends)
+        if len(self.ends) != 2 or not all(np.isfinite(e) and e >= 0.0 for e in self.ends):
+            raise ValueError(f'ends must be two squared path speeds >= 0, got {ends}')
         if any(c.order not in (1, 2) for c in self.constraints):
             raise ValueError('constraints must be first or second order (path_constraints)')
         self.start, self.end = grid[0], grid[-1]
@@ -453,7 +459,7 @@ class SmoothProfile:
         gridded = GriddedPath.of_ppoly(self.path, every)
         x_max = _lift_isolated_stops(PathLimits(gridded, (
             JointVelocity(self.velocity), JointAcceleration(self.acceleration))
-            + self.constraints).profile(np.ones(every.size)))[1:-1]
+            + self.constraints).profile(np.ones(every.size), *self.ends))[1:-1]
         width = np.zeros(every.size)                # trapezoid weights of the time
         width[:-1] += 0.5 * np.diff(every)
         width[1:] += 0.5 * np.diff(every)
@@ -466,7 +472,7 @@ class SmoothProfile:
         bounds = self._bounds()
         # The first LP's working set: the rows violated at x_max's least-squares fit.
         free = np.array([bound == (None, None) for bound in bounds])
-        z_best = np.zeros(x.shape[1])
+        z_best = np.array([0.0 if bound[0] is None else bound[0] for bound in bounds])
         z_best[free] = lsqr(x[:, free], x_max)[0]
         x_p, z_feasible, last_time, message = x_max.copy(), None, None, ''
         warm = _WarmHighs(bounds) if HIGHSPY else None
@@ -519,12 +525,24 @@ class SmoothProfile:
         return result
 
     def _bounds(self):
-        """Variable bounds: B = B' = 0 at the rest ends, 0 <= alpha <= the jerk at the end."""
+        """
+        Variable bounds: ``B = B' = 0`` at the rest ends, ``0 <= alpha <=`` the jerk at the end.
+
+        At a moving end (``ends``: ``x_e > 0``) ``B = x_e`` and ``B' = 0``
+        instead (its first or last two coefficients ``x_e``) and no end terms.
+        """
         count = self._count
         bounds = [(None, None)] * (count + 4)
-        for i in (0, 1, count - 2, count - 1):
-            bounds[i] = (0.0, 0.0)
-        for column, s in ((count, self.start), (count + 2, self.end)):
+        for pair, value, terms in (((0, 1), self.ends[0], count),
+                                   ((count - 2, count - 1), self.ends[1], count + 2)):
+            for i in pair:
+                bounds[i] = (value, value)
+            if value:
+                bounds[terms] = bounds[terms + 1] = (0.0, 0.0)
+        for column, s, value in ((count, self.start, self.ends[0]),
+                                 (count + 2, self.end, self.ends[1])):
+            if value:
+                continue
             slope = np.abs(np.atleast_1d(self.path(s, 1)))
             with np.errstate(divide='ignore'):
                 path_jerk = np.min(self.jerk / slope)

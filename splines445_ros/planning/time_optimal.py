@@ -12,9 +12,9 @@ optimum when that is shorter.  Here the profile itself holds the jerk
    step 1), on :data:`inner_knots.GRID_STEPS` grid steps a segment.
 2. Profile.  :class:`smooth_profile.SmoothProfile`: ``x(s) = sdot**2``, C2
    in ``s``, time-optimal under every joint's velocity, acceleration and
-   :data:`JERK_MARGIN` times its jerk limit, at rest at both ends (the
-   equations are in that module).  Its exact time law gives the time at
-   which every waypoint is passed.
+   :data:`JERK_MARGIN` times its jerk limit, at rest at both ends or at the
+   boundary velocity and acceleration (the equations are in that module).
+   Its exact time law gives the time at which every waypoint is passed.
 3. Knots.  At the waypoints, at those times, and at equal time fractions
    of each segment, about :data:`KNOT_PERIOD` apart; each inner knot at
    ``q(s(t))``, the path's position at its time.  A piece that needs more
@@ -28,7 +28,10 @@ optimum when that is shorter.  Here the profile itself holds the jerk
 
 No windows, relaxation or outlier rounds: the profile is already
 followable (sampled every 1 ms it needs a slow-down of 1.0004 median), so
-one spline is enough.  Rest to rest; the joint torque is one more row of
+one spline is enough.  With a moving end the spline cannot be scaled: the
+profile's limits are lowered (:data:`MOVING_MARGINS`) until it holds them;
+14 of 20 random moving starts were followed (the others, mostly single
+segments, fall back to the default).  The joint torque is one more row of
 the profile (a ``path_constraints.JointTorque``, linear in ``x`` and
 ``x'``).  Measured on the vendor arms (doc/benchmarks.md,
 ``bench_arm_moves.py``): 0.93-0.95 of the default's duration, with a 4 Hz
@@ -43,6 +46,7 @@ from .inner_knots import GRID_STEPS, kept_trajectory, KnotCandidate, TimingProbl
 from .natural_cubic import natural_cubic_spline
 from .smooth_profile import SmoothProfile
 from .timing import rest_to_rest_durations
+from .trajectory import Trajectory
 
 # The profile is planned with this share of each jerk limit: the spline
 # through its knots overshoots the profile's jerk corners, and the exact
@@ -59,6 +63,9 @@ KNOT_PERIOD = 0.015
 # down by 1.21.
 SPLIT_FACTOR = 1.005
 SPLIT_ROUNDS = 4
+# With a moving start or end: the shares of the limits the profile is planned
+# with, tried in turn until the spline (which cannot be scaled) holds them.
+MOVING_MARGINS = (0.98, 0.95, 0.9, 0.8, 0.6)
 # The name of this construction in Trajectory.optimizer['speed_profile'].
 NAME = 'time_optimal'
 
@@ -121,55 +128,83 @@ def split_pieces(fractions, pieces):
     return out
 
 
-def plan_time_optimal(points, limits, dropped=(), torque=None):
+def plan_time_optimal(points, limits, dropped=(), torque=None, boundary=None):
     """
-    Return the rest-to-rest Trajectory of steps 1-4 through ``points`` (N, n), or None.
+    Return the Trajectory of steps 1-4 through ``points`` (N, n), or None.
 
     ``limits`` are the :class:`limits.JointLimits` (every jerk finite),
     ``dropped`` the merged waypoints' indices, ``torque`` a
     :class:`torque.TorqueLimit` or None: its rows join the profile's and
     its per-piece factors step 4's exact ones (plan() checks the result at
-    1 kHz and slows it down uniformly if it must).  None when the profile's
-    first LP fails, when the profile stops inside the path, or when no
+    1 kHz and slows it down uniformly if it must).  ``boundary``: the four
+    boundary vectors (None: at rest).  With a moving end the path is the
+    555 spline with the boundary values in its own time (``inner_knots``
+    step 1), the profile keeps ``x = 1``, ``x' = 0`` there, and as a spline
+    that keeps them cannot be scaled, the profile's limits are lowered by
+    the factors :data:`MOVING_MARGINS` (velocity ``g``, acceleration
+    ``g**2``, jerk ``g**3``) until the spline holds them.  None when the
+    profile's first LP fails, when it stops inside the path, or when no
     spline is found (the caller falls back to the default construction).
     """
-    boundary = tuple(np.zeros(points.shape[1]) for _ in range(4))
-    knots = np.concatenate([[0.0], np.cumsum(rest_to_rest_durations(points, limits))])
-    ppoly = natural_cubic_spline(knots, points)
+    n = points.shape[1]
+    boundary = tuple(np.zeros(n) for _ in range(4)) if boundary is None else tuple(boundary)
+    moving = (bool(np.any(boundary[0]) or np.any(boundary[1])),
+              bool(np.any(boundary[2]) or np.any(boundary[3])))
+    durations = rest_to_rest_durations(points, limits)
+    if any(moving):
+        traj = Trajectory.build('555', 'fixed', points, durations, boundary)
+        ppoly, knots = traj.ppoly, traj.breakpoints
+    else:
+        knots = np.concatenate([[0.0], np.cumsum(durations)])
+        ppoly = natural_cubic_spline(knots, points)
     fractions = np.arange(GRID_STEPS) / GRID_STEPS
     grid = np.concatenate([(knots[:-1, None] + fractions * np.diff(knots)[:, None]).ravel(),
                            knots[-1:]])
-    try:
-        profile = SmoothProfile(ppoly, grid, limits.velocity, limits.acceleration,
-                                JERK_MARGIN * limits.jerk,
-                                () if torque is None else (torque.constraint(),))
-    except RuntimeError:
-        return None     # its first LP failed: no profile to follow
-    followed = FollowedProfile(profile, knots, grid.size)
-    if not np.all(np.isfinite(followed.passed)):
-        # x reached 0 between its row points (a joint reversing alone): the
-        # profile stops there, and a stop takes its C2 x(s) forever.
-        return None
+    constraints = () if torque is None else (torque.constraint(),)
     problem = TimingProblem(FollowedPath(grid, ppoly, points, None if torque is None
-                                         else torque.piece_factors), boundary, limits, True)
+                                         else torque.piece_factors), boundary, limits,
+                            not any(moving))
+    for margin in MOVING_MARGINS if any(moving) else (1.0,):
+        try:
+            profile = SmoothProfile(ppoly, grid, margin * limits.velocity,
+                                    margin ** 2 * limits.acceleration,
+                                    JERK_MARGIN * margin ** 3 * limits.jerk, constraints,
+                                    tuple(float(m) for m in moving))
+        except RuntimeError:
+            return None     # its first LP failed: no profile to follow
+        followed = FollowedProfile(profile, knots, grid.size)
+        if not np.all(np.isfinite(followed.passed)):
+            # x reached 0 between its row points (a joint reversing alone):
+            # the profile stops there, and a stop takes its C2 x(s) forever.
+            return None
+        candidate = _followed_spline(problem, followed)
+        if candidate is not None and candidate.feasible:
+            return kept_trajectory(problem, candidate, dropped, {
+                'speed_profile': NAME, 'inner_knots': int(np.max(candidate.counts)),
+                'knots': int(candidate.pieces.size + 1),
+                'inner_knots_per_segment': candidate.counts.tolist(),
+                'profile_lps': profile.lps, 'profile_duration': float(profile.duration),
+                'time_scale': float(candidate.scale), 'limit_margin': margin,
+                'smoothing_windows': []})
+    return None
+
+
+def _followed_spline(problem, followed):
+    """Return step 4's candidate on the knots of step 3 (pieces halved where needed), or None."""
     fractions = knot_fractions(np.diff(followed.passed))
     candidate = KnotCandidate(problem, followed.local, None, fractions, followed)
     if not candidate.valid:
         return None
     for _ in range(SPLIT_ROUNDS):
         # Where the spline does not follow (its piece needs a slow-down), a
-        # knot at the piece's midpoint; kept while the whole gets shorter.
+        # knot at the piece's midpoint; kept while the whole gets shorter
+        # (with moving ends: while its worst piece needs less).
         slow = np.flatnonzero(candidate.factors > SPLIT_FACTOR)
         if slow.size == 0:
             break
         fractions = split_pieces(fractions, slow)
         finer = KnotCandidate(problem, followed.local, None, fractions, followed)
-        if not (finer.valid and finer.total < candidate.total):
+        if not (finer.valid and finer.score < candidate.score):
             break
         candidate = finer
-    return kept_trajectory(problem, candidate, dropped, {
-        'speed_profile': NAME, 'inner_knots': int(np.max(candidate.counts)),
-        'knots': int(candidate.pieces.size + 1),
-        'inner_knots_per_segment': candidate.counts.tolist(), 'profile_lps': profile.lps,
-        'profile_duration': float(profile.duration), 'time_scale': float(candidate.scale),
-        'smoothing_windows': []})
+    return candidate

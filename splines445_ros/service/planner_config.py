@@ -216,8 +216,9 @@ class PlannerConfig(ValidatedConfig):
         'limits, followed by a C4 spline with a knot every 15 ms or so: on the vendor arms '
         '5-7 % shorter than `smoothed`, but it shakes their low modes about 1.6 times as '
         'much (still about half as much as TOPP-RA), and it plans in about 5 times the time. It '
-        'needs a jerk limit on every joint, joint-space `waypoints` requests at rest at both '
-        f'ends (no replanning from a moving state), at most {MAX_TIME_OPTIMAL_WAYPOINTS} '
+        'needs a jerk limit on every joint, joint-space `waypoints` requests (replanning from '
+        'a moving state too: when it finds no spline that keeps that state, the plan is '
+        f"`smoothed`'s, with a warning), at most {MAX_TIME_OPTIMAL_WAYPOINTS} "
         'waypoints, and no `vibration_frequency`, `smoothing` or '
         '`inner_knots` (refused with the reason otherwise).', choices=SPEED_PROFILES)
     model_file: str = parameter(

@@ -66,10 +66,15 @@ def test_config_refuses_what_it_would_ignore_or_cannot_hold(overrides, message):
     assert len(str(refused.value)) < 400
 
 
-def test_a_moving_start_is_refused_with_the_reason():
-    moving = start_from_state(request(), WAYPOINTS[0], np.array([0.3, -0.2, 0.1]), np.zeros(3))
-    with pytest.raises(ValueError, match='planned rest to rest'):
-        plan_request(config(), moving)
+def test_replanning_from_a_moving_state_keeps_the_state():
+    velocity = np.array([0.3, -0.2, 0.1])
+    moving = start_from_state(request(), WAYPOINTS[0], velocity, np.zeros(3))
+    traj = plan_request(config(), moving)
+    assert np.allclose(traj.evaluate([0.0], 1)[0], velocity, atol=1e-9)
+    assert np.allclose(traj.evaluate(traj.waypoint_times), WAYPOINTS, atol=1e-9)
+    assert traj.within_limits(rtol=1e-9)
+    # Followed, or the default's plan with a warning that says so.
+    assert traj.optimizer.get('speed_profile') == 'time_optimal' or plan_warnings(traj)
 
 
 def test_tool_waypoints_are_refused_with_the_reason():
