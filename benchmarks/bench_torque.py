@@ -41,6 +41,10 @@ pass for the torques at rest), TOPP-RA its ``torques``.
   Collocation holds the torque at its grid points only: checked here at
   1 kHz, and its Interpolation discretisation shown next to it.
 
+* ``speed_profile='time_optimal'`` (issue 38, ``planning/time_optimal.py``):
+  the same limits, the torque a row of the third-order profile; its
+  figures in a table of their own, with its 1 kHz peak torque.
+
 * TOPP-RA along our path (issue 38, ``own_path.py``): the same velocity
   and torque constraints on the geometric path of our plan, re-parameterised
   by arc length: our duration over its is what the speed profile gives away.
@@ -75,7 +79,7 @@ from shaking import of_toppra, shaking_figures, shaking_ratios  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
 from splines445_ros.planning.torque import CHECK_PERIOD  # noqa: E402 - [s] the 1 kHz torque check
 from splines445_ros.robot.dynamics import ArmDynamics, effort_limits  # noqa: E402, I100
-from wall_time import interleaved_best_of  # noqa: E402
+from wall_time import best_of, interleaved_best_of  # noqa: E402
 
 CASES = 10
 FULL_CASES = 40
@@ -228,7 +232,7 @@ def run_row(name, robot, joints, tool, payload, paths, vmax, tau_max):
         rows.append(row)
         print(f'| {name} | {payload:.2f} | {case} | {len(points)} | ' + line + ' |')
         sys.stdout.flush()
-    return np.array(rows).reshape(-1, len(bench_figures.NAMES) + 9), refused
+    return np.array(rows).reshape(-1, 2 * len(bench_figures.NAMES) + 10), refused
 
 
 def run_case(points, vmax, tau_max, dynamics, n):
@@ -257,6 +261,15 @@ def run_case(points, vmax, tau_max, dynamics, n):
     knots_only = plan(points, '555', 'optimal', inner_knots=0, max_velocity=vmax,
                       max_acceleration=np.full(n, NO_ACCELERATION_LIMIT), max_jerk=jerk,
                       max_torque=tau_max, inverse_dynamics=dynamics)
+    t_optimal, optimal = best_of(
+        lambda: plan(points, '555', 'optimal', speed_profile='time_optimal', max_velocity=vmax,
+                     max_acceleration=np.full(n, NO_ACCELERATION_LIMIT), max_jerk=jerk,
+                     max_torque=tau_max, inverse_dynamics=dynamics), 1)
+    try:
+        optimal_own = own_path.toppra_along(
+            optimal, own_path.velocity_torque(vmax, tau_max, torques)).duration
+    except RuntimeError:
+        optimal_own = np.nan
     fine = toppra_torque(points, vmax, tau_max, torques, interpolation=True)
     if fine is None:
         raise RuntimeError('TOPP-RA (Interpolation) found no parametrisation')
@@ -278,6 +291,10 @@ def run_case(points, vmax, tau_max, dynamics, n):
     row = figures + [ours_peak, top_peak, fine.duration / top.duration, fine_peak,
                      1.0 - traj.duration / slow_duration, knots_only.duration / top.duration,
                      knots_peak, own_peak, float(traj.within_limits(rtol=1e-9))]
+    # speed_profile='time_optimal' (issue 38): its figures and its 1 kHz peak torque.
+    row += bench_figures.figures(optimal.duration, optimal_own, top.duration,
+                                 shaking_ratios(optimal, reference, scale), t_optimal, t_top)
+    row += [np.max(peak_torque(ours_samples(optimal), torques, tau_max))]
     line = (f'{typical:.1f} | {top.duration:.3f} | {fine.duration:.3f} | {own_duration:.3f} '
             f'| {traj.duration:.3f} | {figures[0]:.3f} | {figures[1]:.3f} '
             f'| {slow_duration:.3f} | {1e3 * t_top:.0f} | {1e3 * t_ours:.0f} '
@@ -380,6 +397,16 @@ def print_summary(summary, cases):
         print(f'| {name} | {payload:.2f} ({held:.1f}) | {len(rows)} / {len(refused)} | '
               + cells + ' |')
     print()
+    print("The same paths with speed_profile='time_optimal' (planning/time_optimal.py: the "
+          'torque a row of the third-order profile), and its peak torque / limit at 1 kHz')
+    print('| arm | payload [kg] | ' + bench_figures.header() + ' | peak torque |')
+    print(bench_figures.rule(3 + k))
+    for name, payload, _, rows, _ in summary:
+        if len(rows):
+            print(f'| {name} | {payload:.2f} | '
+                  + bench_figures.summary(rows[:, k + 9:2 * k + 9])
+                  + f' | {np.max(rows[:, 2 * k + 9]):.4f} |')
+    print()
     print('Torques and the other plans (peak torques / limit at 1 kHz, max over the paths):')
     print('| arm | payload [kg] | ours peak torque | TOPP-RA peak torque | TOPP-RA along our '
           'path peak torque | TOPP-RA Interpolation: duration / Collocation median, peak '
@@ -396,7 +423,8 @@ def print_summary(summary, cases):
         median = np.median(rows, axis=0)
         met_duration &= median[0] <= 1.05
         met_planning &= median[k - 1] <= 1.0
-        met_torque &= max(np.max(extra[:, 0]), np.max(extra[:, 6])) <= 1.005
+        met_torque &= max(np.max(extra[:, 0]), np.max(extra[:, 6]),
+                          np.max(extra[:, 2 * k + 9 - k])) <= 1.005
         print(f'| {name} | {payload:.2f} | {np.max(extra[:, 0]):.4f} | {np.max(extra[:, 1]):.3f} '
               f'| {np.max(extra[:, 7]):.3f} '
               f'| {np.median(extra[:, 2]):.3f}, {np.max(extra[:, 3]):.3f} '
