@@ -148,7 +148,10 @@ def speed_profile_value(value, method, timing, inner_knots_given=False,
     None means "smoothed".  "time_optimal" needs method 555 with timing
     "optimal", and no option it would silently ignore: an ``inner_knots``
     count (its knots follow the profile), a ``vibration_frequency`` or a
-    ``smoothing`` other than "auto" (it has no smoothing windows).  What
+    ``smoothing`` other than "auto" (it has no smoothing windows).  The
+    ``durations`` of timing "optimal" are only a warm start of the
+    optimiser: it does not need one (plan() says so), and its fallback to
+    "smoothed" uses them.  What
     depends on the request (rest to rest, jerk limits,
     the waypoint count) is :func:`check_time_optimal_request`'s.
     """

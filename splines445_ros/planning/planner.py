@@ -354,6 +354,7 @@ def _plan_limited(points, durations, options):
         raise ValueError(f'durations are only used with timing "fixed" or "optimal", '
                          f'not {timing!r}')
     start = None if durations is None else duration_array(durations, points.shape[0] - 1)
+    requested = points
     points, dropped = merge_duplicates(points, options.waypoint_tolerance)
     if start is not None and dropped:
         # A dropped waypoint's segment joins the one before it.
@@ -363,10 +364,10 @@ def _plan_limited(points, durations, options):
         followed = plan_time_optimal(points, limits, dropped, torque, boundary)
         if followed is not None:
             return followed
-        # No spline found: the default construction's plan, which says so.
-        traj = _plan_limited(points, None, replace(options, speed_profile='smoothed'))
+        # No spline found: the default construction's plan of the request as
+        # it came (merging twice could merge more), which says so.
+        traj = _plan_limited(requested, durations, replace(options, speed_profile='smoothed'))
         traj.optimizer['speed_profile_skipped'] = NO_TIME_OPTIMAL_SPLINE
-        traj.dropped_waypoints = tuple(dropped)
         return traj
     search = give_up = None     # two segments: the knots-only optimum's search (below)
     if inner_knots:

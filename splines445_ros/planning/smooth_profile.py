@@ -88,7 +88,7 @@ try:
     _BASIC = highspy.HighsBasisStatus.kBasic
     # HighsBasisStatus by its code (0 lower, 1 basic, 2 upper, 3 zero, 4 nonbasic).
     _STATUSES = sorted(highspy.HighsBasisStatus.__members__.values(), key=int)
-except ImportError:         # e.g. an apt ROS install: scipy's linprog, cold, instead
+except (ImportError, AttributeError):   # e.g. an apt ROS install: scipy's linprog instead
     highspy = None
 
 from .path_constraints import GriddedPath, JointAcceleration, JointVelocity
@@ -236,6 +236,19 @@ def _tangent_rows(candidates, x, n_jerk):
     return rows, parts[0], parts[1], np.repeat(np.arange(n_jerk), np.diff(pattern.indptr))
 
 
+def _checked(status, call):
+    """
+    Raise RuntimeError unless a highspy call returned ``kOk`` (or a warning).
+
+    Its model would otherwise no longer hold the rows the profile thinks it
+    holds (HiGHS refuses entries beyond its large-value bound, about 1e15:
+    plans lasting milliseconds); RuntimeError is a failed profile, which
+    plan() answers with the default construction.
+    """
+    if status == highspy.HighsStatus.kError:
+        raise RuntimeError(f"HiGHS refused the profile's LP ({call})")
+
+
 class _WarmHighs:
     """
     One HiGHS model for all the LPs of a profile, each solved from the last basis (highspy).
@@ -271,24 +284,26 @@ class _WarmHighs:
             status[self.model] = np.fromiter(map(int, basis.row_status), int, self.model.size)
             keep = np.flatnonzero(work | (status != int(_BASIC)))
         block = rows[keep]
-        self.highs.passModel(
+        self.model = None       # until the model holds these rows
+        _checked(self.highs.passModel(
             cost.size, keep.size, block.nnz, ROWWISE, 1, 0.0, cost, self.lower, self.upper,
             np.full(keep.size, -np.inf), bound[keep], block.indptr[:-1].astype(np.int32),
-            block.indices.astype(np.int32), block.data, np.zeros(cost.size, np.int32))
+            block.indices.astype(np.int32), block.data, np.zeros(cost.size, np.int32)),
+            'passModel')
         if basis is not None and basis.valid:
             warm = highspy.HighsBasis()
             warm.col_status = basis.col_status
             warm.row_status = [_STATUSES[code] for code in status[keep].tolist()]
             warm.valid = True
-            self.highs.setBasis(warm)
+            _checked(self.highs.setBasis(warm), 'setBasis')
         self.model = keep
 
     def add(self, new):
         """Append the candidate rows ``new`` (indices) to the model."""
         block = self.rows[new]
-        self.highs.addRows(new.size, np.full(new.size, -np.inf), self.bound[new], block.nnz,
-                           block.indptr[:-1].astype(np.int32), block.indices.astype(np.int32),
-                           block.data)
+        _checked(self.highs.addRows(new.size, np.full(new.size, -np.inf), self.bound[new],
+                                    block.nnz, block.indptr[:-1].astype(np.int32),
+                                    block.indices.astype(np.int32), block.data), 'addRows')
         self.model = np.concatenate([self.model, new])
 
     def run(self):

@@ -56,6 +56,10 @@ JERK_MARGIN = 0.9
 # Inner knots about this far apart [s]: 30 ms gave 1.050-1.052 x TOPP-RA,
 # 15 ms 1.039-1.040 (exact factor 1.001 median), 10 ms no better.
 KNOT_PERIOD = 0.015
+# At most about this many knots (before the halving below): a plan longer
+# than MAX_KNOTS * KNOT_PERIOD (150 s) spaces them further apart, so planning
+# time and memory do not grow with the plan's duration (71 000 knots took 5 s).
+MAX_KNOTS = 10000
 # Pieces whose own exact factor (v/a/j, torque) is above this get a knot at
 # their midpoint, for at most SPLIT_ROUNDS rounds: with a jerk ramp shorter
 # than KNOT_PERIOD (torque limits, j = 50 times the typical acceleration) the
@@ -112,8 +116,14 @@ class FollowedProfile:
 
 
 def knot_fractions(segment_times, period=KNOT_PERIOD):
-    """Return per segment the time fractions [0, 1) of its knots, about ``period`` apart."""
-    counts = np.maximum(1, np.ceil(np.asarray(segment_times) / period).astype(int))
+    """
+    Return per segment the time fractions [0, 1) of its knots, about ``period`` apart.
+
+    At most about :data:`MAX_KNOTS` in all: a longer plan gets a longer period.
+    """
+    segment_times = np.asarray(segment_times)
+    period = max(period, float(np.sum(segment_times)) / MAX_KNOTS)
+    counts = np.maximum(1, np.ceil(segment_times / period).astype(int))
     return [np.arange(m) / m for m in counts]
 
 

@@ -217,10 +217,11 @@ class PlannerConfig(ValidatedConfig):
         '5-7 % shorter than `smoothed`, but it shakes their low modes about 1.6 times as '
         'much (still about half as much as TOPP-RA), and it plans in about 5 times the time. It '
         'needs a jerk limit on every joint, joint-space `waypoints` requests (replanning from '
-        'a moving state too: when it finds no spline that keeps that state, the plan is '
-        f"`smoothed`'s, with a warning), at most {MAX_TIME_OPTIMAL_WAYPOINTS} "
-        'waypoints, and no `vibration_frequency`, `smoothing` or '
-        '`inner_knots` (refused with the reason otherwise).', choices=SPEED_PROFILES)
+        'a moving state too) and at most '
+        f'{MAX_TIME_OPTIMAL_WAYPOINTS} waypoints; where it finds no spline (a moving state it '
+        "cannot keep, a joint reversing alone) the plan is `smoothed`'s, with a warning. "
+        '`vibration_frequency`, `smoothing` and `inner_knots` are refused with it (it would '
+        'ignore them), as are tool_waypoints requests.', choices=SPEED_PROFILES)
     model_file: str = parameter(
         '', '`kinematics: model`: URDF or MJCF file of the robot; empty = the '
         '`robot_description` topic (std_msgs/String, reliable, transient-local).')

@@ -2,8 +2,8 @@
 The planner node's ``speed_profile`` parameter (issue 38).
 
 Declared with its choices, validated on set_parameters with the reason,
-passed to plan() for joint-space requests, refused for what it cannot hold
-(a moving start, tool waypoints, torque limits), and reported on the status.
+passed to plan() for joint-space requests (a moving start too), refused for
+tool waypoints, and reported on the status (a fallback as a warning).
 """
 
 import numpy as np

@@ -17,6 +17,7 @@ from scipy.interpolate import make_interp_spline
 from splines445_ros.planning import plan
 from splines445_ros.planning import planner, time_optimal
 from splines445_ros.planning.plan_options import MAX_TIME_OPTIMAL_WAYPOINTS
+from splines445_ros.planning.time_optimal import MAX_KNOTS
 
 PERIOD = 1e-3
 # 1 ms finite differences see a mean over 1-3 ms of a plan exactly at its
@@ -279,3 +280,35 @@ def test_moving_starts_are_mostly_followed_and_shorter():
         ratios.append(traj.duration / plan(points, '555', 'optimal', **limits).duration)
     assert followed >= 0.6 * len(ratios), (followed, len(ratios))
     assert np.median(ratios) < 1.0, ratios
+
+
+def test_the_fallback_is_the_default_plan_of_the_request_as_it_came(monkeypatch):
+    """Near-duplicates merged once: the fallback is exactly the default's plan, flagged."""
+    monkeypatch.setattr(planner, 'plan_time_optimal', lambda *args: None)
+    points = [[0.0], [1.0], [1.0015], [1.0008]]
+    limits = {'max_velocity': [1.0], 'max_acceleration': [5.0], 'max_jerk': [100.0]}
+    traj = time_optimal_plan(np.array(points), limits)
+    default = plan(points, '555', 'optimal', **limits)
+    assert traj.optimizer['speed_profile_skipped'] == planner.NO_TIME_OPTIMAL_SPLINE
+    assert traj.dropped_waypoints == default.dropped_waypoints
+    assert traj.waypoint_times.size == traj.waypoints.shape[0] == default.waypoints.shape[0]
+    assert traj.duration == pytest.approx(default.duration, rel=1e-12)
+
+
+def test_a_long_plan_has_a_bounded_number_of_knots():
+    """Knots about every 15 ms, but not more than about MAX_KNOTS in all (a 200 s plan)."""
+    traj = plan([[0.0], [1.0], [0.0]], '555', 'optimal', speed_profile='time_optimal',
+                max_velocity=[0.01], max_acceleration=[0.01], max_jerk=[0.01])
+    assert traj.optimizer['speed_profile'] == 'time_optimal'
+    assert traj.duration > 1.2 * MAX_KNOTS * time_optimal.KNOT_PERIOD
+    assert MAX_KNOTS / 2 <= traj.breakpoints.size <= MAX_KNOTS + 10
+    assert traj.within_limits(rtol=1e-9)
+
+
+def test_a_profile_the_solver_refuses_falls_back_within_the_limits():
+    """A plan of milliseconds (entries beyond HiGHS's bounds): the default's plan, flagged."""
+    limits = {'max_velocity': [1e6] * 2, 'max_acceleration': [1e8] * 2, 'max_jerk': [1e12] * 2}
+    traj = time_optimal_plan(np.array([[0.0, 0.0], [1.0, 1.0], [2.0, 0.0]]), limits)
+    assert (traj.optimizer.get('speed_profile') == 'time_optimal'
+            or traj.optimizer['speed_profile_skipped'] == planner.NO_TIME_OPTIMAL_SPLINE)
+    assert traj.within_limits(rtol=1e-9)
