@@ -29,9 +29,12 @@ optimum when that is shorter.  Here the profile itself holds the jerk
 No windows, relaxation or outlier rounds: the profile is already
 followable (sampled every 1 ms it needs a slow-down of 1.0004 median), so
 one spline is enough.  With a moving end the spline cannot be scaled: the
-profile's limits are lowered (:data:`MOVING_MARGINS`) until it holds them;
-14 of 20 random moving starts were followed (the others, mostly single
-segments, fall back to the default).  The joint torque is one more row of
+profile's limits are lowered (:data:`MOVING_MARGINS`) until it holds them,
+and where the path's own jerk at a moving end is more than any profile
+holds, the end segments' own times are changed as the default construction
+does (``inner_knots.END_SEGMENT_SHARES``): 20 of 20 random moving starts
+were followed on each of three seeds (14 without the shares, which single
+segments needed).  The joint torque is one more row of
 the profile (a ``path_constraints.JointTorque``, linear in ``x`` and
 ``x'``).  Measured on the vendor arms (doc/benchmarks.md,
 ``bench_arm_moves.py``): 0.93-0.95 of the default's duration, with a 4 Hz
@@ -42,7 +45,8 @@ LPs, about 5 times the default's time.
 
 import numpy as np
 
-from .inner_knots import GRID_STEPS, kept_trajectory, KnotCandidate, TimingProblem
+from .inner_knots import (END_SEGMENT_SHARES, GRID_STEPS, kept_trajectory, KnotCandidate,
+                          TimingProblem)
 from .natural_cubic import natural_cubic_spline
 from .smooth_profile import SmoothProfile
 from .timing import rest_to_rest_durations
@@ -161,6 +165,24 @@ def plan_time_optimal(points, limits, dropped=(), torque=None, boundary=None):
     moving = (bool(np.any(boundary[0]) or np.any(boundary[1])),
               bool(np.any(boundary[2]) or np.any(boundary[3])))
     durations = rest_to_rest_durations(points, limits)
+    for share in (1.0,) + END_SEGMENT_SHARES if any(moving) else (1.0,):
+        # With a moving end, the end segments' own times shape the path there
+        # (inner_knots step 1): its own jerk at the end may be more than any
+        # profile holds; the default construction's other shares are tried.
+        scale = np.ones(durations.size)
+        if moving[0]:
+            scale[0] = share
+        if moving[1]:
+            scale[-1] = share
+        times = durations * scale
+        found = _followed_trajectory(points, limits, dropped, torque, boundary, moving, times)
+        if found is not None:
+            return found
+    return None
+
+
+def _followed_trajectory(points, limits, dropped, torque, boundary, moving, durations):
+    """Return steps 1-4's Trajectory on the path at the segment ``durations``, or None."""
     if any(moving):
         traj = Trajectory.build('555', 'fixed', points, durations, boundary)
         ppoly, knots = traj.ppoly, traj.breakpoints
@@ -181,7 +203,7 @@ def plan_time_optimal(points, limits, dropped=(), torque=None, boundary=None):
                                     JERK_MARGIN * margin ** 3 * limits.jerk, constraints,
                                     tuple(float(m) for m in moving))
         except RuntimeError:
-            return None     # its first LP failed: no profile to follow
+            return None     # its first LP failed: no profile to follow on this path
         followed = FollowedProfile(profile, knots, grid.size)
         if not np.all(np.isfinite(followed.passed)):
             # x reached 0 between its row points (a joint reversing alone):
