@@ -260,6 +260,34 @@ def test_a_new_goal_preempts_the_running_one_without_a_jump(system):
     assert_no_jump(times, positions, velocities)
 
 
+def test_a_time_optimal_goal_preempts_from_the_moving_state_without_a_jump(system):
+    """A goal overriding speed_profile: the third-order profile starts from the moving state."""
+    first = send_goal(system, LONG)
+    assert first.accepted
+    system.spin_for(1.0)
+    switch_ns = system.client.get_clock().now().nanoseconds
+    n_status = len(system.planner_status)
+    goal = FollowWaypoints.Goal()
+    end = [0.4, -0.3, 0.6]
+    goal.waypoints = waypoint_message(NAMES, np.array([[0.0, 0.0, 0.0], end]))
+    goal.overrides.method, goal.overrides.timing = '555', 'optimal'
+    goal.overrides.speed_profile = 'time_optimal'
+    sent = system.action_client.send_goal_async(goal)
+    assert system.spin_until(sent.done, 10.0) and sent.result().accepted
+    assert result_of(system, first).status == GoalStatus.STATUS_ABORTED
+    second = result_of(system, sent.result())
+    assert second.status == GoalStatus.STATUS_SUCCEEDED, second.result.message
+    system.spin_for(0.2)
+    np.testing.assert_allclose(system.joint_states[-1].position, end, atol=1e-6)
+    times, positions, velocities = states_between(system, switch_ns - int(0.2e9))
+    assert_no_jump(times, positions, velocities)
+    # Planned by the third-order profile itself (not its fallback), from the moving state.
+    planned = [status_values(s) for s in system.planner_status[n_status:]]
+    assert any(v.get('speed_profile') == 'time_optimal' for v in planned), planned
+    assert not any('speed_profile_skipped' in v for v in planned)
+    assert system.planner.get_parameter('speed_profile').value == 'smoothed'
+
+
 def test_malformed_goals_are_rejected_with_the_reason(system):
     n_status = len(system.planner_status)
     goal = FollowWaypoints.Goal()
