@@ -51,6 +51,7 @@ from .tool_kinematics import frame_chain, has_transforms, refused_pose, start_wa
 from ..planning.path_constraints import ToolAcceleration, ToolSpeed
 from ..planning.path_timing import JointPathSamples, midpoint_fractions, plan_along_path, \
     rescaled
+from ..planning.time_optimal import retime_path
 from ..planning.torque import CHECK_PERIOD, check_times, uniform_slow_down
 from ..robot import rotations as rot
 
@@ -383,7 +384,7 @@ class ToolRates:
 
 def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_tool_speed=0.0,
                     max_tool_angular_speed=0.0, max_tool_acceleration=0.0, windows=(),
-                    max_inserted=None, torque=None):
+                    max_inserted=None, torque=None, time_optimal=False):
     """
     Return the :class:`ToolLines` of the tool path through ``edge_poses`` (module docstring).
 
@@ -398,8 +399,12 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
     :class:`planning.torque.TorqueLimit`) adds the joint torque: one more
     constraint of the timing, one more factor of every piece, and a 1 kHz
     check at the end (the spline is slowed down uniformly when it needs
-    it).  ValueError when the inverse kinematics fails, no spline meets the
-    limits, or the tolerances are not reached.
+    it).  ``time_optimal`` (plan()'s ``speed_profile``): the spline found is
+    then timed again along its own path by the third-order profile
+    (:func:`planning.time_optimal.retime_path`, every limit above a row or a
+    factor of it), and kept when its tool stays within the tolerances
+    (step 5).  ValueError when the inverse kinematics fails, no spline
+    meets the limits, or the tolerances are not reached.
     """
     s, sigma, edge, waypoint_index = sample_edges(edge_poses)
     # One continuous walk through every sample (a redundant arm's joints
@@ -469,6 +474,12 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
         if measured is not None:
             deviation, piece_edges = measured
     traj = timing.trajectory
+    if time_optimal:
+        traj, measured = _retimed(traj, path, limits, kinematics, constraints,
+                                  (max_tool_speed, max_tool_angular_speed), measure, tolerances)
+        if measured is not None:
+            deviation, piece_edges = measured
+    base_duration = traj.duration
     linear, angular, sampled = tool_speeds(traj, kinematics)
     acceleration = peak_tool_acceleration(traj, kinematics) if max_tool_acceleration else None
     factor = max(linear / max_tool_speed if max_tool_speed else 0.0,
@@ -502,8 +513,52 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
         share = float(np.sum(sampled[sampled >= AT_SPEED * max_tool_speed]) / np.sum(sampled))
     return ToolLines(traj, joints[waypoint_index], inserted, initial[1], initial[0],
                      _per_edge(deviation, piece_edges, len(edge_poses) - 1,
-                               traj.duration / timing.trajectory.duration),
+                               traj.duration / base_duration),
                      rounds, int(s.size), linear, angular, share, acceleration)
+
+
+def _retimed(traj, path, limits, kinematics, constraints, speeds, measure, tolerances):
+    """
+    Return (``traj`` timed by the third-order profile, its (deviation, piece edges)).
+
+    Step 5 with ``time_optimal``: the tool speed limits become rows of the
+    profile along the spline's own path (``|J(q) q'| sdot``, with
+    :class:`ToolRates`, at :data:`SPEED_MARGIN` like the timing's), the
+    tool acceleration and the torque keep their constraint objects, and
+    the path's piece factors are step 4's.  The new spline is kept when it
+    is shorter and its tool within the tolerances; otherwise (``traj``,
+    None), and unless ``traj`` was simply the shorter, the trajectory says
+    why (``speed_profile_skipped``).
+    """
+    rates = ToolRates(kinematics)
+    # The lines' ToolSpeed tangents belong to the lines' path coordinate: the
+    # same limits as rows along the spline's own path.
+    retime_constraints = [c for c in constraints if not isinstance(c, ToolSpeed)]
+    for which, speed in enumerate(speeds):
+        if speed:
+            retime_constraints.append(ToolSpeed(speed * SPEED_MARGIN, _rate_of(rates, which)))
+    retimed = retime_path(traj, limits, retime_constraints, path.piece_factors)
+    if retimed is not None and not retimed.duration < traj.duration:
+        return traj, None       # the lines' own timing is the shorter: no failure
+    reason = 'no time-optimal spline found'
+    if retimed is not None:
+        edges = np.searchsorted(retimed.waypoint_times, retimed.breakpoints[:-1],
+                                side='right') - 1
+        deviation = measure(_Pieces(retimed), edges)
+        excess = np.maximum(deviation.position / tolerances[0],
+                            deviation.orientation / tolerances[1])
+        if np.all(excess <= 1.0):
+            return retimed, (deviation, edges)
+        reason = 'the time-optimal spline leaves the tool tolerances'
+    traj.optimizer = dict(traj.optimizer or {}, speed_profile_skipped=reason)
+    return traj, None
+
+
+def _rate_of(rates, which):
+    """Return tangent(path): the tool's linear (0) or angular (1) speed per unit path speed."""
+    def tangent(path):
+        return np.asarray(rates(path.positions, path.first)[which], float)[:, None]
+    return tangent
 
 
 def _per_edge(deviation, piece_edges, n_edges, time_scale):

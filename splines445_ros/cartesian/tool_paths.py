@@ -305,15 +305,15 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
     elif plan_kwargs or (method, timing) != ('445', 'uniform'):
         raise TypeError('plan_tool_path takes options, or method, timing and the plan() '
                         'arguments, not both')
-    if options.speed_profile != 'smoothed':
-        # Its profile has no tool rows yet: it would ignore the tool lines' limits.
-        raise ValueError(f'speed_profile {options.speed_profile!r} plans joint-space waypoints '
-                         'only; tool paths use speed_profile "smoothed" (the tool lines)')
     timing = options.timing
     # 555 optimal's inner knots are tried on the refined path at the end (see
     # _with_inner_knots); the refinement itself keeps knots at the waypoints, and
     # no waypoint tolerance: inserted knots are deliberate, however close.
-    refining = replace(options, waypoint_tolerance=0.0, inner_knots=0, inner_knots_auto=False)
+    # (The refinement's own plans keep the default profile: its deviation test
+    # sees them; speed_profile "time_optimal" times the tool lines and the
+    # refined path's inner-knot plan, each checked against the tolerances.)
+    refining = replace(options, waypoint_tolerance=0.0, inner_knots=0, inner_knots_auto=False,
+                       speed_profile='smoothed')
     lines = (options.method == '555' and options.timing == 'optimal'
              and options.inner_knots > 0 and options.rest)
     if any(speeds) and not lines:
@@ -492,7 +492,8 @@ def _tool_lines(edge_poses, waypoint_knots, kinematics, tolerances, speeds, max_
     try:
         found = plan_tool_lines(edge_poses, kinematics, options.limits, measure, tolerances,
                                 *speeds, windows=windows, max_inserted=max_inserted,
-                                torque=options.torque)
+                                torque=options.torque,
+                                time_optimal=options.speed_profile == 'time_optimal')
     except LineUnreachable:
         if not any(speeds):
             return None

@@ -74,6 +74,9 @@ SPLIT_ROUNDS = 4
 # With a moving start or end: the shares of the limits the profile is planned
 # with, tried in turn until the spline (which cannot be scaled) holds them.
 MOVING_MARGINS = (0.98, 0.95, 0.9, 0.8, 0.6)
+# retime_path: a grid step about every this much of the retimed plan's own
+# time [s] (the tool lines' plans: their pieces last 15-30 ms).
+RETIME_STEP = 0.01
 # The name of this construction in Trajectory.optimizer['speed_profile'].
 NAME = 'time_optimal'
 
@@ -240,3 +243,41 @@ def _followed_spline(problem, followed):
             break
         candidate = finer
     return candidate
+
+
+def retime_path(traj, limits, constraints=(), piece_factors=None):
+    """
+    Return ``traj``'s path timed by the third-order profile (steps 2-4), rest to rest, or None.
+
+    The path is ``traj.ppoly`` in its own time, through ``traj.waypoints``
+    at ``traj.waypoint_times`` (a finished plan: the tool lines', whose
+    path keeps the tool near its lines); the grid has a step about every
+    :data:`RETIME_STEP` of that time and the waypoints.  ``constraints``
+    and ``piece_factors`` are more rows of the profile and more factors of
+    step 4 (tool speed and acceleration, torque).  The caller checks what
+    the new spline does between its knots (the tool's deviation).  None
+    when no profile or no spline is found.
+    """
+    knots = traj.waypoint_times
+    steps = max(2, int(np.ceil(traj.duration / RETIME_STEP)))
+    grid = np.unique(np.concatenate([np.linspace(0.0, traj.duration, steps + 1), knots]))
+    points = traj.waypoints
+    boundary = tuple(np.zeros(points.shape[1]) for _ in range(4))
+    try:
+        profile = SmoothProfile(traj.ppoly, grid, limits.velocity, limits.acceleration,
+                                JERK_MARGIN * limits.jerk, tuple(constraints))
+    except (RuntimeError, ValueError):
+        return None
+    followed = FollowedProfile(profile, knots, grid.size)
+    if not np.all(np.isfinite(followed.passed)):
+        return None
+    problem = TimingProblem(FollowedPath(grid, traj.ppoly, points, piece_factors), boundary,
+                            limits, True)
+    candidate = _followed_spline(problem, followed)
+    if candidate is None:
+        return None
+    return kept_trajectory(problem, candidate, traj.dropped_waypoints, {
+        'speed_profile': NAME, 'knots': int(candidate.pieces.size + 1),
+        'profile_lps': profile.lps, 'profile_duration': float(profile.duration),
+        'time_scale': float(candidate.scale), 'retimed_duration': float(traj.duration),
+        'smoothing_windows': []})

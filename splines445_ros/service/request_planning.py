@@ -14,8 +14,7 @@ import numpy as np
 from ..cartesian.tool_paths import plan_tool_path
 from ..planning.path_constraints import GravityOverload
 from ..planning.plan_options import BOUNDARY_NAMES, PlanOptions
-from ..planning.planner import (check_position_limits, NO_INNER_KNOT_SPLINE,
-                                NO_TIME_OPTIMAL_SPLINE, plan_with_options)
+from ..planning.planner import check_position_limits, NO_INNER_KNOT_SPLINE, plan_with_options
 from ..planning.validation import waypoint_array
 from ..robot.user_text import format_vector
 
@@ -440,11 +439,12 @@ def inner_knots_warning(traj):
 
 
 def speed_profile_warning(traj):
-    """Return a warning when speed_profile "time_optimal" found no spline, else None."""
-    if (traj.optimizer or {}).get('speed_profile_skipped') != NO_TIME_OPTIMAL_SPLINE:
+    """Return a warning when speed_profile "time_optimal" was asked for and not used, else None."""
+    skipped = (traj.optimizer or {}).get('speed_profile_skipped')
+    if not skipped:
         return None
-    return (f'{NO_TIME_OPTIMAL_SPLINE}: planned with speed_profile "smoothed" instead (within '
-            'every limit, but slower)')
+    return (f'{skipped}: planned with speed_profile "smoothed" instead (within every limit, '
+            'but slower)')
 
 
 def plan_warnings(traj):

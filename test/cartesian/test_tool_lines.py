@@ -105,6 +105,35 @@ def test_random_lines_within_tolerance_limits_and_tool_speed(arms, seed, robot, 
         assert result.speed_share is None
 
 
+@settings(max_examples=EXAMPLES, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(seed=st.integers(0, 2**32 - 1), robot=st.sampled_from(sorted(ROBOTS)),
+       count=st.integers(2, 5), limited=st.booleans())
+def test_time_optimal_lines_within_tolerance_limits_and_tool_speed_and_not_longer(
+        arms, seed, robot, count, limited):
+    """speed_profile time_optimal: the lines' path timed again, checked by the test's own FK."""
+    rng = np.random.default_rng(seed)
+    arm = arms[robot]
+    poses = random_lines(rng, arm, count)
+    speed = float(rng.uniform(0.05, 0.3)) if limited else 0.0
+    kwargs = dict(method='555', timing='optimal', max_tool_speed=speed, **arm[5])
+    result = plan_tool_path(poses, kinematics(arm), MM, DEG, speed_profile='time_optimal',
+                            **kwargs)
+    assert result.construction == 'tool lines'
+    check_1khz(result, poses, arm[7], MM, DEG)
+    assert result.trajectory.within_limits(rtol=1e-9)
+    linear, _ = sampled_tool_speeds(result.trajectory, arm[7])
+    if limited:
+        assert linear.max() <= speed * (1 + SPEED_RTOL)
+    # Kept only when shorter than the lines' own timing, which is returned otherwise.
+    smoothed = plan_tool_path(poses, kinematics(arm), MM, DEG, **kwargs)
+    if (result.trajectory.optimizer or {}).get('speed_profile') == 'time_optimal':
+        assert result.trajectory.duration < smoothed.trajectory.duration
+    else:
+        assert result.trajectory.duration == pytest.approx(smoothed.trajectory.duration,
+                                                           rel=1e-12)
+
+
 @pytest.mark.parametrize('robot', sorted(ROBOTS))
 def test_a_long_line_runs_at_the_programmed_speed(arms, robot):
     """One straight 0.3 m line at 0.05 m/s: at >= 99 % of it over >= 90 % of its length."""

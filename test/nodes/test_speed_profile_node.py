@@ -2,9 +2,11 @@
 The planner node's ``speed_profile`` parameter (issue 38).
 
 Declared with its choices, validated on set_parameters with the reason,
-passed to plan() for joint-space requests (a moving start too), refused for
-tool waypoints, and reported on the status (a fallback as a warning).
+passed to plan() for joint-space requests (a moving start too) and to the
+tool lines, and reported on the status (a fallback as a warning).
 """
+
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -77,12 +79,20 @@ def test_replanning_from_a_moving_state_keeps_the_state():
     assert traj.optimizer.get('speed_profile') == 'time_optimal' or plan_warnings(traj)
 
 
-def test_tool_waypoints_are_refused_with_the_reason():
-    cfg = config(kinematics='planar_3dof').with_defaults()
+def test_tool_waypoints_are_timed_again_along_the_lines_path():
+    cfg = config(kinematics='planar_3dof', max_path_deviation=0.002).with_defaults()
     cfg.validate()
     poses = np.array([[1.2, 0.3, 0.0], [1.0, 0.6, 0.2], [0.8, 0.2, -0.1]])
-    with pytest.raises(ValueError, match='plans joint-space waypoints only'):
-        plan_tool_request(cfg, poses)
+    tool = plan_tool_request(cfg, poses)
+    smoothed = plan_tool_request(replace(cfg, speed_profile='smoothed'), poses)
+    assert tool.construction == smoothed.construction == 'tool lines'
+    optimizer = tool.trajectory.optimizer or {}
+    # Timed again when that is shorter; the lines' own timing otherwise (here
+    # it is: this planar path's), with a warning only if the profile failed.
+    assert tool.trajectory.duration <= smoothed.trajectory.duration * (1 + 1e-12)
+    assert (plan_warnings(tool.trajectory) is None) == ('speed_profile_skipped' not in optimizer)
+    assert tool.trajectory.within_limits(rtol=1e-9)
+    assert tool.max_deviation <= cfg.max_path_deviation
 
 
 def test_no_spline_is_a_warning_and_the_plan_holds_every_limit(monkeypatch):
