@@ -221,7 +221,9 @@ class PlannerConfig(ValidatedConfig):
         f'{MAX_TIME_OPTIMAL_WAYPOINTS} waypoints; where it finds no spline (a moving state it '
         "cannot keep, a joint reversing alone) the plan is `smoothed`'s, with a warning. "
         '`vibration_frequency`, `smoothing` and `inner_knots` are refused with it (it would '
-        'ignore them), as are tool_waypoints requests.', choices=SPEED_PROFILES)
+        "ignore them). On tool_waypoints requests the tool lines' path is timed again by the "
+        'same profile (tool speed and acceleration as its rows), kept when shorter and within '
+        'the tolerances.', choices=SPEED_PROFILES)
     model_file: str = parameter(
         '', '`kinematics: model`: URDF or MJCF file of the robot; empty = the '
         '`robot_description` topic (std_msgs/String, reliable, transient-local).')
