@@ -39,6 +39,12 @@ pose, its last edge turning the tool), for the tool speed limits v = none,
   comes from the same seconds of this shared machine (the Panda's IK alone
   gave 61-85 ms in three runs of the same code, while ours held 82-85).
 
+And ``speed_profile='time_optimal'`` (issue 38): the same call with it, timed in
+turn with the others: the lines' path timed again by the third-order
+profile (``planning/time_optimal.retime_path``); its figures in a table of
+their own (along our path not computed), with its deviation at 1 kHz, tool
+speed and share, and whether it held every limit, one line per row.
+
 Per row: durations; our duration over TOPP-RA's along our own path
 (issue 38, ``own_path.py``: the same toppra call as the rival's, with the
 tool speed limit, on our plan's joint path re-parameterised by arc length:
@@ -400,13 +406,17 @@ def seam_rows(arm, seam, poses):
         head = {'robot': arm.name, 'seam': seam, 'v': v}
         try:
             # IK, TOPP-RA and ours in turn, best of REPEATS each (interleaved_best_of).
-            (ik_time, _), (top_time, (top, grid, sdot)), (ours_time, ours) = \
-                interleaved_best_of([
+            (ik_time, _), (top_time, (top, grid, sdot)), (ours_time, ours), \
+                (optimal_time, optimal) = interleaved_best_of([
                     dense_ik, lambda: toppra_plan(s, joints, kin, vmax, amax, v),
                     lambda: plan_tool_path(
                         poses, arm.kinematics(), rsd.TOLERANCE, rsd.ANGLE_TOLERANCE,
                         max_inserted=rsd.SEAM_MAX_INSERTED, method='555', timing='optimal',
-                        max_tool_speed=v, **kwargs)], REPEATS)
+                        max_tool_speed=v, **kwargs),
+                    lambda: plan_tool_path(
+                        poses, arm.kinematics(), rsd.TOLERANCE, rsd.ANGLE_TOLERANCE,
+                        max_inserted=rsd.SEAM_MAX_INSERTED, method='555', timing='optimal',
+                        max_tool_speed=v, speed_profile='time_optimal', **kwargs)], REPEATS)
         except (ValueError, RuntimeError) as exc:
             rows.append(dict(head, failed=str(exc).splitlines()[0][:160]))
             continue
@@ -436,7 +446,15 @@ def seam_rows(arm, seam, poses):
             'shaking': shaking,
             'figures': bench_figures.figures(ours.trajectory.duration, own,
                                              rival.trajectory.duration, shaking, ours_time,
-                                             ik_time + top_time)}))
+                                             ik_time + top_time),
+            # speed_profile='time_optimal' (issue 38): the lines' path timed again.
+            'optimal_dev': rsd.sampled_deviation(optimal, poses, kin),
+            'optimal_speed': speed_figures(optimal.trajectory, kin, v),
+            'optimal_held': optimal.trajectory.within_limits(rtol=1e-9),
+            'optimal_figures': bench_figures.figures(
+                optimal.trajectory.duration, math.nan, rival.trajectory.duration,
+                shaking_ratios(optimal.trajectory, reference, amax), optimal_time,
+                ik_time + top_time)}))
     return rows
 
 
@@ -571,14 +589,26 @@ def targets_table(rows):
     return '\n'.join(lines), met, checked
 
 
-def summary_table(rows):
-    """Return the Markdown table of the issue 38 figures per arm and tool speed."""
+def optimal_checks(rows):
+    """Return one line per arm and speed: time_optimal's worst deviation, share, limits held."""
+    out = []
+    for r in rows:
+        if r['failed']:
+            continue
+        dev, speed, held = r['optimal_dev'], speed_cell(r['optimal_speed']), r['optimal_held']
+        out.append(f'{row_name(r)}: time_optimal deviation {1e3 * dev[0]:.2f} mm / '
+                   f'{math.degrees(dev[1]):.2f} deg, {speed}, limits held {held}')
+    return '\n'.join(out)
+
+
+def summary_table(rows, key='figures'):
+    """Return the Markdown table of the issue 38 figures (``key``) per arm and tool speed."""
     lines = ['| arm | v [m/s] | seams planned / failed | ' + bench_figures.header() + ' |',
              bench_figures.rule(3 + len(bench_figures.NAMES))]
     for arm in dict.fromkeys(r['robot'] for r in rows):
         for v in SPEEDS:
             these = [r for r in rows if r['robot'] == arm and r['v'] == v]
-            done = [r['figures'] for r in these if not r['failed']]
+            done = [r[key] for r in these if not r['failed']]
             cells = (bench_figures.summary(done) if done
                      else ' | '.join(['-'] * len(bench_figures.NAMES)))
             lines.append(f'| {arm} | {speed_label(v)} | {len(done)} / {len(these) - len(done)} '
@@ -619,6 +649,12 @@ def main():
           'our path: TOPP-RA with the same v/a and tool speed on our own joint path; planning: '
           'over IK + TOPP-RA), median / worst over the seams:')
     print(summary_table(every))
+    print()
+    print("The same with speed_profile='time_optimal' (the lines' path timed again by the "
+          'third-order profile, kept when shorter and within the tolerances; along our path '
+          'not computed), and its largest deviation [mm / deg] and tool speed share:')
+    print(summary_table(every, 'optimal_figures'))
+    print(optimal_checks(every))
     print()
     table, met, checked = targets_table(every)
     print("Issue 24's targets (ours):")
