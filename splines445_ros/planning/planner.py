@@ -205,7 +205,7 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         "time_optimal" follows the time-optimal third-order profile of
         :mod:`time_optimal` with a C4 spline (a knot every 15 ms or so): on
         the vendor arms 5-7 % shorter than "smoothed", with about 1.6
-        times its 4 Hz shaking, planned in about 5 times its time.  It needs
+        times its 4 Hz shaking, planned in 3-5 times its time.  It needs
         a jerk limit on every joint (moving ends are kept; torque limits are
         rows of its profile), no
         ``inner_knots``, ``vibration_frequency`` or ``smoothing``, and at

@@ -40,7 +40,7 @@ the profile (a ``path_constraints.JointTorque``, linear in ``x`` and
 ``bench_arm_moves.py``): 0.93-0.95 of the default's duration, with a 4 Hz
 peak of about 1.6 times the default's (still half of TOPP-RA's but on the
 Panda, whose jerk limit is 500 a); planning takes the profile's sequential
-LPs, about 5 times the default's time.
+LPs, 3-5 times the default's time.
 """
 
 import numpy as np

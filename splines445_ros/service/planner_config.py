@@ -215,7 +215,7 @@ class PlannerConfig(ValidatedConfig):
         '`time_optimal`: the time-optimal profile under the velocity, acceleration and jerk '
         'limits, followed by a C4 spline with a knot every 15 ms or so: on the vendor arms '
         '5-7 % shorter than `smoothed`, but it shakes their low modes about 1.6 times as '
-        'much (still about half as much as TOPP-RA), and it plans in about 5 times the time. It '
+        'much (still about half as much as TOPP-RA), and it plans in 3-5 times the time. It '
         'needs a jerk limit on every joint, joint-space `waypoints` requests (replanning from '
         'a moving state too) and at most '
         f'{MAX_TIME_OPTIMAL_WAYPOINTS} waypoints; where it finds no spline (a moving state it '
