@@ -9,7 +9,8 @@ optimum when that is shorter.  Here the profile itself holds the jerk
 
 1. Path.  The natural cubic spline through the waypoints on each segment's
    jerk-limited rest-to-rest time of its slowest joint (``inner_knots``
-   step 1), on :data:`inner_knots.GRID_STEPS` grid steps a segment.
+   step 1; with a moving end the 555 spline that has the boundary values in
+   its own time), on :data:`inner_knots.GRID_STEPS` grid steps a segment.
 2. Profile.  :class:`smooth_profile.SmoothProfile`: ``x(s) = sdot**2``, C2
    in ``s``, time-optimal under every joint's velocity, acceleration and
    :data:`JERK_MARGIN` times its jerk limit, at rest at both ends or at the
@@ -17,7 +18,8 @@ optimum when that is shorter.  Here the profile itself holds the jerk
    Its exact time law gives the time at which every waypoint is passed.
 3. Knots.  At the waypoints, at those times, and at equal time fractions
    of each segment, about :data:`KNOT_PERIOD` apart; each inner knot at
-   ``q(s(t))``, the path's position at its time.  A piece that needs more
+   ``q(s(t))``, the path's position at its time (at most about
+   :data:`MAX_KNOTS` in all).  A piece that needs more
    than :data:`SPLIT_FACTOR` (step 4's factor of its own) is halved, for
    up to :data:`SPLIT_ROUNDS` rounds, while the plan gets shorter.
 4. Spline and exact limits.  The C4 quintic spline through those knots
@@ -37,10 +39,14 @@ were followed on each of three seeds (14 without the shares, which single
 segments needed).  The joint torque is one more row of
 the profile (a ``path_constraints.JointTorque``, linear in ``x`` and
 ``x'``).  Measured on the vendor arms (doc/benchmarks.md,
-``bench_arm_moves.py``): 0.93-0.95 of the default's duration, with a 4 Hz
+``bench_arm_moves.py``): 0.91-0.96 of the default's duration, with a 4 Hz
 peak of about 1.6 times the default's (still half of TOPP-RA's but on the
 Panda, whose jerk limit is 500 a); planning takes the profile's sequential
 LPs, 3-5 times the default's time.
+
+:func:`retime_path` times a finished plan's own path the same way: the tool
+lines' (``cartesian/tool_lines.py``), whose path keeps the tool within its
+tolerances.
 """
 
 import numpy as np
