@@ -446,12 +446,13 @@ def _polish(problem, best, fractions):
     return best, count
 
 
-def midpoint_fractions(fractions, pieces):
+def midpoint_fractions(fractions, pieces, most=MAX_SEGMENT_KNOTS):
     """
     Return ``fractions`` with the pieces ``pieces`` (indices over all segments) split in two.
 
     A piece is split at the midpoint of its time fractions; a segment keeps
-    at most :data:`MAX_SEGMENT_KNOTS` knots.
+    at most ``most`` knots (None: no bound; :mod:`time_optimal`'s knots
+    follow a profile in time, a segment as many as its duration needs).
     """
     out, first = [], 0
     pieces = np.asarray(pieces, int)
@@ -459,8 +460,9 @@ def midpoint_fractions(fractions, pieces):
         mine = pieces[(pieces >= first) & (pieces < first + f.size)] - first
         ends = np.append(f, 1.0)
         added = 0.5 * (ends[mine] + ends[mine + 1])
-        room = MAX_SEGMENT_KNOTS - f.size
-        out.append(np.sort(np.concatenate([f, added[:max(room, 0)]])))
+        if most is not None:
+            added = added[:max(most - f.size, 0)]
+        out.append(np.sort(np.concatenate([f, added])))
         first += f.size
     return out
 

@@ -54,6 +54,7 @@ import numpy as np
 from .inner_knots import (END_SEGMENT_SHARES, GRID_STEPS, kept_trajectory, KnotCandidate,
                           TimingProblem)
 from .natural_cubic import natural_cubic_spline
+from .path_timing import midpoint_fractions
 from .smooth_profile import SmoothProfile
 from .timing import rest_to_rest_durations
 from .trajectory import Trajectory
@@ -138,17 +139,6 @@ def knot_fractions(segment_times, period=KNOT_PERIOD):
     period = max(period, float(np.sum(segment_times)) / MAX_KNOTS)
     counts = np.maximum(1, np.ceil(segment_times / period).astype(int))
     return [np.arange(m) / m for m in counts]
-
-
-def split_pieces(fractions, pieces):
-    """Return ``fractions`` with the pieces ``pieces`` (indices over all segments) halved."""
-    out, first = [], 0
-    for f in fractions:
-        mine = pieces[(pieces >= first) & (pieces < first + f.size)] - first
-        ends = np.append(f, 1.0)
-        out.append(np.sort(np.concatenate([f, 0.5 * (ends[mine] + ends[mine + 1])])))
-        first += f.size
-    return out
 
 
 def plan_time_optimal(points, limits, dropped=(), torque=None, boundary=None):
@@ -243,7 +233,7 @@ def _followed_spline(problem, followed):
         slow = np.flatnonzero(candidate.factors > SPLIT_FACTOR)
         if slow.size == 0:
             break
-        fractions = split_pieces(fractions, slow)
+        fractions = midpoint_fractions(fractions, slow, most=None)
         finer = KnotCandidate(problem, followed.local, None, fractions, followed)
         if not (finer.valid and finer.score < candidate.score):
             break
