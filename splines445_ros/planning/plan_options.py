@@ -151,9 +151,8 @@ def speed_profile_value(value, method, timing, inner_knots_given=False,
     ``smoothing`` other than "auto" (it has no smoothing windows).  The
     ``durations`` of timing "optimal" are only a warm start of the
     optimiser: it does not need one (plan() says so), and its fallback to
-    "smoothed" uses them.  What
-    depends on the request (rest to rest, jerk limits,
-    the waypoint count) is :func:`check_time_optimal_request`'s.
+    "smoothed" uses them.  The limits are :func:`check_time_optimal_limits`',
+    the waypoint count :func:`check_time_optimal_waypoints`'.
     """
     if value is None:
         return 'smoothed'
@@ -178,19 +177,21 @@ def speed_profile_value(value, method, timing, inner_knots_given=False,
     return value
 
 
-def check_time_optimal_request(n_points, limits):
+def check_time_optimal_limits(limits):
     """
-    Raise ValueError unless speed_profile "time_optimal" can plan this request.
+    Raise ValueError unless ``limits`` have a finite jerk limit on every joint.
 
-    ``n_points`` merged waypoints (at most :data:`MAX_TIME_OPTIMAL_WAYPOINTS`),
-    ``limits`` with a finite jerk limit on every joint (the profile is
-    third order).  Moving ends are planned too (torque limits, planned rest
-    to rest, refuse them already).
+    speed_profile "time_optimal"'s profile is third order.  (Moving ends are
+    planned too; torque limits, planned rest to rest, refuse them already.)
     """
     if limits is None or not np.all(np.isfinite(limits.jerk)):
         joints = [] if limits is None else np.flatnonzero(~np.isfinite(limits.jerk)).tolist()
         raise ValueError('speed_profile "time_optimal" needs a jerk limit on every joint '
                          f'(none on joints {joints})')
+
+
+def check_time_optimal_waypoints(n_points):
+    """Raise ValueError above :data:`MAX_TIME_OPTIMAL_WAYPOINTS` merged waypoints."""
     if n_points > MAX_TIME_OPTIMAL_WAYPOINTS:
         raise ValueError(f'speed_profile "time_optimal" plans at most '
                          f'{MAX_TIME_OPTIMAL_WAYPOINTS} waypoints, got {n_points}: its linear '
@@ -281,7 +282,7 @@ class PlanOptions:
       windows they give (:func:`smoothing_windows`);
     * ``torque``: the :class:`~.torque.TorqueLimit`, or None;
     * ``speed_profile`` (:data:`SPEED_PROFILES`): "time_optimal" was checked
-      against the request too (:func:`check_time_optimal_request`).
+      against the limits too (:func:`check_time_optimal_limits`).
     """
 
     method: str
@@ -346,7 +347,7 @@ class PlanOptions:
                 raise ValueError(f'min_position[{j}] = {low[j]} is above max_position[{j}] = '
                                  f'{high[j]}')
         if profile != 'smoothed':
-            check_time_optimal_request(0, limits)
+            check_time_optimal_limits(limits)
         return cls(method, timing, limits, boundary, tolerance, low, high, knots,
                    inner_knots is None, vibration, smoothing, windows, torque, profile)
 
@@ -394,7 +395,7 @@ class PlanOptions:
                                      else np.array(max_jerk, dtype=float))
             check_boundary_feasible(limits, *boundary)
         if speed_profile != 'smoothed':
-            check_time_optimal_request(0, limits)
+            check_time_optimal_limits(limits)
         return cls(method, timing, limits, boundary, float(waypoint_tolerance), None, None, knots,
                    inner_knots is None, vibration, smoothing, windows, torque, speed_profile)
 

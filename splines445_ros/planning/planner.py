@@ -7,7 +7,7 @@ import numpy as np
 from .inner_knots import plan_with_inner_knots
 from .optimal import optimal_durations, two_segment_plan, two_segment_search
 from .path_timing import rescaled
-from .plan_options import (check_time_optimal_request, DEFAULT_SMOOTHING,
+from .plan_options import (check_time_optimal_waypoints, DEFAULT_SMOOTHING,
                            DEFAULT_WAYPOINT_TOLERANCE, PlanOptions)
 from .ratio_search import GIVE_UP_PASSES
 from .time_optimal import plan_time_optimal
@@ -360,7 +360,7 @@ def _plan_limited(points, durations, options):
         # A dropped waypoint's segment joins the one before it.
         start = np.diff(np.delete(np.concatenate([[0.0], np.cumsum(start)]), dropped))
     if options.speed_profile == 'time_optimal':
-        check_time_optimal_request(points.shape[0], limits)
+        check_time_optimal_waypoints(points.shape[0])
         followed = plan_time_optimal(points, limits, dropped, torque, boundary)
         if followed is not None:
             return followed
