@@ -41,7 +41,6 @@ repeats a run, ``SPLINES445_BENCH_CASES`` sets the paths per arm,
 ``SPLINES445_BENCH_ARMS=UR5,Panda`` only those arms.
 """
 
-import logging
 import os
 import sys
 
@@ -50,7 +49,6 @@ os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but th
 import bench_arms  # noqa: E402, I100
 import bench_figures  # noqa: E402
 from bench_planning import toppra_trajectory  # noqa: E402
-import bench_seeds  # noqa: E402, I100
 from bench_torque import arm_paths  # noqa: E402
 import numpy as np  # noqa: E402, I100
 import own_path  # noqa: E402, I100
@@ -139,11 +137,7 @@ def run_case(arm, points):
 
 def main():
     """Run every arm and print the tables."""
-    logging.getLogger('toppra').setLevel(logging.ERROR)
-    seed = bench_seeds.run_seed()
-    cases = bench_seeds.case_count(CASES)
-    arms, skipped = bench_arms.vendor_arms()
-    bench_arms.print_arms(arms, skipped)
+    seed, cases, arms = bench_arms.start_run(CASES)
     print(f"{cases} random joint paths per arm (seed {seed}, the arm's stream), the arm's "
           'v/a/j limits, no torque; each plan over TOPP-RA (v/a, no jerk) on the same path; '
           f'planning times best of {REPEATS}, in turn; median / worst')

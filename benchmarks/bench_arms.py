@@ -44,6 +44,7 @@ import re
 from typing import Optional
 import zlib
 
+import bench_seeds
 import numpy as np
 from splines445_ros.robot.chain_tip import chain_tips
 from splines445_ros.robot.inverse_kinematics import ModelKinematics
@@ -274,6 +275,21 @@ def vendor_arms(only=None):
         logging.disable(quiet)
         mujoco.set_mju_user_warning(warn)
     return arms, skipped
+
+
+def start_run(default_cases):
+    """
+    Begin an arm bench: quiet toppra, draw the run's seed, load and print the arms.
+
+    Returns (seed, cases, arms): ``bench_seeds.run_seed()``, the case count
+    (``bench_seeds.case_count(default_cases)``) and :func:`vendor_arms`'.
+    """
+    logging.getLogger('toppra').setLevel(logging.ERROR)
+    seed = bench_seeds.run_seed()
+    cases = bench_seeds.case_count(default_cases)
+    arms, skipped = vendor_arms()
+    print_arms(arms, skipped)
+    return seed, cases, arms
 
 
 def print_arms(arms, skipped):

@@ -38,7 +38,6 @@ highspy is missing (the same profile, slower).  Set
 ``OPENBLAS_NUM_THREADS=1`` on a shared machine.
 """
 
-import logging
 import os
 import time
 
@@ -48,7 +47,6 @@ from bench_arm_moves import (  # noqa: E402, I100
     construction_path, profile_bounds, rest_to_rest_knots)
 import bench_arms  # noqa: E402
 from bench_planning import toppra_trajectory  # noqa: E402
-import bench_seeds  # noqa: E402
 from bench_torque import arm_paths  # noqa: E402
 import numpy as np  # noqa: E402
 from shaking import FREQUENCIES, of_toppra, shaking_figures, shaking_ratios  # noqa: E402
@@ -129,11 +127,7 @@ def cell(values, digits=3):
 
 def main():
     """Run every arm and print the table."""
-    logging.getLogger('toppra').setLevel(logging.ERROR)
-    seed = bench_seeds.run_seed()
-    cases = bench_seeds.case_count(CASES)
-    arms, skipped = bench_arms.vendor_arms()
-    bench_arms.print_arms(arms, skipped)
+    seed, cases, arms = bench_arms.start_run(CASES)
     if os.environ.get('SPLINES445_BENCH_LINPROG', '').strip() not in ('', '0'):
         smooth_profile.HIGHSPY = False
     print('smooth profile LPs: ' + ('HiGHS warm (highspy)' if smooth_profile.HIGHSPY

@@ -27,7 +27,6 @@ repeats a run, ``SPLINES445_BENCH_CASES`` sets the seams per arm, default 2;
 ``SPLINES445_BENCH_ARMS=xArm7,Z1`` only those arms).
 """
 
-import logging
 import os
 
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but the rule holds
@@ -100,12 +99,8 @@ def seam_row(arm, poses, factor, timed):
 
 def main():
     """Plan every arm's seams at every jerk factor and print the table."""
-    logging.getLogger('toppra').setLevel(logging.ERROR)
-    seed = bench_seeds.run_seed()
-    count = bench_seeds.case_count(SEAMS)
+    seed, count, arms = bench_arms.start_run(SEAMS)
     rng = bench_seeds.generator(SEAMS_STREAM)
-    arms, skipped = bench_arms.vendor_arms()
-    bench_arms.print_arms(arms, skipped)
     timed = TimedPaths()
     tool_lines.plan_along_path = timed
     print(f'{count} random seams per arm (seed {seed}, stream {SEAMS_STREAM}), no tool speed '

@@ -104,7 +104,6 @@ repeats a run, ``SPLINES445_BENCH_CASES=<count>`` sets the random seams per
 arm, ``SPLINES445_BENCH_ARMS=UR5,Panda`` only those arms.
 """
 
-import logging
 import math
 import os
 import sys
@@ -618,12 +617,8 @@ def summary_table(rows, key='figures'):
 
 def main():
     """Print the tables; 1 when one of our plans is not within 1 mm / 1 degree, else 0."""
-    logging.getLogger('toppra').setLevel(logging.ERROR)
     started = time.perf_counter()
-    seed = bench_seeds.run_seed()
-    count = bench_seeds.case_count(RANDOM_SEAMS)
-    arms, skipped = bench_arms.vendor_arms()
-    bench_arms.print_arms(arms, skipped)
+    seed, count, arms = bench_arms.start_run(RANDOM_SEAMS)
     print(f'Seams: the demo seam (UR5, Panda) and {count} random seams per arm (seed {seed}, '
           f'stream: the CRC of the arm name): sides {SEAM_SIDES} x the reach, turned at '
           f'random about the vertical, last edge turning the tool up to '

@@ -64,7 +64,6 @@ Usage: ``python benchmarks/bench_torque.py``; SPLINES445_BENCH_FULL=1 for
 repeats a run, ``SPLINES445_BENCH_ARMS=UR5,Panda`` only those arms.
 """
 
-import logging
 import os
 import sys
 
@@ -332,12 +331,8 @@ def bench_payload(arm, paths):
 
 def main():
     """Run the comparison and print the tables."""
-    logging.getLogger('toppra').setLevel(logging.ERROR)
-    seed = bench_seeds.run_seed()
     full = os.environ.get('SPLINES445_BENCH_FULL') == '1'
-    cases = bench_seeds.case_count(FULL_CASES if full else CASES)
-    arms, skipped = bench_arms.vendor_arms()
-    bench_arms.print_arms(arms, skipped)
+    seed, cases, arms = bench_arms.start_run(FULL_CASES if full else CASES)
     print('Command: ' + ('SPLINES445_BENCH_FULL=1 ' if full else '')
           + f'{bench_seeds.VARIABLE}={seed} python benchmarks/bench_torque.py')
     print(f'Settings: seed {seed}; {cases} paths per arm, {POINTS[0]}-{POINTS[1]} waypoints '
