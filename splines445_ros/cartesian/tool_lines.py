@@ -45,6 +45,7 @@ import math
 import numpy as np
 
 from .golden_search import CHECK_MAXIMA, CHECK_STEPS, golden_maxima, sampled_maxima
+from .path_deviation import tolerance_excess
 from .tool_acceleration import (acceleration_factor, peak_tool_acceleration,
                                 PieceAccelerations, ToolCurve)
 from .tool_kinematics import frame_chain, has_transforms, refused_pose, start_walk
@@ -454,8 +455,7 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
         deviation = measure(_Pieces(traj), piece_edges)
         if initial is None:
             initial = (deviation, traj.duration)
-        excess = np.maximum(deviation.position / tolerances[0],
-                            deviation.orientation / tolerances[1])
+        excess = tolerance_excess(deviation, tolerances)
         bad = np.flatnonzero(excess > 1.0)
         if bad.size == 0:
             break
@@ -545,8 +545,7 @@ def _retimed(traj, path, limits, kinematics, constraints, speeds, measure, toler
         edges = np.searchsorted(retimed.waypoint_times, retimed.breakpoints[:-1],
                                 side='right') - 1
         deviation = measure(_Pieces(retimed), edges)
-        excess = np.maximum(deviation.position / tolerances[0],
-                            deviation.orientation / tolerances[1])
+        excess = tolerance_excess(deviation, tolerances)
         if np.all(excess <= 1.0):
             return retimed, (deviation, edges)
         reason = 'the time-optimal spline leaves the tool tolerances'
