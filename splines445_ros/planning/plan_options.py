@@ -179,15 +179,16 @@ def speed_profile_value(value, method, timing, inner_knots_given=False,
 
 def check_time_optimal_limits(limits):
     """
-    Raise ValueError unless ``limits`` have a finite jerk limit on every joint.
+    Raise ValueError unless ``limits`` are given (velocity and acceleration).
 
-    speed_profile "time_optimal"'s profile is third order.  (Moving ends are
-    planned too; torque limits, planned rest to rest, refuse them already.)
+    speed_profile "time_optimal"'s profile holds the jerk limits of the
+    joints that have one, and only their velocity and acceleration
+    limits on the others (moving ends are planned too; torque limits,
+    planned rest to rest, refuse them already).
     """
-    if limits is None or not np.all(np.isfinite(limits.jerk)):
-        joints = [] if limits is None else np.flatnonzero(~np.isfinite(limits.jerk)).tolist()
-        raise ValueError('speed_profile "time_optimal" needs a jerk limit on every joint '
-                         f'(none on joints {joints})')
+    if limits is None:
+        raise ValueError('speed_profile "time_optimal" needs max_velocity and '
+                         'max_acceleration')
 
 
 def check_time_optimal_waypoints(n_points):

@@ -205,9 +205,10 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         "time_optimal" follows the time-optimal third-order profile of
         :mod:`time_optimal` with a C4 spline (a knot every 15 ms or so): on
         the vendor arms 5-7 % shorter than "smoothed", with about 1.6
-        times its 4 Hz shaking, planned in 3-5 times its time.  It needs
-        a jerk limit on every joint (moving ends are kept; torque limits are
-        rows of its profile), no
+        times its 4 Hz shaking, planned in 3-5 times its time.  It holds
+        the jerk limit of every joint that has one (only velocity and
+        acceleration on the others; moving ends are kept; torque limits are
+        rows of its profile).  It needs velocity and acceleration limits, no
         ``inner_knots``, ``vibration_frequency`` or ``smoothing``, and at
         most :data:`plan_options.MAX_TIME_OPTIMAL_WAYPOINTS` waypoints
         (ValueError otherwise); ``durations`` are not used.  Should it find

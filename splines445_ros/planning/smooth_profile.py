@@ -196,15 +196,17 @@ def _lift_isolated_stops(x):
     return x
 
 
-def _limit(value, n_joints, name):
-    """Return a positive finite limit (n_joints,), or raise ValueError."""
+def _limit(value, n_joints, name, infinite=False):
+    """Return a positive limit (n_joints,), finite unless ``infinite``, or raise ValueError."""
     value = np.asarray(value, float)
     if value.ndim == 0:
         value = np.full(n_joints, value)
     if value.shape != (n_joints,):
         raise ValueError(f'{name} limit: expected {n_joints} values, got shape {value.shape}')
-    if not np.all(np.isfinite(value)) or np.any(value <= 0.0):
-        raise ValueError(f'{name} limit must be positive and finite, got {value}')
+    if np.any(np.isnan(value)) or np.any(value <= 0.0) or (
+            not infinite and not np.all(np.isfinite(value))):
+        raise ValueError(f'{name} limit must be positive{"" if infinite else " and finite"}, '
+                         f'got {value}')
     return value
 
 
@@ -218,6 +220,8 @@ def _tangent_rows(candidates, x, n_jerk):
     the data of those rows, ``jerk_data + c[row] * x_data``, is set in place
     each LP (rather than a new matrix of ~80 000 rows).
     """
+    if n_jerk == 0:         # no joint has a jerk limit
+        return candidates.tocsr(), np.zeros(0), np.zeros(0), np.zeros(0, int)
     jerk = candidates[-n_jerk:].tocsr()
     repeated = sp.vstack([x] * (n_jerk // x.shape[0]), format='csr')
     pattern = (abs(jerk) + abs(repeated)).tocsr()
@@ -328,7 +332,8 @@ class SmoothProfile:
     ``path`` is a scipy ``PPoly`` ``q(s)`` (n joints) and ``grid`` its
     increasing grid from ``path.x[0]`` to ``path.x[-1]`` (e.g. 24 steps a
     segment); ``velocity``, ``acceleration``, ``jerk`` the joint limits
-    (n,) or scalars; ``constraints`` more :mod:`path_constraints` objects,
+    (n,) or scalars (a jerk of inf: no jerk rows for that joint);
+    ``constraints`` more :mod:`path_constraints` objects,
     first order (``x`` at most their squared speed) or second order (rows
     ``lo <= a u + b x <= hi`` with ``u = x'/2``: the joint torque, the tool
     acceleration), applied at the same row points; ``ends`` the squared
@@ -364,7 +369,7 @@ class SmoothProfile:
         self.path = path
         self.velocity = _limit(velocity, n_joints, 'velocity')
         self.acceleration = _limit(acceleration, n_joints, 'acceleration')
-        self.jerk = _limit(jerk, n_joints, 'jerk')
+        self.jerk = _limit(jerk, n_joints, 'jerk', infinite=True)
         self.constraints = tuple(constraints)
         self.ends = tuple(float(e) for e in ends)
         if len(self.ends) != 2 or not all(np.isfinite(e) and e >= 0.0 for e in self.ends):
@@ -439,9 +444,11 @@ class SmoothProfile:
         acc = sp.diags(0.5 * d1) @ stacked(x1) + sp.diags(d2) @ stacked(x)
         jerk = (sp.diags(0.5 * d1) @ stacked(x2) + sp.diags(1.5 * d2) @ stacked(x1)
                 + sp.diags(d3) @ stacked(x))
+        # Jerk rows only for the joints with a jerk limit (inf: none).
+        jerk = jerk[np.repeat(np.isfinite(self.jerk), n)]
         more, more_bound = self._constraint_rows(points, x, x1)
         rows = sp.vstack([x, -x, acc, -acc] + more + [jerk, -jerk], format='csr')
-        jerk_bound = np.tile(np.repeat(self.jerk, n), 2)
+        jerk_bound = np.tile(np.repeat(self.jerk[np.isfinite(self.jerk)], n), 2)
         bound = np.concatenate([np.zeros(2 * n), np.tile(np.repeat(self.acceleration, n), 2)]
                                + more_bound + [np.zeros(jerk_bound.size)])
         return x, rows, bound, jerk_bound
@@ -501,7 +508,7 @@ class SmoothProfile:
             rows.data[first:] = jerk_data + (0.5 * jerk * x_r ** -1.5)[row_of_entry] * x_data
             bound[:n] = x_max if iteration == 0 else np.minimum(
                 x_max, np.maximum(growth * x_p, (growth - 1.0) * RESTART_SHARE * x_max))
-            bound[-jerk.size:] = 1.5 * jerk / np.sqrt(x_r)
+            bound[bound.size - jerk.size:] = 1.5 * jerk / np.sqrt(x_r)
             cost = -(x.T @ (width / x_q ** 1.5))
             work = rows @ z_best > (KEEP if iteration else FIRST_KEEP) * bound
             work[:n:DENSE] = True       # x <= cap about once a grid step: a bounded LP

@@ -145,7 +145,7 @@ def plan_time_optimal(points, limits, dropped=(), torque=None, boundary=None):
     """
     Return the Trajectory of steps 1-4 through ``points`` (N, n), or None.
 
-    ``limits`` are the :class:`limits.JointLimits` (every jerk finite),
+    ``limits`` are the :class:`limits.JointLimits` (inf: no jerk limit),
     ``dropped`` the merged waypoints' indices, ``torque`` a
     :class:`torque.TorqueLimit` or None: its rows join the profile's and
     its per-piece factors step 4's exact ones (plan() checks the result at

@@ -213,11 +213,12 @@ class PlannerConfig(ValidatedConfig):
         '`timing: optimal`. `smoothed`: the speed profile shaped by `inner_knots`, '
         '`vibration_frequency` and `smoothing` (or the knots-only optimum, when shorter). '
         '`time_optimal`: the time-optimal profile under the velocity, acceleration and jerk '
-        'limits, followed by a C4 spline with a knot every 15 ms or so: on the vendor arms '
+        'limits (velocity and acceleration only on joints with `max_jerk` 0), followed by a '
+        'C4 spline with a knot every 15 ms or so: on the vendor arms '
         '5-7 % shorter than `smoothed`, but it shakes their low modes about 1.6 times as '
         'much (still about half as much as TOPP-RA), and it plans in 3-5 times the time. It '
-        'needs a jerk limit on every joint, joint-space `waypoints` requests (replanning from '
-        'a moving state too) and at most '
+        'plans joint-space `waypoints` requests (replanning from a moving state too) with at '
+        'most '
         f'{MAX_TIME_OPTIMAL_WAYPOINTS} waypoints; where it finds no spline (a moving state it '
         "cannot keep, a joint reversing alone) the plan is `smoothed`'s, with a warning. "
         '`vibration_frequency`, `smoothing` and `inner_knots` are refused with it (it would '
@@ -388,20 +389,13 @@ class PlannerConfig(ValidatedConfig):
         Refuse a ``speed_profile`` "time_optimal" that every request would refuse, or ignore.
 
         The library's check (:func:`speed_profile_value`: 555 optimal, no
-        ``inner_knots``, ``vibration_frequency`` or ``smoothing``), then what
-        the config alone shows: a jerk limit on every joint where the limits
-        are the parameters' (not a robot model's, whose description may give
-        them: checked per request).  Torque limits are rows of its profile.
+        ``inner_knots``, ``vibration_frequency`` or ``smoothing``).  Its
+        profile holds the jerk limits where ``max_jerk`` gives them, and
+        torque limits as its rows.
         """
         speed_profile_value(self.speed_profile, self.method, self.timing,
                             self.inner_knots != AUTO_INNER_KNOTS, self.vibration_frequency,
                             self.smoothing)
-        if self.speed_profile == 'smoothed':
-            return
-        jerk = self.jerk_limits()
-        if self.kinematics != 'model' and (jerk is None or not all(map(math.isfinite, jerk))):
-            raise ValueError('speed_profile "time_optimal" needs a jerk limit on every joint: '
-                             f'max_jerk is {list(self.max_jerk)} (0 = no jerk limit)')
 
     def _validate_tool_paths(self):
         self.require_positive('link_lengths', 2)

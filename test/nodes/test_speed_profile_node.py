@@ -58,14 +58,28 @@ def test_the_default_is_smoothed_and_time_optimal_reaches_plan():
     ({'inner_knots': 4}, 'leave inner_knots unset'),
     ({'vibration_frequency': 4.0}, 'vibration_frequency 4 Hz would be ignored'),
     ({'smoothing': 'none'}, "smoothing 'none' would be ignored"),
-    ({'max_jerk': (0.0,)}, 'needs a jerk limit on every joint'),
-    ({'max_jerk': (100.0, 0.0, 100.0)}, 'needs a jerk limit on every joint'),
 ])
 def test_config_refuses_what_it_would_ignore_or_cannot_hold(overrides, message):
     with pytest.raises(ValueError, match='speed_profile') as refused:
         config(**overrides).with_defaults().validate()
     assert message in str(refused.value)
     assert len(str(refused.value)) < 400
+
+
+@pytest.mark.parametrize('max_jerk', [(0.0,), (100.0, 0.0, 100.0)])
+def test_joints_with_max_jerk_0_are_planned_without_a_jerk_limit(max_jerk):
+    cfg = config(max_jerk=max_jerk).with_defaults()
+    cfg.validate()
+    traj = plan_request(cfg, request())
+    assert traj.optimizer['speed_profile'] == 'time_optimal'
+    assert plan_warnings(traj) is None
+    assert traj.within_limits(rtol=1e-9)
+    jerk = np.max(np.abs(np.diff(traj.evaluate(np.arange(0.0, traj.duration, 1e-3)), 3,
+                                 axis=0)), axis=0) / 1e-9
+    limited = np.resize(np.array(max_jerk) > 0.0, 3)
+    assert np.all(jerk[limited] <= 1.01 * 100.0)
+    # Without a jerk limit the same request is no longer (the profile has fewer rows).
+    assert traj.duration <= plan_request(config(), request()).duration * (1 + 1e-3)
 
 
 def test_replanning_from_a_moving_state_keeps_the_state():
@@ -110,13 +124,15 @@ def test_node_declares_and_validates_speed_profile():
             '--ros-args', '-p', 'method:=555', '-p', 'timing:=optimal']))
         assert node.parameters.config.speed_profile == 'smoothed'
         assert 'time_optimal' in node.describe_parameter('speed_profile').description
-        # No jerk limit on the planar default: refused with the reason, the old value kept.
-        bad = node.set_parameters([Parameter('speed_profile', value='time_optimal')])[0]
-        assert not bad.successful and 'jerk limit' in bad.reason
-        assert node.parameters.config.speed_profile == 'smoothed'
-        good = node.set_parameters_atomically([
-            Parameter('max_jerk', value=[100.0, 100.0, 100.0]),
+        # With an option it would ignore: refused with the reason, the old values kept.
+        bad = node.set_parameters_atomically([
+            Parameter('vibration_frequency', value=4.0),
             Parameter('speed_profile', value='time_optimal')])
+        assert not bad.successful and 'would be ignored' in bad.reason
+        assert node.parameters.config.speed_profile == 'smoothed'
+        assert node.parameters.config.vibration_frequency == 0.0
+        # The planar default has no jerk limit: the profile holds velocity and acceleration.
+        good = node.set_parameters([Parameter('speed_profile', value='time_optimal')])[0]
         assert good.successful, good.reason
         assert node.parameters.config.speed_profile == 'time_optimal'
         unknown = node.set_parameters([Parameter('speed_profile', value='fast')])[0]
