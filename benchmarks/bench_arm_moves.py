@@ -25,7 +25,8 @@ Every row gives the figures of ``bench_figures.py`` (duration, duration over
 TOPP-RA along our own path, that one over TOPP-RA, shaking at 4 and 8 Hz
 peak and residual, planning time; each over TOPP-RA's on the same path),
 median / worst over the arm's paths.  Planning times: best of
-:data:`REPEATS`, ours and TOPP-RA's in turn.  Then, per arm, what a speed
+:data:`REPEATS`, TOPP-RA's, the default's and time_optimal's in turn (the
+``vibration_frequency`` plan once).  Then, per arm, what a speed
 profile alone could reach on the path the construction starts from
 (:func:`profile_bounds`: the natural cubic through the waypoints at their
 rest-to-rest times, step 1 of ``planning/inner_knots.py``), over TOPP-RA's
@@ -112,14 +113,14 @@ def run_case(arm, points):
     """Return {plan name: figures} and whether every plan held its limits, on one path."""
     limits = arm.plan_limits()
     vmax, amax = limits['max_velocity'], limits['max_acceleration']
-    (t_top, top), (t_ours, ours) = interleaved_best_of((
+    (t_top, top), (t_ours, ours), (optimal_time, optimal) = interleaved_best_of((
         lambda: toppra_trajectory(points, vmax, amax),
-        lambda: plan(points, '555', 'optimal', **limits)), REPEATS)
+        lambda: plan(points, '555', 'optimal', **limits),
+        lambda: plan(points, '555', 'optimal', speed_profile='time_optimal', **limits)),
+        REPEATS)
     shaped_time, shaped = best_of(
         lambda: plan(points, '555', 'optimal', vibration_frequency=VIBRATION_FREQUENCY,
                      **limits), 1)
-    optimal_time, optimal = best_of(
-        lambda: plan(points, '555', 'optimal', speed_profile='time_optimal', **limits), 1)
     reference = shaking_figures(of_toppra(top), top.duration, amax)
     joint = JointLimits.from_user(points.shape[1], vmax, amax, limits['max_jerk'])
     bounds = np.array(profile_bounds(
