@@ -196,19 +196,11 @@ def _followed_trajectory(points, limits, dropped, torque, boundary, moving, dura
                                          else torque.piece_factors), boundary, limits,
                             not any(moving))
     for margin in MOVING_MARGINS if any(moving) else (1.0,):
-        try:
-            profile = SmoothProfile(ppoly, grid, margin * limits.velocity,
-                                    margin ** 2 * limits.acceleration,
-                                    JERK_MARGIN * margin ** 3 * limits.jerk, constraints,
-                                    tuple(float(m) for m in moving))
-        except RuntimeError:
-            return None     # its first LP failed: no profile to follow on this path
-        followed = FollowedProfile(profile, knots, grid.size)
-        if not np.all(np.isfinite(followed.passed)):
-            # x reached 0 between its row points (a joint reversing alone):
-            # the profile stops there, and a stop takes its C2 x(s) forever.
+        followed = _follow(problem, ppoly, grid, knots, limits, constraints,
+                           tuple(float(m) for m in moving), margin)
+        if followed is None:
             return None
-        candidate = _followed_spline(problem, followed)
+        profile, candidate = followed
         if candidate is not None and candidate.feasible:
             return kept_trajectory(problem, candidate, dropped, {
                 'speed_profile': NAME, 'inner_knots': int(np.max(candidate.counts)),
@@ -218,6 +210,29 @@ def _followed_trajectory(points, limits, dropped, torque, boundary, moving, dura
                 'time_scale': float(candidate.scale), 'limit_margin': margin,
                 'smoothing_windows': []})
     return None
+
+
+def _follow(problem, path, grid, knots, limits, constraints, ends=(0.0, 0.0), margin=1.0):
+    """
+    Return steps 2-4 on ``path`` through ``knots``: (profile, candidate or None), or None.
+
+    The profile at ``margin`` times the velocity limits (its square the
+    acceleration's, its cube :data:`JERK_MARGIN` times the jerk's); None
+    when it has none: its first LP failed, or ``x`` reached 0 between its
+    row points (a joint reversing alone: the profile stops there, and a
+    stop takes its C2 ``x(s)`` forever).  The candidate is
+    :func:`_followed_spline`'s.
+    """
+    try:
+        profile = SmoothProfile(path, grid, margin * limits.velocity,
+                                margin ** 2 * limits.acceleration,
+                                JERK_MARGIN * margin ** 3 * limits.jerk, constraints, ends)
+    except RuntimeError:
+        return None
+    followed = FollowedProfile(profile, knots, grid.size)
+    if not np.all(np.isfinite(followed.passed)):
+        return None
+    return profile, _followed_spline(problem, followed)
 
 
 def _followed_spline(problem, followed):
@@ -259,19 +274,15 @@ def retime_path(traj, limits, constraints=(), piece_factors=None):
     grid = np.unique(np.concatenate([np.linspace(0.0, traj.duration, steps + 1), knots]))
     points = traj.waypoints
     boundary = tuple(np.zeros(points.shape[1]) for _ in range(4))
-    try:
-        profile = SmoothProfile(traj.ppoly, grid, limits.velocity, limits.acceleration,
-                                JERK_MARGIN * limits.jerk, tuple(constraints))
-    except (RuntimeError, ValueError):
-        return None
-    followed = FollowedProfile(profile, knots, grid.size)
-    if not np.all(np.isfinite(followed.passed)):
-        return None
     problem = TimingProblem(FollowedPath(grid, traj.ppoly, points, piece_factors), boundary,
                             limits, True)
-    candidate = _followed_spline(problem, followed)
-    if candidate is None:
+    try:
+        followed = _follow(problem, traj.ppoly, grid, knots, limits, tuple(constraints))
+    except ValueError:
+        return None     # a constraint's own refusal: the lines keep their timing
+    if followed is None or followed[1] is None:
         return None
+    profile, candidate = followed
     return kept_trajectory(problem, candidate, traj.dropped_waypoints, {
         'speed_profile': NAME, 'knots': int(candidate.pieces.size + 1),
         'profile_lps': profile.lps, 'profile_duration': float(profile.duration),
