@@ -392,3 +392,16 @@ def test_a_profile_the_solver_refuses_falls_back_within_the_limits():
     assert (traj.optimizer.get('speed_profile') == 'time_optimal'
             or traj.optimizer['speed_profile_skipped'] == planner.NO_TIME_OPTIMAL_SPLINE)
     assert traj.within_limits(rtol=1e-9)
+
+
+def test_the_knots_are_about_one_knot_period_apart(monkeypatch):
+    """Knot spacing follows time_optimal.KNOT_PERIOD, read when the plan is made."""
+    points, limits = random_request(7, max_points=12, min_points=8)
+    spacing = {}
+    for period in (0.015, 0.045):
+        monkeypatch.setattr(time_optimal, 'KNOT_PERIOD', period)
+        traj = time_optimal_plan(points, limits)
+        spacing[period] = np.median(np.diff(traj.breakpoints))
+        # At most the period apart (the segments' counts are rounded up, pieces halved).
+        assert period / 2.5 <= spacing[period] <= period * (1 + 1e-9), (period, spacing)
+    assert spacing[0.045] > 2.0 * spacing[0.015]
