@@ -16,7 +16,8 @@ j = 10 a), no torque limit:
   default (inner knots, smoothing windows); the same with
   ``vibration_frequency=4``; and with ``speed_profile='time_optimal'``
   (``planning/time_optimal.py``: the third-order profile followed by a C4
-  spline);
+  spline), also with ``vibration_frequency=4`` (its jerk ramps before the
+  end);
 * TOPP-RA: as in ``bench_inner_knots`` (``bench_planning.toppra_trajectory``:
   toppra's spline through the waypoints, v/a, its default grid; no jerk
   limit).
@@ -26,7 +27,7 @@ TOPP-RA along our own path, that one over TOPP-RA, shaking at 4 and 8 Hz
 peak and residual, planning time; each over TOPP-RA's on the same path),
 median / worst over the arm's paths.  Planning times: best of
 :data:`REPEATS`, TOPP-RA's, the default's and time_optimal's in turn (the
-``vibration_frequency`` plan once).  Then, per arm, what a speed
+``vibration_frequency`` plans once each).  Then, per arm, what a speed
 profile alone could reach on the path the construction starts from
 (:func:`profile_bounds`: the natural cubic through the waypoints at their
 rest-to-rest times, step 1 of ``planning/inner_knots.py``), over TOPP-RA's
@@ -69,7 +70,8 @@ CASES = 10
 REPEATS = 3
 VIBRATION_FREQUENCY = 4.0           # [Hz] the second plan's vibration_frequency
 PLANS = ('default', f'vibration_frequency={VIBRATION_FREQUENCY:g}',
-         'speed_profile=time_optimal')
+         'speed_profile=time_optimal',
+         f'speed_profile=time_optimal, vibration_frequency={VIBRATION_FREQUENCY:g}')
 
 
 def construction_path(knots, points, steps=GRID_STEPS):
@@ -121,13 +123,17 @@ def run_case(arm, points):
     shaped_time, shaped = best_of(
         lambda: plan(points, '555', 'optimal', vibration_frequency=VIBRATION_FREQUENCY,
                      **limits), 1)
+    ramped_time, ramped = best_of(
+        lambda: plan(points, '555', 'optimal', vibration_frequency=VIBRATION_FREQUENCY,
+                     speed_profile='time_optimal', **limits), 1)
     reference = shaking_figures(of_toppra(top), top.duration, amax)
     joint = JointLimits.from_user(points.shape[1], vmax, amax, limits['max_jerk'])
     bounds = np.array(profile_bounds(
         *construction_path(rest_to_rest_knots(points, joint), points), joint))
     figures, held = {'bounds': list(bounds / top.duration) + [ours.duration / bounds[1]]}, True
     for name, traj, elapsed in ((PLANS[0], ours, t_ours), (PLANS[1], shaped, shaped_time),
-                                (PLANS[2], optimal, optimal_time)):
+                                (PLANS[2], optimal, optimal_time),
+                                (PLANS[3], ramped, ramped_time)):
         own = own_path.toppra_along(traj, own_path.velocity_acceleration(vmax, amax))
         figures[name] = bench_figures.figures(traj.duration, own.duration, top.duration,
                                               shaking_ratios(traj, reference, amax), elapsed,

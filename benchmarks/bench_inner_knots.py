@@ -9,7 +9,8 @@ default grid), the lower bound LB of the issue, and 555 optimal with knots
 at the waypoints only (``inner_knots=0``, before the issue) and with inner
 knots (the default), for no jerk limit, j = 20 a and j = 5 a, plus the
 default with ``vibration_frequency=4`` and ``speed_profile='time_optimal'``
-(``planning/time_optimal.py``) with no jerk limit and at j = 20 a.
+(``planning/time_optimal.py``) with no jerk limit and at j = 20 a, and
+time_optimal with ``vibration_frequency=4`` (its jerk ramps before the end).
 
 Every plan's figures (issue 38, ``bench_figures.py``), each over TOPP-RA's
 on the same case: the duration; the duration over TOPP-RA's along our own
@@ -145,6 +146,9 @@ def main():
                      for ratio in OPTIMAL_JERK_RATIOS}
     for optimal_name in optimal_names.values():
         rows[optimal_name] = []
+    ramped_name = (f'speed_profile=time_optimal, vibration_frequency={VIBRATION_FREQUENCY:g}, '
+                   f'{label(SHAKING_JERK)}')
+    rows[ramped_name] = []
     held = dict.fromkeys(rows, True)
     bounds = []
     for index in range(n_cases):
@@ -164,6 +168,9 @@ def main():
             if ratio == SHAKING_JERK:
                 plans.append((shaped_name,) + timed(
                     lambda: plan(waypoints, '555', 'optimal', inner_knots=inner,
+                                 vibration_frequency=VIBRATION_FREQUENCY, **kwargs)))
+                plans.append((ramped_name,) + timed(
+                    lambda: plan(waypoints, '555', 'optimal', speed_profile='time_optimal',
                                  vibration_frequency=VIBRATION_FREQUENCY, **kwargs)))
             if ratio in optimal_names:
                 plans.append((optimal_names[ratio],) + timed(

@@ -385,7 +385,8 @@ class ToolRates:
 
 def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_tool_speed=0.0,
                     max_tool_angular_speed=0.0, max_tool_acceleration=0.0, windows=(),
-                    max_inserted=None, torque=None, time_optimal=False):
+                    max_inserted=None, torque=None, time_optimal=False,
+                    vibration_frequency=0.0):
     """
     Return the :class:`ToolLines` of the tool path through ``edge_poses`` (module docstring).
 
@@ -404,8 +405,10 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
     then timed again along its own path by the third-order profile
     (:func:`planning.time_optimal.retime_path`, every limit above a row or a
     factor of it), and kept when its tool stays within the tolerances
-    (step 5).  ValueError when the inverse kinematics fails, no spline
-    meets the limits, or the tolerances are not reached.
+    (step 5); ``vibration_frequency`` [Hz] (0: none) ramps that profile's
+    jerk at the end (:func:`planning.time_optimal.end_ramps`).  ValueError
+    when the inverse kinematics fails, no spline meets the limits, or the
+    tolerances are not reached.
     """
     s, sigma, edge, waypoint_index = sample_edges(edge_poses)
     # One continuous walk through every sample (a redundant arm's joints
@@ -475,7 +478,7 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
             deviation, piece_edges = measured
     traj = timing.trajectory
     if time_optimal:
-        traj, measured = _retimed(traj, path, limits, kinematics, constraints,
+        traj, measured = _retimed(traj, path, limits, kinematics, constraints, vibration_frequency,
                                   (max_tool_speed, max_tool_angular_speed), measure, tolerances)
         if measured is not None:
             deviation, piece_edges = measured
@@ -517,7 +520,8 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
                      rounds, int(s.size), linear, angular, share, acceleration)
 
 
-def _retimed(traj, path, limits, kinematics, constraints, speeds, measure, tolerances):
+def _retimed(traj, path, limits, kinematics, constraints, vibration_frequency, speeds, measure,
+             tolerances):
     """
     Return (``traj`` timed by the third-order profile, its (deviation, piece edges)).
 
@@ -537,7 +541,8 @@ def _retimed(traj, path, limits, kinematics, constraints, speeds, measure, toler
     for which, speed in enumerate(speeds):
         if speed:
             retime_constraints.append(ToolSpeed(speed * SPEED_MARGIN, _rate_of(rates, which)))
-    retimed = retime_path(traj, limits, retime_constraints, path.piece_factors)
+    retimed = retime_path(traj, limits, retime_constraints, path.piece_factors,
+                          vibration_frequency)
     if retimed is not None and not retimed.duration < traj.duration:
         return traj, None       # the lines' own timing is the shorter: no failure
     reason = 'no time-optimal spline found'

@@ -493,7 +493,8 @@ def _tool_lines(edge_poses, waypoint_knots, kinematics, tolerances, speeds, max_
         found = plan_tool_lines(edge_poses, kinematics, options.limits, measure, tolerances,
                                 *speeds, windows=windows, max_inserted=max_inserted,
                                 torque=options.torque,
-                                time_optimal=options.speed_profile == 'time_optimal')
+                                time_optimal=options.speed_profile == 'time_optimal',
+                                vibration_frequency=vibration)
     except LineUnreachable:
         if not any(speeds):
             return None

@@ -147,8 +147,9 @@ def speed_profile_value(value, method, timing, inner_knots_given=False,
 
     None means "smoothed".  "time_optimal" needs method 555 with timing
     "optimal", and no option it would silently ignore: an ``inner_knots``
-    count (its knots follow the profile), a ``vibration_frequency`` or a
-    ``smoothing`` other than "auto" (it has no smoothing windows).  The
+    count (its knots follow the profile) or a ``smoothing`` other than
+    "auto" (it has no smoothing windows; a ``vibration_frequency`` ramps
+    its jerk at the end instead, :func:`time_optimal.end_ramps`).  The
     ``durations`` of timing "optimal" are only a warm start of the
     optimiser: it does not need one (plan() says so), and its fallback to
     "smoothed" uses them.  The limits are :func:`check_time_optimal_limits`',
@@ -167,10 +168,6 @@ def speed_profile_value(value, method, timing, inner_knots_given=False,
     if inner_knots_given:
         raise ValueError(f'speed_profile {value!r} places its own knots (every '
                          'few milliseconds of its profile): leave inner_knots unset (auto)')
-    if vibration_frequency:
-        raise ValueError(f'speed_profile {value!r} has no smoothing windows: '
-                         f'vibration_frequency {vibration_frequency:g} Hz would be ignored; '
-                         'use speed_profile "smoothed" with it')
     if smoothing != 'auto':
         raise ValueError(f'speed_profile {value!r} has no smoothing windows: smoothing '
                          f'{smoothing!r} would be ignored; use speed_profile "smoothed" with it')

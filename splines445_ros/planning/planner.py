@@ -176,7 +176,11 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         with non-zero boundary values the profile is not averaged
         (``optimizer['smoothing_windows']`` is then empty).  Given, the
         inner-knot plan is returned even where the knots-only optimum is
-        shorter (that one has no zero at ``f``).
+        shorter (that one has no zero at ``f``).  With ``speed_profile``
+        "time_optimal" there are no windows: in the last ``8 / f`` seconds
+        before a rest end a joint's acceleration swings over at least one
+        period ``1 / f`` (:func:`time_optimal.end_ramps`): about 1 % longer,
+        the residual vibration at ``f`` 2-4 times smaller.
     max_torque, inverse_dynamics : (n,) positive limits [N m] (inf: none) and
         a function ``tau(q, qd, qdd)`` ((N, n) each -> (N, n)), or both None
         (:mod:`torque`).  When ``inverse_dynamics`` has a callable attribute
@@ -209,7 +213,7 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         the jerk limit of every joint that has one (only velocity and
         acceleration on the others; moving ends are kept; torque limits are
         rows of its profile).  It needs velocity and acceleration limits, no
-        ``inner_knots``, ``vibration_frequency`` or ``smoothing``, and at
+        ``inner_knots`` or ``smoothing``, and at
         most :data:`plan_options.MAX_TIME_OPTIMAL_WAYPOINTS` waypoints
         (ValueError otherwise); ``durations`` are not used.  Should it find
         no spline, the plan is "smoothed"'s, with
@@ -362,7 +366,8 @@ def _plan_limited(points, durations, options):
         start = np.diff(np.delete(np.concatenate([[0.0], np.cumsum(start)]), dropped))
     if options.speed_profile == 'time_optimal':
         check_time_optimal_waypoints(points.shape[0])
-        followed = plan_time_optimal(points, limits, dropped, torque, boundary)
+        followed = plan_time_optimal(points, limits, dropped, torque, boundary,
+                                     options.vibration_frequency)
         if followed is not None:
             return followed
         # No spline found: the default construction's plan of the request as

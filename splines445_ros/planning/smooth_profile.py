@@ -339,7 +339,12 @@ class SmoothProfile:
     acceleration), applied at the same row points; ``ends`` the squared
     path speeds at the start and the end (0: at rest, the end terms; a
     moving end has ``x = x_e`` and ``x' = 0``, the path carrying the
-    boundary velocity and acceleration in its own time).  Solved on construction;
+    boundary velocity and acceleration in its own time); ``end_ramp`` [s]
+    and ``end_window`` [s] (0: none): within ``end_window`` of a rest end,
+    every joint's jerk is also at most its acceleration limit over
+    ``end_ramp`` (``time_optimal``'s ``vibration_frequency``: ramps of one
+    period of the mode, the stop's content at it small, see
+    :meth:`_row_jerk`).  Solved on construction;
     raises ValueError on bad input (a constraint's own, such as
     :class:`path_constraints.GravityOverload`) and RuntimeError when the
     first LP fails.
@@ -349,7 +354,8 @@ class SmoothProfile:
     ``end_lengths`` (L at each end), ``duration``, ``lps`` (HiGHS solves).
     """
 
-    def __init__(self, path, grid, velocity, acceleration, jerk, constraints=(), ends=(0.0, 0.0)):
+    def __init__(self, path, grid, velocity, acceleration, jerk, constraints=(), ends=(0.0, 0.0),
+                 end_ramp=0.0, end_window=0.0):
         """Check the input, solve the LPs and prepare the time law."""
         if not isinstance(path, PPoly):
             raise ValueError(f'path must be a scipy PPoly, got {type(path).__name__}')
@@ -374,6 +380,11 @@ class SmoothProfile:
         self.ends = tuple(float(e) for e in ends)
         if len(self.ends) != 2 or not all(np.isfinite(e) and e >= 0.0 for e in self.ends):
             raise ValueError(f'ends must be two squared path speeds >= 0, got {ends}')
+        self.end_ramp, self.end_window = float(end_ramp), float(end_window)
+        if not (np.isfinite(self.end_ramp) and np.isfinite(self.end_window)
+                and self.end_ramp >= 0.0 and self.end_window >= 0.0):
+            raise ValueError(f'end_ramp and end_window must be finite and >= 0, got '
+                             f'{end_ramp}, {end_window}')
         if any(c.order not in (1, 2) for c in self.constraints):
             raise ValueError('constraints must be first or second order (path_constraints)')
         self.start, self.end = grid[0], grid[-1]
@@ -444,14 +455,41 @@ class SmoothProfile:
         acc = sp.diags(0.5 * d1) @ stacked(x1) + sp.diags(d2) @ stacked(x)
         jerk = (sp.diags(0.5 * d1) @ stacked(x2) + sp.diags(1.5 * d2) @ stacked(x1)
                 + sp.diags(d3) @ stacked(x))
-        # Jerk rows only for the joints with a jerk limit (inf: none).
-        jerk = jerk[np.repeat(np.isfinite(self.jerk), n)]
+        # Jerk rows for the joints with a jerk limit (inf: none), or for all
+        # of them with end ramps (the others' rows bind only near the end).
+        joints = self._jerk_joints()
+        jerk = jerk[np.repeat(joints, n)]
         more, more_bound = self._constraint_rows(points, x, x1)
         rows = sp.vstack([x, -x, acc, -acc] + more + [jerk, -jerk], format='csr')
-        jerk_bound = np.tile(np.repeat(self.jerk[np.isfinite(self.jerk)], n), 2)
+        jerk_bound = np.tile(np.repeat(self.jerk[joints], n), 2)
         bound = np.concatenate([np.zeros(2 * n), np.tile(np.repeat(self.acceleration, n), 2)]
                                + more_bound + [np.zeros(jerk_bound.size)])
         return x, rows, bound, jerk_bound
+
+    def _ramped(self):
+        """Whether the end ramps apply: an ``end_ramp`` and a rest end."""
+        return self.end_ramp > 0.0 and self.end_window > 0.0 and self.ends[1] == 0.0
+
+    def _jerk_joints(self):
+        """Return the joints (n,) bool that have jerk rows."""
+        return np.isfinite(self.jerk) | self._ramped()
+
+    def _row_jerk(self, points, x_q, jerk):
+        """
+        Return each jerk row's limit for the LP linearised at ``x_q``: the end ramps' too.
+
+        Within ``end_window`` [s] of the end on the profile ``x_q`` (the last
+        LP's: the window moves with it), ``min(jerk, a / end_ramp)``: a
+        swing of a joint's whole acceleration takes at least ``end_ramp``.
+        """
+        if not self._ramped():
+            return jerk
+        n = points.size
+        step = np.diff(points, prepend=self.start) / np.sqrt(x_q)
+        left = np.sum(step) - np.cumsum(step) + step        # time to the end [s]
+        ramp = np.tile(np.repeat(self.acceleration[self._jerk_joints()] / self.end_ramp, n), 2)
+        near = np.tile(left <= self.end_window, jerk.size // n)
+        return np.where(near, np.minimum(jerk, ramp), jerk)
 
     def _constraint_rows(self, points, x, x1):
         """
@@ -504,11 +542,16 @@ class SmoothProfile:
         for iteration, growth in enumerate(GROWTH):
             x_q = np.maximum(x_p, MIN_WEIGHT_SHARE * x_p.max())
             x_r = np.tile(x_q, jerk.size // n)
-            # The tangent of j / sqrt(x) at x_q: conservative for every x > 0.
-            rows.data[first:] = jerk_data + (0.5 * jerk * x_r ** -1.5)[row_of_entry] * x_data
+            # The tangent of j / sqrt(x) at x_q: conservative for every x > 0
+            # (rows without a limit: never violated, never in an LP).
+            row_jerk = self._row_jerk(points, x_q, jerk)
+            limited = np.isfinite(row_jerk)
+            tangent = np.where(limited, 0.5 * np.where(limited, row_jerk, 0.0) * x_r ** -1.5, 0.0)
+            rows.data[first:] = jerk_data + tangent[row_of_entry] * x_data
             bound[:n] = x_max if iteration == 0 else np.minimum(
                 x_max, np.maximum(growth * x_p, (growth - 1.0) * RESTART_SHARE * x_max))
-            bound[bound.size - jerk.size:] = 1.5 * jerk / np.sqrt(x_r)
+            bound[bound.size - jerk.size:] = np.where(limited, 1.5 * row_jerk / np.sqrt(x_r),
+                                                      np.inf)
             cost = -(x.T @ (width / x_q ** 1.5))
             work = rows @ z_best > (KEEP if iteration else FIRST_KEEP) * bound
             work[:n:DENSE] = True       # x <= cap about once a grid step: a bounded LP
@@ -571,6 +614,8 @@ class SmoothProfile:
             slope = np.abs(np.atleast_1d(self.path(s, 1)))
             with np.errstate(divide='ignore'):
                 path_jerk = np.min(self.jerk / slope)
+                if column == count + 2 and self._ramped():
+                    path_jerk = min(path_jerk, np.min(self.acceleration / self.end_ramp / slope))
             bounds[column] = (0.0, None if np.isinf(path_jerk) else
                               (4.5 * path_jerk) ** (2.0 / 3.0))
         return bounds

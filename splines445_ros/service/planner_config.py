@@ -198,7 +198,10 @@ class PlannerConfig(ValidatedConfig):
         'windows of 1/f instead of the default 0.3 s and 0.15 s, so that the plan leaves '
         'little vibration at f (2/f longer; the default windows: 0.45 s). 0 (the default) = '
         'not used: as `smoothing` says. Rest-to-rest requests only: with a moving start or end '
-        '(replanning) the profile is not averaged and the parameter changes nothing.',
+        '(replanning) the profile is not averaged and the parameter changes nothing. With '
+        '`speed_profile: time_optimal` there are no windows: the jerk ramps of the last 8/f '
+        'seconds before a rest end last one period 1/f (about 1 % longer, the residual '
+        'vibration at f 2-4 times smaller).',
         low=0.0, high=MAX_VIBRATION_FREQUENCY, unit='Hz')
     smoothing: str = parameter(
         'auto', '`auto` (the default), `windows` or `none`, for `method: 555` with `timing: '
@@ -221,8 +224,9 @@ class PlannerConfig(ValidatedConfig):
         'most '
         f'{MAX_TIME_OPTIMAL_WAYPOINTS} waypoints; where it finds no spline (a moving state it '
         "cannot keep, a joint reversing alone) the plan is `smoothed`'s, with a warning. "
-        '`vibration_frequency`, `smoothing` and `inner_knots` are refused with it (it would '
-        "ignore them). On tool_waypoints requests the tool lines' path is timed again by the "
+        '`smoothing` and `inner_knots` are refused with it (it would ignore them); '
+        '`vibration_frequency` ramps its jerk before the end. On tool_waypoints requests '
+        "the tool lines' path is timed again by the "
         'same profile (tool speed and acceleration as its rows), kept when shorter and within '
         'the tolerances.', choices=SPEED_PROFILES)
     model_file: str = parameter(
@@ -389,7 +393,7 @@ class PlannerConfig(ValidatedConfig):
         Refuse a ``speed_profile`` "time_optimal" that every request would refuse, or ignore.
 
         The library's check (:func:`speed_profile_value`: 555 optimal, no
-        ``inner_knots``, ``vibration_frequency`` or ``smoothing``).  Its
+        ``inner_knots`` or ``smoothing``).  Its
         profile holds the jerk limits where ``max_jerk`` gives them, and
         torque limits as its rows.
         """

@@ -56,7 +56,6 @@ def test_the_default_is_smoothed_and_time_optimal_reaches_plan():
     ({'method': '445'}, 'needs method "555"'),
     ({'timing': 'uniform'}, 'needs method "555"'),
     ({'inner_knots': 4}, 'leave inner_knots unset'),
-    ({'vibration_frequency': 4.0}, 'vibration_frequency 4 Hz would be ignored'),
     ({'smoothing': 'none'}, "smoothing 'none' would be ignored"),
 ])
 def test_config_refuses_what_it_would_ignore_or_cannot_hold(overrides, message):
@@ -80,6 +79,17 @@ def test_joints_with_max_jerk_0_are_planned_without_a_jerk_limit(max_jerk):
     assert np.all(jerk[limited] <= 1.01 * 100.0)
     # Without a jerk limit the same request is no longer (the profile has fewer rows).
     assert traj.duration <= plan_request(config(), request()).duration * (1 + 1e-3)
+
+
+def test_vibration_frequency_ramps_the_stop():
+    cfg = config(vibration_frequency=4.0).with_defaults()
+    cfg.validate()
+    traj = plan_request(cfg, request())
+    assert traj.optimizer['speed_profile'] == 'time_optimal'
+    assert traj.optimizer['end_ramp'] == 0.25
+    assert traj.within_limits(rtol=1e-9)
+    plain = plan_request(config(), request())
+    assert plain.duration < traj.duration <= plain.duration + 0.6
 
 
 def test_replanning_from_a_moving_state_keeps_the_state():
@@ -109,6 +119,23 @@ def test_tool_waypoints_are_timed_again_along_the_lines_path():
     assert tool.max_deviation <= cfg.max_path_deviation
 
 
+def test_tool_waypoints_with_vibration_frequency_ramp_the_retimed_stop():
+    cfg = config(kinematics='planar_3dof', max_path_deviation=0.002,
+                 vibration_frequency=4.0).with_defaults()
+    cfg.validate()
+    poses = np.array([[1.2, 0.3, 0.0], [1.0, 0.6, 0.2], [0.8, 0.2, -0.1]])
+    tool = plan_tool_request(cfg, poses)
+    # The lines' own timing is averaged over two windows of 1 / f; timed
+    # again with the end ramps instead, this path is the shorter.
+    smoothed = plan_tool_request(replace(cfg, speed_profile='smoothed'), poses)
+    assert smoothed.trajectory.optimizer['smoothing_windows'] == [0.25, 0.25]
+    optimizer = tool.trajectory.optimizer
+    assert optimizer['speed_profile'] == 'time_optimal' and optimizer['end_ramp'] == 0.25
+    assert tool.trajectory.duration < smoothed.trajectory.duration
+    assert tool.trajectory.within_limits(rtol=1e-9)
+    assert tool.max_deviation <= cfg.max_path_deviation
+
+
 def test_no_spline_is_a_warning_and_the_plan_holds_every_limit(monkeypatch):
     monkeypatch.setattr(planner, 'plan_time_optimal', lambda *args: None)
     traj = plan_request(config(), request())
@@ -126,11 +153,11 @@ def test_node_declares_and_validates_speed_profile():
         assert 'time_optimal' in node.describe_parameter('speed_profile').description
         # With an option it would ignore: refused with the reason, the old values kept.
         bad = node.set_parameters_atomically([
-            Parameter('vibration_frequency', value=4.0),
+            Parameter('smoothing', value='none'),
             Parameter('speed_profile', value='time_optimal')])
         assert not bad.successful and 'would be ignored' in bad.reason
         assert node.parameters.config.speed_profile == 'smoothed'
-        assert node.parameters.config.vibration_frequency == 0.0
+        assert node.parameters.config.smoothing == 'auto'
         # The planar default has no jerk limit: the profile holds velocity and acceleration.
         good = node.set_parameters([Parameter('speed_profile', value='time_optimal')])[0]
         assert good.successful, good.reason

@@ -163,6 +163,11 @@ def test_bad_input_is_refused():
         SmoothProfile(path, grid[::-1], v, a, j)
     with pytest.raises(ValueError, match='PPoly'):
         SmoothProfile(lambda s: s, grid, v, a, j)
+    with pytest.raises(ValueError, match='positive'):
+        SmoothProfile(path, grid, v, a, np.nan)
+    for ramp, window in ((-0.25, 2.0), (0.25, np.inf), (np.nan, 1.0)):
+        with pytest.raises(ValueError, match='end_ramp and end_window'):
+            SmoothProfile(path, grid, v, a, j, end_ramp=ramp, end_window=window)
 
 
 @pytest.mark.parametrize('seed', SEEDS[:4])

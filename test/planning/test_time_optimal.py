@@ -15,6 +15,7 @@ import pytest
 from reference_spline import exact_peaks
 from scipy.interpolate import CubicSpline, make_interp_spline
 from scipy.optimize import linprog
+from scipy.signal import lsim
 from splines445_ros.planning import plan
 from splines445_ros.planning import planner, time_optimal
 from splines445_ros.planning.limits import JointLimits
@@ -187,7 +188,6 @@ def test_merged_waypoints_are_reported():
 @pytest.mark.parametrize('kwargs, message', [
     ({'speed_profile': 'fastest'}, 'speed_profile must be one of'),
     ({'inner_knots': 4}, 'leave inner_knots unset'),
-    ({'vibration_frequency': 4.0}, 'vibration_frequency 4 Hz would be ignored'),
     ({'smoothing': 'none'}, "smoothing 'none' would be ignored"),
     ({'max_velocity': None, 'max_acceleration': None, 'max_jerk': None},
      'needs max_velocity and max_acceleration'),
@@ -405,3 +405,61 @@ def test_the_knots_are_about_one_knot_period_apart(monkeypatch):
         # At most the period apart (the segments' counts are rounded up, pieces halved).
         assert period / 2.5 <= spacing[period] <= period * (1 + 1e-9), (period, spacing)
     assert spacing[0.045] > 2.0 * spacing[0.015]
+
+
+def residual_vibration(traj, frequency, zeta=0.02, rate=1000.0, periods=2.0):
+    """
+    Return the largest ringing after ``traj`` ends, of a mode at ``frequency`` on each joint.
+
+    ``x'' + 2 zeta w x' + w**2 x = -qdd(t)``, driven by the plan's own
+    acceleration (its polynomials, sampled at ``rate``) and then by
+    nothing for ``periods`` periods; in units of ``a / w**2`` per joint
+    (the static deflection at the largest acceleration of the plan).
+    """
+    w = 2.0 * np.pi * frequency
+    t = np.arange(0.0, traj.duration + periods / frequency, 1.0 / rate)
+    qdd = np.where(t[:, None] <= traj.duration, traj.ppoly(np.minimum(t, traj.duration), 2),
+                   0.0)
+    after = t > traj.duration
+    worst = 0.0
+    for j in range(qdd.shape[1]):
+        _, x, _ = lsim(([-1.0], [1.0, 2.0 * zeta * w, w * w]), qdd[:, j], t)
+        worst = max(worst, np.max(np.abs(x[after])) * w * w / np.max(np.abs(qdd[:, j])))
+    return worst
+
+
+@pytest.mark.parametrize('seed, jerk_limited', [
+    (0, True), (1, True), (2, True), (3, True), (4, False), (5, False)])
+def test_vibration_frequency_ramps_the_jerk_before_the_end(seed, jerk_limited):
+    """In the last 8 / f seconds every joint's jerk is at most a f (a swing of a lasts 1 / f)."""
+    points, limits = random_request(500 + seed, max_points=12, min_points=5)
+    if not jerk_limited:
+        limits['max_jerk'] = None
+    frequency = 4.0
+    traj = plan(points, '555', 'optimal', speed_profile='time_optimal',
+                vibration_frequency=frequency, **limits)
+    assert traj.optimizer['speed_profile'] == 'time_optimal'
+    assert traj.optimizer['end_ramp'] == pytest.approx(1.0 / frequency)
+    assert traj.within_limits(rtol=1e-9)
+    assert np.max(np.abs(traj.ppoly(traj.waypoint_times) - points)) <= 1e-9 * max(
+        1.0, float(np.max(np.abs(points))))
+    # The window moves with the profile's LPs: its last three quarters.
+    t = np.arange(max(0.0, traj.duration - 0.75 * 8.0 / frequency), traj.duration, 1e-3)
+    ramp = np.max(np.abs(traj.ppoly(t, 3)) / (limits['max_acceleration'] * frequency))
+    assert ramp <= 1.1, ramp
+    plain = time_optimal_plan(points, limits)
+    assert plain.optimizer['end_ramp'] == 0.0
+    # The ramps cost about what the default's two windows of 1 / f do (2 / f).
+    assert plain.duration < traj.duration <= plain.duration + 2.4 / frequency
+
+
+def test_vibration_frequency_leaves_less_ringing_after_the_end():
+    """The test's own damped oscillator at f rings less after the stop (2-6 s moves)."""
+    ratios = []
+    for seed in range(6):
+        points, limits = random_request(600 + seed, max_points=12, min_points=5)
+        plain = time_optimal_plan(points, limits)
+        ramped = plan(points, '555', 'optimal', speed_profile='time_optimal',
+                      vibration_frequency=4.0, **limits)
+        ratios.append(residual_vibration(ramped, 4.0) / residual_vibration(plain, 4.0))
+    assert np.median(ratios) < 0.6, ratios
