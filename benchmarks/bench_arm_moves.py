@@ -147,7 +147,8 @@ def main():
     seed, cases, arms = bench_arms.start_run(CASES)
     print(f"{cases} random joint paths per arm (seed {seed}, the arm's stream), the arm's "
           'v/a/j limits, no torque; each plan over TOPP-RA (v/a, no jerk) on the same path; '
-          f'planning times best of {REPEATS}, in turn; median / worst')
+          f'planning times best of {REPEATS}, in turn (the vibration_frequency plans: '
+          'once); median / worst')
     print('| arm | j / a | plan | ' + bench_figures.header() + ' | limits held |')
     print(bench_figures.rule(4 + len(bench_figures.NAMES)))
     bounds = {}

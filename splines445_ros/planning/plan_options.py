@@ -140,8 +140,7 @@ def smoothing_value(value, vibration_frequency, inner_knots):
     return value
 
 
-def speed_profile_value(value, method, timing, inner_knots_given=False,
-                        vibration_frequency=0.0, smoothing='auto'):
+def speed_profile_value(value, method, timing, inner_knots_given=False, smoothing='auto'):
     """
     Validate the ``speed_profile`` argument of plan(); return one of :data:`SPEED_PROFILES`.
 
@@ -149,11 +148,12 @@ def speed_profile_value(value, method, timing, inner_knots_given=False,
     "optimal", and no option it would silently ignore: an ``inner_knots``
     count (its knots follow the profile) or a ``smoothing`` other than
     "auto" (it has no smoothing windows; a ``vibration_frequency`` ramps
-    its jerk at the end instead, :func:`time_optimal.end_ramps`).  The
+    its jerk at the end instead, :func:`time_optimal.vibration_ramps`).  The
     ``durations`` of timing "optimal" are only a warm start of the
     optimiser: it does not need one (plan() says so), and its fallback to
-    "smoothed" uses them.  The limits are :func:`check_time_optimal_limits`',
-    the waypoint count :func:`check_time_optimal_waypoints`'.
+    "smoothed" uses them.  Its limits are timing "optimal"'s (velocity and
+    acceleration, jerk where given), the waypoint count
+    :func:`check_time_optimal_waypoints`'.
     """
     if value is None:
         return 'smoothed'
@@ -172,20 +172,6 @@ def speed_profile_value(value, method, timing, inner_knots_given=False,
         raise ValueError(f'speed_profile {value!r} has no smoothing windows: smoothing '
                          f'{smoothing!r} would be ignored; use speed_profile "smoothed" with it')
     return value
-
-
-def check_time_optimal_limits(limits):
-    """
-    Raise ValueError unless ``limits`` are given (velocity and acceleration).
-
-    speed_profile "time_optimal"'s profile holds the jerk limits of the
-    joints that have one, and only their velocity and acceleration
-    limits on the others (moving ends are planned too; torque limits,
-    planned rest to rest, refuse them already).
-    """
-    if limits is None:
-        raise ValueError('speed_profile "time_optimal" needs max_velocity and '
-                         'max_acceleration')
 
 
 def check_time_optimal_waypoints(n_points):
@@ -279,8 +265,7 @@ class PlanOptions:
       (:data:`SMOOTHINGS`) and ``windows`` [s], the speed profile's moving
       windows they give (:func:`smoothing_windows`);
     * ``torque``: the :class:`~.torque.TorqueLimit`, or None;
-    * ``speed_profile`` (:data:`SPEED_PROFILES`): "time_optimal" was checked
-      against the limits too (:func:`check_time_optimal_limits`).
+    * ``speed_profile`` (:data:`SPEED_PROFILES`).
     """
 
     method: str
@@ -321,7 +306,7 @@ class PlanOptions:
             raise ValueError('max_torque and inverse_dynamics must be given together')
         smoothing = smoothing_value(smoothing, vibration, knots)
         profile = speed_profile_value(speed_profile, method, timing, inner_knots is not None,
-                                      vibration, smoothing)
+                                      smoothing)
         windows = smoothing_windows(vibration, smoothing, max_torque is not None)
         boundary = boundary_vectors((start_velocity, start_acceleration, end_velocity,
                                      end_acceleration), n_joints)
@@ -344,8 +329,6 @@ class PlanOptions:
                 j = int(bad[0])
                 raise ValueError(f'min_position[{j}] = {low[j]} is above max_position[{j}] = '
                                  f'{high[j]}')
-        if profile != 'smoothed':
-            check_time_optimal_limits(limits)
         return cls(method, timing, limits, boundary, tolerance, low, high, knots,
                    inner_knots is None, vibration, smoothing, windows, torque, profile)
 
@@ -392,8 +375,6 @@ class PlanOptions:
                                      np.full(n_joints, np.inf) if max_jerk is None
                                      else np.array(max_jerk, dtype=float))
             check_boundary_feasible(limits, *boundary)
-        if speed_profile != 'smoothed':
-            check_time_optimal_limits(limits)
         return cls(method, timing, limits, boundary, float(waypoint_tolerance), None, None, knots,
                    inner_knots is None, vibration, smoothing, windows, torque, speed_profile)
 

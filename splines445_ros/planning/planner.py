@@ -172,15 +172,18 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         the speed profile is averaged over two windows of ``1 / f``, so the
         path acceleration has no content at ``f`` (:func:`plan_options.
         smoothing_windows`).  None or 0 (the default): as ``smoothing``
-        says.  Rest-to-rest requests only:
+        says.  "smoothed" averages rest-to-rest requests only:
         with non-zero boundary values the profile is not averaged
         (``optimizer['smoothing_windows']`` is then empty).  Given, the
         inner-knot plan is returned even where the knots-only optimum is
         shorter (that one has no zero at ``f``).  With ``speed_profile``
         "time_optimal" there are no windows: in the last ``8 / f`` seconds
-        before a rest end a joint's acceleration swings over at least one
-        period ``1 / f`` (:func:`time_optimal.end_ramps`): about 1 % longer,
-        the residual vibration at ``f`` 2-4 times smaller.
+        before a rest end (from a moving start too) a swing of a joint's
+        whole acceleration lasts at least one period ``1 / f``
+        (:func:`time_optimal.vibration_ramps`, ``optimizer['end_ramp']``):
+        on moves of several seconds about 1 % longer, the residual
+        vibration at ``f`` 2-4 times smaller; moves shorter than ``8 / f``
+        cost up to ``2 / f`` and can ring more.
     max_torque, inverse_dynamics : (n,) positive limits [N m] (inf: none) and
         a function ``tau(q, qd, qdd)`` ((N, n) each -> (N, n)), or both None
         (:mod:`torque`).  When ``inverse_dynamics`` has a callable attribute

@@ -33,7 +33,8 @@ linear in its coefficients ``z``:
   path jerk ``J`` from rest: ``s = J t**3/6`` gives
   ``x = (J**2/4) (6 s/J)**(4/3)``, so ``J = (2/9) alpha**1.5``.  The bound
   ``alpha <= (4.5 min_j j_j / |q'_j(end)|)**(2/3)`` holds the jerk at the
-  end itself, and it is linear.  ``s**(5/3)`` lets the jerk change away
+  end itself (with end ramps ``j_j`` is at most ``a_j / end_ramp`` at the
+  final end), and it is linear.  ``s**(5/3)`` lets the jerk change away
   from the end.  As ``x``, ``x'`` and ``x''`` are continuous, ``s(t)`` has
   continuous acceleration and jerk; the jerk of ``q(s(t))`` jumps only at
   the waypoints, with ``q'''``.
@@ -466,13 +467,14 @@ class SmoothProfile:
                                + more_bound + [np.zeros(jerk_bound.size)])
         return x, rows, bound, jerk_bound
 
-    def _ramped(self):
-        """Whether the end ramps apply: an ``end_ramp`` and a rest end."""
+    @property
+    def ramped(self):
+        """Whether the end ramps apply: an ``end_ramp``, an ``end_window`` and a rest end."""
         return self.end_ramp > 0.0 and self.end_window > 0.0 and self.ends[1] == 0.0
 
     def _jerk_joints(self):
         """Return the joints (n,) bool that have jerk rows."""
-        return np.isfinite(self.jerk) | self._ramped()
+        return np.isfinite(self.jerk) | self.ramped
 
     def _row_jerk(self, points, x_q, jerk):
         """
@@ -482,7 +484,7 @@ class SmoothProfile:
         LP's: the window moves with it), ``min(jerk, a / end_ramp)``: a
         swing of a joint's whole acceleration takes at least ``end_ramp``.
         """
-        if not self._ramped():
+        if not self.ramped:
             return jerk
         n = points.size
         step = np.diff(points, prepend=self.start) / np.sqrt(x_q)
@@ -614,7 +616,7 @@ class SmoothProfile:
             slope = np.abs(np.atleast_1d(self.path(s, 1)))
             with np.errstate(divide='ignore'):
                 path_jerk = np.min(self.jerk / slope)
-                if column == count + 2 and self._ramped():
+                if column == count + 2 and self.ramped:
                     path_jerk = min(path_jerk, np.min(self.acceleration / self.end_ramp / slope))
             bounds[column] = (0.0, None if np.isinf(path_jerk) else
                               (4.5 * path_jerk) ** (2.0 / 3.0))

@@ -13,8 +13,11 @@ optimum when that is shorter.  Here the profile itself holds the jerk
    its own time), on :data:`inner_knots.GRID_STEPS` grid steps a segment.
 2. Profile.  :class:`smooth_profile.SmoothProfile`: ``x(s) = sdot**2``, C2
    in ``s``, time-optimal under every joint's velocity, acceleration and
-   :data:`JERK_MARGIN` times its jerk limit, at rest at both ends or at the
-   boundary velocity and acceleration (the equations are in that module).
+   :data:`JERK_MARGIN` times its jerk limit (none on a joint without one),
+   at rest at both ends or at the boundary velocity and acceleration (the
+   equations are in that module).  With a ``vibration_frequency`` f the
+   last :data:`END_PERIODS` periods before a rest end also hold
+   ``JERK_MARGIN a f`` (:func:`vibration_ramps`).
    Its exact time law gives the time at which every waypoint is passed.
 3. Knots.  At the waypoints, at those times, and at equal time fractions
    of each segment, about :data:`KNOT_PERIOD` apart; each inner knot at
@@ -149,11 +152,16 @@ def knot_fractions(segment_times, period=None):
     return [np.arange(m) / m for m in counts]
 
 
-def end_ramps(vibration_frequency):
+def vibration_ramps(vibration_frequency):
     """Return SmoothProfile's (end_ramp, end_window) [s] for ``vibration_frequency`` (0: none)."""
     if not vibration_frequency:
         return 0.0, 0.0
     return 1.0 / vibration_frequency, END_PERIODS / vibration_frequency
+
+
+def _end_ramp(profile, vibration_frequency):
+    """Return optimizer['end_ramp']: the ramps' period [s], 0 where none (a moving end)."""
+    return vibration_ramps(vibration_frequency)[0] if profile.ramped else 0.0
 
 
 def plan_time_optimal(points, limits, dropped=(), torque=None, boundary=None,
@@ -175,7 +183,7 @@ def plan_time_optimal(points, limits, dropped=(), torque=None, boundary=None,
     profile's first LP fails, when it stops inside the path, or when no
     spline is found (the caller falls back to the default construction).
     ``vibration_frequency`` [Hz] (0: none): the stop at a rest end ramps
-    its jerk over one period of it (:func:`end_ramps`).
+    its jerk over one period of it (:func:`vibration_ramps`).
     """
     n = points.shape[1]
     boundary = tuple(np.zeros(n) for _ in range(4)) if boundary is None else tuple(boundary)
@@ -218,7 +226,7 @@ def _followed_trajectory(points, limits, dropped, torque, boundary, moving, dura
     for margin in MOVING_MARGINS if any(moving) else (1.0,):
         followed = _follow(problem, ppoly, grid, knots, limits, constraints,
                            tuple(float(m) for m in moving), margin,
-                           end_ramps(vibration_frequency))
+                           vibration_ramps(vibration_frequency))
         if followed is None:
             return None
         profile, candidate = followed
@@ -229,7 +237,7 @@ def _followed_trajectory(points, limits, dropped, torque, boundary, moving, dura
                 'inner_knots_per_segment': candidate.counts.tolist(),
                 'profile_lps': profile.lps, 'profile_duration': float(profile.duration),
                 'time_scale': float(candidate.scale), 'limit_margin': margin,
-                'end_ramp': end_ramps(vibration_frequency)[0], 'smoothing_windows': []})
+                'end_ramp': _end_ramp(profile, vibration_frequency), 'smoothing_windows': []})
     return None
 
 
@@ -303,7 +311,7 @@ def retime_path(traj, limits, constraints=(), piece_factors=None, vibration_freq
                             limits, True)
     try:
         followed = _follow(problem, traj.ppoly, grid, knots, limits, tuple(constraints),
-                           ramps=end_ramps(vibration_frequency))
+                           ramps=vibration_ramps(vibration_frequency))
     except ValueError:
         return None     # a constraint's own refusal: the lines keep their timing
     if followed is None or followed[1] is None:
@@ -313,4 +321,4 @@ def retime_path(traj, limits, constraints=(), piece_factors=None, vibration_freq
         'speed_profile': NAME, 'knots': int(candidate.pieces.size + 1),
         'profile_lps': profile.lps, 'profile_duration': float(profile.duration),
         'time_scale': float(candidate.scale), 'retimed_duration': float(traj.duration),
-        'end_ramp': end_ramps(vibration_frequency)[0], 'smoothing_windows': []})
+        'end_ramp': _end_ramp(profile, vibration_frequency), 'smoothing_windows': []})

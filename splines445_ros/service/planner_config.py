@@ -197,11 +197,12 @@ class PlannerConfig(ValidatedConfig):
         'and `inner_knots` > 0 (refused otherwise): the speed profile is averaged over two '
         'windows of 1/f instead of the default 0.3 s and 0.15 s, so that the plan leaves '
         'little vibration at f (2/f longer; the default windows: 0.45 s). 0 (the default) = '
-        'not used: as `smoothing` says. Rest-to-rest requests only: with a moving start or end '
-        '(replanning) the profile is not averaged and the parameter changes nothing. With '
-        '`speed_profile: time_optimal` there are no windows: the jerk ramps of the last 8/f '
-        'seconds before a rest end last one period 1/f (about 1 % longer, the residual '
-        'vibration at f 2-4 times smaller).',
+        'not used: as `smoothing` says. With `speed_profile: smoothed`, rest-to-rest requests '
+        'only: with a moving start or end (replanning) the profile is not averaged and the '
+        'parameter changes nothing. With `speed_profile: time_optimal` there are no windows: '
+        'the jerk ramps of the last 8/f seconds before a rest end (replanning too) last one '
+        'period 1/f: on moves of several seconds about 1 % longer and a residual vibration at '
+        'f 2-4 times smaller; moves shorter than 8/f cost up to 2/f and can ring more.',
         low=0.0, high=MAX_VIBRATION_FREQUENCY, unit='Hz')
     smoothing: str = parameter(
         'auto', '`auto` (the default), `windows` or `none`, for `method: 555` with `timing: '
@@ -398,8 +399,7 @@ class PlannerConfig(ValidatedConfig):
         torque limits as its rows.
         """
         speed_profile_value(self.speed_profile, self.method, self.timing,
-                            self.inner_knots != AUTO_INNER_KNOTS, self.vibration_frequency,
-                            self.smoothing)
+                            self.inner_knots != AUTO_INNER_KNOTS, self.smoothing)
 
     def _validate_tool_paths(self):
         self.require_positive('link_lengths', 2)

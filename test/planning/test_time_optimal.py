@@ -89,8 +89,9 @@ def test_joints_without_a_jerk_limit_hold_velocity_and_acceleration(seed):
     ratios = [exact_peaks(traj.ppoly, k).max(axis=0) / limits[name] for k, name in
               ((1, 'max_velocity'), (2, 'max_acceleration'), (3, 'max_jerk'))]
     assert max(np.max(r) for r in ratios) <= 1.0 + 1e-9
-    assert max(np.max(r) for r in ratios[:2]) >= 1.0 - 1e-6
-    assert np.all(ratios[2][free] == 0.0)
+    # One limit binds (step 4's exact factor): the jerk of a limited joint, or v or a.
+    assert max(np.max(r) for r in ratios) >= 1.0 - 1e-6
+    assert np.all(np.isfinite(exact_peaks(traj.ppoly, 3)))
 
 
 def reference_topp_duration(path, vmax, amax, steps=2000):
@@ -189,8 +190,6 @@ def test_merged_waypoints_are_reported():
     ({'speed_profile': 'fastest'}, 'speed_profile must be one of'),
     ({'inner_knots': 4}, 'leave inner_knots unset'),
     ({'smoothing': 'none'}, "smoothing 'none' would be ignored"),
-    ({'max_velocity': None, 'max_acceleration': None, 'max_jerk': None},
-     'needs max_velocity and max_acceleration'),
     ({'timing': 'uniform'}, 'needs method "555" with timing "optimal"'),
     ({'method': '445'}, 'needs method "555" with timing "optimal"'),
 ])
@@ -407,14 +406,14 @@ def test_the_knots_are_about_one_knot_period_apart(monkeypatch):
     assert spacing[0.045] > 2.0 * spacing[0.015]
 
 
-def residual_vibration(traj, frequency, zeta=0.02, rate=1000.0, periods=2.0):
+def residual_vibration(traj, frequency, limit, zeta=0.02, rate=1000.0, periods=2.0):
     """
     Return the largest ringing after ``traj`` ends, of a mode at ``frequency`` on each joint.
 
     ``x'' + 2 zeta w x' + w**2 x = -qdd(t)``, driven by the plan's own
     acceleration (its polynomials, sampled at ``rate``) and then by
     nothing for ``periods`` periods; in units of ``a / w**2`` per joint
-    (the static deflection at the largest acceleration of the plan).
+    (the static deflection at its acceleration ``limit``).
     """
     w = 2.0 * np.pi * frequency
     t = np.arange(0.0, traj.duration + periods / frequency, 1.0 / rate)
@@ -424,7 +423,7 @@ def residual_vibration(traj, frequency, zeta=0.02, rate=1000.0, periods=2.0):
     worst = 0.0
     for j in range(qdd.shape[1]):
         _, x, _ = lsim(([-1.0], [1.0, 2.0 * zeta * w, w * w]), qdd[:, j], t)
-        worst = max(worst, np.max(np.abs(x[after])) * w * w / np.max(np.abs(qdd[:, j])))
+        worst = max(worst, np.max(np.abs(x[after])) * w * w / limit[j])
     return worst
 
 
@@ -443,8 +442,8 @@ def test_vibration_frequency_ramps_the_jerk_before_the_end(seed, jerk_limited):
     assert traj.within_limits(rtol=1e-9)
     assert np.max(np.abs(traj.ppoly(traj.waypoint_times) - points)) <= 1e-9 * max(
         1.0, float(np.max(np.abs(points))))
-    # The window moves with the profile's LPs: its last three quarters.
-    t = np.arange(max(0.0, traj.duration - 0.75 * 8.0 / frequency), traj.duration, 1e-3)
+    # The window moves with the profile's LPs (within 2 % of it): its last 90 %.
+    t = np.arange(max(0.0, traj.duration - 0.9 * 8.0 / frequency), traj.duration, 1e-3)
     ramp = np.max(np.abs(traj.ppoly(t, 3)) / (limits['max_acceleration'] * frequency))
     assert ramp <= 1.1, ramp
     plain = time_optimal_plan(points, limits)
@@ -461,5 +460,21 @@ def test_vibration_frequency_leaves_less_ringing_after_the_end():
         plain = time_optimal_plan(points, limits)
         ramped = plan(points, '555', 'optimal', speed_profile='time_optimal',
                       vibration_frequency=4.0, **limits)
-        ratios.append(residual_vibration(ramped, 4.0) / residual_vibration(plain, 4.0))
+        a = limits['max_acceleration']
+        ratios.append(residual_vibration(ramped, 4.0, a) / residual_vibration(plain, 4.0, a))
     assert np.median(ratios) < 0.6, ratios
+
+
+def test_a_moving_end_has_no_end_ramps():
+    """The ramps are for a stop: with an end velocity none are planned, and none reported."""
+    points, limits = random_request(501, max_points=12, min_points=5)
+    direction = np.sign(points[-1] - points[-2])
+    moving = plan(points, '555', 'optimal', speed_profile='time_optimal',
+                  vibration_frequency=4.0, end_velocity=0.1 * direction, **limits)
+    assert moving.optimizer['speed_profile'] == 'time_optimal'
+    assert moving.optimizer['end_ramp'] == 0.0
+    assert np.allclose(moving.evaluate([moving.duration], 1)[0], 0.1 * direction, atol=1e-9)
+    started = plan(points, '555', 'optimal', speed_profile='time_optimal',
+                   vibration_frequency=4.0, start_velocity=0.1 * np.sign(points[1] - points[0]),
+                   **limits)
+    assert started.optimizer['end_ramp'] == 0.25
