@@ -728,10 +728,18 @@ class SmoothProfile:
         times = self._times
         piece = np.clip(np.searchsorted(times, t, side='right') - 1, 0, self._breaks.size - 2)
         tau = self._first_guess(piece, t)
+        # Safeguarded: t(tau) increases on a piece, so each error narrows a
+        # bracket, and a step that is not finite or leaves it bisects it
+        # (a rest end where x is 0 to round-off left 0 / 0 there, and nan).
+        low, high = np.zeros_like(tau), np.ones_like(tau)
         for _ in range(NEWTON_STEPS if t.size else 0):
             error = times[piece] + self._partial(piece, tau) - t
-            step = error / self._rate(piece, np.maximum(tau, 1e-9))
-            new = np.clip(tau - step, 0.0, 1.0)
+            low = np.where(error <= 0.0, tau, low)
+            high = np.where(error >= 0.0, tau, high)
+            with np.errstate(divide='ignore', invalid='ignore'):
+                new = tau - error / self._rate(piece, np.maximum(tau, 1e-9))
+            inside = np.isfinite(new) & (new >= low) & (new <= high)
+            new = np.where(inside, new, 0.5 * (low + high))
             done = np.max(np.abs(new - tau)) < NEWTON_TOLERANCE
             tau = new
             if done:

@@ -116,6 +116,18 @@ def test_time_at_inverts_the_time_law(solved):
     assert np.allclose(profile.s_of_t(t), s, rtol=0.0, atol=1e-9 * (grid[-1] - grid[0]))
 
 
+def test_s_of_t_is_finite_and_increasing_on_a_fine_clock(solved):
+    """Every time of a 1 ms clock, the first and last steps included, has its s, in order."""
+    path, grid, v, a, j, profile = solved
+    t = np.concatenate([np.linspace(0.0, 0.02 * profile.duration, 400),
+                        np.arange(0.0, profile.duration, 1e-3),
+                        np.linspace(0.98 * profile.duration, profile.duration, 400)])
+    s = profile.s_of_t(np.sort(t))
+    assert np.all(np.isfinite(s))
+    assert np.all(np.diff(s) >= -1e-12 * (grid[-1] - grid[0]))
+    assert s[0] == grid[0] and s[-1] == pytest.approx(grid[-1], abs=1e-9 * grid[-1])
+
+
 def test_at_rest_at_both_ends(solved):
     """At rest at both ends (x = 0, x > 0 inside), left and reached with no acceleration step."""
     path, grid, v, a, j, profile = solved

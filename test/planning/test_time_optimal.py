@@ -478,3 +478,28 @@ def test_a_moving_end_has_no_end_ramps():
                    vibration_frequency=4.0, start_velocity=0.1 * np.sign(points[1] - points[0]),
                    **limits)
     assert started.optimizer['end_ramp'] == 0.25
+
+
+def test_a_slow_start_is_followed_not_skipped():
+    """
+    A request whose profile leaves rest slowly (a joint with j = 7 a): its time law inverts there.
+
+    Found by a fuzz run: Newton's steps in s(t) met 0 / 0 next to the rest
+    end, every knot there had no position, and plan() fell back to the
+    default (5.08 s instead of 4.69 s).
+    """
+    rng = np.random.default_rng(1074)
+    n_points, n_joints = int(rng.integers(2, 12)), int(rng.integers(1, 8))
+    scale = 10 ** rng.uniform(-3, 2)
+    points = np.cumsum(rng.uniform(-1, 1, (n_points, n_joints)) * scale
+                       * (rng.random((n_points, n_joints)) < 0.8), axis=0)
+    rng.random()
+    v = 10 ** rng.uniform(-2, 1.5, n_joints)
+    a = v * 10 ** rng.uniform(-0.5, 1.5, n_joints)
+    rng.random()
+    j = a * 10 ** rng.uniform(0.3, 2.5, n_joints)
+    traj = plan(points, '555', 'optimal', speed_profile='time_optimal', vibration_frequency=2.0,
+                max_velocity=v, max_acceleration=a, max_jerk=j)
+    assert 'speed_profile_skipped' not in traj.optimizer
+    assert traj.optimizer['speed_profile'] == 'time_optimal'
+    assert traj.within_limits(rtol=1e-9)
