@@ -86,9 +86,11 @@ SPLIT_ROUNDS = 4
 # with, tried in turn until the spline (which cannot be scaled) holds them.
 MOVING_MARGINS = (0.98, 0.95, 0.9, 0.8, 0.6)
 # vibration_frequency f: the jerk ramps of the last END_PERIODS periods (2 s at 4 Hz)
-# last one period each (SmoothProfile's end ramps).  2 s measured best of 0.5-3 s:
-# the 4 Hz residual 0.23-0.45 x TOPP-RA's against 0.68-1.01, for 0.998-1.000 x
-# TOPP-RA's duration against 0.988-0.990 (3 seeds of 12 random requests).
+# last one period each (SmoothProfile's end ramps).  2 s measured best of 0.5-3 s
+# (a scratch study, 3 seeds of 12 random requests); bench_inner_knots, 3 fresh
+# seeds: the 4 Hz residual 0.23-0.36 x TOPP-RA's against 0.72-0.96 without, for
+# 1.000-1.002 x TOPP-RA's duration against 0.985-0.993.  A longer window leaves
+# less of the earlier ringing (it decays as exp(-zeta w t)) but slows more.
 END_PERIODS = 8.0
 # retime_path: a grid step about every this much of the retimed plan's own
 # time [s] (the tool lines' plans: their pieces last 15-30 ms).
