@@ -65,7 +65,10 @@ from .trajectory import Trajectory
 # The profile is planned with this share of each jerk limit: the spline
 # through its knots overshoots the profile's jerk corners, and the exact
 # factor of step 4 would otherwise slow the whole plan down for them
-# (1.0: 1.058 x TOPP-RA on the arms, 0.9: 1.039-1.040; 0.85 no better).
+# (1.0: 1.058 x TOPP-RA on the arms, 0.9: 1.039-1.040; 0.85 no better).  Two
+# more profiles with per-piece shares from the last spline's jerk ratios gave
+# 0.5-1 % on the arms with j = 10 a (xArm7, Z1, UR5), 0 on the Panda and on
+# random requests, for 2.1 times the planning time: not kept.
 JERK_MARGIN = 0.9
 # Inner knots about this far apart [s]: 15 ms gave 0.988-0.990 x TOPP-RA on 3
 # fresh seeds of 12 random requests, 40 ms 0.993-0.997 and 60 ms 0.993-0.996
