@@ -241,23 +241,15 @@ def _tangent_rows(candidates, x, n_jerk):
         return candidates.tocsr(), np.zeros(0), np.zeros(0), np.zeros(0, int)
     jerk = candidates[-n_jerk:].tocsr()
     repeated = sp.vstack([x] * (n_jerk // x.shape[0]), format='csr')
-    pattern = (abs(jerk) + abs(repeated)).tocsr()
-    pattern.sort_indices()
-    width = pattern.shape[1]
-
-    def keys(matrix):
-        matrix = matrix.tocoo()
-        return matrix.row.astype(np.int64) * width + matrix.col, matrix.data
-
-    where, _ = keys(pattern)
-    parts = []
-    for matrix in (jerk, repeated):
-        key, data = keys(matrix)
-        part = np.zeros(pattern.nnz)
-        part[np.searchsorted(where, key)] = data
-        parts.append(part)
+    # Both parts on their union pattern at once: the real and imaginary parts
+    # of one complex sum (an entry is left out only where both are 0).
+    both = (jerk.astype(complex) + 1j * repeated).tocsr()
+    both.sort_indices()
+    pattern = sp.csr_matrix((both.data.real.copy(), both.indices, both.indptr),
+                            shape=both.shape)
     rows = sp.vstack([candidates[:-n_jerk], pattern], format='csr')
-    return rows, parts[0], parts[1], np.repeat(np.arange(n_jerk), np.diff(pattern.indptr))
+    return (rows, both.data.real.copy(), both.data.imag.copy(),
+            np.repeat(np.arange(n_jerk), np.diff(both.indptr)))
 
 
 def _checked(status, call):
