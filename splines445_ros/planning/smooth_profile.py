@@ -64,7 +64,7 @@ solver's tolerance (durations within 1e-9 on the bench's 72 paths).
 :class:`SmoothProfile` also gives the exact time law: ``t(s) = int ds /
 sqrt(x)`` by Gauss-Legendre on the spline's pieces, with ``s = h tau**3``
 on the first and last pieces (the integrand ``~ s**(-2/3)`` becomes
-regular), and ``s(t)`` by Newton.
+regular), and ``s(t)`` by Newton, safeguarded by bisection.
 
 Measured (``benchmarks/bench_smooth_profile.py``, doc/benchmarks.md):
 sampled every 1 ms, ``q(s(t))`` needs a uniform slow-down of 1.0004
@@ -215,14 +215,17 @@ def _least_squares(matrix, target):
     """
     Return the least-squares ``z`` of ``matrix z = target`` (a sparse, banded design).
 
-    By its normal equations (SuperLU), with a ridge of 1e-12 of their
-    largest diagonal entry: the B-spline columns are well conditioned, and
-    this takes 0.4-1 ms where ``lsqr``'s iterations took 2-4 ms (the same
-    residuals).  Only the first LP's working set depends on it.
+    By its normal equations (SuperLU), with a ridge of 1e-15 of their
+    largest diagonal entry (an empty column gets 0): the free B-spline
+    columns have a condition number of about 1e3, so the normal equations
+    about 1e6, and this takes 0.4-1 ms where ``lsqr``'s iterations took
+    2-4 ms (the same residuals).  Only the first LP's working set depends on it.
     """
     matrix = sp.csc_matrix(matrix)
+    if matrix.shape[1] == 0:
+        return np.zeros(0)
     normal = (matrix.T @ matrix).tocsc()
-    ridge = 1e-12 * max(float(normal.diagonal().max()), np.finfo(float).tiny)
+    ridge = 1e-15 * max(float(normal.diagonal().max()), np.finfo(float).tiny)
     return np.atleast_1d(spsolve(normal + ridge * sp.identity(normal.shape[0], format='csc'),
                                  matrix.T @ target))
 

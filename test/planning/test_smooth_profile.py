@@ -125,7 +125,7 @@ def test_s_of_t_is_finite_and_increasing_on_a_fine_clock(solved):
     s = profile.s_of_t(np.sort(t))
     assert np.all(np.isfinite(s))
     assert np.all(np.diff(s) >= -1e-12 * (grid[-1] - grid[0]))
-    assert s[0] == grid[0] and s[-1] == pytest.approx(grid[-1], abs=1e-9 * grid[-1])
+    assert s[0] == grid[0] and s[-1] == pytest.approx(grid[-1], abs=1e-9 * (grid[-1] - grid[0]))
 
 
 def test_at_rest_at_both_ends(solved):
