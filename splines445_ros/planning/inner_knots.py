@@ -242,20 +242,9 @@ class _Path:
             durations[0] *= end_share
         if self.end:
             durations[-1] *= end_share
-        if self.start or self.end:
-            # The boundary values hold in the path's own time: the 555 spline has them.
-            traj = Trajectory.build('555', 'fixed', points, durations, boundary)
-            self.ppoly = traj.ppoly
-            knots = traj.breakpoints
-        else:
-            # Rest to rest the path's end derivatives are free (its speed is 0 there).
-            knots = np.concatenate([[0.0], np.cumsum(durations)])
-            self.ppoly = natural_cubic_spline(knots, points)
         grid = TORQUE_GRID_STEPS if sharp else GRID_STEPS
         self.min_gain = TORQUE_MIN_GAIN if sharp else MIN_GAIN
-        fractions = np.arange(grid) / grid
-        self.s = np.concatenate([(knots[:-1, None] + fractions * np.diff(knots)[:, None])
-                                 .reshape(-1), knots[-1:]])
+        self.ppoly, self.s = first_path(points, durations, boundary, grid)
         self.steps = np.diff(self.s)
         self.waypoint_s = self.s[::grid]
         constraints = (JointVelocity(limits.velocity), JointAcceleration(limits.acceleration))
@@ -284,6 +273,27 @@ class _Path:
         """Return the path position in time of the profile ``x`` (step 2's average, at rest)."""
         rest = not (self.start or self.end)
         return AveragedTiming(times, x, self.s, self.windows if rest else ())
+
+
+def first_path(points, durations, boundary, steps=GRID_STEPS):
+    """
+    Return step 1's path ``q(s)`` (a PPoly) through ``points`` at ``durations``, and its grid.
+
+    With a moving end (any of the four ``boundary`` vectors non-zero) the
+    555 spline that has the boundary values in its own time; rest to rest
+    the natural cubic spline (its end derivatives are free: its speed is 0
+    there).  The grid has ``steps`` equal steps a segment.
+    """
+    if any(np.any(b) for b in boundary):
+        traj = Trajectory.build('555', 'fixed', points, durations, boundary)
+        ppoly, knots = traj.ppoly, traj.breakpoints
+    else:
+        knots = np.concatenate([[0.0], np.cumsum(durations)])
+        ppoly = natural_cubic_spline(knots, points)
+    fractions = np.arange(steps) / steps
+    grid = np.concatenate([(knots[:-1, None] + fractions * np.diff(knots)[:, None]).ravel(),
+                           knots[-1:]])
+    return ppoly, grid
 
 
 def end_ramps(s, first, jerk, share):

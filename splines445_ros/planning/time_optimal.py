@@ -54,13 +54,11 @@ tolerances.
 
 import numpy as np
 
-from .inner_knots import (END_SEGMENT_SHARES, GRID_STEPS, kept_trajectory, KnotCandidate,
-                          TimingProblem)
-from .natural_cubic import natural_cubic_spline
+from .inner_knots import (END_SEGMENT_SHARES, first_path, GRID_STEPS, kept_trajectory,
+                          KnotCandidate, TimingProblem)
 from .path_timing import midpoint_fractions
 from .smooth_profile import SmoothProfile
 from .timing import rest_to_rest_durations
-from .trajectory import Trajectory
 
 # The profile is planned with this share of each jerk limit: the spline
 # through its knots overshoots the profile's jerk corners, and the exact
@@ -215,15 +213,8 @@ def plan_time_optimal(points, limits, dropped=(), torque=None, boundary=None,
 def _followed_trajectory(points, limits, dropped, torque, boundary, moving, durations,
                          vibration_frequency=0.0):
     """Return steps 1-4's Trajectory on the path at the segment ``durations``, or None."""
-    if any(moving):
-        traj = Trajectory.build('555', 'fixed', points, durations, boundary)
-        ppoly, knots = traj.ppoly, traj.breakpoints
-    else:
-        knots = np.concatenate([[0.0], np.cumsum(durations)])
-        ppoly = natural_cubic_spline(knots, points)
-    fractions = np.arange(GRID_STEPS) / GRID_STEPS
-    grid = np.concatenate([(knots[:-1, None] + fractions * np.diff(knots)[:, None]).ravel(),
-                           knots[-1:]])
+    ppoly, grid = first_path(points, durations, boundary)
+    knots = grid[::GRID_STEPS]
     constraints = () if torque is None else (torque.constraint(),)
     problem = TimingProblem(FollowedPath(grid, ppoly, points, None if torque is None
                                          else torque.piece_factors), boundary, limits,
