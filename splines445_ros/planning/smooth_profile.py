@@ -94,6 +94,7 @@ except (ImportError, AttributeError):   # e.g. an apt ROS install: scipy's linpr
 
 from .path_constraints import GriddedPath, JointAcceleration, JointVelocity
 from .path_velocity import PathLimits
+from .validation import positive_array
 
 # The passes' profile counts as stopped below this share of its largest x (a
 # stop at a zero-inertia point, _lift_isolated_stops; those seen were 1e-7 of it,
@@ -197,18 +198,11 @@ def _lift_isolated_stops(x):
     return x
 
 
-def _limit(value, n_joints, name, infinite=False):
-    """Return a positive limit (n_joints,), finite unless ``infinite``, or raise ValueError."""
-    value = np.asarray(value, float)
-    if value.ndim == 0:
-        value = np.full(n_joints, value)
-    if value.shape != (n_joints,):
-        raise ValueError(f'{name} limit: expected {n_joints} values, got shape {value.shape}')
-    if np.any(np.isnan(value)) or np.any(value <= 0.0) or (
-            not infinite and not np.all(np.isfinite(value))):
-        raise ValueError(f'{name} limit must be positive{"" if infinite else " and finite"}, '
-                         f'got {value}')
-    return value
+def _per_joint(name, value, n_joints, allow_inf=False):
+    """Return :func:`validation.positive_array` of ``value``, a scalar standing for every joint."""
+    if np.ndim(value) == 0:
+        value = np.full(n_joints, value, dtype=float)
+    return positive_array(name, value, n_joints, allow_inf)
 
 
 def _least_squares(matrix, target):
@@ -385,9 +379,9 @@ class SmoothProfile:
         if not np.any(np.abs(points - points[0]) > 0.0):
             raise ValueError('the path does not move: no profile to plan')
         self.path = path
-        self.velocity = _limit(velocity, n_joints, 'velocity')
-        self.acceleration = _limit(acceleration, n_joints, 'acceleration')
-        self.jerk = _limit(jerk, n_joints, 'jerk', infinite=True)
+        self.velocity = _per_joint('velocity', velocity, n_joints)
+        self.acceleration = _per_joint('acceleration', acceleration, n_joints)
+        self.jerk = _per_joint('jerk', jerk, n_joints, allow_inf=True)
         self.constraints = tuple(constraints)
         self.ends = tuple(float(e) for e in ends)
         if len(self.ends) != 2 or not all(np.isfinite(e) and e >= 0.0 for e in self.ends):

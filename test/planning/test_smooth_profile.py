@@ -167,7 +167,7 @@ def test_bad_input_is_refused():
         SmoothProfile(path, grid, v, -a, j)
     with pytest.raises(ValueError, match='positive'):
         SmoothProfile(path, grid, v, a, 0.0)
-    with pytest.raises(ValueError, match='expected'):
+    with pytest.raises(ValueError, match='one value per joint'):
         SmoothProfile(path, grid, v[:-1], a, j)
     with pytest.raises(ValueError, match='span'):
         SmoothProfile(path, grid[:-5], v, a, j)
