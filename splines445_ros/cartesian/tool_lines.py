@@ -52,7 +52,7 @@ from .tool_kinematics import frame_chain, has_transforms, refused_pose, start_wa
 from ..planning.path_constraints import ToolAcceleration, ToolSpeed
 from ..planning.path_timing import JointPathSamples, midpoint_fractions, plan_along_path, \
     rescaled
-from ..planning.time_optimal import retime_path
+from ..planning.time_optimal import NO_TIME_OPTIMAL_SPLINE, retime_path
 from ..planning.torque import CHECK_PERIOD, check_times, uniform_slow_down
 from ..robot import rotations as rot
 
@@ -545,7 +545,7 @@ def _retimed(traj, path, limits, kinematics, constraints, vibration_frequency, s
                           vibration_frequency)
     if retimed is not None and not retimed.duration < traj.duration:
         return traj, None       # the lines' own timing is the shorter: no failure
-    reason = 'no time-optimal spline found'
+    reason = NO_TIME_OPTIMAL_SPLINE
     if retimed is not None:
         edges = np.searchsorted(retimed.waypoint_times, retimed.breakpoints[:-1],
                                 side='right') - 1

@@ -10,7 +10,7 @@ from .path_timing import rescaled
 from .plan_options import (check_time_optimal_waypoints, DEFAULT_SMOOTHING,
                            DEFAULT_WAYPOINT_TOLERANCE, PlanOptions)
 from .ratio_search import GIVE_UP_PASSES
-from .time_optimal import plan_time_optimal
+from .time_optimal import NO_TIME_OPTIMAL_SPLINE, plan_time_optimal
 from .timing import (chord_durations, rest_to_rest_durations, rest_to_rest_lower_bound,
                      rest_to_rest_scale, scaled_spline, ScaledSpline, uniform_scale)
 from .trajectory import Trajectory
@@ -42,9 +42,6 @@ MOVING_END_GAIN = 0.05
 # Trajectory.optimizer['inner_knots_skipped'] when the inner-knot construction
 # found no spline within the limits (the plan has knots at the waypoints only).
 NO_INNER_KNOT_SPLINE = 'no spline with inner knots found'
-# Trajectory.optimizer['speed_profile_skipped'] when speed_profile "time_optimal"
-# found no spline (the plan is the default construction's).
-NO_TIME_OPTIMAL_SPLINE = 'no time-optimal spline found'
 
 
 @dataclass(frozen=True)

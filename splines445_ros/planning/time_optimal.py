@@ -98,6 +98,9 @@ END_PERIODS = 8.0
 RETIME_STEP = 0.01
 # The name of this construction in Trajectory.optimizer['speed_profile'].
 NAME = 'time_optimal'
+# Trajectory.optimizer['speed_profile_skipped'] when no spline was found (plan()'s
+# plan is then the default construction's, the tool lines keep their own timing).
+NO_TIME_OPTIMAL_SPLINE = 'no time-optimal spline found'
 
 
 class FollowedPath:
