@@ -42,8 +42,9 @@ pass for the torques at rest), TOPP-RA its ``torques``.
   1 kHz, and its Interpolation discretisation shown next to it.
 
 * ``speed_profile='time_optimal'`` (issue 38, ``planning/time_optimal.py``):
-  the same limits, the torque a row of the third-order profile; its
-  figures in a table of their own, with its 1 kHz peak torque.
+  the same limits, the torque a row of the third-order profile, timed in
+  turn with TOPP-RA and ours; its figures in a table of their own, with
+  its 1 kHz peak torque.
 
 * TOPP-RA along our path (issue 38, ``own_path.py``): the same velocity
   and torque constraints on the geometric path of our plan, re-parameterised
@@ -78,7 +79,7 @@ from shaking import of_toppra, shaking_figures, shaking_ratios  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
 from splines445_ros.planning.torque import CHECK_PERIOD  # noqa: E402 - [s] the 1 kHz torque check
 from splines445_ros.robot.dynamics import ArmDynamics, effort_limits  # noqa: E402, I100
-from wall_time import best_of, interleaved_best_of  # noqa: E402
+from wall_time import interleaved_best_of  # noqa: E402
 
 CASES = 10
 FULL_CASES = 40
@@ -244,26 +245,21 @@ def run_case(points, vmax, tau_max, dynamics, n):
     first = toppra_torque(points, vmax, tau_max, torques)
     if first is None:
         raise RuntimeError('TOPP-RA found no parametrisation')
-    # TOPP-RA's plan sets our jerk limits; then both are timed in turn.
+    # TOPP-RA's plan sets our jerk limits; then the three are timed in turn.
     jerk = JERK_RATIO * typical_accelerations(first)
-    (t_top, top), (t_ours, traj) = interleaved_best_of((
+    limits = {'max_velocity': vmax, 'max_acceleration': np.full(n, NO_ACCELERATION_LIMIT),
+              'max_jerk': jerk, 'max_torque': tau_max, 'inverse_dynamics': dynamics}
+    (t_top, top), (t_ours, traj), (t_optimal, optimal) = interleaved_best_of((
         lambda: toppra_torque(points, vmax, tau_max, torques),
-        lambda: plan(points, '555', 'optimal', max_velocity=vmax,
-                     max_acceleration=np.full(n, NO_ACCELERATION_LIMIT), max_jerk=jerk,
-                     max_torque=tau_max, inverse_dynamics=dynamics)), REPEATS)
+        lambda: plan(points, '555', 'optimal', **limits),
+        lambda: plan(points, '555', 'optimal', speed_profile='time_optimal', **limits)), REPEATS)
     if top is None:
         raise RuntimeError('TOPP-RA found no parametrisation')
     try:
         own = own_path.toppra_along(traj, own_path.velocity_torque(vmax, tau_max, torques))
     except RuntimeError:
         own = None      # shown as nan: TOPP-RA found no profile along our path
-    knots_only = plan(points, '555', 'optimal', inner_knots=0, max_velocity=vmax,
-                      max_acceleration=np.full(n, NO_ACCELERATION_LIMIT), max_jerk=jerk,
-                      max_torque=tau_max, inverse_dynamics=dynamics)
-    t_optimal, optimal = best_of(
-        lambda: plan(points, '555', 'optimal', speed_profile='time_optimal', max_velocity=vmax,
-                     max_acceleration=np.full(n, NO_ACCELERATION_LIMIT), max_jerk=jerk,
-                     max_torque=tau_max, inverse_dynamics=dynamics), 1)
+    knots_only = plan(points, '555', 'optimal', inner_knots=0, **limits)
     try:
         optimal_own = own_path.toppra_along(
             optimal, own_path.velocity_torque(vmax, tau_max, torques)).duration
