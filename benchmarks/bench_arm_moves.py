@@ -56,10 +56,9 @@ import numpy as np  # noqa: E402, I100
 import own_path  # noqa: E402, I100
 from shaking import of_toppra, shaking_figures, shaking_ratios  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
-from splines445_ros.planning.inner_knots import GRID_STEPS  # noqa: E402
+from splines445_ros.planning.inner_knots import first_path, GRID_STEPS  # noqa: E402
 from splines445_ros.planning.jerk_profile import ThirdOrderProfile  # noqa: E402
 from splines445_ros.planning.limits import JointLimits  # noqa: E402
-from splines445_ros.planning.natural_cubic import natural_cubic_spline  # noqa: E402
 from splines445_ros.planning.path_constraints import (  # noqa: E402
     GriddedPath, JointAcceleration, JointJerk, JointVelocity)
 from splines445_ros.planning.path_velocity import PathLimits, traversal_times  # noqa: E402
@@ -80,12 +79,11 @@ def construction_path(knots, points, steps=GRID_STEPS):
 
     Step 1's path of ``planning/inner_knots.py`` when ``knots`` are the
     cumulative rest-to-rest times (:func:`rest_to_rest_knots`); the grid has
-    ``steps`` steps per segment (``inner_knots.GRID_STEPS``).
+    ``steps`` steps per segment (``inner_knots.GRID_STEPS``): plan()'s
+    own :func:`inner_knots.first_path`, rest to rest.
     """
-    fractions = np.arange(steps) / steps
-    s = np.concatenate([(knots[:-1, None] + fractions * np.diff(knots)[:, None]).ravel(),
-                        knots[-1:]])
-    return natural_cubic_spline(knots, points), s
+    rest = (np.zeros(points.shape[1]),) * 4
+    return first_path(points, np.diff(knots), rest, steps)
 
 
 def rest_to_rest_knots(points, limits):
