@@ -405,8 +405,9 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
     then timed again along its own path by the third-order profile
     (:func:`planning.time_optimal.retime_path`, every limit above a row or a
     factor of it), and kept when its tool stays within the tolerances
-    (step 5); ``vibration_frequency`` [Hz] (0: none) ramps that profile's
-    jerk at the end (:func:`planning.time_optimal.vibration_ramps`).  ValueError
+    (step 5); ``vibration_frequency`` [Hz] (0: none): that profile also
+    cancels the ringing of a mode at it after the stop
+    (:mod:`planning.residual_vibration`).  ValueError
     when the inverse kinematics fails, no spline meets the limits, or the
     tolerances are not reached.
     """

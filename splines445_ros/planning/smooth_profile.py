@@ -33,8 +33,7 @@ linear in its coefficients ``z``:
   path jerk ``J`` from rest: ``s = J t**3/6`` gives
   ``x = (J**2/4) (6 s/J)**(4/3)``, so ``J = (2/9) alpha**1.5``.  The bound
   ``alpha <= (4.5 min_j j_j / |q'_j(end)|)**(2/3)`` holds the jerk at the
-  end itself (with end ramps ``j_j`` is at most ``a_j / end_ramp`` at the
-  final end), and it is linear.  ``s**(5/3)`` lets the jerk change away
+  end itself, and it is linear.  ``s**(5/3)`` lets the jerk change away
   from the end.  As ``x``, ``x'`` and ``x''`` are continuous, ``s(t)`` has
   continuous acceleration and jerk; the jerk of ``q(s(t))`` jumps only at
   the waypoints, with ``q'''``.
@@ -60,6 +59,18 @@ goes on from its basis, and each new LP is passed with the last basis
 unknown).  Without highspy (an apt ROS install) each round is a cold
 ``scipy.optimize.linprog(method='highs-ds')``: the same profile, to the
 solver's tolerance (durations within 1e-9 on the bench's 72 paths).
+
+With a ``vibration_frequency`` f and a rest end, up to :data:`RESIDUAL_LPS`
+more LPs also bound the content ``Z_j`` of every joint's acceleration at
+the mode (:mod:`residual_vibration`: the ringing it leaves after the stop).
+``q_j'' = q_j' x'/2 + q_j'' x`` is linear in ``z``; the time law in the
+phases ``exp(lambda (T - t))`` is the last profile's, so
+``|Z_j| <= bound`` becomes :data:`RESIDUAL_DIRECTIONS` linear rows (a
+polygon), dense over ``z``.  A fixed point, not a Newton step: its
+profile lands within 1-3 times the bound, and a full linearisation of the
+phases (tried) failed where this converges.  This is the profile doing
+its own input shaping, at the price of a slower stop where the mode
+needs it (a share of a period, not the 8 / f of ramps).
 
 :class:`SmoothProfile` also gives the exact time law: ``t(s) = int ds /
 sqrt(x)`` by Gauss-Legendre on the spline's pieces, with ``s = h tau**3``
@@ -94,6 +105,7 @@ except (ImportError, AttributeError):   # e.g. an apt ROS install: scipy's linpr
 
 from .path_constraints import GriddedPath, JointAcceleration, JointVelocity
 from .path_velocity import PathLimits
+from .residual_vibration import mode_exponent, static_scale
 from .validation import positive_array
 
 # The passes' profile counts as stopped below this share of its largest x (a
@@ -151,6 +163,29 @@ NEWTON_STEPS = 30
 NEWTON_TOLERANCE = 1e-12
 # End terms r**p: 4/3 is a constant path jerk from rest, 5/3 lets it change.
 POWERS = (4.0 / 3.0, 5.0 / 3.0)
+# vibration_frequency: the rows bound the mode's residual share (residual_vibration)
+# at this at most, with the phases of the last profile; the next profile lands within
+# 1-3 times it (its own time law has moved by milliseconds), so it counts as cancelled
+# at RESIDUAL_ACCEPTED, measured on itself.  0.02 / 0.05 left 0.03-0.06 after the stop
+# on 12 random requests at 4 Hz (0.03 / 1.2 x the bound: the same, in 1-2 LPs more).
+RESIDUAL_BOUND = 0.02
+RESIDUAL_ACCEPTED = 0.05
+# Each of those LPs bounds the residual at this share of the last one's (RESIDUAL_BOUND
+# at least): its x stays within [RESIDUAL_FLOOR, GROWTH[-1]] times the last profile's,
+# and a mode far below the stop's own content (1.5 Hz: shares of 3-5) cannot be
+# cancelled in one LP.  The bound at once made those LPs infeasible, and HiGHS took
+# 1.5-3.4 s to say so; 0.2 at 1.5 Hz: 1.059 x TOPP-RA, residual 0.13 of its (0.1:
+# 1.087, 0.13; 0.3: 1.053, 0.21); at 4 Hz no change.
+RESIDUAL_STEP = 0.2
+# LPs at most with the residual rows, after the time's own have converged (the least
+# residual of them is kept): 2-3 are usual.
+RESIDUAL_LPS = 4
+# |Z| <= bound as this many half-planes, a regular polygon (|Z| within 1 / cos(pi / 8)).
+RESIDUAL_DIRECTIONS = 8
+# In those LPs x stays above this share of the last profile: the rows' phases are its
+# time law's, and x = 0 at a point (a stop: a time that is not its own) would satisfy
+# them (found at 1.5 Hz, where the profile then never ended).
+RESIDUAL_FLOOR = 0.5
 
 
 def _end_terms(r, length):
@@ -345,23 +380,23 @@ class SmoothProfile:
     acceleration), applied at the same row points; ``ends`` the squared
     path speeds at the start and the end (0: at rest, the end terms; a
     moving end has ``x = x_e`` and ``x' = 0``, the path carrying the
-    boundary velocity and acceleration in its own time); ``end_ramp`` [s]
-    and ``end_window`` [s] (0: none): within ``end_window`` of a rest end,
-    every joint's jerk is also at most its acceleration limit over
-    ``end_ramp`` (``time_optimal``'s ``vibration_frequency``: ramps of one
-    period of the mode, the stop's content at it small, see
-    :meth:`_row_jerk`).  Solved on construction;
-    raises ValueError on bad input (a constraint's own, such as
-    :class:`path_constraints.GravityOverload`) and RuntimeError when the
+    boundary velocity and acceleration in its own time);
+    ``vibration_frequency`` [Hz] (0: none): with a rest end, the profile
+    also cancels the ringing of a lightly damped mode at it after the stop
+    (:mod:`residual_vibration`; :meth:`_cancel_residual`).  Solved on
+    construction; raises ValueError on bad input (a constraint's own, such
+    as :class:`path_constraints.GravityOverload`) and RuntimeError when the
     first LP fails.
 
     Attributes: ``knots``, ``coefficients`` (the B-spline's),
     ``end_coefficients`` ((alpha, beta) at the start, at the end),
-    ``end_lengths`` (L at each end), ``duration``, ``lps`` (HiGHS solves).
+    ``end_lengths`` (L at each end), ``duration``, ``lps`` (HiGHS solves),
+    ``residual`` (the mode's residual share on the profile's own time law,
+    None without one).
     """
 
     def __init__(self, path, grid, velocity, acceleration, jerk, constraints=(), ends=(0.0, 0.0),
-                 end_ramp=0.0, end_window=0.0):
+                 vibration_frequency=0.0):
         """Check the input, solve the LPs and prepare the time law."""
         if not isinstance(path, PPoly):
             raise ValueError(f'path must be a scipy PPoly, got {type(path).__name__}')
@@ -386,11 +421,11 @@ class SmoothProfile:
         self.ends = tuple(float(e) for e in ends)
         if len(self.ends) != 2 or not all(np.isfinite(e) and e >= 0.0 for e in self.ends):
             raise ValueError(f'ends must be two squared path speeds >= 0, got {ends}')
-        self.end_ramp, self.end_window = float(end_ramp), float(end_window)
-        if not (np.isfinite(self.end_ramp) and np.isfinite(self.end_window)
-                and self.end_ramp >= 0.0 and self.end_window >= 0.0):
-            raise ValueError(f'end_ramp and end_window must be finite and >= 0, got '
-                             f'{end_ramp}, {end_window}')
+        self.vibration_frequency = float(vibration_frequency)
+        if not (np.isfinite(self.vibration_frequency) and self.vibration_frequency >= 0.0):
+            raise ValueError(f'vibration_frequency must be finite and >= 0 [Hz], got '
+                             f'{vibration_frequency}')
+        self.residual = None
         if any(c.order not in (1, 2) for c in self.constraints):
             raise ValueError('constraints must be first or second order (path_constraints)')
         self.start, self.end = grid[0], grid[-1]
@@ -447,9 +482,11 @@ class SmoothProfile:
         Return x's design at ``points``, the candidate rows ``A z <= b`` and the jerk limits.
 
         Blocks of len(points) rows, built once for all joints: ``x <= cap``,
-        ``-x <= 0``, ``+-(acceleration) <= a``, then ``+-L(z)`` of the jerk
-        (module docstring).  ``b`` is 0 for the cap and jerk rows, set per
-        LP; the last return is the jerk limit of each jerk row.
+        ``-x <= 0`` (``-x <= -floor`` in the residual's LPs), ``+-(acceleration)
+        <= a``, then ``+-L(z)`` of the jerk (module docstring).  ``b`` is 0
+        for the cap and jerk rows, set per LP; the last return is the jerk
+        limit of each jerk row.  The acceleration block (joint by joint) is
+        kept for the residual rows.
         """
         x, x1, x2 = self._design(points)
         n, n_joints = points.size, self.jerk.size
@@ -461,42 +498,16 @@ class SmoothProfile:
         acc = sp.diags(0.5 * d1) @ stacked(x1) + sp.diags(d2) @ stacked(x)
         jerk = (sp.diags(0.5 * d1) @ stacked(x2) + sp.diags(1.5 * d2) @ stacked(x1)
                 + sp.diags(d3) @ stacked(x))
-        # Jerk rows for the joints with a jerk limit (inf: none), or for all
-        # of them with end ramps (the others' rows bind only near the end).
-        joints = self._jerk_joints()
+        # Jerk rows for the joints with a jerk limit (inf: none).
+        joints = np.isfinite(self.jerk)
         jerk = jerk[np.repeat(joints, n)]
+        self._acceleration_rows = acc
         more, more_bound = self._constraint_rows(points, x, x1)
         rows = sp.vstack([x, -x, acc, -acc] + more + [jerk, -jerk], format='csr')
         jerk_bound = np.tile(np.repeat(self.jerk[joints], n), 2)
         bound = np.concatenate([np.zeros(2 * n), np.tile(np.repeat(self.acceleration, n), 2)]
                                + more_bound + [np.zeros(jerk_bound.size)])
         return x, rows, bound, jerk_bound
-
-    @property
-    def ramped(self):
-        """Whether the end ramps apply: an ``end_ramp``, an ``end_window`` and a rest end."""
-        return self.end_ramp > 0.0 and self.end_window > 0.0 and self.ends[1] == 0.0
-
-    def _jerk_joints(self):
-        """Return the joints (n,) bool that have jerk rows."""
-        return np.isfinite(self.jerk) | self.ramped
-
-    def _row_jerk(self, points, x_q, jerk):
-        """
-        Return each jerk row's limit for the LP linearised at ``x_q``: the end ramps' too.
-
-        Within ``end_window`` [s] of the end on the profile ``x_q`` (the last
-        LP's: the window moves with it), ``min(jerk, a / end_ramp)``: a
-        swing of a joint's whole acceleration takes at least ``end_ramp``.
-        """
-        if not self.ramped:
-            return jerk
-        n = points.size
-        step = np.diff(points, prepend=self.start) / np.sqrt(x_q)
-        left = np.sum(step) - np.cumsum(step) + step        # time to the end [s]
-        ramp = np.tile(np.repeat(self.acceleration[self._jerk_joints()] / self.end_ramp, n), 2)
-        near = np.tile(left <= self.end_window, jerk.size // n)
-        return np.where(near, np.minimum(jerk, ramp), jerk)
 
     def _constraint_rows(self, points, x, x1):
         """
@@ -544,25 +555,32 @@ class SmoothProfile:
         free = np.array([bound == (None, None) for bound in bounds])
         z_best = np.array([0.0 if bound[0] is None else bound[0] for bound in bounds])
         z_best[free] = _least_squares(x[:, free], x_max)
-        x_p, z_feasible, last_time, message = x_max.copy(), None, None, ''
         warm = _WarmHighs(bounds) if HIGHSPY else None
-        for iteration, growth in enumerate(GROWTH):
+
+        def solve(x_p, z_p, growth, first_lp=False, residual=None):
+            """Solve one LP linearised at ``x_p``, from ``z_p``'s rows (``residual``: more)."""
             x_q = np.maximum(x_p, MIN_WEIGHT_SHARE * x_p.max())
             x_r = np.tile(x_q, jerk.size // n)
-            # The tangent of j / sqrt(x) at x_q: conservative for every x > 0
-            # (rows without a limit: never violated, never in an LP).
-            row_jerk = self._row_jerk(points, x_q, jerk)
-            limited = np.isfinite(row_jerk)
-            tangent = np.where(limited, 0.5 * np.where(limited, row_jerk, 0.0) * x_r ** -1.5, 0.0)
-            rows.data[first:] = jerk_data + tangent[row_of_entry] * x_data
-            bound[:n] = x_max if iteration == 0 else np.minimum(
+            # The tangent of j / sqrt(x) at x_q: conservative for every x > 0.
+            rows.data[first:] = jerk_data + (0.5 * jerk * x_r ** -1.5)[row_of_entry] * x_data
+            bound[:n] = x_max if first_lp else np.minimum(
                 x_max, np.maximum(growth * x_p, (growth - 1.0) * RESTART_SHARE * x_max))
-            bound[bound.size - jerk.size:] = np.where(limited, 1.5 * row_jerk / np.sqrt(x_r),
-                                                      np.inf)
+            bound[n:2 * n] = 0.0 if residual is None else -RESIDUAL_FLOOR * x_p
+            bound[bound.size - jerk.size:] = 1.5 * jerk / np.sqrt(x_r)
             cost = -(x.T @ (width / x_q ** 1.5))
-            work = rows @ z_best > (KEEP if iteration else FIRST_KEEP) * bound
+            work = rows @ z_p > (FIRST_KEEP if first_lp else KEEP) * bound
             work[:n:DENSE] = True       # x <= cap about once a grid step: a bounded LP
-            result = self._generate(cost, rows, bound, work, bounds, warm)
+            if residual is None:
+                return self._generate(cost, rows, bound, work, bounds, warm)
+            more, more_bound = residual     # few dense rows, all in the working set
+            return self._generate(cost, sp.vstack([rows, more], format='csr'),
+                                  np.concatenate([bound, more_bound]),
+                                  np.concatenate([work, np.ones(more_bound.size, bool)]),
+                                  bounds, warm)
+
+        x_p, z_feasible, last_time, message = x_max.copy(), None, None, ''
+        for iteration, growth in enumerate(GROWTH):
+            result = solve(x_p, z_best, growth, first_lp=iteration == 0)
             if result.status != 0:
                 message = result.message
                 break                   # keep the last feasible profile
@@ -574,7 +592,79 @@ class SmoothProfile:
             last_time = time
         if z_feasible is None:
             raise RuntimeError(f'the first LP of the smooth profile failed: {message}')
+        if self.vibration_frequency > 0.0 and self.ends[1] == 0.0:
+            z_feasible = self._cancel_residual(solve, every, x, z_feasible)
         return z_feasible
+
+    def _cancel_residual(self, solve, every, x, z):
+        """
+        Return the profile of least residual share of up to :data:`RESIDUAL_LPS` more LPs.
+
+        From the converged profile ``z``: each LP adds the residual rows
+        linearised at the last profile (:meth:`_residual_rows`), at
+        :data:`RESIDUAL_STEP` of its share (at least :data:`RESIDUAL_BOUND`),
+        and keeps ``x`` above :data:`RESIDUAL_FLOOR` of it; they stop once a
+        profile's own share is at most :data:`RESIDUAL_ACCEPTED`, or at an LP
+        that fails.  ``self.residual`` is the kept profile's share.
+        """
+        best_share = share = self._residual_share(every, x, z)
+        best = z
+        for _ in range(RESIDUAL_LPS):
+            if share <= RESIDUAL_ACCEPTED:
+                break
+            x_p = np.maximum(x @ z, 0.0)
+            bound = max(RESIDUAL_BOUND, RESIDUAL_STEP * share)
+            result = solve(x_p, z, GROWTH[-1], residual=self._residual_rows(every, x_p, z, bound))
+            if result.status != 0:
+                break
+            z = result.x
+            share = self._residual_share(every, x, z)
+            if share < best_share:
+                best_share, best = share, z
+        self.residual = float(best_share)
+        return best
+
+    def _mode_weights(self, every, x_p):
+        """
+        Return the complex weights (n,) of ``Z`` at the row points on the profile ``x_p``.
+
+        ``Z = sum_k qdd_k dt_k exp(lambda (T - t_k))`` (:mod:`residual_vibration`):
+        ``t`` by ``dt = 2 ds / (sqrt(x_i) + sqrt(x_i+1))`` between the points
+        (exact where ``x`` is linear, and finite at a rest end), ``dt_k``
+        the trapezoid weight of point k.
+        """
+        exponent, _ = mode_exponent(self.vibration_frequency)
+        speed = np.sqrt(np.concatenate([[self.ends[0]], np.maximum(x_p, 0.0), [self.ends[1]]]))
+        dt = 2.0 * np.diff(every) / np.maximum(speed[:-1] + speed[1:], np.finfo(float).tiny)
+        t = np.concatenate([[0.0], np.cumsum(dt)])
+        return 0.5 * (dt[:-1] + dt[1:]) * np.exp(exponent * (t[-1] - t[1:-1]))
+
+    def _mode_content(self, every, x_p):
+        """Return the (n_joints, unknowns) complex map from z to each joint's ``Z`` on ``x_p``."""
+        weights = self._mode_weights(every, x_p)
+        n = weights.size
+        acceleration = self._acceleration_rows
+        return np.array([acceleration[j * n:(j + 1) * n].T @ weights
+                         for j in range(self.acceleration.size)])
+
+    def _residual_share(self, every, x, z):
+        """Return the largest residual share over the joints of the profile ``z``, on itself."""
+        content = self._mode_content(every, np.maximum(x @ z, 0.0)) @ z
+        return float(np.max(np.abs(content)
+                            * static_scale(self.vibration_frequency, self.acceleration)))
+
+    def _residual_rows(self, every, x_p, z, share=RESIDUAL_BOUND):
+        """
+        Return the rows and bounds ``Re(exp(-i theta) Z_j(z)) <= bound_j`` (phases of ``x_p``).
+
+        :data:`RESIDUAL_DIRECTIONS` angles ``theta`` a joint; ``bound_j``
+        is the residual ``share`` over the joint's :func:`residual_vibration.static_scale`.
+        """
+        content = self._mode_content(every, x_p)
+        angles = np.exp(-2j * np.pi * np.arange(RESIDUAL_DIRECTIONS) / RESIDUAL_DIRECTIONS)
+        rows = (angles[None, :, None] * content[:, None, :]).real.reshape(-1, content.shape[1])
+        bound = share / static_scale(self.vibration_frequency, self.acceleration)
+        return sp.csr_matrix(rows), np.repeat(bound, RESIDUAL_DIRECTIONS)
 
     def _generate(self, cost, rows, bound, work, bounds, warm=None):
         """Solve the LP on the rows ``work``, adding the violated others until none is."""
@@ -621,8 +711,6 @@ class SmoothProfile:
             slope = np.abs(np.atleast_1d(self.path(s, 1)))
             with np.errstate(divide='ignore'):
                 path_jerk = np.min(self.jerk / slope)
-                if column == count + 2 and self.ramped:
-                    path_jerk = min(path_jerk, np.min(self.acceleration / self.end_ramp / slope))
             bounds[column] = (0.0, None if np.isinf(path_jerk) else
                               (4.5 * path_jerk) ** (2.0 / 3.0))
         return bounds

@@ -15,9 +15,10 @@ optimum when that is shorter.  Here the profile itself holds the jerk
    in ``s``, time-optimal under every joint's velocity, acceleration and
    :data:`JERK_MARGIN` times its jerk limit (none on a joint without one),
    at rest at both ends or at the boundary velocity and acceleration (the
-   equations are in that module).  With a ``vibration_frequency`` f the
-   last :data:`END_PERIODS` periods before a rest end also hold
-   ``JERK_MARGIN a f`` (:func:`vibration_ramps`).
+   equations are in that module).  With a ``vibration_frequency`` f and a
+   rest end it also cancels the ringing of a mode at f after the stop
+   (:mod:`residual_vibration`), and the plan reports what it leaves
+   (``optimizer['vibration_residual']``).
    Its exact time law gives the time at which every waypoint is passed.
 3. Knots.  At the waypoints, at those times, and at equal time fractions
    of each segment, about :data:`KNOT_PERIOD` apart; each inner knot at
@@ -57,6 +58,7 @@ import numpy as np
 from .inner_knots import (END_SEGMENT_SHARES, first_path, GRID_STEPS, kept_trajectory,
                           KnotCandidate, TimingProblem)
 from .path_timing import midpoint_fractions
+from .residual_vibration import trajectory_residual
 from .smooth_profile import SmoothProfile
 from .timing import rest_to_rest_durations
 
@@ -86,13 +88,6 @@ SPLIT_ROUNDS = 4
 # With a moving start or end: the shares of the limits the profile is planned
 # with, tried in turn until the spline (which cannot be scaled) holds them.
 MOVING_MARGINS = (0.98, 0.95, 0.9, 0.8, 0.6)
-# vibration_frequency f: the jerk ramps of the last END_PERIODS periods (2 s at 4 Hz)
-# last one period each (SmoothProfile's end ramps).  2 s measured best of 0.5-3 s
-# (a scratch study, 3 seeds of 12 random requests); bench_inner_knots, 3 fresh
-# seeds: the 4 Hz residual 0.23-0.36 x TOPP-RA's against 0.72-0.96 without, for
-# 1.000-1.002 x TOPP-RA's duration against 0.985-0.993.  A longer window leaves
-# less of the earlier ringing (it decays as exp(-zeta w t)) but slows more.
-END_PERIODS = 8.0
 # retime_path: a grid step about every this much of the retimed plan's own
 # time [s] (the tool lines' plans: their pieces last 15-30 ms).
 RETIME_STEP = 0.01
@@ -158,16 +153,18 @@ def knot_fractions(segment_times, period=None):
     return [np.arange(m) / m for m in counts]
 
 
-def vibration_ramps(vibration_frequency):
-    """Return SmoothProfile's (end_ramp, end_window) [s] for ``vibration_frequency`` (0: none)."""
-    if not vibration_frequency:
-        return 0.0, 0.0
-    return 1.0 / vibration_frequency, END_PERIODS / vibration_frequency
+def _vibration_residual(profile, traj, limits):
+    """
+    Return optimizer['vibration_residual']: the plan's residual share at the mode, or None.
 
-
-def _end_ramp(profile, vibration_frequency):
-    """Return optimizer['end_ramp']: the ramps' period [s], 0 where none (a moving end)."""
-    return vibration_ramps(vibration_frequency)[0] if profile.ramped else 0.0
+    None without a ``vibration_frequency`` or with a moving end (no stop to
+    ring after); else :func:`residual_vibration.trajectory_residual` of the
+    finished plan (its polynomials at 1 kHz), the figure the profile's rows
+    bound, for the mode's assumed damping.
+    """
+    if profile.residual is None:
+        return None     # no vibration_frequency, or a moving end
+    return trajectory_residual(traj, profile.vibration_frequency, limits.acceleration)
 
 
 def plan_time_optimal(points, limits, dropped=(), torque=None, boundary=None,
@@ -188,8 +185,9 @@ def plan_time_optimal(points, limits, dropped=(), torque=None, boundary=None,
     ``g**2``, jerk ``g**3``) until the spline holds them.  None when the
     profile's first LP fails, when it stops inside the path, or when no
     spline is found (the caller falls back to the default construction).
-    ``vibration_frequency`` [Hz] (0: none): the stop at a rest end ramps
-    its jerk over one period of it (:func:`vibration_ramps`).
+    ``vibration_frequency`` [Hz] (0: none): with a rest end the profile
+    cancels the ringing of a mode at it after the stop
+    (``SmoothProfile(vibration_frequency=)``).
     """
     n = points.shape[1]
     boundary = tuple(np.zeros(n) for _ in range(4)) if boundary is None else tuple(boundary)
@@ -224,24 +222,26 @@ def _followed_trajectory(points, limits, dropped, torque, boundary, moving, dura
                             not any(moving))
     for margin in MOVING_MARGINS if any(moving) else (1.0,):
         followed = _follow(problem, ppoly, grid, knots, limits, constraints,
-                           tuple(float(m) for m in moving), margin,
-                           vibration_ramps(vibration_frequency))
+                           tuple(float(m) for m in moving), margin, vibration_frequency)
         if followed is None:
             return None
         profile, candidate = followed
         if candidate is not None and candidate.feasible:
-            return kept_trajectory(problem, candidate, dropped, {
+            traj = kept_trajectory(problem, candidate, dropped, {
                 'speed_profile': NAME, 'inner_knots': int(np.max(candidate.counts)),
                 'knots': int(candidate.pieces.size + 1),
                 'inner_knots_per_segment': candidate.counts.tolist(),
                 'profile_lps': profile.lps, 'profile_duration': float(profile.duration),
                 'time_scale': float(candidate.scale), 'limit_margin': margin,
-                'end_ramp': _end_ramp(profile, vibration_frequency), 'smoothing_windows': []})
+                'smoothing_windows': []})
+            if traj is not None:
+                traj.optimizer['vibration_residual'] = _vibration_residual(profile, traj, limits)
+            return traj
     return None
 
 
 def _follow(problem, path, grid, knots, limits, constraints, ends=(0.0, 0.0), margin=1.0,
-            ramps=(0.0, 0.0)):
+            vibration_frequency=0.0):
     """
     Return steps 2-4 on ``path`` through ``knots``: (profile, candidate or None), or None.
 
@@ -249,15 +249,15 @@ def _follow(problem, path, grid, knots, limits, constraints, ends=(0.0, 0.0), ma
     acceleration's, its cube :data:`JERK_MARGIN` times the jerk's); None
     when it has none: its first LP failed, or ``x`` reached 0 between its
     row points (a joint reversing alone: the profile stops there, and a
-    stop takes its C2 ``x(s)`` forever).  ``ramps``: the profile's
-    (end_ramp, end_window), the ramp's jerk at :data:`JERK_MARGIN` too.
+    stop takes its C2 ``x(s)`` forever).  ``vibration_frequency``: the
+    profile's (0: none).
     The candidate is :func:`_followed_spline`'s.
     """
     try:
         profile = SmoothProfile(path, grid, margin * limits.velocity,
                                 margin ** 2 * limits.acceleration,
                                 JERK_MARGIN * margin ** 3 * limits.jerk, constraints, ends,
-                                ramps[0] / JERK_MARGIN, ramps[1])
+                                vibration_frequency)
     except RuntimeError:
         return None
     followed = FollowedProfile(profile, knots, grid.size)
@@ -310,14 +310,17 @@ def retime_path(traj, limits, constraints=(), piece_factors=None, vibration_freq
                             limits, True)
     try:
         followed = _follow(problem, traj.ppoly, grid, knots, limits, tuple(constraints),
-                           ramps=vibration_ramps(vibration_frequency))
+                           vibration_frequency=vibration_frequency)
     except ValueError:
         return None     # a constraint's own refusal: the lines keep their timing
     if followed is None or followed[1] is None:
         return None
     profile, candidate = followed
-    return kept_trajectory(problem, candidate, traj.dropped_waypoints, {
+    retimed = kept_trajectory(problem, candidate, traj.dropped_waypoints, {
         'speed_profile': NAME, 'knots': int(candidate.pieces.size + 1),
         'profile_lps': profile.lps, 'profile_duration': float(profile.duration),
         'time_scale': float(candidate.scale), 'retimed_duration': float(traj.duration),
-        'end_ramp': _end_ramp(profile, vibration_frequency), 'smoothing_windows': []})
+        'smoothing_windows': []})
+    if retimed is not None:
+        retimed.optimizer['vibration_residual'] = _vibration_residual(profile, retimed, limits)
+    return retimed

@@ -177,9 +177,9 @@ def test_bad_input_is_refused():
         SmoothProfile(lambda s: s, grid, v, a, j)
     with pytest.raises(ValueError, match='positive'):
         SmoothProfile(path, grid, v, a, np.nan)
-    for ramp, window in ((-0.25, 2.0), (0.25, np.inf), (np.nan, 1.0)):
-        with pytest.raises(ValueError, match='end_ramp and end_window'):
-            SmoothProfile(path, grid, v, a, j, end_ramp=ramp, end_window=window)
+    for frequency in (-4.0, np.inf, np.nan):
+        with pytest.raises(ValueError, match='vibration_frequency must be finite'):
+            SmoothProfile(path, grid, v, a, j, vibration_frequency=frequency)
 
 
 @pytest.mark.parametrize('seed', SEEDS[:4])
