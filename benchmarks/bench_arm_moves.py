@@ -16,8 +16,8 @@ j = 10 a), no torque limit:
   default (inner knots, smoothing windows); the same with
   ``vibration_frequency=4``; and with ``speed_profile='time_optimal'``
   (``planning/time_optimal.py``: the third-order profile followed by a C4
-  spline), also with ``vibration_frequency=4`` (its jerk ramps before the
-  end);
+  spline), also with ``vibration_frequency=4`` (the mode's ringing after
+  the stop cancelled by the profile, ``planning/residual_vibration.py``);
 * TOPP-RA: as in ``bench_inner_knots`` (``bench_planning.toppra_trajectory``:
   toppra's spline through the waypoints, v/a, its default grid; no jerk
   limit).
@@ -121,7 +121,7 @@ def run_case(arm, points):
     shaped_time, shaped = best_of(
         lambda: plan(points, '555', 'optimal', vibration_frequency=VIBRATION_FREQUENCY,
                      **limits), 1)
-    ramped_time, ramped = best_of(
+    cancelled_time, cancelled = best_of(
         lambda: plan(points, '555', 'optimal', vibration_frequency=VIBRATION_FREQUENCY,
                      speed_profile='time_optimal', **limits), 1)
     reference = shaking_figures(of_toppra(top), top.duration, amax)
@@ -131,7 +131,7 @@ def run_case(arm, points):
     figures, held = {'bounds': list(bounds / top.duration) + [ours.duration / bounds[1]]}, True
     for name, traj, elapsed in ((PLANS[0], ours, t_ours), (PLANS[1], shaped, shaped_time),
                                 (PLANS[2], optimal, optimal_time),
-                                (PLANS[3], ramped, ramped_time)):
+                                (PLANS[3], cancelled, cancelled_time)):
         own = own_path.toppra_along(traj, own_path.velocity_acceleration(vmax, amax))
         figures[name] = bench_figures.figures(traj.duration, own.duration, top.duration,
                                               shaking_ratios(traj, reference, amax), elapsed,

@@ -10,7 +10,8 @@ at the waypoints only (``inner_knots=0``, before the issue) and with inner
 knots (the default), for no jerk limit, j = 20 a and j = 5 a, plus the
 default with ``vibration_frequency=4`` and ``speed_profile='time_optimal'``
 (``planning/time_optimal.py``) with no jerk limit and at j = 20 a, and
-time_optimal with ``vibration_frequency=4`` (its jerk ramps before the end).
+time_optimal with ``vibration_frequency=4`` (the mode's ringing after the
+stop cancelled by its profile, ``planning/residual_vibration.py``).
 
 Every plan's figures (issue 38, ``bench_figures.py``), each over TOPP-RA's
 on the same case: the duration; the duration over TOPP-RA's along our own
@@ -146,9 +147,9 @@ def main():
                      for ratio in OPTIMAL_JERK_RATIOS}
     for optimal_name in optimal_names.values():
         rows[optimal_name] = []
-    ramped_name = (f'speed_profile=time_optimal, vibration_frequency={VIBRATION_FREQUENCY:g}, '
-                   f'{label(SHAKING_JERK)}')
-    rows[ramped_name] = []
+    cancelled_name = (f'speed_profile=time_optimal, '
+                      f'vibration_frequency={VIBRATION_FREQUENCY:g}, {label(SHAKING_JERK)}')
+    rows[cancelled_name] = []
     held = dict.fromkeys(rows, True)
     bounds = []
     for index in range(n_cases):
@@ -169,7 +170,7 @@ def main():
                 plans.append((shaped_name,) + timed(
                     lambda: plan(waypoints, '555', 'optimal', inner_knots=inner,
                                  vibration_frequency=VIBRATION_FREQUENCY, **kwargs)))
-                plans.append((ramped_name,) + timed(
+                plans.append((cancelled_name,) + timed(
                     lambda: plan(waypoints, '555', 'optimal', speed_profile='time_optimal',
                                  vibration_frequency=VIBRATION_FREQUENCY, **kwargs)))
             if ratio in optimal_names:

@@ -1,0 +1,114 @@
+"""
+``vibration_frequency`` with ``speed_profile='time_optimal'``: the ringing left after the stop.
+
+Random rest-to-rest requests (``bench_inner_knots.random_case``, fresh
+every run, the seed printed first; j = 20 a), at mode frequencies
+:data:`FREQUENCIES`.  For each: TOPP-RA (v/a, its own spline); time_optimal
+without and with ``vibration_frequency=f`` (its profile cancels the mode's
+ringing, ``planning/residual_vibration.py``); the default construction
+with ``vibration_frequency=f`` (its two windows of ``1 / f``).  Columns,
+median / worst over the requests, each over TOPP-RA's on the same request:
+
+* duration;
+* the residual at ``f`` (``shaking.py``: a damped oscillator at ``f``,
+  damping 0.02 as the cancellation assumes, the largest ringing over two
+  periods after the stop);
+* the same residual for a mode the user mis-measured: at 0.9 f and 1.1 f,
+  and at ``f`` with damping 0.01 and 0.05 (a cancellation is narrow);
+* the residual at ``2 f`` (a harmonic);
+* planning time.
+
+Usage: ``python benchmarks/bench_vibration_residual.py``;
+``SPLINES445_BENCH_SEED=<seed>`` repeats a run,
+``SPLINES445_BENCH_CASES=<count>`` draws another number of requests.
+"""
+
+import os
+import sys
+import time
+
+os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but the rule holds
+
+from bench_inner_knots import random_case  # noqa: E402
+from bench_planning import toppra_trajectory  # noqa: E402
+import bench_seeds  # noqa: E402, I100
+import numpy as np  # noqa: E402, I100
+from shaking import of_toppra, of_trajectory, oscillator, RATE, RESIDUAL_PERIODS  # noqa: E402
+from splines445_ros.planning import plan  # noqa: E402
+
+N_CASES = 12
+FREQUENCIES = (1.5, 4.0, 8.0)
+JERK_RATIO = 20.0
+# The mode as the plan assumes it, and as it may really be: (frequency share, damping).
+MODES = ((1.0, 0.02), (0.9, 0.02), (1.1, 0.02), (1.0, 0.01), (1.0, 0.05), (2.0, 0.02))
+PLANS = ('time_optimal', 'time_optimal, vibration_frequency=f', 'default, vibration_frequency=f')
+CASES_STREAM = 3
+
+
+def residual(acceleration_of, duration, max_acceleration, frequency, damping):
+    """Return the largest ringing after the stop, in units of ``a / w**2`` (``shaking``'s)."""
+    moving = np.arange(0.0, duration, 1.0 / RATE)
+    after = int(np.ceil(RESIDUAL_PERIODS * RATE / frequency))
+    acc = np.vstack([acceleration_of(moving), np.zeros((after, len(max_acceleration)))])
+    x = np.abs(oscillator(acc, frequency, damping))
+    static = np.asarray(max_acceleration, float) / (2.0 * np.pi * frequency) ** 2
+    return float(np.max(x[moving.size:] / static))
+
+
+def residuals(acceleration_of, duration, amax, frequency):
+    """:func:`residual` for every mode of :data:`MODES`."""
+    return np.array([residual(acceleration_of, duration, amax, share * frequency, damping)
+                     for share, damping in MODES])
+
+
+def timed(func):
+    """Wall time [s] of one call and its result."""
+    started = time.perf_counter()
+    result = func()
+    return time.perf_counter() - started, result
+
+
+def main():
+    """Print one table per frequency."""
+    rng = bench_seeds.generator(CASES_STREAM)
+    cases = [random_case(rng) for _ in range(bench_seeds.case_count(N_CASES))]
+    print(f'{len(cases)} random requests (bench_inner_knots.random_case), j = {JERK_RATIO:g} a; '
+          'each figure over TOPP-RA on the same request, median / worst')
+    for frequency in FREQUENCIES:
+        print()
+        print(f'Mode at f = {frequency:g} Hz')
+        names = ['at f', 'at 0.9 f', 'at 1.1 f', 'damping 0.01', 'damping 0.05', 'at 2 f']
+        print('| plan | duration | ' + ' | '.join(f'residual {n}' for n in names)
+              + ' | planning | time_optimal |')
+        print('|' + '---|' * (len(names) + 4))
+        rows = {name: [] for name in PLANS}
+        followed = dict.fromkeys(PLANS, 0)
+        for waypoints, vmax, amax in cases:
+            t_top, top = timed(lambda: toppra_trajectory(waypoints, vmax, amax))
+            reference = residuals(of_toppra(top), top.duration, amax, frequency)
+            limits = {'max_velocity': vmax, 'max_acceleration': amax,
+                      'max_jerk': JERK_RATIO * amax}
+            plans = (
+                timed(lambda: plan(waypoints, '555', 'optimal', speed_profile='time_optimal',
+                                   **limits)),
+                timed(lambda: plan(waypoints, '555', 'optimal', speed_profile='time_optimal',
+                                   vibration_frequency=frequency, **limits)),
+                timed(lambda: plan(waypoints, '555', 'optimal', vibration_frequency=frequency,
+                                   **limits)))
+            for name, (elapsed, traj) in zip(PLANS, plans):
+                ours = residuals(of_trajectory(traj), traj.duration, amax, frequency)
+                rows[name].append([traj.duration / top.duration] + list(ours / reference)
+                                  + [elapsed / t_top])
+                followed[name] += traj.optimizer.get('speed_profile') == 'time_optimal'
+        for name in PLANS:
+            values = np.array(rows[name])
+            cells = [f'{np.median(values[:, k]):.3f} / {np.max(values[:, k]):.3f}'
+                     if k == 0 else f'{np.median(values[:, k]):.2f} / {np.max(values[:, k]):.2f}'
+                     for k in range(values.shape[1])]
+            print(f'| {name} | ' + ' | '.join(cells) + f' | {followed[name]} of {len(cases)} |')
+        sys.stdout.flush()
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
