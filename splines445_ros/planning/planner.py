@@ -184,8 +184,9 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         below the stop's own content (1.5-2.5 Hz) costs 5-15 % and is left more.
         ``optimizer['vibration_residual']`` is what the plan leaves (None
         with a moving end).  A cancellation is narrow: a mode 10 % off in
-        frequency is left 0.5-0.7 of TOPP-RA's ringing, and harmonics
-        (8 Hz for 4) are not cancelled; the default's windows are broad.
+        frequency is left 0.6-0.7 of TOPP-RA's ringing, one damped 0.01 or
+        0.05 0.15-0.35, and harmonics (8 Hz for 4) are not cancelled; the
+        default's windows are broad (about 0.1 at all of these).
     max_torque, inverse_dynamics : (n,) positive limits [N m] (inf: none) and
         a function ``tau(q, qd, qdd)`` ((N, n) each -> (N, n)), or both None
         (:mod:`torque`).  When ``inverse_dynamics`` has a callable attribute
