@@ -71,8 +71,13 @@ def residual_shares(times, accelerations, frequency, max_acceleration, damping=D
     return np.abs(content) * static_scale(frequency, max_acceleration, damping)
 
 
+# Samples a period of the mode at least, in trajectory_residual (and 1 ms apart at most).
+SAMPLES_PER_PERIOD = 20
+
+
 def trajectory_residual(traj, frequency, max_acceleration, period=1e-3, damping=DAMPING):
     """Return the largest residual share over the joints of a finished plan (``period`` apart)."""
+    period = min(period, 1.0 / (SAMPLES_PER_PERIOD * frequency))
     steps = max(2, int(np.ceil(traj.duration / period)))
     t = np.linspace(0.0, traj.duration, steps + 1)
     return float(np.max(residual_shares(t, traj.evaluate(t, 2), frequency, max_acceleration,

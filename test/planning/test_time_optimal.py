@@ -467,6 +467,18 @@ def test_vibration_frequency_leaves_less_ringing_after_the_end():
     assert np.median(ratios) < 0.1, ratios
 
 
+def test_a_mode_the_profile_cannot_resolve_is_left_and_reported():
+    """60 Hz on a plan whose row points are ms apart: the plain plan, its ringing said."""
+    points, limits = random_request(502, max_points=12, min_points=5)
+    plain = time_optimal_plan(points, limits)
+    traj = plan(points, '555', 'optimal', speed_profile='time_optimal',
+                vibration_frequency=60.0, **limits)
+    assert traj.duration == plain.duration
+    assert np.array_equal(traj.ppoly.c, plain.ppoly.c)
+    ringing = residual_vibration(traj, 60.0, limits['max_acceleration'], rate=20000.0)
+    assert traj.optimizer['vibration_residual'] == pytest.approx(ringing, rel=0.1, abs=0.01)
+
+
 def test_a_moving_end_is_not_cancelled():
     """The cancellation is for a stop: with an end velocity there is none, and none reported."""
     points, limits = random_request(501, max_points=12, min_points=5)
