@@ -71,14 +71,18 @@ def residual_shares(times, accelerations, frequency, max_acceleration, damping=D
     return np.abs(content) * static_scale(frequency, max_acceleration, damping)
 
 
-# Samples a period of the mode at least, in trajectory_residual (and 1 ms apart at most).
+# Samples a period of the mode at least, in trajectory_residual (and 1 ms apart at most),
+# and samples at most (a mode of 1 kHz on a plan of 50 s; more: no figure).
 SAMPLES_PER_PERIOD = 20
+MAX_SAMPLES = 1000000
 
 
 def trajectory_residual(traj, frequency, max_acceleration, period=1e-3, damping=DAMPING):
-    """Return the largest residual share over the joints of a finished plan (``period`` apart)."""
+    """Return the largest residual share over the joints of a plan (None: too many samples)."""
     period = min(period, 1.0 / (SAMPLES_PER_PERIOD * frequency))
     steps = max(2, int(np.ceil(traj.duration / period)))
+    if steps > MAX_SAMPLES:
+        return None
     t = np.linspace(0.0, traj.duration, steps + 1)
     return float(np.max(residual_shares(t, traj.evaluate(t, 2), frequency, max_acceleration,
                                         damping)))

@@ -166,17 +166,21 @@ POWERS = (4.0 / 3.0, 5.0 / 3.0)
 # vibration_frequency: the rows bound the mode's residual share (residual_vibration)
 # at this at most, with the phases of the last profile; the next profile lands within
 # 1-3 times it (its own time law has moved by milliseconds), so it counts as cancelled
-# at RESIDUAL_ACCEPTED, measured on itself.  0.02 / 0.05 left 0.03-0.06 after the stop
-# on 12 random requests at 4 Hz (0.03 / 1.2 x the bound: the same, in 1-2 LPs more).
+# at RESIDUAL_ACCEPTED, measured on itself.  0.02 / 0.1 left 0.05-0.07 of TOPP-RA's
+# ringing at 4 Hz on 2 x 12 random requests; 0.05 left 0.03, but took a 2-waypoint
+# move from 5.25 s to 6.39 s (0.1: 5.68 s; the default's windows 6.23 s, the same
+# ringing).
 RESIDUAL_BOUND = 0.02
-RESIDUAL_ACCEPTED = 0.05
-# Each of those LPs bounds the residual at this share of the last one's (RESIDUAL_BOUND
-# at least): its x stays within [RESIDUAL_FLOOR, GROWTH[-1]] times the last profile's,
-# and a mode far below the stop's own content (1.5 Hz: shares of 3-5) cannot be
-# cancelled in one LP.  The bound at once made those LPs infeasible, and HiGHS took
-# 1.5-3.4 s to say so; 0.2 at 1.5 Hz: 1.059 x TOPP-RA, residual 0.13 of its (0.1:
-# 1.087, 0.13; 0.3: 1.053, 0.21); at 4 Hz no change.
-RESIDUAL_STEP = 0.2
+RESIDUAL_ACCEPTED = 0.1
+# Each of those LPs bounds the residual at the first of these shares of the last one's
+# that is feasible (RESIDUAL_BOUND at least): its x stays within [RESIDUAL_FLOOR,
+# GROWTH[-1]] times the last profile's, and a mode far below the stop's own content
+# (1.5 Hz: shares of 3-5) cannot be cancelled in one LP.  The bound at once made those
+# LPs infeasible, and HiGHS took 1.5-3.4 s to say so; 0.2 at 1.5 Hz: 1.059 x TOPP-RA,
+# residual 0.13 of its (0.1: 1.087, 0.13; 0.3: 1.053, 0.21), at 4 Hz no change.  The
+# looser ones: a torque-bound 2-link arm's short moves, where 0.2 was infeasible
+# and 0.5 reached 0.05-0.39 from 0.7-0.9 (helper-18's review).
+RESIDUAL_STEPS = (0.2, 0.5, 0.8)
 # LPs at most with the residual rows, after the time's own have converged (the least
 # residual of them is kept): 2-3 are usual.
 RESIDUAL_LPS = 4
@@ -186,11 +190,12 @@ RESIDUAL_DIRECTIONS = 8
 # time law's, and x = 0 at a point (a stop: a time that is not its own) would satisfy
 # them (found at 1.5 Hz, where the profile then never ended).
 RESIDUAL_FLOOR = 0.5
-# The rows need the row points about this share of the mode's period apart in time
-# at most (8 a period: the trapezoid rule's phase error under 10 %), by their median
-# step; a mode above that is not cancelled (the median steps of 12 random bench
-# requests were 4.5-7.5 ms: 17-28 Hz).
-RESIDUAL_RESOLUTION = 0.125
+# Z is summed on the row points with each step cut into parts of at most this many
+# a period of the mode (the trapezoid rule's phase error about 2 %; the row points
+# are per segment, 10-50 ms apart on segments of seconds), and not at all when that
+# takes more than MAX_MODE_POINTS points more: the plan reports what it rings.
+MODE_POINTS = 16
+MAX_MODE_POINTS = 20000
 
 
 def _end_terms(r, length):
@@ -397,7 +402,7 @@ class SmoothProfile:
     ``end_coefficients`` ((alpha, beta) at the start, at the end),
     ``end_lengths`` (L at each end), ``duration``, ``lps`` (HiGHS solves),
     ``residual`` (the mode's residual share on the profile's own time law,
-    None without one).
+    None without one, nan when the mode is too fast to cancel).
     """
 
     def __init__(self, path, grid, velocity, acceleration, jerk, constraints=(), ends=(0.0, 0.0),
@@ -500,19 +505,25 @@ class SmoothProfile:
         def stacked(matrix):
             return sp.vstack([matrix] * n_joints, format='csr')
 
-        acc = sp.diags(0.5 * d1) @ stacked(x1) + sp.diags(d2) @ stacked(x)
+        acc = self._acceleration_map(points, x, x1)
         jerk = (sp.diags(0.5 * d1) @ stacked(x2) + sp.diags(1.5 * d2) @ stacked(x1)
                 + sp.diags(d3) @ stacked(x))
         # Jerk rows for the joints with a jerk limit (inf: none).
         joints = np.isfinite(self.jerk)
         jerk = jerk[np.repeat(joints, n)]
-        self._acceleration_rows = acc
         more, more_bound = self._constraint_rows(points, x, x1)
         rows = sp.vstack([x, -x, acc, -acc] + more + [jerk, -jerk], format='csr')
         jerk_bound = np.tile(np.repeat(self.jerk[joints], n), 2)
         bound = np.concatenate([np.zeros(2 * n), np.tile(np.repeat(self.acceleration, n), 2)]
                                + more_bound + [np.zeros(jerk_bound.size)])
         return x, rows, bound, jerk_bound
+
+    def _acceleration_map(self, points, x, x1):
+        """Return the map (n_joints * n, unknowns) from z to q' x'/2 + q'' x, joint-major."""
+        d1, d2 = (np.atleast_2d(self.path(points, k).T).ravel() for k in (1, 2))
+        n_joints = self.jerk.size
+        return (sp.diags(0.5 * d1) @ sp.vstack([x1] * n_joints, format='csr')
+                + sp.diags(d2) @ sp.vstack([x] * n_joints, format='csr'))
 
     def _constraint_rows(self, points, x, x1):
         """
@@ -606,74 +617,106 @@ class SmoothProfile:
         Return the profile of least residual share of up to :data:`RESIDUAL_LPS` more LPs.
 
         From the converged profile ``z``: each LP adds the residual rows
-        linearised at the last profile (:meth:`_residual_rows`), at
-        :data:`RESIDUAL_STEP` of its share (at least :data:`RESIDUAL_BOUND`),
-        and keeps ``x`` above :data:`RESIDUAL_FLOOR` of it; they stop once a
-        profile's own share is at most :data:`RESIDUAL_ACCEPTED`, or at an LP
-        that fails.  ``self.residual`` is the kept profile's share.
+        linearised at the last profile (:meth:`_residual_rows`, on the grid
+        of :meth:`_mode_grid`), at :data:`RESIDUAL_STEPS` of its share in
+        turn until one is feasible (at least :data:`RESIDUAL_BOUND`), and
+        keeps ``x`` above :data:`RESIDUAL_FLOOR` of it; they stop once a
+        profile's own share is at most :data:`RESIDUAL_ACCEPTED`, or when no
+        step is feasible.  ``self.residual`` is the kept profile's share.
         """
-        best_share = share = self._residual_share(every, x, z)
+        grid = self._mode_grid(every, x, z)
+        if grid is None:
+            self.residual = np.nan      # a mode too fast for the grid: left as it is
+            return z
+        best_share = share = self._residual_share(grid, z)
         best = z
-        # The rows' quadrature resolves the mode only with several points a
-        # period: a mode above that (tens of Hz on a long plan's row points)
-        # is left as it is, and the plan reports what it rings.  (The median
-        # step: a few steps are long where the profile is slow.)
-        steps = self._mode_weights(every, np.maximum(x @ z, 0.0), times=True)
-        resolved = np.median(steps) * self.vibration_frequency <= RESIDUAL_RESOLUTION
-        for _ in range(RESIDUAL_LPS if resolved else 0):
+        for _ in range(RESIDUAL_LPS):
             if share <= RESIDUAL_ACCEPTED:
                 break
             x_p = np.maximum(x @ z, 0.0)
-            bound = max(RESIDUAL_BOUND, RESIDUAL_STEP * share)
-            result = solve(x_p, z, GROWTH[-1], residual=self._residual_rows(every, x_p, z, bound))
-            if result.status != 0:
+            result = None
+            for step in RESIDUAL_STEPS:
+                rows = self._residual_rows(grid, z, max(RESIDUAL_BOUND, step * share))
+                try:
+                    result = solve(x_p, z, GROWTH[-1], residual=rows)
+                except RuntimeError:    # HiGHS refused it: keep what is found
+                    result = None
+                    break
+                if result.status == 0:
+                    break
+            if result is None or result.status != 0:
                 break
             z = result.x
-            share = self._residual_share(every, x, z)
+            share = self._residual_share(grid, z)
             if share < best_share:
                 best_share, best = share, z
         self.residual = float(best_share)
         return best
 
-    def _mode_weights(self, every, x_p, times=False):
+    def _mode_grid(self, every, x, z):
         """
-        Return the complex weights (n,) of ``Z`` at the row points on the profile ``x_p``.
+        Return the points, x's design and the joints' acceleration map on which ``Z`` is summed.
 
-        ``Z = sum_k qdd_k dt_k exp(lambda (T - t_k))`` (:mod:`residual_vibration`):
-        ``t`` by ``dt = 2 ds / (sqrt(x_i) + sqrt(x_i+1))`` between the points
-        (exact where ``x`` is linear, and finite at a rest end), ``dt_k``
-        the trapezoid weight of point k.  ``times``: the steps ``dt`` instead.
+        The row points, each step of the profile ``z``'s time law cut into
+        as many as put :data:`MODE_POINTS` points a period of the mode (the
+        row points are per segment: a segment of seconds has steps of tens
+        of milliseconds).  None when that takes more than
+        :data:`MAX_MODE_POINTS` points beyond the row points (a mode of
+        hundreds of Hz on a plan of seconds).
         """
-        exponent, _ = mode_exponent(self.vibration_frequency)
+        dt = self._time_steps(every, np.maximum(x @ z, 0.0))
+        parts = np.maximum(1, np.ceil(dt * self.vibration_frequency * MODE_POINTS)).astype(int)
+        if parts.sum() - parts.size > MAX_MODE_POINTS:
+            return None
+        first = np.repeat(np.cumsum(parts) - parts, parts)
+        fine = np.concatenate([np.repeat(every[:-1], parts) + np.repeat(
+            np.diff(every) / parts, parts) * (np.arange(parts.sum()) - first), every[-1:]])
+        inner = fine[1:-1]
+        design, slope, _ = self._design(inner)
+        return fine, design, self._acceleration_map(inner, design, slope)
+
+    def _time_steps(self, points, x_p):
+        """
+        Return the times ``dt`` between ``points`` (the ends included) on the profile ``x_p``.
+
+        ``dt = 2 ds / (sqrt(x_i) + sqrt(x_i+1))``, exact where ``x`` is
+        linear and finite at a rest end; ``x_p`` at the inner points.
+        """
         speed = np.sqrt(np.concatenate([[self.ends[0]], np.maximum(x_p, 0.0), [self.ends[1]]]))
-        dt = 2.0 * np.diff(every) / np.maximum(speed[:-1] + speed[1:], np.finfo(float).tiny)
-        if times:
-            return dt
-        t = np.concatenate([[0.0], np.cumsum(dt)])
-        return 0.5 * (dt[:-1] + dt[1:]) * np.exp(exponent * (t[-1] - t[1:-1]))
+        return 2.0 * np.diff(points) / np.maximum(speed[:-1] + speed[1:], np.finfo(float).tiny)
 
-    def _mode_content(self, every, x_p):
-        """Return the (n_joints, unknowns) complex map from z to each joint's ``Z`` on ``x_p``."""
-        weights = self._mode_weights(every, x_p)
+    def _mode_content(self, grid, z):
+        """
+        Return the (n_joints, unknowns) complex map from z to each joint's ``Z``, phases of ``z``.
+
+        ``Z = sum_k qdd_k dt_k exp(lambda (T - t_k))`` (:mod:`residual_vibration`)
+        on the inner points of ``grid`` (:meth:`_mode_grid`), ``t`` by
+        :meth:`_time_steps` on the profile ``z`` and ``dt_k`` the trapezoid
+        weight of point k.
+        """
+        points, design, acceleration = grid
+        exponent, _ = mode_exponent(self.vibration_frequency)
+        dt = self._time_steps(points, design @ z)
+        t = np.concatenate([[0.0], np.cumsum(dt)])
+        weights = 0.5 * (dt[:-1] + dt[1:]) * np.exp(exponent * (t[-1] - t[1:-1]))
         n = weights.size
-        acceleration = self._acceleration_rows
         return np.array([acceleration[j * n:(j + 1) * n].T @ weights
                          for j in range(self.acceleration.size)])
 
-    def _residual_share(self, every, x, z):
+    def _residual_share(self, grid, z):
         """Return the largest residual share over the joints of the profile ``z``, on itself."""
-        content = self._mode_content(every, np.maximum(x @ z, 0.0)) @ z
+        content = self._mode_content(grid, z) @ z
         return float(np.max(np.abs(content)
                             * static_scale(self.vibration_frequency, self.acceleration)))
 
-    def _residual_rows(self, every, x_p, z, share=RESIDUAL_BOUND):
+    def _residual_rows(self, grid, z, share):
         """
-        Return the rows and bounds ``Re(exp(-i theta) Z_j(z)) <= bound_j`` (phases of ``x_p``).
+        Return the rows and bounds ``Re(exp(-i theta) Z_j(z')) <= bound_j``, phases of ``z``.
 
         :data:`RESIDUAL_DIRECTIONS` angles ``theta`` a joint; ``bound_j``
         is the residual ``share`` over the joint's :func:`residual_vibration.static_scale`.
         """
-        content = self._mode_content(every, x_p)
+        content = self._mode_content(grid, z)
         angles = np.exp(-2j * np.pi * np.arange(RESIDUAL_DIRECTIONS) / RESIDUAL_DIRECTIONS)
         rows = (angles[None, :, None] * content[:, None, :]).real.reshape(-1, content.shape[1])
         bound = share / static_scale(self.vibration_frequency, self.acceleration)

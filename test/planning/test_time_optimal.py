@@ -467,16 +467,30 @@ def test_vibration_frequency_leaves_less_ringing_after_the_end():
     assert np.median(ratios) < 0.1, ratios
 
 
-def test_a_mode_the_profile_cannot_resolve_is_left_and_reported():
-    """60 Hz on a plan whose row points are ms apart: the plain plan, its ringing said."""
+def test_a_mode_too_fast_for_the_profile_is_left_and_reported():
+    """1 kHz on a plan of seconds (64 000 points to resolve it): the plain plan, its ringing."""
     points, limits = random_request(502, max_points=12, min_points=5)
     plain = time_optimal_plan(points, limits)
     traj = plan(points, '555', 'optimal', speed_profile='time_optimal',
-                vibration_frequency=60.0, **limits)
-    assert traj.duration == plain.duration
+                vibration_frequency=1000.0, **limits)
+    assert traj.optimizer['profile_lps'] == plain.optimizer['profile_lps']
     assert np.array_equal(traj.ppoly.c, plain.ppoly.c)
-    ringing = residual_vibration(traj, 60.0, limits['max_acceleration'], rate=20000.0)
+    ringing = residual_vibration(traj, 1000.0, limits['max_acceleration'], rate=40000.0)
     assert traj.optimizer['vibration_residual'] == pytest.approx(ringing, rel=0.1, abs=0.01)
+
+
+def test_a_long_segment_is_cancelled_too():
+    """Two waypoints 5 s apart: the row points are 17-50 ms apart, the mode's grid is not."""
+    points = np.array([[0.0, 0.0, 0.0], [-2.1, 1.2, 2.4]])
+    limits = {'max_velocity': [0.5] * 3, 'max_acceleration': [2.0] * 3, 'max_jerk': [30.0] * 3}
+    plain = time_optimal_plan(points, limits)
+    traj = plan(points, '555', 'optimal', speed_profile='time_optimal',
+                vibration_frequency=4.0, **limits)
+    assert plain.duration > 4.0
+    ringing = residual_vibration(traj, 4.0, limits['max_acceleration'])
+    assert ringing <= min(0.15, 0.3 * residual_vibration(plain, 4.0, limits['max_acceleration']))
+    assert traj.optimizer['vibration_residual'] == pytest.approx(ringing, rel=0.1, abs=0.01)
+    assert traj.duration <= 1.15 * plain.duration
 
 
 def test_a_moving_end_is_not_cancelled():
