@@ -177,15 +177,18 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         "time_optimal" there are no windows: with a rest end (from a moving
         start too) its profile cancels the ringing a mode at ``f`` (damping
         ratio 0.02) is left with after the stop (:mod:`residual_vibration`):
-        about 0.03 of the static deflection ``a / w**2`` at 4-8 Hz, against
-        0.5-1.5 without and TOPP-RA's 1-1.5, for a share of a period: 0.2-2 %
-        of moves of several seconds, up to 20 % of 1-2 s moves with a jerk
-        limit of hundreds of times the acceleration (the Panda's); a mode far
-        below the stop's own content (1.5-2.5 Hz) costs 5-15 % and is left more.
-        ``optimizer['vibration_residual']`` is what the plan leaves (None
-        with a moving end).  A cancellation is narrow: a mode 10 % off in
-        frequency is left 0.6-0.7 of TOPP-RA's ringing, one damped 0.01 or
-        0.05 0.15-0.35, and harmonics (8 Hz for 4) are not cancelled; the
+        0.05-0.06 of TOPP-RA's ringing at 4-8 Hz (at most 0.1 of the static
+        deflection ``a / w**2`` where it converges), against 0.35-0.85
+        without, for a share of a period: 0.2-2 % of moves of several
+        seconds, 7-9 % of 1-2 s moves with a jerk limit of hundreds of
+        times the acceleration (the Panda's); a mode far below the stop's
+        own content (1.5 Hz) costs 5-9 % and is left 0.07-0.16.
+        ``optimizer['vibration_residual']`` is what the plan leaves (the
+        share of ``a / w**2``; None with a moving end, or a mode too fast
+        to sample).  The mode is taken at rest when the plan starts (from a
+        moving start too).  A cancellation is narrow: a mode 10 % off in
+        frequency is left 0.4-0.8 of TOPP-RA's ringing, one damped 0.01 or
+        0.05 0.13-0.25, and harmonics (8 Hz for 4) are not cancelled; the
         default's windows are broad (about 0.1 at all of these).
     max_torque, inverse_dynamics : (n,) positive limits [N m] (inf: none) and
         a function ``tau(q, qd, qdd)`` ((N, n) each -> (N, n)), or both None

@@ -201,9 +201,9 @@ class PlannerConfig(ValidatedConfig):
         'only: with a moving start or end (replanning) the profile is not averaged and the '
         'parameter changes nothing. With `speed_profile: time_optimal` there are no windows: '
         'before a rest end (replanning too) the profile cancels the ringing of a mode at f '
-        "(damping 0.02) after the stop, to about 0.03 of TOPP-RA's at 4-8 Hz for 0.2-2 % of "
-        'the duration (up to 20 % of 1-2 s moves with a very high jerk limit). Narrow, as '
-        "every cancellation: a mode 10 % off in frequency is left 0.6-0.7 of TOPP-RA's "
+        "(damping 0.02) after the stop, to about 0.05 of TOPP-RA's at 4-8 Hz for 0.2-2 % of "
+        'the duration (7-9 % of 1-2 s moves with a very high jerk limit). Narrow, as '
+        "every cancellation: a mode 10 % off in frequency is left 0.4-0.8 of TOPP-RA's "
         'ringing (about what time_optimal leaves without it), where the windows of '
         '`smoothed` leave about 0.1 of it.',
         low=0.0, high=MAX_VIBRATION_FREQUENCY, unit='Hz')
