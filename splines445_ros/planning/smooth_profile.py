@@ -182,8 +182,10 @@ RESIDUAL_ACCEPTED = 0.1
 # and 0.5 reached 0.05-0.39 from 0.7-0.9 (helper-18's review).
 RESIDUAL_STEPS = (0.2, 0.5, 0.8)
 # LPs at most with the residual rows, after the time's own have converged (the least
-# residual of them is kept): 2-3 are usual.
-RESIDUAL_LPS = 4
+# residual of them is kept): 1-3 at 4-8 Hz.  8 rather than 4: the Panda's stops
+# (j = 500 a, shares of 2-5) were left 0.07-0.34 instead of 0.31-0.75, a 1.5 Hz mode
+# 0.06 of TOPP-RA's ringing instead of 0.13, for 30-50 % more planning there.
+RESIDUAL_LPS = 8
 # |Z| <= bound as this many half-planes, a regular polygon (|Z| within 1 / cos(pi / 8)).
 RESIDUAL_DIRECTIONS = 8
 # In those LPs x stays above this share of the last profile: the rows' phases are its
