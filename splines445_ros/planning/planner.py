@@ -182,7 +182,7 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         without, for a share of a period: 0.2-2 % of moves of several
         seconds, 7-9 % of 1-2 s moves with a jerk limit of hundreds of
         times the acceleration (the Panda's); a mode far below the stop's
-        own content (1.5 Hz) costs 5-9 % and is left 0.07-0.16.
+        own content (1.5 Hz) costs 5-10 % and is left 0.04-0.05.
         ``optimizer['vibration_residual']`` is what the plan leaves (the
         share of ``a / w**2``; None with a moving end, or a mode too fast
         to sample).  The mode is taken at rest when the plan starts (from a
