@@ -181,8 +181,9 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         deflection ``a / w**2`` where it converges), against 0.35-0.85
         without, for a share of a period: 0.2-2 % of moves of several
         seconds, 7-9 % of 1-2 s moves with a jerk limit of hundreds of
-        times the acceleration (the Panda's); a mode far below the stop's
-        own content (1.5 Hz) costs 5-10 % and is left 0.04-0.05.
+        times the acceleration (the Panda's), medians; a mode far below the
+        stop's own content (1.5 Hz) costs a median 5-10 % (at worst 30 %,
+        more on short moves with such jerk limits) and is left 0.04-0.05.
         ``optimizer['vibration_residual']`` is what the plan leaves (the
         share of ``a / w**2``; None with a moving end, or a mode too fast
         to sample).  The mode is taken at rest when the plan starts (from a

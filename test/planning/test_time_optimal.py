@@ -17,8 +17,9 @@ from scipy.interpolate import CubicSpline, make_interp_spline
 from scipy.optimize import linprog
 from scipy.signal import lsim
 from splines445_ros.planning import plan
-from splines445_ros.planning import planner, time_optimal
+from splines445_ros.planning import planner, smooth_profile, time_optimal
 from splines445_ros.planning.limits import JointLimits
+from splines445_ros.planning.path_timing import rescaled
 from splines445_ros.planning.plan_options import MAX_TIME_OPTIMAL_WAYPOINTS
 from splines445_ros.planning.time_optimal import MAX_KNOTS
 from splines445_ros.planning.timing import rest_to_rest_durations
@@ -467,16 +468,53 @@ def test_vibration_frequency_leaves_less_ringing_after_the_end():
     assert np.median(ratios) < 0.1, ratios
 
 
-def test_a_mode_too_fast_for_the_profile_is_left_and_reported():
-    """1 kHz on a plan of seconds (64 000 points to resolve it): the plain plan, its ringing."""
+@pytest.mark.parametrize('frequency, most', [(1000.0, None), (4.0, -1)])
+def test_a_mode_the_grid_cannot_hold_is_left_and_reported(frequency, most, monkeypatch):
+    """1 kHz on a plan of seconds (64 000 points), or 4 Hz with no points allowed: left alone."""
+    if most is not None:
+        monkeypatch.setattr(smooth_profile, 'MAX_MODE_POINTS', most)
     points, limits = random_request(502, max_points=12, min_points=5)
     plain = time_optimal_plan(points, limits)
     traj = plan(points, '555', 'optimal', speed_profile='time_optimal',
-                vibration_frequency=1000.0, **limits)
+                vibration_frequency=frequency, **limits)
     assert traj.optimizer['profile_lps'] == plain.optimizer['profile_lps']
     assert np.array_equal(traj.ppoly.c, plain.ppoly.c)
-    ringing = residual_vibration(traj, 1000.0, limits['max_acceleration'], rate=40000.0)
+    ringing = residual_vibration(traj, frequency, limits['max_acceleration'],
+                                 rate=max(1000.0, 40.0 * frequency))
     assert traj.optimizer['vibration_residual'] == pytest.approx(ringing, rel=0.1, abs=0.01)
+    if frequency == 4.0:
+        assert ringing > 0.2    # the rows would have run
+
+
+def test_a_spline_far_from_its_profile_s_time_has_it_cancel_the_stretched_mode(monkeypatch):
+    """With j = 3 a the spline's exact factor is 0.97: it rings at f as its profile at 0.97 f."""
+    points, limits = random_request(715, max_points=8, min_points=3)
+    limits['max_jerk'] = 3.0 * np.asarray(limits['max_acceleration'])
+    a = limits['max_acceleration']
+    monkeypatch.setattr(time_optimal, 'RESIDUAL_SCALE', np.inf)
+    once = plan(points, '555', 'optimal', speed_profile='time_optimal',
+                vibration_frequency=4.0, **limits)
+    monkeypatch.undo()
+    traj = plan(points, '555', 'optimal', speed_profile='time_optimal',
+                vibration_frequency=4.0, **limits)
+    assert abs(once.optimizer['time_scale'] - 1.0) > time_optimal.RESIDUAL_SCALE
+    assert traj.within_limits(rtol=1e-9)
+    ringing = residual_vibration(traj, 4.0, a)
+    # The figure is the plan's at the user's f, not the profile's f k.
+    assert traj.optimizer['vibration_residual'] == pytest.approx(ringing, rel=0.1, abs=0.01)
+    assert traj.optimizer['vibration_frequency'] == 4.0
+    assert ringing < 0.7 * residual_vibration(once, 4.0, a)
+
+
+def test_a_uniform_slow_down_measures_the_ringing_again():
+    """path_timing.rescaled (the torque's and the tool lines' 1 kHz checks): the figure follows."""
+    points, limits = random_request(503, max_points=12, min_points=5)
+    traj = plan(points, '555', 'optimal', speed_profile='time_optimal',
+                vibration_frequency=4.0, **limits)
+    slow = rescaled(traj, 1.05)
+    ringing = residual_vibration(slow, 4.0, limits['max_acceleration'])
+    assert slow.optimizer['vibration_residual'] == pytest.approx(ringing, rel=0.1, abs=0.01)
+    assert abs(ringing - traj.optimizer['vibration_residual']) > 0.02
 
 
 def test_a_long_segment_is_cancelled_too():
