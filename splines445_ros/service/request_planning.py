@@ -491,6 +491,10 @@ def summary_values(traj, joint_names):
     for key in ('inner_knots_skipped', 'speed_profile', 'speed_profile_skipped'):
         if (traj.optimizer or {}).get(key):
             values[key] = traj.optimizer[key]
+    residual = (traj.optimizer or {}).get('vibration_residual')
+    if residual is not None:
+        # time_optimal's vibration_frequency: the mode's ringing after the stop.
+        values['vibration_residual'] = f'{residual:.3g}'
     return values
 
 

@@ -94,6 +94,10 @@ def test_vibration_frequency_cancels_the_ringing_after_the_stop():
     # figure against an oscillator of its own), a share of a / w**2.
     assert traj.optimizer['vibration_residual'] <= 0.2
     assert plain.duration <= traj.duration <= plain.duration + 0.25
+    # On ~/status as the plan's figure; the plain plan has none.
+    shown = float(summary_values(traj, NAMES)['vibration_residual'])
+    assert shown == pytest.approx(traj.optimizer['vibration_residual'], rel=1e-2)
+    assert 'vibration_residual' not in summary_values(plain, NAMES)
 
 
 def test_replanning_from_a_moving_state_keeps_the_state():
