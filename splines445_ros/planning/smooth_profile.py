@@ -630,7 +630,8 @@ class SmoothProfile:
         if grid is None:
             self.residual = np.nan      # a mode too fast for the grid: left as it is
             return z
-        best_share = share = self._residual_share(grid, z)
+        content = self._mode_content(grid, z)
+        best_share = share = self._residual_share(content, z)
         best = z
         for _ in range(RESIDUAL_LPS):
             if share <= RESIDUAL_ACCEPTED:
@@ -638,7 +639,7 @@ class SmoothProfile:
             x_p = np.maximum(x @ z, 0.0)
             result = None
             for step in RESIDUAL_STEPS:
-                rows = self._residual_rows(grid, z, max(RESIDUAL_BOUND, step * share))
+                rows = self._residual_rows(content, max(RESIDUAL_BOUND, step * share))
                 try:
                     result = solve(x_p, z, GROWTH[-1], residual=rows)
                 except RuntimeError:    # HiGHS refused it: keep what is found
@@ -649,7 +650,8 @@ class SmoothProfile:
             if result is None or result.status != 0:
                 break
             z = result.x
-            share = self._residual_share(grid, z)
+            content = self._mode_content(grid, z)
+            share = self._residual_share(content, z)
             if share < best_share:
                 best_share, best = share, z
         self.residual = float(best_share)
@@ -705,20 +707,20 @@ class SmoothProfile:
         return np.array([acceleration[j * n:(j + 1) * n].T @ weights
                          for j in range(self.acceleration.size)])
 
-    def _residual_share(self, grid, z):
-        """Return the largest residual share over the joints of the profile ``z``, on itself."""
-        content = self._mode_content(grid, z) @ z
-        return float(np.max(np.abs(content)
+    def _residual_share(self, content, z):
+        """Return the largest residual share over the joints of ``z``, ``content`` its own map."""
+        return float(np.max(np.abs(content @ z)
                             * static_scale(self.vibration_frequency, self.acceleration)))
 
-    def _residual_rows(self, grid, z, share):
+    def _residual_rows(self, content, share):
         """
-        Return the rows and bounds ``Re(exp(-i theta) Z_j(z')) <= bound_j``, phases of ``z``.
+        Return the rows and bounds ``Re(exp(-i theta) Z_j(z')) <= bound_j`` of the map ``content``.
 
-        :data:`RESIDUAL_DIRECTIONS` angles ``theta`` a joint; ``bound_j``
-        is the residual ``share`` over the joint's :func:`residual_vibration.static_scale`.
+        ``content`` is :meth:`_mode_content` of the last profile (its
+        phases); :data:`RESIDUAL_DIRECTIONS` angles ``theta`` a joint;
+        ``bound_j`` is the residual ``share`` over the joint's
+        :func:`residual_vibration.static_scale`.
         """
-        content = self._mode_content(grid, z)
         angles = np.exp(-2j * np.pi * np.arange(RESIDUAL_DIRECTIONS) / RESIDUAL_DIRECTIONS)
         rows = (angles[None, :, None] * content[:, None, :]).real.reshape(-1, content.shape[1])
         bound = share / static_scale(self.vibration_frequency, self.acceleration)
