@@ -850,7 +850,14 @@ class SmoothProfile:
         u = np.clip((t - times[piece]) / span, 0.0, 1.0)
         guess = ((1.0 + 2.0 * u) * (1.0 - u) ** 2 * a + u * (1.0 - u) ** 2 * span * speeds[piece]
                  + u * u * (3.0 - 2.0 * u) * b - u * u * (1.0 - u) * span * speeds[piece + 1])
-        share = np.clip((guess - a) / (b - a), 0.0, 1.0)
+        return self._tau_of(piece, guess)
+
+    def _tau_of(self, piece, s):
+        """Return ``tau`` in [0, 1] of the positions ``s`` on ``piece``: :meth:`_map`'s inverse."""
+        breaks = self._breaks
+        a, b = breaks[piece], breaks[piece + 1]
+        share = np.clip((s - a) / (b - a), 0.0, 1.0)
+        # s = a + h tau**3 on the first piece, b - h (1 - tau)**3 on the last.
         return np.where(piece == 0, np.cbrt(share),
                         np.where(piece == breaks.size - 2, 1.0 - np.cbrt(1.0 - share), share))
 
@@ -889,11 +896,7 @@ class SmoothProfile:
         s = np.clip(np.atleast_1d(np.asarray(s, float)), self.start, self.end)
         breaks = self._breaks
         piece = np.clip(np.searchsorted(breaks, s, side='right') - 1, 0, breaks.size - 2)
-        a, b = breaks[piece], breaks[piece + 1]
-        share = np.clip((s - a) / (b - a), 0.0, 1.0)
-        # The inverse of _map: s = a + h tau**3 on the first piece, b - h (1 - tau)**3 on the last.
-        tau = np.where(piece == 0, np.cbrt(share),
-                       np.where(piece == breaks.size - 2, 1.0 - np.cbrt(1.0 - share), share))
+        tau = self._tau_of(piece, s)
         moved = tau > 0.0           # the integrand is 0 / 0 at rest, its integral 0
         partial = np.zeros_like(tau)
         partial[moved] = self._partial(piece[moved], tau[moved])
