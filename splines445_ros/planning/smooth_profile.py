@@ -497,19 +497,11 @@ class SmoothProfile:
         ``-x <= 0`` (``-x <= -floor`` in the residual's LPs), ``+-(acceleration)
         <= a``, then ``+-L(z)`` of the jerk (module docstring).  ``b`` is 0
         for the cap and jerk rows, set per LP; the last return is the jerk
-        limit of each jerk row.  The acceleration block (joint by joint) is
-        kept for the residual rows.
+        limit of each jerk row.
         """
         x, x1, x2 = self._design(points)
-        n, n_joints = points.size, self.jerk.size
-        d1, d2, d3 = (np.atleast_2d(self.path(points, k).T).ravel() for k in (1, 2, 3))
-
-        def stacked(matrix):
-            return sp.vstack([matrix] * n_joints, format='csr')
-
-        acc = self._acceleration_map(points, x, x1)
-        jerk = (sp.diags(0.5 * d1) @ stacked(x2) + sp.diags(1.5 * d2) @ stacked(x1)
-                + sp.diags(d3) @ stacked(x))
+        n = points.size
+        acc, jerk = self._joint_maps(points, (x, x1, x2))
         # Jerk rows for the joints with a jerk limit (inf: none).
         joints = np.isfinite(self.jerk)
         jerk = jerk[np.repeat(joints, n)]
@@ -520,12 +512,24 @@ class SmoothProfile:
                                + more_bound + [np.zeros(jerk_bound.size)])
         return x, rows, bound, jerk_bound
 
-    def _acceleration_map(self, points, x, x1):
-        """Return the map (n_joints * n, unknowns) from z to q' x'/2 + q'' x, joint-major."""
-        d1, d2 = (np.atleast_2d(self.path(points, k).T).ravel() for k in (1, 2))
+    def _joint_maps(self, points, designs):
+        """
+        Return the maps (n_joints * n, unknowns), joint-major, from z to the joints' motion.
+
+        ``designs``: the designs of x, x' (and x'') at ``points``.  The map
+        of the acceleration ``q' x'/2 + q'' x``; given x'', the pair of it
+        and the jerk's ``L(z) = q' x''/2 + 3 q'' x'/2 + q''' x`` (module
+        docstring), with the path's slopes evaluated once for both.
+        """
         n_joints = self.jerk.size
-        return (sp.diags(0.5 * d1) @ sp.vstack([x1] * n_joints, format='csr')
-                + sp.diags(d2) @ sp.vstack([x] * n_joints, format='csr'))
+        slopes = [np.atleast_2d(self.path(points, k).T).ravel()
+                  for k in range(1, len(designs) + 1)]
+        stacked = [sp.vstack([design] * n_joints, format='csr') for design in designs]
+        acc = sp.diags(0.5 * slopes[0]) @ stacked[1] + sp.diags(slopes[1]) @ stacked[0]
+        if len(designs) == 2:
+            return acc
+        return acc, (sp.diags(0.5 * slopes[0]) @ stacked[2] + sp.diags(1.5 * slopes[1])
+                     @ stacked[1] + sp.diags(slopes[2]) @ stacked[0])
 
     def _constraint_rows(self, points, x, x1):
         """
@@ -677,7 +681,7 @@ class SmoothProfile:
             np.diff(every) / parts, parts) * (np.arange(parts.sum()) - first), every[-1:]])
         inner = fine[1:-1]
         design, slope, _ = self._design(inner)
-        return fine, design, self._acceleration_map(inner, design, slope)
+        return fine, design, self._joint_maps(inner, (design, slope))
 
     def _time_steps(self, points, x_p):
         """
