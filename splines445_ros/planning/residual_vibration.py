@@ -88,3 +88,16 @@ def trajectory_residual(traj, frequency, max_acceleration, period=1e-3, damping=
     t = np.linspace(0.0, traj.duration, steps + 1)
     return float(np.max(residual_shares(t, traj.evaluate(t, 2), frequency, max_acceleration,
                                         damping)))
+
+
+def report_residual(traj, frequency):
+    """
+    Set ``traj.optimizer``'s 'vibration_residual' at ``frequency`` and its 'vibration_frequency'.
+
+    :func:`trajectory_residual` on the plan's own acceleration limits: the
+    figure of :mod:`time_optimal`'s plans, measured again after a uniform
+    slow-down (``path_timing.rescaled``).
+    """
+    traj.optimizer['vibration_frequency'] = float(frequency)
+    traj.optimizer['vibration_residual'] = trajectory_residual(traj, frequency,
+                                                               traj.limits.acceleration)

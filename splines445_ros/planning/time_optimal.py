@@ -58,7 +58,7 @@ import numpy as np
 from .inner_knots import (END_SEGMENT_SHARES, first_path, GRID_STEPS, kept_trajectory,
                           KnotCandidate, TimingProblem)
 from .path_timing import midpoint_fractions
-from .residual_vibration import trajectory_residual
+from .residual_vibration import report_residual, trajectory_residual
 from .smooth_profile import SmoothProfile
 from .timing import rest_to_rest_durations
 
@@ -160,22 +160,21 @@ def knot_fractions(segment_times, period=None):
     return [np.arange(m) / m for m in counts]
 
 
-def _report_residual(traj, profile, limits, vibration_frequency):
+def _report_residual(traj, profile, vibration_frequency):
     """
     Set optimizer['vibration_residual'] (and ['vibration_frequency'], where it is a figure).
 
     The plan's residual share at the mode: None without a
     ``vibration_frequency`` or with a moving end (no stop to ring after);
-    else :func:`residual_vibration.trajectory_residual` of the finished
-    plan (its polynomials, 20 samples a period or 1 kHz), the figure the
+    else :func:`residual_vibration.report_residual` of the finished plan
+    (its polynomials, 20 samples a period or 1 kHz), the figure the
     profile's rows bound, for the mode's assumed damping.  A uniform slow-down
     afterwards (``path_timing.rescaled``) measures it again at that frequency.
     """
-    share = None
-    if profile.residual is not None:   # else no vibration_frequency, or a moving end
-        share = trajectory_residual(traj, vibration_frequency, limits.acceleration)
-        traj.optimizer['vibration_frequency'] = float(vibration_frequency)
-    traj.optimizer['vibration_residual'] = share
+    if profile.residual is None:    # no vibration_frequency, or a moving end
+        traj.optimizer['vibration_residual'] = None
+    else:
+        report_residual(traj, vibration_frequency)
 
 
 def plan_time_optimal(points, limits, dropped=(), torque=None, boundary=None,
@@ -246,7 +245,7 @@ def _followed_trajectory(points, limits, dropped, torque, boundary, moving, dura
                 'time_scale': float(candidate.scale), 'limit_margin': margin,
                 'smoothing_windows': []})
             if traj is not None:
-                _report_residual(traj, profile, limits, vibration_frequency)
+                _report_residual(traj, profile, vibration_frequency)
             return traj
     return None
 
@@ -366,5 +365,5 @@ def retime_path(traj, limits, constraints=(), piece_factors=None, vibration_freq
         'time_scale': float(candidate.scale), 'retimed_duration': float(traj.duration),
         'smoothing_windows': []})
     if retimed is not None:
-        _report_residual(retimed, profile, limits, vibration_frequency)
+        _report_residual(retimed, profile, vibration_frequency)
     return retimed
