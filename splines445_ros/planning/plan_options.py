@@ -147,7 +147,7 @@ def speed_profile_value(value, method, timing, inner_knots_given=False, smoothin
     None means "smoothed".  "time_optimal" needs method 555 with timing
     "optimal", and no option it would silently ignore: an ``inner_knots``
     count (its knots follow the profile) or a ``smoothing`` other than
-    "auto" (it has no smoothing windows; a ``vibration_frequency`` ramps
+    "auto" (it has no smoothing windows; a ``vibration_frequency`` cancels
     the ringing of the mode after the stop instead, :mod:`residual_vibration`).  The
     ``durations`` of timing "optimal" are only a warm start of the
     optimiser: it does not need one (plan() says so), and its fallback to
