@@ -25,15 +25,14 @@ Usage: ``python benchmarks/bench_vibration_residual.py``;
 
 import os
 import sys
-import time
 
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but the rule holds
 
-from bench_inner_knots import random_case  # noqa: E402
+from bench_inner_knots import random_case, timed  # noqa: E402
 from bench_planning import toppra_trajectory  # noqa: E402
 import bench_seeds  # noqa: E402, I100
 import numpy as np  # noqa: E402, I100
-from shaking import of_toppra, of_trajectory, oscillator, RATE, RESIDUAL_PERIODS  # noqa: E402
+from shaking import of_toppra, of_trajectory, shaking  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
 
 N_CASES = 12
@@ -45,27 +44,10 @@ PLANS = ('time_optimal', 'time_optimal, vibration_frequency=f', 'default, vibrat
 CASES_STREAM = 3
 
 
-def residual(acceleration_of, duration, max_acceleration, frequency, damping):
-    """Return the largest ringing after the stop, in units of ``a / w**2`` (``shaking``'s)."""
-    moving = np.arange(0.0, duration, 1.0 / RATE)
-    after = int(np.ceil(RESIDUAL_PERIODS * RATE / frequency))
-    acc = np.vstack([acceleration_of(moving), np.zeros((after, len(max_acceleration)))])
-    x = np.abs(oscillator(acc, frequency, damping))
-    static = np.asarray(max_acceleration, float) / (2.0 * np.pi * frequency) ** 2
-    return float(np.max(x[moving.size:] / static))
-
-
 def residuals(acceleration_of, duration, amax, frequency):
-    """:func:`residual` for every mode of :data:`MODES`."""
-    return np.array([residual(acceleration_of, duration, amax, share * frequency, damping)
+    """``shaking.shaking``'s residual for every mode of :data:`MODES`."""
+    return np.array([shaking(acceleration_of, duration, amax, share * frequency, zeta=damping)[1]
                      for share, damping in MODES])
-
-
-def timed(func):
-    """Wall time [s] of one call and its result."""
-    started = time.perf_counter()
-    result = func()
-    return time.perf_counter() - started, result
 
 
 def main():

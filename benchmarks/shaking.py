@@ -38,17 +38,18 @@ def oscillator(acceleration, frequency, zeta=ZETA, rate=RATE):
     return lfilter(np.ravel(num), den, acceleration, axis=0)
 
 
-def shaking(acceleration_of, duration, max_acceleration, frequency, rate=RATE):
+def shaking(acceleration_of, duration, max_acceleration, frequency, rate=RATE, zeta=ZETA):
     """
     Return (peak, residual) of one trajectory at one ``frequency`` (module docstring).
 
     ``acceleration_of(t)`` gives the joint accelerations (T, n) at the times
-    ``t``; ``duration`` is the trajectory's; ``max_acceleration`` (n,) the limits.
+    ``t``; ``duration`` is the trajectory's; ``max_acceleration`` (n,) the
+    limits; ``zeta`` the mode's damping ratio.
     """
     moving = np.arange(0.0, duration, 1.0 / rate)
     after = int(np.ceil(RESIDUAL_PERIODS * rate / frequency))
     acc = np.vstack([acceleration_of(moving), np.zeros((after, len(max_acceleration)))])
-    x = np.abs(oscillator(acc, frequency, rate=rate))
+    x = np.abs(oscillator(acc, frequency, zeta, rate))
     static = np.asarray(max_acceleration, float) / (2.0 * np.pi * frequency) ** 2
     peak = np.max(x[:moving.size] / static)
     residual = np.max(x[moving.size:] / static)
