@@ -880,18 +880,20 @@ class SmoothProfile:
         # bracket, and a step that is not finite or leaves it bisects it
         # (a rest end where x is 0 to round-off left 0 / 0 there, and nan).
         low, high = np.zeros_like(tau), np.ones_like(tau)
-        for _ in range(NEWTON_STEPS if t.size else 0):
-            error = times[piece] + self._partial(piece, tau) - t
-            low = np.where(error <= 0.0, tau, low)
-            high = np.where(error >= 0.0, tau, high)
-            with np.errstate(divide='ignore', invalid='ignore'):
-                new = tau - error / self._rate(piece, np.maximum(tau, 1e-9))
-            inside = np.isfinite(new) & (new >= low) & (new <= high)
-            new = np.where(inside, new, 0.5 * (low + high))
-            done = np.max(np.abs(new - tau)) < NEWTON_TOLERANCE
-            tau = new
-            if done:
+        active = np.arange(t.size)      # the times whose last step was not yet below tolerance
+        for _ in range(NEWTON_STEPS):
+            if active.size == 0:
                 break
+            at, now = piece[active], tau[active]
+            error = times[at] + self._partial(at, now) - t[active]
+            low[active] = np.where(error <= 0.0, now, low[active])
+            high[active] = np.where(error >= 0.0, now, high[active])
+            with np.errstate(divide='ignore', invalid='ignore'):
+                new = now - error / self._rate(at, np.maximum(now, 1e-9))
+            inside = np.isfinite(new) & (new >= low[active]) & (new <= high[active])
+            new = np.where(inside, new, 0.5 * (low[active] + high[active]))
+            tau[active] = new
+            active = active[np.abs(new - now) >= NEWTON_TOLERANCE]
         out[moving] = self._map(piece, tau)[0]
         return out
 
