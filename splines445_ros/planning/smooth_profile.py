@@ -459,14 +459,15 @@ class SmoothProfile:
 
     # The problem.
 
-    def _design(self, s):
-        """Return the sparse (len(s), unknowns) maps from z to x, x', x'' at ``s``."""
+    def _design(self, s, orders=3):
+        """Return the sparse (len(s), unknowns) maps from z to x, x' (and x'') at ``s``."""
         t, count = self.knots, self._count
         d1 = _derivative_matrix(t, 3, count)
-        d2 = _derivative_matrix(t[1:-1], 2, count - 1)
-        bases = (BSpline.design_matrix(s, t, 3).tocsr(),
-                 BSpline.design_matrix(s, t[1:-1], 2).tocsr() @ d1,
-                 BSpline.design_matrix(s, t[2:-2], 1).tocsr() @ d2 @ d1)
+        bases = [BSpline.design_matrix(s, t, 3).tocsr(),
+                 BSpline.design_matrix(s, t[1:-1], 2).tocsr() @ d1]
+        if orders > 2:
+            bases.append(BSpline.design_matrix(s, t[2:-2], 1).tocsr()
+                         @ _derivative_matrix(t[1:-1], 2, count - 1) @ d1)
         first = _end_terms(s - self.start, self.end_lengths[0])
         last = _end_terms(self.end - s, self.end_lengths[1])
         sign = np.array([1.0, -1.0, 1.0])[:, None]     # d/ds = -d/dr at the end
@@ -680,7 +681,7 @@ class SmoothProfile:
         fine = np.concatenate([np.repeat(every[:-1], parts) + np.repeat(
             np.diff(every) / parts, parts) * (np.arange(parts.sum()) - first), every[-1:]])
         inner = fine[1:-1]
-        design, slope, _ = self._design(inner)
+        design, slope = self._design(inner, orders=2)
         return fine, design, self._joint_maps(inner, (design, slope))
 
     def _time_steps(self, points, x_p):
