@@ -735,20 +735,25 @@ class SmoothProfile:
         """Solve the LP on the rows ``work``, adding the violated others until none is."""
         if warm is not None:
             warm.start(cost, rows, bound, work)
+        # The rows the solver holds: with highspy also the rows nonbasic in the last
+        # basis (start keeps them), which must not be appended a second time.
+        held = work.copy()
+        if warm is not None:
+            held[warm.model] = True
         result = None
         for _ in range(MAX_ROUNDS):
             if warm is None:
-                result = linprog(cost, A_ub=rows[work], b_ub=bound[work], bounds=bounds,
+                result = linprog(cost, A_ub=rows[held], b_ub=bound[held], bounds=bounds,
                                  method='highs-ds', options=HIGHS_OPTIONS)
             else:
                 result = warm.run()
             self.lps += 1
             if result.status != 0:
                 return result
-            violated = (rows @ result.x > bound * (1.0 + VIOLATION)) & ~work
+            violated = (rows @ result.x > bound + VIOLATION * np.abs(bound)) & ~held
             if not violated.any():
                 return result
-            work = work | violated
+            held |= violated
             if warm is not None:
                 warm.add(np.flatnonzero(violated))
         result.status, result.message = 1, f'rows still violated after {MAX_ROUNDS} rounds'
