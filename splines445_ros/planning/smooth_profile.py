@@ -367,7 +367,17 @@ class _WarmHighs:
         self.model = np.concatenate([self.model, new])
 
     def run(self):
-        """Solve from the current basis (from none if that fails): linprog's result fields."""
+        """
+        Solve from the current basis: linprog's result fields.
+
+        A run that ends without an answer (not optimal, not proven
+        infeasible: numerical trouble) is run once more from no basis.  A
+        proven infeasibility is not: on 90 random plans (vibration_frequency
+        0, 1.5 and 4 Hz) none of the 58 cold runs after one was optimal (40
+        infeasible, 18 no answer), and they took 4.6 s.  (Keeping the basis
+        of the infeasible run for the next LP, tried, changed plans by up to
+        0.8 % for 2 % less time.)
+        """
         for _ in range(2):
             self.highs.run()
             status = self.highs.getModelStatus()
@@ -375,6 +385,8 @@ class _WarmHighs:
                 return OptimizeResult(status=0, x=np.array(self.highs.getSolution().col_value),
                                       message='')
             self.highs.clearSolver()
+            if status == highspy.HighsModelStatus.kInfeasible:
+                break
         return OptimizeResult(status=2, x=None, message=self.highs.modelStatusToString(status))
 
 
