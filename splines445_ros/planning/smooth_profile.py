@@ -615,7 +615,13 @@ class SmoothProfile:
 
         x_p, z_feasible, last_time, message = x_max.copy(), None, None, ''
         for iteration, growth in enumerate(GROWTH):
-            result = solve(x_p, z_best, growth, first_lp=iteration == 0)
+            try:
+                result = solve(x_p, z_best, growth, first_lp=iteration == 0)
+            except RuntimeError as error:   # HiGHS refused a later LP: keep the last profile
+                if z_feasible is None:
+                    raise
+                message = str(error)
+                break
             if result.status != 0:
                 message = result.message
                 break                   # keep the last feasible profile

@@ -206,3 +206,36 @@ def test_fallback_without_highspy_is_followed(monkeypatch):
     q = path(s_of_t(times))
     for k, limit in ((1, v), (2, a), (3, j)):
         assert np.max(np.abs(np.diff(q, k, axis=0)) / PERIOD ** k / limit) <= TOLERANCE
+
+
+def test_a_later_lp_that_highs_refuses_keeps_the_last_profile(monkeypatch):
+    """A RuntimeError after the first LP (HiGHS refusing a model) keeps the first profile."""
+    path, grid, v, a, j = random_case(SEEDS[2])
+    first = {}
+    solve = SmoothProfile._generate
+
+    def refused_after_one(self, *args, **kwargs):
+        if first:
+            raise RuntimeError("HiGHS refused the profile's LP (passModel)")
+        first['result'] = solve(self, *args, **kwargs)
+        return first['result']
+
+    monkeypatch.setattr(SmoothProfile, '_generate', refused_after_one)
+    profile = SmoothProfile(path, grid, v, a, j)
+    assert np.array_equal(np.concatenate([profile.coefficients,
+                                          np.ravel(profile.end_coefficients)]),
+                          first['result'].x)
+    # That first profile is followed within the limits, like any other.
+    s_of_t, duration = time_law(profile, grid[0], grid[-1])
+    times = np.arange(-3, int(np.ceil(duration / PERIOD)) + 4) * PERIOD
+    q = path(s_of_t(times))
+    for k, limit in ((1, v), (2, a), (3, j)):
+        assert np.max(np.abs(np.diff(q, k, axis=0)) / PERIOD ** k / limit) <= TOLERANCE
+    # Refused at once: no profile, the RuntimeError that plan() answers with its default.
+
+    def refused(self, *args, **kwargs):
+        raise RuntimeError('refused')
+
+    monkeypatch.setattr(SmoothProfile, '_generate', refused)
+    with pytest.raises(RuntimeError, match='refused'):
+        SmoothProfile(path, grid, v, a, j)
