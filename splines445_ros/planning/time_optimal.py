@@ -59,7 +59,7 @@ from .inner_knots import (END_SEGMENT_SHARES, first_path, GRID_STEPS, kept_traje
                           KnotCandidate, TimingProblem)
 from .path_timing import midpoint_fractions
 from .residual_vibration import report_residual, trajectory_residual
-from .smooth_profile import SmoothProfile
+from .smooth_profile import END_STEPS, SmoothProfile
 from .timing import rest_to_rest_durations
 
 # The profile is planned with this share of each jerk limit: the spline
@@ -345,7 +345,8 @@ def retime_path(traj, limits, constraints=(), piece_factors=None, vibration_freq
     profile or no spline is found.
     """
     knots = traj.waypoint_times
-    steps = max(2, int(np.ceil(traj.duration / RETIME_STEP)))
+    # At least the profile's two end regions (a plan of tens of milliseconds).
+    steps = max(2 * END_STEPS, int(np.ceil(traj.duration / RETIME_STEP)))
     grid = np.unique(np.concatenate([np.linspace(0.0, traj.duration, steps + 1), knots]))
     points = traj.waypoints
     boundary = tuple(np.zeros(points.shape[1]) for _ in range(4))

@@ -572,3 +572,26 @@ def test_a_slow_start_is_followed_not_skipped():
     assert 'speed_profile_skipped' not in traj.optimizer
     assert traj.optimizer['speed_profile'] == 'time_optimal'
     assert traj.within_limits(rtol=1e-9)
+
+
+def test_retime_path_times_a_plan_of_tens_of_milliseconds():
+    """
+    A plan of 45 ms (fewer grid steps than the profile's end regions) is retimed, not refused.
+
+    retime_path's grid had a step every 10 ms, 4 on this plan, and the
+    profile refused it (ValueError, swallowed as if a constraint had).
+    """
+    points = np.array([[0.0, 0.0], [1e-4, 2e-4]])
+    v, a = np.array([1.0, 1.0]), np.array([10.0, 10.0])
+    traj = plan(points, '555', 'optimal', max_velocity=v, max_acceleration=a,
+                max_jerk=20.0 * a)
+    assert traj.duration < 0.1
+    retimed = time_optimal.retime_path(traj, traj.limits)
+    assert retimed is not None
+    assert retimed.optimizer['speed_profile'] == time_optimal.NAME
+    assert np.allclose(retimed.ppoly(retimed.waypoint_times), points, rtol=0.0, atol=1e-12)
+    assert retimed.within_limits(rtol=1e-9)
+    # Rest to rest: no velocity or acceleration at either end.
+    for k in (1, 2):
+        assert np.allclose(retimed.ppoly.derivative(k)(retimed.waypoint_times[[0, -1]]), 0.0,
+                           atol=1e-9)
