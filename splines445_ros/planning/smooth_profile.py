@@ -692,9 +692,12 @@ class SmoothProfile:
         hundreds of Hz on a plan of seconds).
         """
         dt = self._time_steps(every, np.maximum(x @ z, 0.0))
-        parts = np.maximum(1, np.ceil(dt * self.vibration_frequency * MODE_POINTS)).astype(int)
+        # Clipped before the cast: a step between two points where x is 0 lasts ~1e305 s.
+        parts = np.clip(np.ceil(dt * self.vibration_frequency * MODE_POINTS), 1.0,
+                        MAX_MODE_POINTS + 1.0)
         if parts.sum() - parts.size > MAX_MODE_POINTS:
             return None
+        parts = parts.astype(int)
         first = np.repeat(np.cumsum(parts) - parts, parts)
         fine = np.concatenate([np.repeat(every[:-1], parts) + np.repeat(
             np.diff(every) / parts, parts) * (np.arange(parts.sum()) - first), every[-1:]])

@@ -239,3 +239,25 @@ def test_a_later_lp_that_highs_refuses_keeps_the_last_profile(monkeypatch):
     monkeypatch.setattr(SmoothProfile, '_generate', refused)
     with pytest.raises(RuntimeError, match='refused'):
         SmoothProfile(path, grid, v, a, j)
+
+
+def test_a_mode_grid_with_steps_of_1e305_seconds_is_left_alone(monkeypatch):
+    """
+    Two steps where x is 0 at their ends (each ~1e305 s) give a mode too fast, not an error.
+
+    Their parts a period were cast to int before the sum: it wrapped, and
+    np.repeat raised a ValueError that no caller expects from a profile.
+    """
+    path, grid, v, a, j = random_case(SEEDS[0])
+    steps = SmoothProfile._time_steps
+
+    def stopped_twice(self, points, x_p):
+        dt = steps(self, points, x_p)
+        dt[[1, 2]] = 1e305
+        return dt
+
+    monkeypatch.setattr(SmoothProfile, '_time_steps', stopped_twice)
+    profile = SmoothProfile(path, grid, v, a, j, vibration_frequency=4.0)
+    assert np.isnan(profile.residual)
+    plain = SmoothProfile(path, grid, v, a, j)
+    assert np.array_equal(profile.coefficients, plain.coefficients)
