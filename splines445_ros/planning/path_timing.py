@@ -54,7 +54,7 @@ from .knot_pieces import (equal_fractions, knot_times, knots_per_segment, ramp_a
 from .path_constraints import GriddedPath, JointAcceleration, JointTorque, JointVelocity
 from .path_velocity import path_position, PathLimits
 from .plan_options import DEFAULT_SMOOTHING
-from .residual_vibration import report_residual
+from .residual_vibration import remeasure_residual
 
 # The constants of the timing along a path, each with its reason in one line;
 # the measurements behind them are in doc/inner_knots.md ("Where the
@@ -478,9 +478,7 @@ def rescaled(traj, factor):
                              dict(traj.optimizer, time_scale=float(factor)))
     if scaled is None:
         raise ValueError('slowing the spline down failed')
-    if scaled.optimizer.get('vibration_residual') is not None:
-        # A mode's ringing after the stop moves with the time scale (time_optimal).
-        report_residual(scaled, scaled.optimizer['vibration_frequency'])
+    remeasure_residual(scaled)
     return scaled
 
 

@@ -10,6 +10,7 @@ from .path_timing import rescaled
 from .plan_options import (check_time_optimal_waypoints, DEFAULT_SMOOTHING,
                            DEFAULT_WAYPOINT_TOLERANCE, PlanOptions)
 from .ratio_search import GIVE_UP_PASSES
+from .residual_vibration import remeasure_residual
 from .time_optimal import NO_TIME_OPTIMAL_SPLINE, plan_time_optimal
 from .timing import (chord_durations, rest_to_rest_durations, rest_to_rest_lower_bound,
                      rest_to_rest_scale, scaled_spline, ScaledSpline, uniform_scale)
@@ -353,6 +354,7 @@ def slowed_down(traj, factor):
                             dropped_waypoints=traj.dropped_waypoints)
     if traj.optimizer is not None:
         slow.optimizer = dict(traj.optimizer, time_scale=float(factor))
+        remeasure_residual(slow)
     return slow
 
 

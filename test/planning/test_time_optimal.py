@@ -517,6 +517,22 @@ def test_a_uniform_slow_down_measures_the_ringing_again():
     assert abs(ringing - traj.optimizer['vibration_residual']) > 0.02
 
 
+def test_a_slow_down_of_a_plan_with_knots_at_its_waypoints_measures_it_again():
+    """planner.slowed_down rebuilds such a plan (no inner knots): its figure follows too."""
+    points, limits = random_request(503, max_points=12, min_points=5)
+    traj = plan(points, '555', 'optimal', inner_knots=0, **limits)
+    assert traj.breakpoints.size == traj.waypoint_times.size
+    # A time_optimal plan whose segments all last under a knot period looks like this.
+    traj.optimizer = dict(traj.optimizer or {}, vibration_frequency=4.0,
+                          vibration_residual=residual_vibration(traj, 4.0,
+                                                                limits['max_acceleration']))
+    slow = planner.slowed_down(traj, 1.05)
+    ringing = residual_vibration(slow, 4.0, limits['max_acceleration'])
+    assert slow.optimizer['vibration_residual'] == pytest.approx(ringing, rel=0.1, abs=0.01)
+    assert abs(ringing - traj.optimizer['vibration_residual']) > 0.02
+    assert slow.optimizer['time_scale'] == 1.05
+
+
 def test_a_long_segment_is_cancelled_too():
     """Two waypoints 5 s apart: the row points are 17-50 ms apart, the mode's grid is not."""
     points = np.array([[0.0, 0.0, 0.0], [-2.1, 1.2, 2.4]])
