@@ -190,7 +190,7 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         to sample).  The mode is taken at rest when the plan starts (from a
         moving start too).  A cancellation is narrow: a mode 10 % off in
         frequency is left 0.4-0.8 of TOPP-RA's ringing, one damped 0.01 or
-        0.05 0.13-0.25, and harmonics (8 Hz for 4) are not cancelled; the
+        0.05 is left 0.13-0.25, and harmonics (8 Hz for 4) are not cancelled; the
         default's windows are broad (about 0.1 at all of these).
     max_torque, inverse_dynamics : (n,) positive limits [N m] (inf: none) and
         a function ``tau(q, qd, qdd)`` ((N, n) each -> (N, n)), or both None

@@ -26,7 +26,7 @@ it with linear rows (the phases from its last profile), which is input
 shaping done by the profile itself.  It cancels the ringing of the mode
 it is given; as every cancellation, it is narrow: a mode 10 % off in
 frequency is left 0.4-0.8 of TOPP-RA's ringing, one with a damping of
-0.01 or 0.05 instead of :data:`DAMPING` 0.13-0.25
+0.01 or 0.05 instead of :data:`DAMPING` is left 0.13-0.25
 (``benchmarks/bench_vibration_residual.py``, doc/inner_knots.md).  The
 mode is taken at rest when the plan starts: replanning from a moving
 state does not know what the motion before left ringing.

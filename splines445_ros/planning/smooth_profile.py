@@ -55,14 +55,16 @@ LP starts from the rows violated (by :data:`FIRST_KEEP`) at a least-squares
 fit of ``x_max``.  With highspy (:class:`_WarmHighs`) one HiGHS model
 serves all the LPs: a round's violated rows are appended and the simplex
 goes on from its basis, and each new LP is passed with the last basis
-(after the first, an LP takes tens of iterations instead of ~4 an
-unknown).  Without highspy (an apt ROS install) each round is a cold
+(after the first, an LP takes tens of simplex iterations instead of
+about 4 per unknown).  Without highspy (an apt ROS install) each round is a cold
 ``scipy.optimize.linprog(method='highs-ds')``: the same profile, to the
 solver's tolerance (durations within 1e-9 on the bench's 72 paths).
 
 With a ``vibration_frequency`` f and a rest end, up to :data:`RESIDUAL_LPS`
-more LPs also bound the content ``Z_j`` of every joint's acceleration at
-the mode (:mod:`residual_vibration`: the ringing it leaves after the stop).
+more LPs (each tried at up to three bounds, :data:`RESIDUAL_STEPS`, with
+rounds of generated rows each: ``lps`` counts every HiGHS solve) also
+bound the content ``Z_j`` of every joint's acceleration at the mode
+(:mod:`residual_vibration`: the ringing it leaves after the stop).
 ``q_j'' = q_j' x'/2 + q_j'' x`` is linear in ``z``; the time law in the
 phases ``exp(lambda (T - t))`` is the last profile's, so
 ``|Z_j| <= bound`` becomes :data:`RESIDUAL_DIRECTIONS` linear rows (a
@@ -163,8 +165,8 @@ NEWTON_STEPS = 30
 NEWTON_TOLERANCE = 1e-12
 # End terms r**p: 4/3 is a constant path jerk from rest, 5/3 lets it change.
 POWERS = (4.0 / 3.0, 5.0 / 3.0)
-# vibration_frequency: the rows bound the mode's residual share (residual_vibration)
-# at this at most, with the phases of the last profile; the next profile lands within
+# vibration_frequency: the rows bound the mode's residual share (residual_vibration),
+# never below this, with the phases of the last profile; the next profile lands within
 # 1-3 times it (its own time law has moved by milliseconds), so it counts as cancelled
 # at RESIDUAL_ACCEPTED, measured on itself.  0.02 / 0.1 left 0.05-0.07 of TOPP-RA's
 # ringing at 4 Hz on 2 x 12 random requests; 0.05 left 0.03, but took a 2-waypoint
@@ -392,7 +394,7 @@ class _WarmHighs:
 
 class SmoothProfile:
     """
-    ``x(s) = sdot**2`` along ``path``, C2 in ``s``, at rest at both ends; see the module docstring.
+    ``x(s) = sdot**2`` along ``path``, C2 in ``s``, at rest or moving at each end; see the module.
 
     ``path`` is a scipy ``PPoly`` ``q(s)`` (n joints) and ``grid`` its
     increasing grid from ``path.x[0]`` to ``path.x[-1]`` (e.g. 24 steps a
@@ -722,7 +724,8 @@ class SmoothProfile:
         ``Z = sum_k qdd_k dt_k exp(lambda (T - t_k))`` (:mod:`residual_vibration`)
         on the inner points of ``grid`` (:meth:`_mode_grid`), ``t`` by
         :meth:`_time_steps` on the profile ``z`` and ``dt_k`` the trapezoid
-        weight of point k.
+        weight of point k.  The ends' own terms are left out: 0 at rest, half
+        a step's content at a moving start.
         """
         points, design, acceleration = grid
         exponent, _ = mode_exponent(self.vibration_frequency)
