@@ -16,11 +16,15 @@ duration:
 * the fastest v/a profile along the joint path our construction timed
   (:mod:`planning.path_velocity`, with its stops at the corners): what a
   plan with no jerk limit could reach on it;
-* the 4 Hz shaking peak of ours over TOPP-RA's.
+* the 4 Hz shaking peak of ours over TOPP-RA's;
+* ``speed_profile='time_optimal'`` (the third-order profile, issue 38),
+  and a last row per arm with no jerk limit at all, time_optimal only
+  (the default construction needs one).
 
 If ours comes down towards the v/a profile as the jerk limit grows, the gap
 at the arm's own limits is the price of the jerk limit, not of the speed
-profile.
+profile.  The time_optimal column does so monotonically: its profile is
+optimal for the limits it is given (within about 1 %).
 
 Usage: ``python benchmarks/bench_tool_jerk.py`` (``SPLINES445_BENCH_SEED``
 repeats a run, ``SPLINES445_BENCH_CASES`` sets the seams per arm, default 2;
@@ -45,7 +49,7 @@ from splines445_ros.planning.path_constraints import (  # noqa: E402
 from splines445_ros.planning.path_velocity import PathLimits, traversal_times  # noqa: E402
 from splines445_ros.tools import robot_seam_demo as rsd  # noqa: E402
 
-JERK_FACTORS = (1.0, 2.0, 5.0)
+JERK_FACTORS = (1.0, 2.0, 5.0, np.inf)   # inf: no jerk limit (time_optimal only)
 SEAMS = 2
 SEAMS_STREAM = 41
 
@@ -73,19 +77,30 @@ def fastest_profile(path, limits):
 
 
 def seam_row(arm, poses, factor, timed):
-    """Return [ours, own, v/a profile, 4 Hz peak] over TOPP-RA of one seam and jerk factor."""
+    """
+    Return [ours, own, v/a profile, 4 Hz peak, time_optimal] / TOPP-RA of a seam and jerk factor.
+
+    With no jerk limit (``factor`` inf) only time_optimal's (the others nan).
+    """
     kin = arm.kinematics()
     limits = dict(arm.plan_limits())
     limits['max_jerk'] = np.asarray(limits['max_jerk'], float) * factor
     s, samples, _ = lines.dense_lines(poses)
     joints = np.asarray(arm.kinematics().inverse(samples), float)
     top = lines.toppra_plan(s, joints, kin, arm.velocity, arm.acceleration, None)[0]
-    ours = plan_tool_path(poses, arm.kinematics(), rsd.TOLERANCE, rsd.ANGLE_TOLERANCE,
-                          max_inserted=rsd.SEAM_MAX_INSERTED, method='555', timing='optimal',
-                          **limits)
-    traj = ours.trajectory
-    if not traj.within_limits(rtol=1e-9):
-        raise AssertionError(f'{arm.name}: a plan beyond its limits')
+
+    def planned(**more):
+        traj = plan_tool_path(poses, arm.kinematics(), rsd.TOLERANCE, rsd.ANGLE_TOLERANCE,
+                              max_inserted=rsd.SEAM_MAX_INSERTED, method='555',
+                              timing='optimal', **limits, **more).trajectory
+        if not traj.within_limits(rtol=1e-9):
+            raise AssertionError(f'{arm.name}: a plan beyond its limits')
+        return traj
+
+    optimal = planned(speed_profile='time_optimal').duration / top.duration
+    if np.isinf(factor):
+        return [np.nan] * 4 + [optimal]
+    traj = planned()
     own_s, own_q = own_path.arc_length_samples(traj)
     own = lines.toppra_plan(own_s, own_q, kin, arm.velocity, arm.acceleration, None)[0]
     joint_limits = JointLimits.from_user(kin.n_joints, limits['max_velocity'],
@@ -94,7 +109,7 @@ def seam_row(arm, poses, factor, timed):
     reference = shaking_figures(of_toppra(top), top.duration, arm.acceleration)
     peak = shaking_ratios(traj, reference, arm.acceleration)[0]
     return [traj.duration / top.duration, own.duration / top.duration,
-            bound / top.duration, peak]
+            bound / top.duration, peak, optimal]
 
 
 def main():
@@ -106,8 +121,8 @@ def main():
     print(f'{count} random seams per arm (seed {seed}, stream {SEAMS_STREAM}), no tool speed '
           'limit; each over dense IK + TOPP-RA (v/a, no jerk); median / worst')
     print("| arm | j / arm's j | j / a | ours | TOPP-RA along our path | v/a profile along "
-          'our path | 4 Hz peak |')
-    print('|---|---|---|---|---|---|---|')
+          'our path | 4 Hz peak | time_optimal |')
+    print('|---|---|---|---|---|---|---|---|')
     for arm in arms:
         ratio = float(np.median(np.asarray(arm.plan_limits()['max_jerk'], float)
                                 / np.asarray(arm.plan_limits()['max_acceleration'], float)))
@@ -123,8 +138,12 @@ def main():
             if not rows:
                 continue
             rows = np.array(rows)
-            cells = [f'{np.median(rows[:, k]):.3f} / {np.max(rows[:, k]):.3f}'
-                     for k in range(3)] + [f'{np.median(rows[:, 3]):.2f}']
+            if np.isinf(factor):
+                cells = ['-'] * 4
+            else:
+                cells = [f'{np.median(rows[:, k]):.3f} / {np.max(rows[:, k]):.3f}'
+                         for k in range(3)] + [f'{np.median(rows[:, 3]):.2f}']
+            cells.append(f'{np.median(rows[:, 4]):.3f} / {np.max(rows[:, 4]):.3f}')
             print(f'| {arm.name} | {factor:g} | {ratio * factor:.0f} | ' + ' | '.join(cells)
                   + ' |', flush=True)
 
