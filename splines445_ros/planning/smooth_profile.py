@@ -694,10 +694,11 @@ class SmoothProfile:
         hundreds of Hz on a plan of seconds).
         """
         dt = self._time_steps(every, np.maximum(x @ z, 0.0))
-        # Clipped before the cast: a step between two points where x is 0 lasts ~1e305 s.
-        parts = np.clip(np.ceil(dt * self.vibration_frequency * MODE_POINTS), 1.0,
-                        MAX_MODE_POINTS + 1.0)
-        if parts.sum() - parts.size > MAX_MODE_POINTS:
+        # Capped before the cast: a step between two points where x is 0 lasts ~1e305 s
+        # (a cap of MAX_MODE_POINTS + 2 parts is already too many).
+        parts = np.maximum(1.0, np.minimum(np.ceil(dt * self.vibration_frequency * MODE_POINTS),
+                                           MAX_MODE_POINTS + 2.0))
+        if np.isnan(parts).any() or parts.sum() - parts.size > MAX_MODE_POINTS:
             return None
         parts = parts.astype(int)
         first = np.repeat(np.cumsum(parts) - parts, parts)

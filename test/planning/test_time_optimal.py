@@ -611,3 +611,24 @@ def test_retime_path_times_a_plan_of_tens_of_milliseconds():
     for k in (1, 2):
         assert np.allclose(retimed.ppoly.derivative(k)(retimed.waypoint_times[[0, -1]]), 0.0,
                            atol=1e-9)
+
+
+def test_a_joint_reversing_alone_with_a_mode_plans_without_an_internal_error():
+    """
+    One joint reversing 20 times (a stop each: x = 0 at neighbouring row points), 1.5 Hz.
+
+    Found by helper-20's fuzz (its seed 1169, rounded): the mode grid's
+    parts of ~1e305 s steps overflowed their integer cast, and np.repeat's
+    "repeats may not contain negative values" left plan() as a ValueError
+    about nothing the user gave.
+    """
+    walk = [0.206, 0.15, -0.05, -0.043, -0.333, -0.282, -0.466, -0.437, -0.701, -0.718,
+            -0.508, -0.712, -0.596, -0.696, -0.458, -0.721, -0.763, -0.843, -0.866, -1.069,
+            -0.971, -0.762, -0.781, -0.827, -0.654, -0.652, -0.489, -0.615, -0.534, -0.798,
+            -0.986, -0.707, -0.798, -0.517, -0.309, -0.469, -0.652, -0.372, -0.328, -0.278]
+    points = np.array(walk)[:, None]
+    limits = {'max_velocity': [3.73], 'max_acceleration': [10.1], 'max_jerk': [1.24]}
+    traj = plan(points, '555', 'optimal', speed_profile='time_optimal',
+                vibration_frequency=1.5, **limits)
+    assert traj.within_limits(rtol=1e-9)
+    assert np.allclose(traj.ppoly(traj.waypoint_times), points, rtol=0.0, atol=1e-9)
