@@ -474,7 +474,7 @@ def rescaled(traj, factor):
         return traj
     candidate = _Scaled(traj, factor)
     problem = TimingProblem(candidate, [np.zeros(traj.waypoints.shape[1])] * 4, traj.limits, True)
-    scaled = kept_trajectory(problem, candidate, (),
+    scaled = kept_trajectory(problem, candidate, traj.dropped_waypoints,
                              dict(traj.optimizer, time_scale=float(factor)))
     if scaled is None:
         raise ValueError('slowing the spline down failed')

@@ -185,6 +185,11 @@ def test_merged_waypoints_are_reported():
     traj = time_optimal_plan(points, limits)
     assert traj.dropped_waypoints == (2,)
     assert traj.waypoint_times.size == 3
+    # A uniform slow-down (torque's and tool lines' 1 kHz checks) still reports it:
+    # helper-20's fuzz found torque-limited plans that had lost it.
+    slow = rescaled(traj, 1.2)
+    assert slow.dropped_waypoints == (2,)
+    assert slow.duration == pytest.approx(1.2 * traj.duration, rel=1e-9)
 
 
 @pytest.mark.parametrize('kwargs, message', [
