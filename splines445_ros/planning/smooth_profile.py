@@ -155,6 +155,11 @@ HIGHSPY_OPTIONS = {'presolve': 'off', 'solver': 'simplex', 'simplex_strategy': 1
                    'simplex_dual_edge_weight_strategy': 0}
 # highspy's passModel: the matrix given by rows.
 ROWWISE = 2
+# A solve stops after this many simplex iterations per row and column of its model
+# (a failed LP: the last feasible profile is kept).  The most measured was 0.5 (random
+# requests, 100 x 7 and 200 x 7 with a mode); a request with a = 0.02 and 300 s
+# segments (helper-20's fuzz) cycled for minutes in one solve.
+ITERATIONS_PER_ROW = 10
 # Exact time law: Gauss-Legendre nodes per piece, pieces per spline interval.
 QUADRATURE_NODES = 16
 QUADRATURE_SPLIT = 4
@@ -381,6 +386,8 @@ class _WarmHighs:
         0.8 % for 2 % less time.)
         """
         for _ in range(2):
+            self.highs.setOptionValue('simplex_iteration_limit', ITERATIONS_PER_ROW * (
+                self.highs.getNumRow() + self.highs.getNumCol()))
             self.highs.run()
             status = self.highs.getModelStatus()
             if status == highspy.HighsModelStatus.kOptimal:
@@ -769,7 +776,9 @@ class SmoothProfile:
         for _ in range(MAX_ROUNDS):
             if warm is None:
                 result = linprog(cost, A_ub=rows[held], b_ub=bound[held], bounds=bounds,
-                                 method='highs-ds', options=HIGHS_OPTIONS)
+                                 method='highs-ds', options=dict(
+                                     HIGHS_OPTIONS, maxiter=ITERATIONS_PER_ROW * (
+                                         int(np.count_nonzero(held)) + cost.size)))
             else:
                 result = warm.run()
             self.lps += 1

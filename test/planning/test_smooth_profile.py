@@ -261,3 +261,22 @@ def test_a_mode_grid_with_steps_of_1e305_seconds_is_left_alone(monkeypatch):
     assert np.isnan(profile.residual)
     plain = SmoothProfile(path, grid, v, a, j)
     assert np.array_equal(profile.coefficients, plain.coefficients)
+
+
+@pytest.mark.parametrize('warm', [True, False])
+def test_a_solve_stops_at_its_iteration_limit(warm, monkeypatch):
+    """
+    No simplex iteration allowed: the first LP fails (RuntimeError), with highspy or linprog.
+
+    The limit (ITERATIONS_PER_ROW per row and column) is what bounds a
+    badly scaled LP that cycled for minutes in one solve (helper-20's fuzz:
+    a = 0.02 and segments of 300 s); with the default the same case solves.
+    """
+    if warm:
+        pytest.importorskip('highspy')
+    monkeypatch.setattr(smooth_profile, 'HIGHSPY', warm)
+    path, grid, v, a, j = random_case(SEEDS[3])
+    assert SmoothProfile(path, grid, v, a, j).lps > 0
+    monkeypatch.setattr(smooth_profile, 'ITERATIONS_PER_ROW', 0)
+    with pytest.raises(RuntimeError, match='first LP'):
+        SmoothProfile(path, grid, v, a, j)
