@@ -186,8 +186,9 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         stop's own content (1.5 Hz) costs a median 5-10 % (at worst 30 %,
         more on short moves with such jerk limits) and is left 0.04-0.05.
         ``optimizer['vibration_residual']`` is what the plan leaves (the
-        share of ``a / w**2``; None with a moving end, or a mode too fast
-        to sample).  The mode is taken at rest when the plan starts (from a
+        share of ``a / w**2``; None with a moving end, or when sampling it
+        would take more than a million samples: 1 kHz on 50 s, 1 ms on
+        1000 s).  The mode is taken at rest when the plan starts (from a
         moving start too).  A cancellation is narrow: a mode 10 % off in
         frequency is left 0.4-0.8 of TOPP-RA's ringing, one damped 0.01 or
         0.05 is left 0.13-0.25, and harmonics (8 Hz for 4) are not cancelled; the
