@@ -160,6 +160,11 @@ ROWWISE = 2
 # requests, 100 x 7 and 200 x 7 with a mode); a request with a = 0.02 and 300 s
 # segments (helper-20's fuzz) cycled for minutes in one solve.
 ITERATIONS_PER_ROW = 10
+# And after this many seconds: a badly scaled LP (matrix entries 1e-9 to 6e3, bounds to
+# 2e10: jerk limits of 1e-4 on 300 s segments) spent 7-84 s in one solve on as few as
+# 600 iterations.  The longest solve of a 200 x 7 request (the most time_optimal takes)
+# with a 1.5 Hz mode took 0.2 s.  Only a solve that long can depend on the machine.
+SOLVE_SECONDS = 5.0
 # Exact time law: Gauss-Legendre nodes per piece, pieces per spline interval.
 QUADRATURE_NODES = 16
 QUADRATURE_SPLIT = 4
@@ -333,7 +338,7 @@ class _WarmHighs:
         """Open the model with the variable bounds (linprog's)."""
         self.highs = highspy.Highs()
         self.highs.silent()
-        for name, value in HIGHSPY_OPTIONS.items():
+        for name, value in dict(HIGHSPY_OPTIONS, time_limit=SOLVE_SECONDS).items():
             self.highs.setOptionValue(name, value)
         self.lower = np.array([-np.inf if lo is None else lo for lo, _ in bounds])
         self.upper = np.array([np.inf if hi is None else hi for _, hi in bounds])
@@ -377,25 +382,22 @@ class _WarmHighs:
         """
         Solve from the current basis: linprog's result fields.
 
-        A run that ends without an answer (not optimal, not proven
-        infeasible: numerical trouble) is run once more from no basis.  A
-        proven infeasibility is not: on 90 random plans (vibration_frequency
-        0, 1.5 and 4 Hz) none of the 58 cold runs after one was optimal (40
-        infeasible, 18 no answer), and they took 4.6 s.  (Keeping the basis
-        of the infeasible run for the next LP, tried, changed plans by up to
-        0.8 % for 2 % less time.)
+        A run without an optimum clears the basis (the next LP starts from
+        none) and is not run again cold: on 150 fuzz requests (helper-20's
+        generator, seeds 1000-1149) none of 36 cold runs after "Unknown" found
+        one, and they took 31 of the 100 s; one took 84 s to end as the warm
+        run had, where a badly scaled LP crawls through phase 1.  Plans were
+        the same without them (and none of 58 cold runs after a proven
+        infeasibility, on 90 random plans, was optimal either).
         """
-        for _ in range(2):
-            self.highs.setOptionValue('simplex_iteration_limit', ITERATIONS_PER_ROW * (
-                self.highs.getNumRow() + self.highs.getNumCol()))
-            self.highs.run()
-            status = self.highs.getModelStatus()
-            if status == highspy.HighsModelStatus.kOptimal:
-                return OptimizeResult(status=0, x=np.array(self.highs.getSolution().col_value),
-                                      message='')
-            self.highs.clearSolver()
-            if status == highspy.HighsModelStatus.kInfeasible:
-                break
+        self.highs.setOptionValue('simplex_iteration_limit', ITERATIONS_PER_ROW * (
+            self.highs.getNumRow() + self.highs.getNumCol()))
+        self.highs.run()
+        status = self.highs.getModelStatus()
+        if status == highspy.HighsModelStatus.kOptimal:
+            return OptimizeResult(status=0, x=np.array(self.highs.getSolution().col_value),
+                                  message='')
+        self.highs.clearSolver()
         return OptimizeResult(status=2, x=None, message=self.highs.modelStatusToString(status))
 
 
@@ -777,7 +779,8 @@ class SmoothProfile:
             if warm is None:
                 result = linprog(cost, A_ub=rows[held], b_ub=bound[held], bounds=bounds,
                                  method='highs-ds', options=dict(
-                                     HIGHS_OPTIONS, maxiter=ITERATIONS_PER_ROW * (
+                                     HIGHS_OPTIONS, time_limit=SOLVE_SECONDS,
+                                     maxiter=ITERATIONS_PER_ROW * (
                                          int(np.count_nonzero(held)) + cost.size)))
             else:
                 result = warm.run()

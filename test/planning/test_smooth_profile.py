@@ -264,19 +264,21 @@ def test_a_mode_grid_with_steps_of_1e305_seconds_is_left_alone(monkeypatch):
 
 
 @pytest.mark.parametrize('warm', [True, False])
-def test_a_solve_stops_at_its_iteration_limit(warm, monkeypatch):
+@pytest.mark.parametrize('limit', ['ITERATIONS_PER_ROW', 'SOLVE_SECONDS'])
+def test_a_solve_stops_at_its_limits(warm, limit, monkeypatch):
     """
-    No simplex iteration allowed: the first LP fails (RuntimeError), with highspy or linprog.
+    No simplex iteration or no time allowed: the first LP fails (RuntimeError), either solver.
 
-    The limit (ITERATIONS_PER_ROW per row and column) is what bounds a
-    badly scaled LP that cycled for minutes in one solve (helper-20's fuzz:
-    a = 0.02 and segments of 300 s); with the default the same case solves.
+    The limits (ITERATIONS_PER_ROW per row and column, SOLVE_SECONDS) are
+    what bound a badly scaled LP that ran for minutes in one solve
+    (helper-20's fuzz: a = 0.02 and segments of 300 s); with the defaults
+    the same case solves.
     """
     if warm:
         pytest.importorskip('highspy')
     monkeypatch.setattr(smooth_profile, 'HIGHSPY', warm)
     path, grid, v, a, j = random_case(SEEDS[3])
     assert SmoothProfile(path, grid, v, a, j).lps > 0
-    monkeypatch.setattr(smooth_profile, 'ITERATIONS_PER_ROW', 0)
+    monkeypatch.setattr(smooth_profile, limit, 0)
     with pytest.raises(RuntimeError, match='first LP'):
         SmoothProfile(path, grid, v, a, j)
