@@ -11,7 +11,7 @@ from .plan_options import (check_time_optimal_waypoints, DEFAULT_SMOOTHING,
                            DEFAULT_WAYPOINT_TOLERANCE, PlanOptions)
 from .ratio_search import GIVE_UP_PASSES
 from .residual_vibration import remeasure_residual
-from .time_optimal import NO_TIME_OPTIMAL_SPLINE, plan_time_optimal
+from .time_optimal import NO_TIME_OPTIMAL_SPLINE, NoSpline, plan_time_optimal
 from .timing import (chord_durations, rest_to_rest_durations, rest_to_rest_lower_bound,
                      rest_to_rest_scale, scaled_spline, ScaledSpline, uniform_scale)
 from .trajectory import Trajectory
@@ -229,7 +229,9 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         most :data:`plan_options.MAX_TIME_OPTIMAL_WAYPOINTS` waypoints
         (ValueError otherwise); ``durations`` are not used.  Should it find
         no spline, the plan is "smoothed"'s, with
-        ``optimizer['speed_profile_skipped']`` saying so.
+        ``optimizer['speed_profile_skipped']`` saying so and why (the
+        profile's LP failed, it stops inside the path, or no spline through
+        its knots holds the limits).
 
     """
     points = waypoint_array(waypoints)
@@ -379,15 +381,16 @@ def _plan_limited(points, durations, options):
         start = np.diff(np.delete(np.concatenate([[0.0], np.cumsum(start)]), dropped))
     if options.speed_profile == 'time_optimal':
         check_time_optimal_waypoints(points.shape[0])
-        followed = plan_time_optimal(points, limits, dropped, torque, boundary,
+        try:
+            return plan_time_optimal(points, limits, dropped, torque, boundary,
                                      options.vibration_frequency)
-        if followed is not None:
-            return followed
-        # No spline found: the default construction's plan of the request as
-        # it came (merging twice could merge more), which says so.
-        traj = _plan_limited(requested, durations, replace(options, speed_profile='smoothed'))
-        traj.optimizer['speed_profile_skipped'] = NO_TIME_OPTIMAL_SPLINE
-        return traj
+        except NoSpline as why:
+            # No spline found: the default construction's plan of the request as
+            # it came (merging twice could merge more), which says so and why.
+            traj = _plan_limited(requested, durations,
+                                 replace(options, speed_profile='smoothed'))
+            traj.optimizer['speed_profile_skipped'] = f'{NO_TIME_OPTIMAL_SPLINE}: {why}'
+            return traj
     search = give_up = None     # two segments: the knots-only optimum's search (below)
     if inner_knots:
         rest = options.rest

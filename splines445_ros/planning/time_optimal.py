@@ -105,6 +105,10 @@ NAME = 'time_optimal'
 NO_TIME_OPTIMAL_SPLINE = 'no time-optimal spline found'
 
 
+class NoSpline(Exception):
+    """Why no time-optimal plan was found: the text after :data:`NO_TIME_OPTIMAL_SPLINE`."""
+
+
 class FollowedPath:
     """
     What :class:`inner_knots.KnotCandidate` reads of the path of steps 1-2.
@@ -180,7 +184,7 @@ def _report_residual(traj, profile, vibration_frequency):
 def plan_time_optimal(points, limits, dropped=(), torque=None, boundary=None,
                       vibration_frequency=0.0):
     """
-    Return the Trajectory of steps 1-4 through ``points`` (N, n), or None.
+    Return the Trajectory of steps 1-4 through ``points`` (N, n).
 
     ``limits`` are the :class:`limits.JointLimits` (inf: no jerk limit),
     ``dropped`` the merged waypoints' indices, ``torque`` a
@@ -192,12 +196,13 @@ def plan_time_optimal(points, limits, dropped=(), torque=None, boundary=None,
     step 1), the profile keeps ``x = 1``, ``x' = 0`` there, and as a spline
     that keeps them cannot be scaled, the profile's limits are lowered by
     the factors :data:`MOVING_MARGINS` (velocity ``g``, acceleration
-    ``g**2``, jerk ``g**3``) until the spline holds them.  None when the
-    profile's first LP fails, when it stops inside the path, or when no
-    spline is found (the caller falls back to the default construction).
+    ``g**2``, jerk ``g**3``) until the spline holds them.
     ``vibration_frequency`` [Hz] (0: none): with a rest end the profile
     cancels the ringing of a mode at it after the stop
-    (``SmoothProfile(vibration_frequency=)``).
+    (``SmoothProfile(vibration_frequency=)``).  Raises :class:`NoSpline`
+    with the last attempt's reason when the profile's first LP fails, when
+    it stops inside the path, or when no spline is found (the caller falls
+    back to the default construction).
     """
     n = points.shape[1]
     boundary = tuple(np.zeros(n) for _ in range(4)) if boundary is None else tuple(boundary)
@@ -214,16 +219,17 @@ def plan_time_optimal(points, limits, dropped=(), torque=None, boundary=None,
         if moving[1]:
             scale[-1] = share
         times = durations * scale
-        found = _followed_trajectory(points, limits, dropped, torque, boundary, moving, times,
-                                     vibration_frequency)
-        if found is not None:
-            return found
-    return None
+        try:
+            return _followed_trajectory(points, limits, dropped, torque, boundary, moving,
+                                        times, vibration_frequency)
+        except NoSpline as error:
+            why = error
+    raise why
 
 
 def _followed_trajectory(points, limits, dropped, torque, boundary, moving, durations,
                          vibration_frequency=0.0):
-    """Return steps 1-4's Trajectory on the path at the segment ``durations``, or None."""
+    """Return steps 1-4's Trajectory on the path at the segment ``durations`` (or NoSpline)."""
     ppoly, grid = first_path(points, durations, boundary)
     knots = grid[::GRID_STEPS]
     constraints = () if torque is None else (torque.constraint(),)
@@ -231,11 +237,9 @@ def _followed_trajectory(points, limits, dropped, torque, boundary, moving, dura
                                          else torque.piece_factors), boundary, limits,
                             not any(moving))
     for margin in MOVING_MARGINS if any(moving) else (1.0,):
-        followed = _follow(problem, ppoly, grid, knots, limits, constraints,
-                           tuple(float(m) for m in moving), margin, vibration_frequency)
-        if followed is None:
-            return None
-        profile, candidate = followed
+        profile, candidate = _follow(problem, ppoly, grid, knots, limits, constraints,
+                                     tuple(float(m) for m in moving), margin,
+                                     vibration_frequency)
         if candidate is not None and candidate.feasible:
             traj = kept_trajectory(problem, candidate, dropped, {
                 'speed_profile': NAME, 'inner_knots': int(np.max(candidate.counts)),
@@ -244,16 +248,21 @@ def _followed_trajectory(points, limits, dropped, torque, boundary, moving, dura
                 'profile_lps': profile.lps, 'profile_duration': float(profile.duration),
                 'time_scale': float(candidate.scale), 'limit_margin': margin,
                 'smoothing_windows': []})
-            if traj is not None:
-                _report_residual(traj, profile, vibration_frequency)
+            if traj is None:
+                raise NoSpline('the spline through the profile could not be rebuilt on its '
+                               'representable piece widths')
+            _report_residual(traj, profile, vibration_frequency)
             return traj
-    return None
+    if candidate is None:
+        raise NoSpline("no spline through the profile's knots")
+    raise NoSpline("the spline through the profile's knots exceeds the limits" + (
+        f' at every margin {MOVING_MARGINS}' if any(moving) else ''))
 
 
 def _follow(problem, path, grid, knots, limits, constraints, ends=(0.0, 0.0), margin=1.0,
             vibration_frequency=0.0):
     """
-    Return steps 2-4 on ``path`` through ``knots``: (profile, candidate or None), or None.
+    Return steps 2-4 on ``path`` through ``knots``: (profile, candidate or None).
 
     The profile at ``margin`` times the velocity limits (its square the
     acceleration's, its cube :data:`JERK_MARGIN` times the jerk's); None
@@ -261,6 +270,7 @@ def _follow(problem, path, grid, knots, limits, constraints, ends=(0.0, 0.0), ma
     row points (a joint reversing alone: the profile stops there, and a
     stop takes its C2 ``x(s)`` forever).  ``vibration_frequency``: the
     profile's (0: none).  The candidate is :func:`_followed_spline`'s.
+    Raises :class:`NoSpline` when there is no profile.
     A rest-to-rest spline is the profile's time law stretched by its exact
     factor ``k``, so the ringing at ``f`` it leaves is the profile's at
     ``f k``: where ``k`` is more than :data:`RESIDUAL_SCALE` from 1, the
@@ -269,14 +279,15 @@ def _follow(problem, path, grid, knots, limits, constraints, ends=(0.0, 0.0), ma
     """
     followed = _followed_profile(path, grid, knots, limits, constraints, ends, margin,
                                  vibration_frequency)
-    if followed is None:
-        return None
     candidate = _followed_spline(problem, followed)
     residual = followed.profile.residual
     if (candidate is not None and candidate.feasible and residual is not None
             and np.isfinite(residual) and abs(candidate.scale - 1.0) > RESIDUAL_SCALE):
-        again = _followed_profile(path, grid, knots, limits, constraints, ends, margin,
-                                  vibration_frequency * candidate.scale)
+        try:
+            again = _followed_profile(path, grid, knots, limits, constraints, ends, margin,
+                                      vibration_frequency * candidate.scale)
+        except NoSpline:
+            again = None
         stretched = None if again is None else _followed_spline(problem, again)
         if stretched is not None and stretched.feasible and (
                 _ringing(problem, stretched, vibration_frequency, limits)
@@ -295,17 +306,18 @@ def _ringing(problem, candidate, vibration_frequency, limits):
 
 def _followed_profile(path, grid, knots, limits, constraints, ends, margin,
                       vibration_frequency):
-    """Return step 2's :class:`FollowedProfile` (:func:`_follow`), or None."""
+    """Return step 2's :class:`FollowedProfile` (:func:`_follow`); NoSpline: none, and why."""
     try:
         profile = SmoothProfile(path, grid, margin * limits.velocity,
                                 margin ** 2 * limits.acceleration,
                                 JERK_MARGIN * margin ** 3 * limits.jerk, constraints, ends,
                                 vibration_frequency)
-    except RuntimeError:
-        return None
+    except RuntimeError as error:
+        raise NoSpline(str(error)) from error
     followed = FollowedProfile(profile, knots, grid.size)
     if not np.all(np.isfinite(followed.passed)):
-        return None
+        raise NoSpline('the profile stops inside the path (a joint reversing alone, where '
+                       'every joint is at rest at once)')
     return followed
 
 
@@ -353,13 +365,12 @@ def retime_path(traj, limits, constraints=(), piece_factors=None, vibration_freq
     problem = TimingProblem(FollowedPath(grid, traj.ppoly, points, piece_factors), boundary,
                             limits, True)
     try:
-        followed = _follow(problem, traj.ppoly, grid, knots, limits, tuple(constraints),
-                           vibration_frequency=vibration_frequency)
-    except ValueError:
-        return None     # a constraint's own refusal: the lines keep their timing
-    if followed is None or followed[1] is None:
+        profile, candidate = _follow(problem, traj.ppoly, grid, knots, limits,
+                                     tuple(constraints), vibration_frequency=vibration_frequency)
+    except (ValueError, NoSpline):
+        return None     # a constraint's own refusal, or no profile: the lines keep their timing
+    if candidate is None:
         return None
-    profile, candidate = followed
     retimed = kept_trajectory(problem, candidate, traj.dropped_waypoints, {
         'speed_profile': NAME, 'knots': int(candidate.pieces.size + 1),
         'profile_lps': profile.lps, 'profile_duration': float(profile.duration),

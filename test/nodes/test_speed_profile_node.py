@@ -13,7 +13,7 @@ import pytest
 from rclpy.parameter import Parameter
 from splines445_ros.nodes.planner_node import PlannerNode
 from splines445_ros.nodes.ros_conversions import WaypointRequest
-from splines445_ros.planning import planner
+from splines445_ros.planning import planner, time_optimal
 from splines445_ros.planning.residual_vibration import trajectory_residual
 from splines445_ros.service.planner_config import PlannerConfig
 from splines445_ros.service.request_planning import (plan_request, plan_tool_request,
@@ -149,11 +149,15 @@ def test_tool_waypoints_with_vibration_frequency_cancel_the_retimed_ringing():
 
 
 def test_no_spline_is_a_warning_and_the_plan_holds_every_limit(monkeypatch):
-    monkeypatch.setattr(planner, 'plan_time_optimal', lambda *args: None)
+    def no_spline(*args):
+        raise time_optimal.NoSpline('the profile stops inside the path')
+
+    monkeypatch.setattr(planner, 'plan_time_optimal', no_spline)
     traj = plan_request(config(), request())
     warning = plan_warnings(traj)
-    assert warning is not None and 'no time-optimal spline found' in warning
-    assert summary_values(traj, NAMES)['speed_profile_skipped'] == 'no time-optimal spline found'
+    why = 'no time-optimal spline found: the profile stops inside the path'
+    assert warning is not None and why in warning
+    assert summary_values(traj, NAMES)['speed_profile_skipped'] == why
     assert traj.within_limits(rtol=1e-9)
 
 

@@ -292,13 +292,18 @@ class FailingProfile:
 def test_no_spline_falls_back_to_the_default_and_says_so(monkeypatch, failure):
     """No spline found, or the profile's first LP failing: the default plan, flagged."""
     if failure == 'no spline':
-        monkeypatch.setattr(planner, 'plan_time_optimal', lambda *args: None)
+        def no_spline(*args):
+            raise time_optimal.NoSpline("no spline through the profile's knots")
+
+        monkeypatch.setattr(planner, 'plan_time_optimal', no_spline)
+        why = "no spline through the profile's knots"
     else:
         monkeypatch.setattr(time_optimal, 'SmoothProfile', FailingProfile)
+        why = 'the first LP of the smooth profile failed: infeasible'
     points, limits = random_request(7)
     traj = time_optimal_plan(points, limits)
     default = plan(points, '555', 'optimal', **limits)
-    assert traj.optimizer['speed_profile_skipped'] == planner.NO_TIME_OPTIMAL_SPLINE
+    assert traj.optimizer['speed_profile_skipped'] == f'{planner.NO_TIME_OPTIMAL_SPLINE}: {why}'
     assert traj.duration == pytest.approx(default.duration, rel=1e-12)
 
 
@@ -313,7 +318,7 @@ def test_a_joint_reversing_alone_is_followed_or_falls_back_within_the_limits(see
     points, limits = random_request(seed, joints=(1, 3))
     traj = time_optimal_plan(points, limits)
     assert (traj.optimizer.get('speed_profile') == 'time_optimal'
-            or traj.optimizer['speed_profile_skipped'] == planner.NO_TIME_OPTIMAL_SPLINE)
+            or traj.optimizer['speed_profile_skipped'].startswith(planner.NO_TIME_OPTIMAL_SPLINE))
     scale = max(1.0, float(np.max(np.abs(points))))
     assert np.max(np.abs(traj.ppoly(traj.waypoint_times) - points)) <= 1e-9 * scale
     for k, name in ((1, 'max_velocity'), (2, 'max_acceleration'), (3, 'max_jerk')):
@@ -338,7 +343,7 @@ def test_moving_ends_are_kept_exactly_within_every_limit(seed):
         values['end_velocity'] = 0.3 * limits['max_velocity'] * rng.uniform(-1, 1, n)
     traj = time_optimal_plan(points, dict(limits, **values))
     assert (traj.optimizer.get('speed_profile') == 'time_optimal'
-            or traj.optimizer['speed_profile_skipped'] == planner.NO_TIME_OPTIMAL_SPLINE)
+            or traj.optimizer['speed_profile_skipped'].startswith(planner.NO_TIME_OPTIMAL_SPLINE))
     for t, velocity, acceleration in (
             (0.0, values['start_velocity'], values['start_acceleration']),
             (traj.duration, values.get('end_velocity', np.zeros(n)), np.zeros(n))):
@@ -369,12 +374,15 @@ def test_moving_starts_are_mostly_followed_and_shorter():
 
 def test_the_fallback_is_the_default_plan_of_the_request_as_it_came(monkeypatch):
     """Near-duplicates merged once: the fallback is exactly the default's plan, flagged."""
-    monkeypatch.setattr(planner, 'plan_time_optimal', lambda *args: None)
+    def no_spline(*args):
+        raise time_optimal.NoSpline('none')
+
+    monkeypatch.setattr(planner, 'plan_time_optimal', no_spline)
     points = [[0.0], [1.0], [1.0015], [1.0008]]
     limits = {'max_velocity': [1.0], 'max_acceleration': [5.0], 'max_jerk': [100.0]}
     traj = time_optimal_plan(np.array(points), limits)
     default = plan(points, '555', 'optimal', **limits)
-    assert traj.optimizer['speed_profile_skipped'] == planner.NO_TIME_OPTIMAL_SPLINE
+    assert traj.optimizer['speed_profile_skipped'] == f'{planner.NO_TIME_OPTIMAL_SPLINE}: none'
     assert traj.dropped_waypoints == default.dropped_waypoints
     assert traj.waypoint_times.size == traj.waypoints.shape[0] == default.waypoints.shape[0]
     assert traj.duration == pytest.approx(default.duration, rel=1e-12)
@@ -395,7 +403,7 @@ def test_a_profile_the_solver_refuses_falls_back_within_the_limits():
     limits = {'max_velocity': [1e6] * 2, 'max_acceleration': [1e8] * 2, 'max_jerk': [1e12] * 2}
     traj = time_optimal_plan(np.array([[0.0, 0.0], [1.0, 1.0], [2.0, 0.0]]), limits)
     assert (traj.optimizer.get('speed_profile') == 'time_optimal'
-            or traj.optimizer['speed_profile_skipped'] == planner.NO_TIME_OPTIMAL_SPLINE)
+            or traj.optimizer['speed_profile_skipped'].startswith(planner.NO_TIME_OPTIMAL_SPLINE))
     assert traj.within_limits(rtol=1e-9)
 
 
