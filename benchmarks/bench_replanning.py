@@ -13,6 +13,14 @@ Cases: the paper's example running, a new goal of three waypoints
 (``test_replanning.py``'s), v <= 2 rad/s, a <= 10 rad/s^2, no jerk limit;
 and 6 random running paths (a fresh seed every run, printed: bench_seeds.py) with random new goals.
 
+Then ``speed_profile='time_optimal'`` (issue 38): from the state of a
+running time_optimal plan (j = 20 a) every :data:`OPTIMAL_STEP` along it,
+555 optimal time_optimal to the new goal; the share of the states it
+follows itself (the others get the default construction's plan, which says
+why in ``speed_profile_skipped``), split by how close the state is to a
+velocity or acceleration limit, the fallbacks' reasons, and the followed
+plans' duration over the default's from the same state.
+
 Run: ``make bench`` or ``python benchmarks/bench_replanning.py [method ...]`` (the
 methods' rows only; the optimal rows of 445 and 434 take many minutes).
 """
@@ -34,6 +42,8 @@ from splines445_ros.service.request_planning import plan_from_running  # noqa: E
 SECOND = np.array([[0.2, 2.0, -2.0], [0.6, 1.6, -2.2], [0.9, 1.2, -1.5]])
 VMAX, AMAX = 2.0, 10.0
 STEP = 0.02  # s between the switch times tried
+OPTIMAL_STEP = 0.1  # s between the states of a running time_optimal plan replanned from
+NEAR_LIMIT = 0.96   # a state this close to a velocity or acceleration limit counts as at it
 N_RANDOM = 6
 
 
@@ -97,5 +107,52 @@ def main():
                   f'({100.0 * stuck / tried:.1f}%) | {delay} | {failed} |')
 
 
+def time_optimal_replanning():
+    """Print how often time_optimal follows its own plan from its running plan's states."""
+    limits = {'max_velocity': [VMAX] * 3, 'max_acceleration': [AMAX] * 3,
+              'max_jerk': [20.0 * AMAX] * 3}
+    counts = {False: [0, 0], True: [0, 0]}     # at a limit: [states, followed]
+    reasons, ratios, refused = {}, [], 0
+    for _, running_points, goal in cases():
+        running = plan(running_points, '555', 'optimal', speed_profile='time_optimal', **limits)
+        for t in np.arange(0.5 * OPTIMAL_STEP, running.duration, OPTIMAL_STEP):
+            q, qd, qdd = (running.evaluate(np.array([t]), k)[0] for k in range(3))
+            points = np.vstack([q, goal])
+            boundary = {'start_velocity': qd, 'start_acceleration': qdd}
+            try:
+                ours = plan(points, '555', 'optimal', speed_profile='time_optimal',
+                            **boundary, **limits)
+            except ValueError:
+                refused += 1
+                continue
+            near = max(np.max(np.abs(qd)) / VMAX, np.max(np.abs(qdd)) / AMAX) >= NEAR_LIMIT
+            counts[near][0] += 1
+            why = ours.optimizer.get('speed_profile_skipped')
+            if why:
+                reasons[why] = reasons.get(why, 0) + 1
+                continue
+            counts[near][1] += 1
+            try:
+                ratios.append(ours.duration
+                              / plan(points, '555', 'optimal', **boundary, **limits).duration)
+            except ValueError:
+                pass    # the default has no plan from this state; time_optimal has
+    print()
+    print(f"speed_profile='time_optimal' replanned from a running time_optimal plan's state "
+          f'every {OPTIMAL_STEP * 1e3:.0f} ms (paper and random paths, j = 20 a):')
+    print(f'| states | followed | at >= {NEAR_LIMIT:g} of a v or a limit: followed | '
+          'below: followed '
+          '| followed / default: median, worst | refused (ValueError) |')
+    print('|---|---|---|---|---|---|')
+    total = counts[False][0] + counts[True][0]
+    followed = counts[False][1] + counts[True][1]
+    ratio = f'{np.median(ratios):.3f}, {np.max(ratios):.3f}' if ratios else '-'
+    print(f'| {total} | {followed} | {counts[True][1]} of {counts[True][0]} | '
+          f'{counts[False][1]} of {counts[False][0]} | {ratio} | {refused} |')
+    for why, count in sorted(reasons.items(), key=lambda item: -item[1]):
+        print(f'fell back {count} times: {why}')
+
+
 if __name__ == '__main__':
     main()
+    time_optimal_replanning()
