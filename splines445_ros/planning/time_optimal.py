@@ -221,15 +221,43 @@ def plan_time_optimal(points, limits, dropped=(), torque=None, boundary=None,
         times = durations * scale
         try:
             return _followed_trajectory(points, limits, dropped, torque, boundary, moving,
-                                        times, vibration_frequency)
+                                        times, vibration_frequency,
+                                        _boundary_floors(boundary, limits) if share == 1.0
+                                        else None)
         except NoSpline as error:
             why = error
     raise why
 
 
+def _boundary_floors(boundary, limits):
+    """
+    Return the velocity and acceleration below which no profile limit goes, for ``boundary``.
+
+    A moving end is a state of its own (a running plan's, at a limit more
+    often than not): the profile keeps ``x = 1``, ``x' = 0`` there, so its
+    lowered limits (:data:`MOVING_MARGINS`) must not be below the state's
+    own velocity and acceleration, or its first LP is infeasible.  Per
+    joint, the larger of the two ends' magnitudes, at most the limit.  From
+    a running time_optimal plan's states (``bench_replanning.py``) that took
+    the states followed from 5 to 65 of 85 at a limit.  Only on the path
+    at the end segments' own time: at the other :data:`END_SEGMENT_SHARES`
+    (a path reshaped to leave the state) 9 of 23 plans were 5-67 % longer
+    than the default's, so those keep the lowered limits (and mostly fall
+    back to the default, as before).
+    """
+    velocity = np.maximum(np.abs(boundary[0]), np.abs(boundary[2]))
+    acceleration = np.maximum(np.abs(boundary[1]), np.abs(boundary[3]))
+    return (np.minimum(limits.velocity, velocity * (1.0 + 1e-9)),
+            np.minimum(limits.acceleration, acceleration * (1.0 + 1e-9)))
+
+
 def _followed_trajectory(points, limits, dropped, torque, boundary, moving, durations,
-                         vibration_frequency=0.0):
-    """Return steps 1-4's Trajectory on the path at the segment ``durations`` (or NoSpline)."""
+                         vibration_frequency=0.0, floors=None):
+    """
+    Return steps 1-4's Trajectory on the path at the segment ``durations`` (or NoSpline).
+
+    ``floors``: :func:`_boundary_floors` (None: the lowered limits as they are).
+    """
     ppoly, grid = first_path(points, durations, boundary)
     knots = grid[::GRID_STEPS]
     constraints = () if torque is None else (torque.constraint(),)
@@ -239,7 +267,7 @@ def _followed_trajectory(points, limits, dropped, torque, boundary, moving, dura
     for margin in MOVING_MARGINS if any(moving) else (1.0,):
         profile, candidate = _follow(problem, ppoly, grid, knots, limits, constraints,
                                      tuple(float(m) for m in moving), margin,
-                                     vibration_frequency)
+                                     vibration_frequency, floors)
         if candidate is not None and candidate.feasible:
             traj = kept_trajectory(problem, candidate, dropped, {
                 'speed_profile': NAME, 'inner_knots': int(np.max(candidate.counts)),
@@ -260,7 +288,7 @@ def _followed_trajectory(points, limits, dropped, torque, boundary, moving, dura
 
 
 def _follow(problem, path, grid, knots, limits, constraints, ends=(0.0, 0.0), margin=1.0,
-            vibration_frequency=0.0):
+            vibration_frequency=0.0, floors=None):
     """
     Return steps 2-4 on ``path`` through ``knots``: (profile, candidate or None).
 
@@ -278,14 +306,14 @@ def _follow(problem, path, grid, knots, limits, constraints, ends=(0.0, 0.0), ma
     at ``f`` is kept (the new one has a factor of its own).
     """
     followed = _followed_profile(path, grid, knots, limits, constraints, ends, margin,
-                                 vibration_frequency)
+                                 vibration_frequency, floors)
     candidate = _followed_spline(problem, followed)
     residual = followed.profile.residual
     if (candidate is not None and candidate.feasible and residual is not None
             and np.isfinite(residual) and abs(candidate.scale - 1.0) > RESIDUAL_SCALE):
         try:
             again = _followed_profile(path, grid, knots, limits, constraints, ends, margin,
-                                      vibration_frequency * candidate.scale)
+                                      vibration_frequency * candidate.scale, floors)
         except NoSpline:
             again = None
         stretched = None if again is None else _followed_spline(problem, again)
@@ -305,11 +333,14 @@ def _ringing(problem, candidate, vibration_frequency, limits):
 
 
 def _followed_profile(path, grid, knots, limits, constraints, ends, margin,
-                      vibration_frequency):
+                      vibration_frequency, floors=None):
     """Return step 2's :class:`FollowedProfile` (:func:`_follow`); NoSpline: none, and why."""
+    velocity, acceleration = margin * limits.velocity, margin ** 2 * limits.acceleration
+    if floors is not None:
+        velocity, acceleration = np.maximum(velocity, floors[0]), np.maximum(acceleration,
+                                                                             floors[1])
     try:
-        profile = SmoothProfile(path, grid, margin * limits.velocity,
-                                margin ** 2 * limits.acceleration,
+        profile = SmoothProfile(path, grid, velocity, acceleration,
                                 JERK_MARGIN * margin ** 3 * limits.jerk, constraints, ends,
                                 vibration_frequency)
     except RuntimeError as error:

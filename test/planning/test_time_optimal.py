@@ -645,3 +645,41 @@ def test_a_joint_reversing_alone_with_a_mode_plans_without_an_internal_error():
                 vibration_frequency=1.5, **limits)
     assert traj.within_limits(rtol=1e-9)
     assert np.allclose(traj.ppoly(traj.waypoint_times), points, rtol=0.0, atol=1e-9)
+
+
+def test_replanning_from_a_running_plans_states_at_a_limit_is_followed():
+    """
+    From the states of a running time_optimal plan at a v or a limit: mostly followed, exactly.
+
+    Such a state is at its limit more often than not, and the profile's
+    lowered limits (0.98, ...) were below its own velocity or acceleration:
+    its first LP was infeasible in 80 of 85 states (bench_replanning.py).
+    The profile's limits now stay at or above the state's own.
+    """
+    rng = np.random.default_rng(1)
+    limits = {'max_velocity': [2.0] * 3, 'max_acceleration': [10.0] * 3,
+              'max_jerk': [200.0] * 3}
+    v, a = np.asarray(limits['max_velocity']), np.asarray(limits['max_acceleration'])
+    running = time_optimal_plan(np.cumsum(rng.uniform(-0.8, 0.8, (6, 3)), axis=0), limits)
+    goal = running.waypoints[-1] + np.cumsum(rng.uniform(-0.8, 0.8, (3, 3)), axis=0)
+    at_limit = followed = 0
+    for t in np.arange(0.05, running.duration, 0.1):
+        q, qd, qdd = (running.evaluate(np.array([t]), k)[0] for k in range(3))
+        if max(np.max(np.abs(qd) / v), np.max(np.abs(qdd) / a)) < 0.96:
+            continue
+        at_limit += 1
+        points = np.vstack([q, goal])
+        try:
+            traj = plan(points, '555', 'optimal', speed_profile='time_optimal',
+                        start_velocity=qd, start_acceleration=qdd, **limits)
+        except ValueError:
+            continue        # no plan of any kind from this state
+        if traj.optimizer.get('speed_profile') != time_optimal.NAME:
+            continue
+        followed += 1
+        assert traj.within_limits(rtol=1e-9)
+        assert np.allclose(traj.ppoly(traj.waypoint_times), points, rtol=0.0, atol=1e-9)
+        for k, value in ((1, qd), (2, qdd)):
+            assert np.allclose(traj.ppoly.derivative(k)(0.0), value, rtol=1e-9, atol=1e-9)
+    assert at_limit >= 8
+    assert followed >= 0.5 * at_limit, (followed, at_limit)
