@@ -238,8 +238,9 @@ def _boundary_floors(boundary, limits):
     lowered limits (:data:`MOVING_MARGINS`) must not be below the state's
     own velocity and acceleration, or its first LP is infeasible.  Per
     joint, the larger of the two ends' magnitudes, at most the limit.  From
-    a running time_optimal plan's states (``bench_replanning.py``) that took
-    the states followed from 5 to 65 of 85 at a limit.  Only on the path
+    a running time_optimal plan's states at a limit (``bench_replanning.py``,
+    three seeds) that took the states followed from 0-5 to 59-69 of
+    104-118.  Only on the path
     at the end segments' own time: at the other :data:`END_SEGMENT_SHARES`
     (a path reshaped to leave the state) 9 of 23 plans were 5-67 % longer
     than the default's, so those keep the lowered limits (and mostly fall
