@@ -88,6 +88,14 @@ SPLIT_ROUNDS = 4
 # With a moving start or end: the shares of the limits the profile is planned
 # with, tried in turn until the spline (which cannot be scaled) holds them.
 MOVING_MARGINS = (0.98, 0.95, 0.9, 0.8, 0.6)
+# With a moving start or end: the shares of the end segments' rest-to-rest time the
+# path is tried at first, with the boundary's own velocity and acceleration as a floor
+# of those limits (_boundary_floors); then inner_knots.END_SEGMENT_SHARES without it.
+# From a running plan's states at a limit (bench_replanning.py) 1.25 and 1.5 took the
+# states followed from 57-72 to 80-88 of 108-115 (two seeds nothing was tuned on),
+# 0.949-0.977 of the default's time (median), worst 1.029-1.116 (before 1.033-1.166);
+# at 2.0 with the floor 9 of 23 plans were 5-67 % longer than the default's.
+FLOORED_SHARES = (1.0, 1.25, 1.5)
 # vibration_frequency f: a spline whose exact factor k is further than this from 1
 # has its profile cancel f k instead (the ringing of the stretched plan at f is the
 # profile's at f k), and the plan that rings less is kept: 13 of 30 random requests
@@ -209,10 +217,10 @@ def plan_time_optimal(points, limits, dropped=(), torque=None, boundary=None,
     moving = (bool(np.any(boundary[0]) or np.any(boundary[1])),
               bool(np.any(boundary[2]) or np.any(boundary[3])))
     durations = rest_to_rest_durations(points, limits)
-    for share in (1.0,) + END_SEGMENT_SHARES if any(moving) else (1.0,):
+    for share in FLOORED_SHARES + END_SEGMENT_SHARES if any(moving) else (1.0,):
         # With a moving end, the end segments' own times shape the path there
-        # (inner_knots step 1): its own jerk at the end may be more than any
-        # profile holds; the default construction's other shares are tried.
+        # (inner_knots step 1): its own acceleration and jerk near the end may
+        # be more than any profile holds; other shares are tried.
         scale = np.ones(durations.size)
         if moving[0]:
             scale[0] = share
@@ -222,8 +230,8 @@ def plan_time_optimal(points, limits, dropped=(), torque=None, boundary=None,
         try:
             return _followed_trajectory(points, limits, dropped, torque, boundary, moving,
                                         times, vibration_frequency,
-                                        _boundary_floors(boundary, limits) if share == 1.0
-                                        else None)
+                                        _boundary_floors(boundary, limits)
+                                        if share in FLOORED_SHARES else None)
         except NoSpline as error:
             why = error
     raise why
@@ -240,11 +248,8 @@ def _boundary_floors(boundary, limits):
     joint, the larger of the two ends' magnitudes, at most the limit.  From
     a running time_optimal plan's states at a limit (``bench_replanning.py``,
     three seeds) that took the states followed from 0-5 to 59-69 of
-    104-118.  Only on the path
-    at the end segments' own time: at the other :data:`END_SEGMENT_SHARES`
-    (a path reshaped to leave the state) 9 of 23 plans were 5-67 % longer
-    than the default's, so those keep the lowered limits (and mostly fall
-    back to the default, as before).
+    104-118 on the path at the end segments' own time, and to 76-94 with
+    the shares :data:`FLOORED_SHARES`.
     """
     velocity = np.maximum(np.abs(boundary[0]), np.abs(boundary[2]))
     acceleration = np.maximum(np.abs(boundary[1]), np.abs(boundary[3]))

@@ -654,7 +654,9 @@ def test_replanning_from_a_running_plans_states_at_a_limit_is_followed():
     Such a state is at its limit more often than not, and the profile's
     lowered limits (0.98, ...) were below its own velocity or acceleration:
     its first LP was infeasible in 80 of 85 states (bench_replanning.py).
-    The profile's limits now stay at or above the state's own.
+    The profile's limits now stay at or above the state's own, on paths
+    whose first segment lasts 1, 1.25 or 1.5 times its rest-to-rest time:
+    13 of these 15 states (1 before; 10 at 1 alone).
     """
     rng = np.random.default_rng(1)
     limits = {'max_velocity': [2.0] * 3, 'max_acceleration': [10.0] * 3,
@@ -682,4 +684,4 @@ def test_replanning_from_a_running_plans_states_at_a_limit_is_followed():
         for k, value in ((1, qd), (2, qdd)):
             assert np.allclose(traj.ppoly.derivative(k)(0.0), value, rtol=1e-9, atol=1e-9)
     assert at_limit >= 8
-    assert followed >= 0.5 * at_limit, (followed, at_limit)
+    assert followed >= 0.7 * at_limit, (followed, at_limit)
