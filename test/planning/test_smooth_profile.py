@@ -282,3 +282,29 @@ def test_a_solve_stops_at_its_limits(warm, limit, monkeypatch):
     monkeypatch.setattr(smooth_profile, limit, 0)
     with pytest.raises(RuntimeError, match='first LP'):
         SmoothProfile(path, grid, v, a, j)
+
+
+def test_each_highspy_solve_gets_its_own_time_limit(monkeypatch):
+    """
+    Each highspy solve gets a time limit of its own: HiGHS counts a model's run time over runs.
+
+    helper-22's review: set once, the 5 s were the budget of all of a
+    profile's LPs, and a 200 x 7 plan with a mode failed its later LPs.
+    """
+    highspy = pytest.importorskip('highspy')
+    limits = []
+
+    class Recording(highspy.Highs):
+        def setOptionValue(self, name, value):
+            if name == 'time_limit':
+                limits.append((value, self.getRunTime()))
+            return super().setOptionValue(name, value)
+
+    monkeypatch.setattr(smooth_profile, 'HIGHSPY', True)
+    monkeypatch.setattr(smooth_profile.highspy, 'Highs', Recording)
+    path, grid, v, a, j = random_case(SEEDS[1])
+    profile = SmoothProfile(path, grid, v, a, j)
+    assert len(limits) == profile.lps >= 3
+    assert limits[-1][1] > 0.0      # the later solves come after run time has been spent
+    for value, spent in limits:
+        assert value >= spent + smooth_profile.SOLVE_SECONDS * (1.0 - 1e-12)
