@@ -230,8 +230,9 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         (ValueError otherwise); ``durations`` are not used.  Should it find
         no spline, the plan is "smoothed"'s, with
         ``optimizer['speed_profile_skipped']`` saying so and why (the
-        profile's LP failed, it stops inside the path, or no spline through
-        its knots holds the limits).
+        profile's LP failed, it stops inside the path, no spline through
+        its knots holds the limits, or the spline could not be rebuilt on
+        its representable piece widths).
 
     """
     points = waypoint_array(waypoints)

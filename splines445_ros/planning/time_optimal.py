@@ -299,12 +299,12 @@ def _follow(problem, path, grid, knots, limits, constraints, ends=(0.0, 0.0), ma
     Return steps 2-4 on ``path`` through ``knots``: (profile, candidate or None).
 
     The profile at ``margin`` times the velocity limits (its square the
-    acceleration's, its cube :data:`JERK_MARGIN` times the jerk's); None
+    acceleration's, its cube :data:`JERK_MARGIN` times the jerk's; ``floors``:
+    :func:`_boundary_floors` under the first two).  Raises :class:`NoSpline`
     when it has none: its first LP failed, or ``x`` reached 0 between its
     row points (a joint reversing alone: the profile stops there, and a
     stop takes its C2 ``x(s)`` forever).  ``vibration_frequency``: the
     profile's (0: none).  The candidate is :func:`_followed_spline`'s.
-    Raises :class:`NoSpline` when there is no profile.
     A rest-to-rest spline is the profile's time law stretched by its exact
     factor ``k``, so the ringing at ``f`` it leaves is the profile's at
     ``f k``: where ``k`` is more than :data:`RESIDUAL_SCALE` from 1, the

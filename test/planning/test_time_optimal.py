@@ -653,7 +653,8 @@ def test_replanning_from_a_running_plans_states_at_a_limit_is_followed():
 
     Such a state is at its limit more often than not, and the profile's
     lowered limits (0.98, ...) were below its own velocity or acceleration:
-    its first LP was infeasible in 80 of 85 states (bench_replanning.py).
+    its first LP was infeasible in 115 of 117 such states
+    (bench_replanning.py, seed 1362917117).
     The profile's limits now stay at or above the state's own, on paths
     whose first segment lasts 1, 1.25 or 1.5 times its rest-to-rest time:
     13 of these 15 states (1 before; 10 at 1 alone).
