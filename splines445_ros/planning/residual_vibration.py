@@ -54,6 +54,22 @@ def static_scale(frequency, max_acceleration, damping=DAMPING):
     return w * w / (damped * np.asarray(max_acceleration, float))
 
 
+def content_weights(steps, frequency, damping=DAMPING):
+    """
+    Return (len(steps) + 1,) the weights of ``Z = sum_k w_k qdd_k`` on samples ``steps`` apart.
+
+    The trapezoid rule's weight of each sample times its phase
+    ``exp(lambda (T - t_k))``, ``t`` from 0 to the stop ``T`` (the last).
+    """
+    steps = np.asarray(steps, float)
+    exponent, _ = mode_exponent(frequency, damping)
+    t = np.concatenate([[0.0], np.cumsum(steps)])
+    weight = np.zeros(t.size)
+    weight[:-1] += 0.5 * steps
+    weight[1:] += 0.5 * steps
+    return weight * np.exp(exponent * (t[-1] - t))
+
+
 def residual_shares(times, accelerations, frequency, max_acceleration, damping=DAMPING):
     """
     Return (n,) each joint's residual share after a motion sampled at ``times``.
@@ -64,12 +80,7 @@ def residual_shares(times, accelerations, frequency, max_acceleration, damping=D
     """
     t = np.asarray(times, float)
     qdd = np.asarray(accelerations, float).reshape(t.size, -1)
-    exponent, _ = mode_exponent(frequency, damping)
-    step = np.diff(t)
-    weight = np.zeros(t.size)
-    weight[:-1] += 0.5 * step
-    weight[1:] += 0.5 * step
-    content = (weight * np.exp(exponent * (t[-1] - t))) @ qdd
+    content = content_weights(np.diff(t), frequency, damping) @ qdd
     return np.abs(content) * static_scale(frequency, max_acceleration, damping)
 
 

@@ -107,7 +107,7 @@ except (ImportError, AttributeError):   # e.g. an apt ROS install: scipy's linpr
 
 from .path_constraints import GriddedPath, JointAcceleration, JointVelocity
 from .path_velocity import PathLimits
-from .residual_vibration import mode_exponent, static_scale
+from .residual_vibration import content_weights, static_scale
 from .validation import positive_array
 
 # The passes' profile counts as stopped below this share of its largest x (a
@@ -738,14 +738,13 @@ class SmoothProfile:
         ``Z = sum_k qdd_k dt_k exp(lambda (T - t_k))`` (:mod:`residual_vibration`)
         on the inner points of ``grid`` (:meth:`_mode_grid`), ``t`` by
         :meth:`_time_steps` on the profile ``z`` and ``dt_k`` the trapezoid
-        weight of point k.  The ends' own terms are left out: 0 at rest, half
+        weight of point k (:func:`residual_vibration.content_weights`, as the
+        plan's own figure is summed).  The ends' own terms are left out: 0 at rest, half
         a step's content at a moving start.
         """
         points, design, acceleration = grid
-        exponent, _ = mode_exponent(self.vibration_frequency)
-        dt = self._time_steps(points, design @ z)
-        t = np.concatenate([[0.0], np.cumsum(dt)])
-        weights = 0.5 * (dt[:-1] + dt[1:]) * np.exp(exponent * (t[-1] - t[1:-1]))
+        weights = content_weights(self._time_steps(points, design @ z),
+                                  self.vibration_frequency)[1:-1]
         n = weights.size
         return np.array([acceleration[j * n:(j + 1) * n].T @ weights
                          for j in range(self.acceleration.size)])
