@@ -19,7 +19,8 @@ running time_optimal plan (j = 20 a) every :data:`OPTIMAL_STEP` along it,
 follows itself (the others get the default construction's plan, which says
 why in ``speed_profile_skipped``), split by how close the state is to a
 velocity or acceleration limit, the fallbacks' reasons, and the followed
-plans' duration over the default's from the same state.
+plans' duration and 4 Hz shaking (``shaking.py``: peak while moving,
+residual after the stop) over the default's from the same state.
 
 Run: ``make bench`` or ``python benchmarks/bench_replanning.py [method ...]`` (the
 methods' rows only; the optimal rows of 445 and 434 take many minutes).
@@ -33,6 +34,7 @@ import numpy as np
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but the rule holds
 
 import bench_seeds  # noqa: E402, I100
+from shaking import of_trajectory, shaking  # noqa: E402
 from splines445_ros.nodes.ros_conversions import WaypointRequest  # noqa: E402, I100
 from splines445_ros.planning import METHODS, plan  # noqa: E402
 from splines445_ros.robot import paper_example as pe  # noqa: E402
@@ -44,6 +46,7 @@ VMAX, AMAX = 2.0, 10.0
 STEP = 0.02  # s between the switch times tried
 OPTIMAL_STEP = 0.1  # s between the states of a running time_optimal plan replanned from
 NEAR_LIMIT = 0.96   # a state this close to a velocity or acceleration limit counts as at it
+SHAKING_FREQUENCY = 4.0     # Hz: the mode whose shaking is compared (shaking.py)
 N_RANDOM = 6
 
 
@@ -133,22 +136,30 @@ def time_optimal_replanning():
                 continue
             counts[near][1] += 1
             try:
-                ratios.append(ours.duration
-                              / plan(points, '555', 'optimal', **boundary, **limits).duration)
+                default = plan(points, '555', 'optimal', **boundary, **limits)
             except ValueError:
-                pass    # the default has no plan from this state; time_optimal has
+                continue    # the default has no plan from this state; time_optimal has
+            amax = np.full(3, AMAX)
+            ratios.append([ours.duration / default.duration] + list(
+                np.array(shaking(of_trajectory(ours), ours.duration, amax, SHAKING_FREQUENCY))
+                / shaking(of_trajectory(default), default.duration, amax, SHAKING_FREQUENCY)))
     print()
     print(f"speed_profile='time_optimal' replanned from a running time_optimal plan's state "
           f'every {OPTIMAL_STEP * 1e3:.0f} ms (paper and random paths, j = 20 a):')
     print(f'| states | followed | at >= {NEAR_LIMIT:g} of a v or a limit: followed | '
           'below: followed '
-          '| followed / default: median, worst | refused (ValueError) |')
-    print('|---|---|---|---|---|---|')
+          '| followed / default: duration, median / worst '
+          f'| {SHAKING_FREQUENCY:g} Hz peak, median / worst '
+          f'| {SHAKING_FREQUENCY:g} Hz residual, median / worst | refused (ValueError) |')
+    print('|---|---|---|---|---|---|---|---|')
     total = counts[False][0] + counts[True][0]
     followed = counts[False][1] + counts[True][1]
-    ratio = f'{np.median(ratios):.3f}, {np.max(ratios):.3f}' if ratios else '-'
+    ratios = np.array(ratios).reshape(-1, 3)
+    cells = [f'{np.median(ratios[:, k]):.{digits}f} / {np.max(ratios[:, k]):.{digits}f}'
+             if ratios.size else '-' for k, digits in ((0, 3), (1, 2), (2, 2))]
     print(f'| {total} | {followed} | {counts[True][1]} of {counts[True][0]} | '
-          f'{counts[False][1]} of {counts[False][0]} | {ratio} | {refused} |')
+          f'{counts[False][1]} of {counts[False][0]} | ' + ' | '.join(cells)
+          + f' | {refused} |')
     for why, count in sorted(reasons.items(), key=lambda item: -item[1]):
         print(f'fell back {count} times: {why}')
 
