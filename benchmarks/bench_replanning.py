@@ -20,7 +20,11 @@ follows itself (the others get the default construction's plan, which says
 why in ``speed_profile_skipped``), split by how close the state is to a
 velocity or acceleration limit, the fallbacks' reasons, and the followed
 plans' duration and 4 Hz shaking (``shaking.py``: peak while moving,
-residual after the stop) over the default's from the same state.
+residual after the stop) over the default's from the same state.  Then
+the same on every 6-7-joint arm of example-robot-data (``bench_arms.py``,
+:data:`ARM_PATHS` of ``bench_torque``'s random paths per arm, their own
+limits): the first half of a path running, the rest of it reversed as the
+new goal.
 
 Run: ``make bench`` or ``python benchmarks/bench_replanning.py [method ...]`` (the
 methods' rows only; the optimal rows of 445 and 434 take many minutes).
@@ -33,7 +37,9 @@ import numpy as np
 
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but the rule holds
 
-import bench_seeds  # noqa: E402, I100
+import bench_arms  # noqa: E402, I100
+import bench_seeds  # noqa: E402
+from bench_torque import arm_paths  # noqa: E402
 from shaking import of_trajectory, shaking  # noqa: E402
 from splines445_ros.nodes.ros_conversions import WaypointRequest  # noqa: E402, I100
 from splines445_ros.planning import METHODS, plan  # noqa: E402
@@ -47,6 +53,7 @@ STEP = 0.02  # s between the switch times tried
 OPTIMAL_STEP = 0.1  # s between the states of a running time_optimal plan replanned from
 NEAR_LIMIT = 0.96   # a state this close to a velocity or acceleration limit counts as at it
 SHAKING_FREQUENCY = 4.0     # Hz: the mode whose shaking is compared (shaking.py)
+ARM_PATHS = 2       # per arm (SPLINES445_BENCH_CASES)
 N_RANDOM = 6
 
 
@@ -164,6 +171,54 @@ def time_optimal_replanning():
         print(f'fell back {count} times: {why}')
 
 
+def arm_replanning():
+    """Print, per arm, how often time_optimal follows its running plan's states (module)."""
+    _, count, arms = bench_arms.start_run(ARM_PATHS)
+    print()
+    print(f"speed_profile='time_optimal' replanned every {OPTIMAL_STEP * 1e3:.0f} ms from a "
+          f'running time_optimal plan on each arm ({count} random paths per arm):')
+    print(f'| arm | at >= {NEAR_LIMIT:g} of a v or a limit: followed | below: followed | '
+          'followed / default: duration, median '
+          f'| {SHAKING_FREQUENCY:g} Hz peak, median |')
+    print('|---|---|---|---|---|')
+    for arm in arms:
+        limits = arm.plan_limits()
+        vmax = np.asarray(limits['max_velocity'], float)
+        amax = np.asarray(limits['max_acceleration'], float)
+        counts = {False: [0, 0], True: [0, 0]}
+        ratios = []
+        for points in arm_paths(arm, count):
+            half = max(2, points.shape[0] // 2)
+            if points.shape[0] <= half:
+                continue
+            running = plan(points[:half], '555', 'optimal', speed_profile='time_optimal',
+                           **limits)
+            goal = points[half:][::-1]
+            for t in np.arange(0.5 * OPTIMAL_STEP, running.duration, OPTIMAL_STEP):
+                q, qd, qdd = (running.evaluate(np.array([t]), k)[0] for k in range(3))
+                boundary = {'start_velocity': qd, 'start_acceleration': qdd}
+                try:
+                    ours = plan(np.vstack([q, goal]), '555', 'optimal',
+                                speed_profile='time_optimal', **boundary, **limits)
+                    default = plan(np.vstack([q, goal]), '555', 'optimal', **boundary,
+                                   **limits)
+                except ValueError:
+                    continue
+                near = max(np.max(np.abs(qd) / vmax), np.max(np.abs(qdd) / amax)) >= NEAR_LIMIT
+                counts[near][0] += 1
+                if not ours.optimizer.get('speed_profile_skipped'):
+                    counts[near][1] += 1
+                    ratios.append((ours.duration / default.duration, shaking(
+                        of_trajectory(ours), ours.duration, amax, SHAKING_FREQUENCY)[0]
+                        / shaking(of_trajectory(default), default.duration, amax,
+                                  SHAKING_FREQUENCY)[0]))
+        cells = (f'{np.median([r[0] for r in ratios]):.3f} | '
+                 f'{np.median([r[1] for r in ratios]):.2f}' if ratios else '- | -')
+        print(f'| {arm.name} | {counts[True][1]} of {counts[True][0]} | '
+              f'{counts[False][1]} of {counts[False][0]} | {cells} |', flush=True)
+
+
 if __name__ == '__main__':
     main()
     time_optimal_replanning()
+    arm_replanning()
