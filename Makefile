@@ -79,6 +79,7 @@ bench: build
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_inner_knots.py
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_arm_moves.py
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_vibration_residual.py
+	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_shaking_bound.py
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_smooth_profile.py
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_smoothness.py
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_replanning.py
