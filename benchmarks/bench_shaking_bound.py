@@ -92,7 +92,8 @@ WAYPOINTS = 10  # the waypoint requests' first points: the programme grows with 
 WAYPOINT_STEP = 0.004  # s between the programme's samples on waypoint requests
 N_WAYPOINT_CASES = 4
 BISECTION = 0.005  # relative width at which the shortest duration is reported
-LP_SOLVERS = ('ipm', 'simplex')  # :func:`_solve`
+LP_SOLVERS = ({'solver': 'ipm'}, {'solver': 'simplex'}, {'solver': 'ipm', 'run_crossover': 'off'},
+              {'solver': 'simplex', 'simplex_strategy': 4})  # :func:`_solve`, in turn
 LP_SECONDS = 60.0  # per solve: a bench's bound, not a result (a solve that stops is no answer)
 
 
@@ -218,23 +219,30 @@ def _solve(cost, rows, lower, upper, bounds):
 
     HiGHS's presolve crashed (a segmentation fault, in scipy 1.17's HiGHS
     and in highspy 1.15) on some of these programmes, so it is off.  The
-    interior point method first (3-4 x faster here); the simplex where it
-    fails or finds no solution (it declared some feasible programmes
-    infeasible).
+    interior point method first (3-4 x faster here); where it fails or finds
+    no solution (it declared some feasible programmes infeasible), the dual
+    simplex, whose "infeasible" is final; where that fails too, the interior
+    point method without crossover (its solution within HiGHS's tolerances:
+    the waypoint table checks its trajectories at 0.1 ms), then the primal
+    simplex.
     """
-    for solver in LP_SOLVERS:
+    for options in LP_SOLVERS:
         highs = highspy.Highs()
         highs.setOptionValue('output_flag', False)
-        highs.setOptionValue('solver', solver)
         highs.setOptionValue('time_limit', LP_SECONDS)
         highs.setOptionValue('presolve', 'off')
+        for name, value in options.items():
+            highs.setOptionValue(name, value)
         highs.passModel(cost.size, rows.shape[0], rows.nnz, 2, 1, 0.0, cost,
                         bounds[:, 0], bounds[:, 1], lower, upper,
                         rows.indptr[:-1].astype(np.int32), rows.indices.astype(np.int32),
                         rows.data, np.zeros(cost.size, np.int32))
         highs.run()
-        if highs.getModelStatus() == highspy.HighsModelStatus.kOptimal:
+        status = highs.getModelStatus()
+        if status == highspy.HighsModelStatus.kOptimal:
             return np.asarray(highs.getSolution().col_value)
+        if status == highspy.HighsModelStatus.kInfeasible and options['solver'] == 'simplex':
+            return None
     return None
 
 
