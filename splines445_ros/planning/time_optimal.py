@@ -217,6 +217,7 @@ def plan_time_optimal(points, limits, dropped=(), torque=None, boundary=None,
     moving = (bool(np.any(boundary[0]) or np.any(boundary[1])),
               bool(np.any(boundary[2]) or np.any(boundary[3])))
     durations = rest_to_rest_durations(points, limits)
+    floors = _boundary_floors(boundary, limits) if any(moving) else None
     for share in FLOORED_SHARES + END_SEGMENT_SHARES if any(moving) else (1.0,):
         # With a moving end, the end segments' own times shape the path there
         # (inner_knots step 1): its own acceleration and jerk near the end may
@@ -230,8 +231,7 @@ def plan_time_optimal(points, limits, dropped=(), torque=None, boundary=None,
         try:
             return _followed_trajectory(points, limits, dropped, torque, boundary, moving,
                                         times, vibration_frequency,
-                                        _boundary_floors(boundary, limits)
-                                        if share in FLOORED_SHARES else None)
+                                        floors if share in FLOORED_SHARES else None)
         except NoSpline as error:
             why = error
     raise why
