@@ -270,7 +270,7 @@ def random_move(rng):
 
 
 def scalar_limits(start, end, vmax, amax):
-    """Return ``u``'s v, a, j limits and the static deflection unit of the figures (a)."""
+    """Return ``u``'s v, a, j limits: the tightest joint's (module docstring)."""
     span = np.abs(end - start)
     span = np.where(span > 0.0, span, np.inf)
     a = float(np.min(amax / span))
@@ -310,8 +310,9 @@ def measure(rng, checks):
         row[name] = (traj.duration / top.duration, ours[4.0][0] / reference[4.0][0],
                      np.nan if least is None else least)
         if least is not None:
-            u_of = _interpolant(samples, np.asarray(end) - start)
-            measured = shaking_figures(u_of, len(samples) * DT - DT, amax)[4.0][0]
+            joints = np.outer(samples, end - start)
+            measured = shaking_figures(_acceleration_of(joints, DT), len(samples) * DT - DT,
+                                       amax)[4.0][0]
             checks.append(abs(measured / reference[4.0][0] - least))
     for name, frequencies in (('4 Hz', [4.0]), ('8 Hz', [8.0]), ('both', [4.0, 8.0])):
         steps = shortest_steps(fastest, lambda n: target_holds(n, frequencies))
@@ -319,21 +320,10 @@ def measure(rng, checks):
     return row
 
 
-def _interpolant(samples, span, step=DT):
-    """``acceleration_of`` for the programme's samples of ``u''`` on joints moving ``span``."""
+def _acceleration_of(samples, step):
+    """``acceleration_of`` (:mod:`shaking`) of the programme's samples (m, n), ``step`` apart."""
     times = np.arange(len(samples)) * step
-    return lambda t: np.interp(t, times, samples)[:, None] * span[None, :]
-
-
-def waypoint_times(traj, waypoints):
-    """Return the times at which ``traj`` passes ``waypoints`` (its breakpoints, in order)."""
-    positions = traj.evaluate(traj.breakpoints)
-    times, index = [], 0
-    for point in waypoints:
-        while not np.allclose(positions[index], point, rtol=0.0, atol=1e-9):
-            index += 1
-        times.append(traj.breakpoints[index])
-    return np.array(times)
+    return lambda t: np.column_stack([np.interp(t, times, column) for column in samples.T])
 
 
 def measure_waypoints(rng, checks):
@@ -367,7 +357,8 @@ def measure_waypoints(rng, checks):
     # its tight v/a/j infeasible)
     duration = max(traj.duration, top.duration)
     steps = int(np.ceil(duration / WAYPOINT_STEP))
-    marks = np.round(waypoint_times(traj, waypoints) / traj.duration * steps).astype(int)
+    marks = np.round(traj.waypoint_times / traj.duration * steps).astype(int)
+    waypoints = np.delete(waypoints, traj.dropped_waypoints, axis=0)  # as the times count them
     modes = [(f, PEAK_TARGET * reference[f][0], RESIDUAL_TARGET * reference[f][1])
              for f in shaking.FREQUENCIES]
     solved = [least_shaking(WAYPOINT_STEP, marks, waypoints[:, i], vmax[i], amax[i],
@@ -376,9 +367,7 @@ def measure_waypoints(rng, checks):
         row['programme'] = [np.nan] * 5
         return row
     samples = np.column_stack([samples for _, samples in solved])
-    times = np.arange(steps + 1) * WAYPOINT_STEP
-    row['programme'] = ratios(lambda t: np.column_stack(
-        [np.interp(t, times, column) for column in samples.T]), steps * WAYPOINT_STEP)
+    row['programme'] = ratios(_acceleration_of(samples, WAYPOINT_STEP), steps * WAYPOINT_STEP)
     checks.append(_check(samples, waypoints, marks, vmax, amax))
     return row
 
@@ -386,9 +375,8 @@ def measure_waypoints(rng, checks):
 def _check(samples, waypoints, marks, vmax, amax):
     """Return the waypoint error and the v, a, j ratios of the programme's trajectory, 0.1 ms."""
     fine = 0.1e-3
-    times = np.arange(len(samples)) * WAYPOINT_STEP
-    grid = np.arange(0.0, times[-1] + fine / 2, fine)
-    acc = np.column_stack([np.interp(grid, times, column) for column in samples.T])
+    grid = np.arange(0.0, (len(samples) - 1) * WAYPOINT_STEP + fine / 2, fine)
+    acc = _acceleration_of(samples, WAYPOINT_STEP)(grid)
     vel = np.vstack([0.0 * acc[0], np.cumsum(acc[1:] + acc[:-1], axis=0) * fine / 2])
     pos = waypoints[0] + np.vstack([0.0 * acc[0],
                                     np.cumsum(vel[1:] + vel[:-1], axis=0) * fine / 2])
@@ -404,7 +392,7 @@ def _percent(values):
 
 
 def main():
-    """Run the moves and print the table."""
+    """Run the straight moves, then the waypoint requests, and print their tables."""
     logging.getLogger('toppra').setLevel(logging.ERROR)
     seed = bench_seeds.run_seed()
     n_cases = bench_seeds.case_count(N_CASES)
