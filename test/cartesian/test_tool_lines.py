@@ -16,9 +16,11 @@ from hypothesis import given, HealthCheck, settings, strategies as st
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
+from splines445_ros.cartesian import tool_lines as tl
 from splines445_ros.cartesian.tool_paths import plan_tool_path
 from splines445_ros.robot.inverse_kinematics import ModelKinematics
 from splines445_ros.robot.robot_model import load_robot_model
+from splines445_ros.service.request_planning import summary_values
 from splines445_ros.tools import vendor_robots as vr
 from test_tool_paths_6d import check_1khz, DEG, MM, PANDA_LIMITS, UR5_LIMITS
 from urdf_reference import BatchedUrdfChain
@@ -126,12 +128,84 @@ def test_time_optimal_lines_within_tolerance_limits_and_tool_speed_and_not_longe
     if limited:
         assert linear.max() <= speed * (1 + SPEED_RTOL)
     # Kept only when shorter than the lines' own timing, which is returned otherwise.
-    smoothed = plan_tool_path(poses, kinematics(arm), MM, DEG, **kwargs)
+    smoothed = own_timing(poses, arm, kwargs)
     if (result.trajectory.optimizer or {}).get('speed_profile') == 'time_optimal':
         assert result.trajectory.duration < smoothed.trajectory.duration
     else:
         assert result.trajectory.duration == pytest.approx(smoothed.trajectory.duration,
                                                            rel=1e-12)
+
+
+def own_timing(poses, arm, kwargs):
+    """Return the default's plan without step 5 (the lines' own timing, never timed again)."""
+    saved = tl.RETIME_BELOW_SPEED
+    tl.RETIME_BELOW_SPEED = False
+    try:
+        return plan_tool_path(poses, kinematics(arm), MM, DEG, **kwargs)
+    finally:
+        tl.RETIME_BELOW_SPEED = saved
+
+
+@pytest.mark.parametrize('robot, seed, speed', [('ur5', 1, 0.5), ('panda', 5, 0.5)])
+def test_lines_whose_own_timing_stays_below_the_speed_are_timed_again(arms, robot, seed,
+                                                                      speed):
+    """
+    The default retimes the lines when the tool never reaches 99 % of its speed.
+
+    On these two line sets the lines' own timing keeps the tool below it
+    (checked here first, by the test's FK); the plan is then the third-order
+    profile's: shorter, the tool faster and at its speed, every limit and
+    tolerance held, and the plan (and the node's status) says why.
+    """
+    rng = np.random.default_rng(seed)
+    arm = arms[robot]
+    poses = random_lines(rng, arm, int(rng.integers(2, 6)))
+    kwargs = dict(method='555', timing='optimal', max_tool_speed=speed, **arm[5])
+    own = own_timing(poses, arm, kwargs)
+    own_top = sampled_tool_speeds(own.trajectory, arm[7])[0].max()
+    assert own_top < 0.99 * speed       # the case this test is about
+    result = plan_tool_path(poses, kinematics(arm), MM, DEG, **kwargs)
+    optimizer = result.trajectory.optimizer
+    assert optimizer['speed_profile'] == 'time_optimal'
+    assert '99 %' in optimizer['speed_profile_reason']
+    assert result.trajectory.duration < own.trajectory.duration
+    check_1khz(result, poses, arm[7], MM, DEG)
+    assert result.trajectory.within_limits(rtol=1e-9)
+    linear = sampled_tool_speeds(result.trajectory, arm[7])[0]
+    assert 0.99 * speed <= linear.max() <= speed * (1 + SPEED_RTOL)
+    assert result.speed_share > 0.0
+    values = summary_values(result.trajectory, list(arm[3]))
+    assert values['speed_profile'] == 'time_optimal'
+    assert values['speed_profile_reason'] == optimizer['speed_profile_reason']
+    # A vibration_frequency smooths the plan: the lines keep their own timing then.
+    shaped = plan_tool_path(poses, kinematics(arm), MM, DEG, vibration_frequency=4.0, **kwargs)
+    assert 'speed_profile_reason' not in (shaped.trajectory.optimizer or {})
+
+
+@settings(max_examples=EXAMPLES, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(seed=st.integers(0, 2**32 - 1), robot=st.sampled_from(sorted(ROBOTS)),
+       count=st.integers(2, 5), speed=st.floats(0.2, 0.6))
+def test_the_default_retimes_only_below_the_speed_and_only_when_shorter(arms, seed, robot,
+                                                                        count, speed):
+    """Fast tool speeds: the default is the lines' own timing, or a shorter retimed plan."""
+    rng = np.random.default_rng(seed)
+    arm = arms[robot]
+    poses = random_lines(rng, arm, count)
+    kwargs = dict(method='555', timing='optimal', max_tool_speed=speed, **arm[5])
+    own = own_timing(poses, arm, kwargs)
+    result = plan_tool_path(poses, kinematics(arm), MM, DEG, **kwargs)
+    if 'speed_profile_reason' in (result.trajectory.optimizer or {}):
+        own_top = sampled_tool_speeds(own.trajectory, arm[7])[0].max()
+        assert own_top < 0.99 * speed * (1 + 1e-3)
+        assert result.trajectory.duration < own.trajectory.duration
+        check_1khz(result, poses, arm[7], MM, DEG)
+        assert result.trajectory.within_limits(rtol=1e-9)
+        linear = sampled_tool_speeds(result.trajectory, arm[7])[0]
+        assert linear.max() <= speed * (1 + SPEED_RTOL)
+    else:
+        np.testing.assert_array_equal(result.trajectory.ppoly.c, own.trajectory.ppoly.c)
+        np.testing.assert_array_equal(result.trajectory.ppoly.x, own.trajectory.ppoly.x)
 
 
 @pytest.mark.parametrize('robot', sorted(ROBOTS))
@@ -194,7 +268,6 @@ def test_a_line_out_of_reach_names_its_tool_waypoints():
 @given(seed=st.integers(0, 2**32 - 1), spatial=st.booleans())
 def test_corner_blends_pass_the_corner_smoothly_within_their_share(seed, spatial):
     """Blended corners: through the waypoint, tangent continuous, within the tolerance share."""
-    from splines445_ros.cartesian import tool_lines as tl
     rng = np.random.default_rng(seed)
     dims = 3 if spatial else 2
     corners = np.cumsum(rng.uniform(-0.3, 0.3, (4, dims)), axis=0)
