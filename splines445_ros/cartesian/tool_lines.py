@@ -35,13 +35,16 @@ uses for method 555 with optimal timing, rest to rest:
    ``speed_profile`` "time_optimal" the spline is timed again along its own
    path (:func:`planning.time_optimal.retime_path`, the tool speeds rows of
    the profile) and kept when shorter with its tool within the tolerances.
-   The default tries the same when its own timing leaves the tool below
-   :data:`AT_SPEED` of its speed limits everywhere (``speed_share`` 0: a
-   piece's jerk or acceleration slows the whole spline down, and
-   ``_unbound``'s splitting did not help, or the lines are too short for
-   the speed) and nothing smooths the plan (no ``vibration_frequency``),
-   unless :data:`RETIME_BELOW_SPEED` is False; the plan then says so
-   (``optimizer['speed_profile_reason']``, :data:`BELOW_SPEED`).
+   The default tries the same when its spline keeps the tool below
+   :data:`AT_SPEED` of every tool speed limit (before step 4; a piece's
+   jerk or acceleration slows the whole spline down, and ``_unbound``'s
+   splitting did not help) although the joints' v/a profile along the path
+   reaches it, the plan lasts at most :data:`RETIME_BELOW_SPEED_SECONDS`
+   and nothing smooths it (no ``vibration_frequency``), unless
+   :data:`RETIME_BELOW_SPEED` is False.  The new spline is kept when it
+   is shorter, within the tolerances and takes the tool to that share of
+   a limit; the plan then says so (``optimizer['speed_profile_reason']``,
+   :data:`BELOW_SPEED`).
 
 Between two samples of step 4 the speed cannot rise above its refined local
 maxima: a maximum is found where the samples bracket it; one that lies
@@ -109,11 +112,15 @@ AT_SPEED = 0.99
 # factors and the final check hold the limit itself.
 ACCELERATION_MARGIN = 0.99
 # Step 5: a default plan whose own timing leaves the tool below AT_SPEED of its
-# speed limits everywhere is timed again by the third-order profile (False:
-# never).  On 12 UR5 seams of bench_tool_lines' kind where that happened (top
-# 0.91-0.99 v, j = 10-30 a, 0.25-0.4 m/s) the tool then reached 0.992-0.997 v
-# over 0.51-0.84 of the length, in 0.86-0.98 of the time, planned in 140-250 ms.
+# speed limits everywhere, where the joints' v/a profile reaches it, is timed
+# again by the third-order profile (False: never).  On 22 such line sets (UR5
+# and Panda, 0.2-0.5 m/s, j = 10-30 a; the tool at 0.91-0.99 v) the tool then
+# reached 0.99-1.00 v, in 0.86-0.99 of the time (median 0.956), shaking a 4 Hz
+# mode more: peak 1.23 times, residual 1.38 times (medians).
 RETIME_BELOW_SPEED = True
+# ... on plans of at most this duration [s]: the profile's LPs grow with it
+# (seams of 3-13 s took 70-190 ms more; a 43 s plan of 60 lines 1 s more).
+RETIME_BELOW_SPEED_SECONDS = 20.0
 # Trajectory.optimizer['speed_profile_reason'] of such a plan.
 BELOW_SPEED = ("the lines' own timing left the tool below 99 % of its speed limit: timed "
                'again by the third-order profile')
@@ -501,12 +508,12 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
     # Step 5: the third-order profile when asked for, or when the lines' own
     # timing leaves the tool below its speed (and nothing smooths the plan).
     below = (RETIME_BELOW_SPEED and speeds and not time_optimal and not windows
-             and not vibration_frequency
-             and np.max(check(traj.coefficients, np.diff(traj.breakpoints))) < AT_SPEED)
+             and not vibration_frequency and traj.duration <= RETIME_BELOW_SPEED_SECONDS
+             and _top_speed(traj, check) < AT_SPEED and _speed_reachable(path, constraints))
     if time_optimal or below:
         traj, measured = _retimed(traj, path, limits, kinematics, constraints, vibration_frequency,
                                   (max_tool_speed, max_tool_angular_speed), measure, tolerances,
-                                  BELOW_SPEED if below else None)
+                                  check if below else None)
         if measured is not None:
             deviation, piece_edges = measured
     base_duration = traj.duration
@@ -547,8 +554,33 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
                      rounds, int(s.size), linear, angular, share, acceleration)
 
 
+def _top_speed(traj, check):
+    """Return the largest ratio of ``traj``'s tool speeds to their limits (``check``'s samples)."""
+    return float(np.max(check(traj.coefficients, np.diff(traj.breakpoints))))
+
+
+def _speed_reachable(path, constraints):
+    """
+    Whether the fastest v/a profile along ``path`` takes the tool to :data:`AT_SPEED` of a limit.
+
+    The profile of ``path``'s own constraints (the joints' velocity and
+    acceleration, the tool speeds at :data:`SPEED_MARGIN`, any more), no
+    jerk: where it keeps the tool below that share of every tool speed
+    limit, no timing can reach the speed, and step 5 is not tried (a limit
+    meant as a cap far above what the arm does changes nothing).
+    """
+    x = path.limits.profile(np.ones(path.s.size))
+    for constraint in constraints:
+        if isinstance(constraint, ToolSpeed):
+            with np.errstate(divide='ignore', invalid='ignore'):
+                share = x / constraint.squared_speed_limit(path.gridded)
+            if np.any(share >= AT_SPEED ** 2):
+                return True
+    return False
+
+
 def _retimed(traj, path, limits, kinematics, constraints, vibration_frequency, speeds, measure,
-             tolerances, reason=None):
+             tolerances, below=None):
     """
     Return (``traj`` timed by the third-order profile, its (deviation, piece edges)).
 
@@ -559,9 +591,11 @@ def _retimed(traj, path, limits, kinematics, constraints, vibration_frequency, s
     the path's piece factors are step 4's.  The new spline is kept when it
     is shorter and its tool within the tolerances; otherwise (``traj``,
     None), and unless ``traj`` was simply the shorter, the trajectory says
-    why (``speed_profile_skipped``).  ``reason``: the profile was not asked
-    for but is tried (:data:`BELOW_SPEED`); the spline kept says so
-    (``speed_profile_reason``), and ``traj`` kept says nothing.
+    why (``speed_profile_skipped``).  ``below``: the profile was not asked
+    for but is tried because ``traj``'s tool stays below its speed (the
+    :class:`_PieceSpeeds` check); the new spline must also take the tool to
+    :data:`AT_SPEED` of a limit, it then says so (``speed_profile_reason``,
+    :data:`BELOW_SPEED`), and ``traj`` kept says nothing.
     """
     rates = ToolRates(kinematics)
     # The lines' ToolSpeed tangents belong to the lines' path coordinate: the
@@ -574,6 +608,8 @@ def _retimed(traj, path, limits, kinematics, constraints, vibration_frequency, s
                           vibration_frequency)
     if retimed is not None and not retimed.duration < traj.duration:
         return traj, None       # the lines' own timing is the shorter: no failure
+    if below is not None and (retimed is None or _top_speed(retimed, below) < AT_SPEED):
+        return traj, None       # not asked for, and no faster tool either
     skipped = NO_TIME_OPTIMAL_SPLINE
     if retimed is not None:
         edges = np.searchsorted(retimed.waypoint_times, retimed.breakpoints[:-1],
@@ -581,11 +617,11 @@ def _retimed(traj, path, limits, kinematics, constraints, vibration_frequency, s
         deviation = measure(_Pieces(retimed), edges)
         excess = tolerance_excess(deviation, tolerances)
         if np.all(excess <= 1.0):
-            if reason is not None:
-                retimed.optimizer['speed_profile_reason'] = reason
+            if below is not None:
+                retimed.optimizer['speed_profile_reason'] = BELOW_SPEED
             return retimed, (deviation, edges)
         skipped = 'the time-optimal spline leaves the tool tolerances'
-    if reason is None:
+    if below is None:
         traj.optimizer = dict(traj.optimizer or {}, speed_profile_skipped=skipped)
     return traj, None
 
