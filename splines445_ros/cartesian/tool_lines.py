@@ -31,19 +31,20 @@ uses for method 555 with optimal timing, rest to rest:
    the spline is slowed down uniformly by the largest ratio to
    its limit when one exceeds it (a uniform slow-down divides every speed by
    its factor and keeps the v/a/j limits).
-5. The third-order profile (before step 4's check).  With plan()'s
+5. The third-order profile (before step 4's check, and after it).  With plan()'s
    ``speed_profile`` "time_optimal" the spline is timed again along its own
    path (:func:`planning.time_optimal.retime_path`, the tool speeds rows of
    the profile) and kept when shorter with its tool within the tolerances.
-   The default tries the same when its spline keeps the tool below
-   :data:`AT_SPEED` of every tool speed limit (before step 4; a piece's
-   jerk or acceleration slows the whole spline down, and ``_unbound``'s
-   splitting did not help) although the joints' v/a profile along the path
-   reaches it, the plan lasts at most :data:`RETIME_BELOW_SPEED_SECONDS`
-   and nothing smooths it (no ``vibration_frequency``), unless
-   :data:`RETIME_BELOW_SPEED` is False.  The new spline is kept when it
-   is shorter, within the tolerances and takes the tool to that share of
-   a limit; the plan then says so (``optimizer['speed_profile_reason']``,
+   The default tries the same when its spline, checked by step 4, keeps
+   the tool below :data:`AT_SPEED` of every tool speed limit (a piece's
+   jerk or acceleration, or the torque, slows the whole spline down, and
+   ``_unbound``'s splitting did not help) although the joints' v/a
+   profile along the path reaches it, the plan lasts at most
+   :data:`RETIME_BELOW_SPEED_SECONDS` and nothing smooths it (no
+   ``vibration_frequency``), unless :data:`RETIME_BELOW_SPEED` is False.
+   The new spline, checked by step 4 too, is kept when it is shorter,
+   within the tolerances and takes the tool to that share of a limit; the
+   plan then says so (``optimizer['speed_profile_reason']``,
    :data:`BELOW_SPEED`).
 
 Between two samples of step 4 the speed cannot rise above its refined local
@@ -505,18 +506,58 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
         if measured is not None:
             deviation, piece_edges = measured
     traj = timing.trajectory
-    # Step 5: the third-order profile when asked for, or when the lines' own
-    # timing leaves the tool below its speed (and nothing smooths the plan).
-    below = (RETIME_BELOW_SPEED and speeds and not time_optimal and not windows
-             and not vibration_frequency and traj.duration <= RETIME_BELOW_SPEED_SECONDS
-             and _top_speed(traj, check) < AT_SPEED and _speed_reachable(path, constraints))
-    if time_optimal or below:
+    speed_limits = (max_tool_speed, max_tool_angular_speed)
+    # Step 5: the third-order profile when asked for ...
+    if time_optimal:
         traj, measured = _retimed(traj, path, limits, kinematics, constraints, vibration_frequency,
-                                  (max_tool_speed, max_tool_angular_speed), measure, tolerances,
-                                  check if below else None)
+                                  speed_limits, measure, tolerances)
         if measured is not None:
             deviation, piece_edges = measured
-    base_duration = traj.duration
+    final = _checked(traj, kinematics, speed_limits, max_tool_acceleration, torque)
+    # ... or when the lines' own timing, checked, leaves the tool below its speed.
+    if (RETIME_BELOW_SPEED and speeds and not time_optimal and not windows
+            and not vibration_frequency and final.top < AT_SPEED
+            and final.traj.duration <= RETIME_BELOW_SPEED_SECONDS
+            and _speed_reachable(path, constraints)):
+        retimed, measured = _retimed(traj, path, limits, kinematics, constraints, 0.0,
+                                     speed_limits, measure, tolerances, below=True)
+        if measured is not None:
+            again = _checked(retimed, kinematics, speed_limits, max_tool_acceleration, torque)
+            if again.top >= AT_SPEED and again.traj.duration < final.traj.duration:
+                again.traj.optimizer['speed_profile_reason'] = BELOW_SPEED
+                final, (deviation, piece_edges) = again, measured
+    share = 0.0
+    if max_tool_speed:
+        # By length: every sample weighs the distance the tool covers there.
+        share = float(np.sum(final.sampled[final.sampled >= AT_SPEED * max_tool_speed])
+                      / np.sum(final.sampled))
+    return ToolLines(final.traj, joints[waypoint_index], inserted, initial[1], initial[0],
+                     _per_edge(deviation, piece_edges, len(edge_poses) - 1, final.slow),
+                     rounds, int(s.size), final.linear, final.angular, share,
+                     final.acceleration)
+
+
+@dataclass(frozen=True)
+class _Checked:
+    """Step 4's trajectory and figures: the tool speeds [m/s, rad/s] and acceleration reached."""
+
+    traj: object
+    slow: float
+    linear: float
+    angular: float
+    sampled: np.ndarray
+    acceleration: float
+    top: float
+
+
+def _checked(traj, kinematics, speed_limits, max_tool_acceleration, torque):
+    """
+    Return the :class:`_Checked` of ``traj``: step 4, slowed down uniformly where it needs it.
+
+    ``top`` is the largest ratio of a tool speed to its limit (0 without a
+    limit), after the slow-down.
+    """
+    max_tool_speed, max_tool_angular_speed = speed_limits
     linear, angular, sampled = tool_speeds(traj, kinematics)
     acceleration = peak_tool_acceleration(traj, kinematics) if max_tool_acceleration else None
     factor = max(linear / max_tool_speed if max_tool_speed else 0.0,
@@ -544,19 +585,9 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
             checked = torque_check.needs(slow)
     if checked is not None:
         traj.torque_factor, traj.torque_ratios = checked
-    share = 0.0
-    if max_tool_speed:
-        # By length: every sample weighs the distance the tool covers there.
-        share = float(np.sum(sampled[sampled >= AT_SPEED * max_tool_speed]) / np.sum(sampled))
-    return ToolLines(traj, joints[waypoint_index], inserted, initial[1], initial[0],
-                     _per_edge(deviation, piece_edges, len(edge_poses) - 1,
-                               traj.duration / base_duration),
-                     rounds, int(s.size), linear, angular, share, acceleration)
-
-
-def _top_speed(traj, check):
-    """Return the largest ratio of ``traj``'s tool speeds to their limits (``check``'s samples)."""
-    return float(np.max(check(traj.coefficients, np.diff(traj.breakpoints))))
+    top = max(linear / max_tool_speed if max_tool_speed else 0.0,
+              angular / max_tool_angular_speed if max_tool_angular_speed else 0.0)
+    return _Checked(traj, max(slow, 1.0), linear, angular, sampled, acceleration, top)
 
 
 def _speed_reachable(path, constraints):
@@ -580,7 +611,7 @@ def _speed_reachable(path, constraints):
 
 
 def _retimed(traj, path, limits, kinematics, constraints, vibration_frequency, speeds, measure,
-             tolerances, below=None):
+             tolerances, below=False):
     """
     Return (``traj`` timed by the third-order profile, its (deviation, piece edges)).
 
@@ -592,10 +623,8 @@ def _retimed(traj, path, limits, kinematics, constraints, vibration_frequency, s
     is shorter and its tool within the tolerances; otherwise (``traj``,
     None), and unless ``traj`` was simply the shorter, the trajectory says
     why (``speed_profile_skipped``).  ``below``: the profile was not asked
-    for but is tried because ``traj``'s tool stays below its speed (the
-    :class:`_PieceSpeeds` check); the new spline must also take the tool to
-    :data:`AT_SPEED` of a limit, it then says so (``speed_profile_reason``,
-    :data:`BELOW_SPEED`), and ``traj`` kept says nothing.
+    for but is tried because ``traj``'s tool stays below its speed; ``traj``
+    kept then says nothing (the caller checks the new spline's speed).
     """
     rates = ToolRates(kinematics)
     # The lines' ToolSpeed tangents belong to the lines' path coordinate: the
@@ -608,8 +637,6 @@ def _retimed(traj, path, limits, kinematics, constraints, vibration_frequency, s
                           vibration_frequency)
     if retimed is not None and not retimed.duration < traj.duration:
         return traj, None       # the lines' own timing is the shorter: no failure
-    if below is not None and (retimed is None or _top_speed(retimed, below) < AT_SPEED):
-        return traj, None       # not asked for, and no faster tool either
     skipped = NO_TIME_OPTIMAL_SPLINE
     if retimed is not None:
         edges = np.searchsorted(retimed.waypoint_times, retimed.breakpoints[:-1],
@@ -617,11 +644,9 @@ def _retimed(traj, path, limits, kinematics, constraints, vibration_frequency, s
         deviation = measure(_Pieces(retimed), edges)
         excess = tolerance_excess(deviation, tolerances)
         if np.all(excess <= 1.0):
-            if below is not None:
-                retimed.optimizer['speed_profile_reason'] = BELOW_SPEED
             return retimed, (deviation, edges)
         skipped = 'the time-optimal spline leaves the tool tolerances'
-    if below is None:
+    if not below:
         traj.optimizer = dict(traj.optimizer or {}, speed_profile_skipped=skipped)
     return traj, None
 

@@ -344,6 +344,44 @@ def test_torque_limits_hold_along_tool_lines(arms, seed, limited):
         assert sampled_tool_speeds(traj, arm[7])[0].max() <= speed * (1 + SPEED_RTOL)
 
 
+def test_lines_a_torque_slow_down_keeps_below_the_speed_are_timed_again(arms, monkeypatch):
+    """
+    Step 4's torque slow-down can leave the tool below its speed: that counts too.
+
+    UR5 with 5 kg, 0.4 of the efforts, 0.8 m/s: the lines' own timing is
+    slowed down for the torque after its tool reached the speed (checked
+    here), and the default retimes it; the torque (ArmDynamics every 0.5 ms)
+    and the tool speed then hold, and the tool runs at its speed.
+    """
+    from splines445_ros.robot.dynamics import ArmDynamics, effort_limits
+    arm = arms['ur5']
+    robot, joints = arm[0], list(arm[3])
+    dynamics = ArmDynamics(robot, joints, 'tool0', payload_mass=5.0,
+                           payload_center_of_mass=(0.0, 0.0, 0.1))
+    limit = 0.4 * effort_limits(robot, joints)
+    poses = random_lines(np.random.default_rng(3), arm, 3)
+    speed = 0.8
+    kwargs = dict(arm[5], method='555', timing='optimal', max_tool_speed=speed,
+                  max_torque=limit, inverse_dynamics=dynamics.torques,
+                  max_acceleration=[1000.0] * 6, max_jerk=[5000.0] * 6)
+    slowed, rescaled = [], tl.rescaled
+    monkeypatch.setattr(tl, 'rescaled', lambda traj, f: slowed.append(f) or rescaled(traj, f))
+    own = own_timing(poses, arm, kwargs)
+    monkeypatch.undo()
+    assert slowed and slowed[0] > 1.01         # step 4 slowed it down (the torque)
+    assert sampled_tool_speeds(own.trajectory, arm[7])[0].max() < 0.99 * speed
+    result = plan_tool_path(poses, kinematics(arm), MM, DEG, **kwargs)
+    traj = result.trajectory
+    assert 'speed_profile_reason' in traj.optimizer
+    assert traj.duration < own.trajectory.duration
+    check_1khz(result, poses, arm[7], MM, DEG)
+    t = np.linspace(0.0, traj.duration, int(traj.duration * 2000) + 2)
+    tau = dynamics.torques(traj.evaluate(t), traj.evaluate(t, 1), traj.evaluate(t, 2))
+    assert np.all(np.abs(tau) <= limit * 1.005)
+    linear = sampled_tool_speeds(traj, arm[7])[0]
+    assert 0.99 * speed <= linear.max() <= speed * (1 + SPEED_RTOL)
+
+
 @pytest.mark.parametrize('gap', [1e-9, 1e-6, 1e-5])
 def test_a_near_duplicate_tool_waypoint_costs_no_time(gap):
     """A waypoint within a tenth of the tolerance of the one before is merged into it."""
