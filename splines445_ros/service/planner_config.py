@@ -148,7 +148,10 @@ class PlannerConfig(ValidatedConfig):
     max_tool_speed: float = parameter(
         0.0, "Largest linear speed [m/s] of the tool frame's origin on `tool_waypoints` "
         'requests; 0 (the default) = no limit. Held within 0.1 % at a 1 kHz check by timing '
-        'the straight lines themselves. Needs `method: 555`, `timing: optimal`, `inner_knots` '
+        'the straight lines themselves. Where that timing leaves the tool below 99 % of it '
+        'although the joints could get there, the lines are timed again by `speed_profile: '
+        "time_optimal`'s profile, and the status says so (`speed_profile_reason`). "
+        'Needs `method: 555`, `timing: optimal`, `inner_knots` '
         '> 0 and a `kinematics` (`planar_3dof` or `model`): a non-zero value is refused '
         'otherwise, with the reason. Joint-space `waypoints` requests have no tool path and '
         'are planned without it.', low=0.0, unit='m/s', special=(0.0, 'no limit'))
