@@ -120,7 +120,7 @@ ACCELERATION_MARGIN = 0.99
 # mode more: peak 1.23 times, residual 1.38 times (medians).
 RETIME_BELOW_SPEED = True
 # ... on plans of at most this duration [s]: the profile's LPs grow with it
-# (seams of 3-13 s took 70-190 ms more; a 43 s plan of 60 lines 1 s more).
+# (seams of 3-13 s took 85-190 ms more; a 43 s plan of 60 lines 1 s more).
 RETIME_BELOW_SPEED_SECONDS = 20.0
 # Trajectory.optimizer['speed_profile_reason'] of such a plan.
 BELOW_SPEED = ("the lines' own timing left the tool below 99 % of its speed limit: timed "
