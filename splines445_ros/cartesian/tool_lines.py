@@ -42,10 +42,10 @@ uses for method 555 with optimal timing, rest to rest:
    profile along the path reaches it, the plan lasts at most
    :data:`RETIME_BELOW_SPEED_SECONDS` and nothing smooths it (no
    ``vibration_frequency``), unless :data:`RETIME_BELOW_SPEED` is False.
-   The new spline, checked by step 4 too, is kept when it is shorter,
-   within the tolerances and takes the tool to that share of a limit; the
-   plan then says so (``optimizer['speed_profile_reason']``,
-   :data:`BELOW_SPEED`).
+   The new spline, checked by step 4 too, is kept when it is shorter than
+   the checked plan, within the tolerances (and the position limits) and
+   takes the tool to that share of a limit; the plan then says so
+   (``optimizer['speed_profile_reason']``, :data:`BELOW_SPEED`).
 
 Between two samples of step 4 the speed cannot rise above its refined local
 maxima: a maximum is found where the samples bracket it; one that lies
@@ -67,6 +67,7 @@ from .tool_kinematics import frame_chain, has_transforms, refused_pose, start_wa
 from ..planning.path_constraints import ToolAcceleration, ToolSpeed
 from ..planning.path_timing import JointPathSamples, midpoint_fractions, plan_along_path, \
     rescaled
+from ..planning.planner import within_position_limits
 from ..planning.time_optimal import NO_TIME_OPTIMAL_SPLINE, retime_path
 from ..planning.torque import CHECK_PERIOD, check_times, uniform_slow_down
 from ..robot import rotations as rot
@@ -414,7 +415,7 @@ class ToolRates:
 def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_tool_speed=0.0,
                     max_tool_angular_speed=0.0, max_tool_acceleration=0.0, windows=(),
                     max_inserted=None, torque=None, time_optimal=False,
-                    vibration_frequency=0.0):
+                    vibration_frequency=0.0, position_limits=(None, None)):
     """
     Return the :class:`ToolLines` of the tool path through ``edge_poses`` (module docstring).
 
@@ -435,7 +436,9 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
     factor of it), and kept when its tool stays within the tolerances
     (step 5); ``vibration_frequency`` [Hz] (0: none): that profile also
     cancels the ringing of a mode at it after the stop
-    (:mod:`planning.residual_vibration`).  ValueError
+    (:mod:`planning.residual_vibration`).  ``position_limits`` (low, high),
+    (n,) arrays or both None: a spline step 5 tries without being asked is
+    kept only within them (the caller checks the plan returned).  ValueError
     when the inverse kinematics fails, no spline meets the limits, or the
     tolerances are not reached.
     """
@@ -520,10 +523,11 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
             and final.traj.duration <= RETIME_BELOW_SPEED_SECONDS
             and _speed_reachable(path, constraints)):
         retimed, measured = _retimed(traj, path, limits, kinematics, constraints, 0.0,
-                                     speed_limits, measure, tolerances, below=True)
+                                     speed_limits, measure, tolerances, final.traj.duration)
         if measured is not None:
             again = _checked(retimed, kinematics, speed_limits, max_tool_acceleration, torque)
-            if again.top >= AT_SPEED and again.traj.duration < final.traj.duration:
+            if (again.top >= AT_SPEED and again.traj.duration < final.traj.duration
+                    and _within(again.traj, position_limits)):
                 again.traj.optimizer['speed_profile_reason'] = BELOW_SPEED
                 final, (deviation, piece_edges) = again, measured
     share = 0.0
@@ -590,28 +594,41 @@ def _checked(traj, kinematics, speed_limits, max_tool_acceleration, torque):
     return _Checked(traj, max(slow, 1.0), linear, angular, sampled, acceleration, top)
 
 
+def _within(traj, position_limits):
+    """Whether ``traj`` stays within ``position_limits`` (low, high; both None: no limits)."""
+    try:
+        within_position_limits(traj, *position_limits)
+    except ValueError:
+        return False
+    return True
+
+
 def _speed_reachable(path, constraints):
     """
     Whether the fastest v/a profile along ``path`` takes the tool to :data:`AT_SPEED` of a limit.
 
     The profile of ``path``'s own constraints (the joints' velocity and
-    acceleration, the tool speeds at :data:`SPEED_MARGIN`, any more), no
-    jerk: where it keeps the tool below that share of every tool speed
-    limit, no timing can reach the speed, and step 5 is not tried (a limit
-    meant as a cap far above what the arm does changes nothing).
+    acceleration, the tool speeds at :data:`SPEED_MARGIN`, any more), with
+    no jerk limit but its ramps from rest: where it keeps the tool below
+    that share of every tool speed limit, no timing can reach the speed,
+    and step 5 is not tried (a limit meant as a cap far above what the arm
+    does changes nothing).  Optimistic: the jerk limits can still keep a
+    spline below it (on random line sets half the tries were not kept).
     """
     x = path.limits.profile(np.ones(path.s.size))
+    # The constraints hold SPEED_MARGIN of each limit: AT_SPEED of the limit itself.
+    wanted = (AT_SPEED / SPEED_MARGIN) ** 2
     for constraint in constraints:
         if isinstance(constraint, ToolSpeed):
             with np.errstate(divide='ignore', invalid='ignore'):
                 share = x / constraint.squared_speed_limit(path.gridded)
-            if np.any(share >= AT_SPEED ** 2):
+            if np.any(share >= wanted):
                 return True
     return False
 
 
 def _retimed(traj, path, limits, kinematics, constraints, vibration_frequency, speeds, measure,
-             tolerances, below=False):
+             tolerances, below=None):
     """
     Return (``traj`` timed by the third-order profile, its (deviation, piece edges)).
 
@@ -623,8 +640,10 @@ def _retimed(traj, path, limits, kinematics, constraints, vibration_frequency, s
     is shorter and its tool within the tolerances; otherwise (``traj``,
     None), and unless ``traj`` was simply the shorter, the trajectory says
     why (``speed_profile_skipped``).  ``below``: the profile was not asked
-    for but is tried because ``traj``'s tool stays below its speed; ``traj``
-    kept then says nothing (the caller checks the new spline's speed).
+    for but is tried because ``traj``'s tool stays below its speed, and the
+    new spline is kept when shorter than ``below`` [s] (``traj`` slowed down
+    by step 4); ``traj`` kept then says nothing (the caller checks the new
+    spline's speed after its own step 4).
     """
     rates = ToolRates(kinematics)
     # The lines' ToolSpeed tangents belong to the lines' path coordinate: the
@@ -635,7 +654,8 @@ def _retimed(traj, path, limits, kinematics, constraints, vibration_frequency, s
             retime_constraints.append(ToolSpeed(speed * SPEED_MARGIN, _rate_of(rates, which)))
     retimed = retime_path(traj, limits, retime_constraints, path.piece_factors,
                           vibration_frequency)
-    if retimed is not None and not retimed.duration < traj.duration:
+    longest = traj.duration if below is None else below
+    if retimed is not None and not retimed.duration < longest:
         return traj, None       # the lines' own timing is the shorter: no failure
     skipped = NO_TIME_OPTIMAL_SPLINE
     if retimed is not None:
@@ -646,7 +666,7 @@ def _retimed(traj, path, limits, kinematics, constraints, vibration_frequency, s
         if np.all(excess <= 1.0):
             return retimed, (deviation, edges)
         skipped = 'the time-optimal spline leaves the tool tolerances'
-    if not below:
+    if below is None:
         traj.optimizer = dict(traj.optimizer or {}, speed_profile_skipped=skipped)
     return traj, None
 

@@ -494,7 +494,8 @@ def _tool_lines(edge_poses, waypoint_knots, kinematics, tolerances, speeds, max_
                                 *speeds, windows=windows, max_inserted=max_inserted,
                                 torque=options.torque,
                                 time_optimal=options.speed_profile == 'time_optimal',
-                                vibration_frequency=vibration)
+                                vibration_frequency=vibration,
+                                position_limits=(options.min_position, options.max_position))
     except LineUnreachable:
         if not any(speeds):
             return None

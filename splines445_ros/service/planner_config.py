@@ -149,8 +149,9 @@ class PlannerConfig(ValidatedConfig):
         0.0, "Largest linear speed [m/s] of the tool frame's origin on `tool_waypoints` "
         'requests; 0 (the default) = no limit. Held within 0.1 % at a 1 kHz check by timing '
         'the straight lines themselves. Where that timing leaves the tool below 99 % of it '
-        'although the joints could get there, the lines are timed again by `speed_profile: '
-        "time_optimal`'s profile, and the status says so (`speed_profile_reason`). "
+        'although the joints could get there (and no `vibration_frequency` is set), the lines '
+        "are timed again by `speed_profile: time_optimal`'s profile, kept when shorter and at "
+        'the speed, and the status says so (`speed_profile_reason`). '
         'Needs `method: 555`, `timing: optimal`, `inner_knots` '
         '> 0 and a `kinematics` (`planar_3dof` or `model`): a non-zero value is refused '
         'otherwise, with the reason. Joint-space `waypoints` requests have no tool path and '

@@ -173,7 +173,7 @@ def test_lines_whose_own_timing_stays_below_the_speed_are_timed_again(arms, monk
     check_1khz(result, poses, arm[7], MM, DEG)
     assert result.trajectory.within_limits(rtol=1e-9)
     linear = sampled_tool_speeds(result.trajectory, arm[7])[0]
-    assert 0.99 * speed <= linear.max() <= speed * (1 + SPEED_RTOL)
+    assert 0.99 * speed * (1 - 1e-3) <= linear.max() <= speed * (1 + SPEED_RTOL)
     assert result.speed_share > 0.0
     values = summary_values(result.trajectory, list(arm[3]))
     assert values['speed_profile'] == 'time_optimal'
@@ -344,6 +344,37 @@ def test_torque_limits_hold_along_tool_lines(arms, seed, limited):
         assert sampled_tool_speeds(traj, arm[7])[0].max() <= speed * (1 + SPEED_RTOL)
 
 
+def test_a_retimed_spline_past_a_position_limit_the_lines_touch_is_not_kept(arms):
+    """
+    The retimed spline overshoots the lines' ends by a hair: at a position limit, not kept.
+
+    The limits sit at the extrema of the lines' own timing (the start or
+    the goal of some joint), where the retimed spline goes a little beyond
+    (checked here): the default request is planned, with its own timing,
+    instead of being refused for a plan nobody asked for.
+    """
+    rng = np.random.default_rng(1)
+    arm = arms['ur5']
+    poses = random_lines(rng, arm, int(rng.integers(2, 6)))
+    kwargs = dict(method='555', timing='optimal', max_tool_speed=0.5, **arm[5])
+    own = own_timing(poses, arm, kwargs).trajectory
+    retimed = plan_tool_path(poses, kinematics(arm), MM, DEG, **kwargs).trajectory
+    assert 'speed_profile_reason' in retimed.optimizer
+    low, high = own.position_extrema()[:2]
+    beyond = np.concatenate([low - retimed.position_extrema()[0],
+                             retimed.position_extrema()[1] - high])
+    assert beyond.max() > 0.0             # the case this test is about
+    limits = {'min_position': low - 1.0, 'max_position': high + 1.0}
+    j = int(np.argmax(beyond))
+    if j < low.size:
+        limits['min_position'][j] = low[j]
+    else:
+        limits['max_position'][j - low.size] = high[j - low.size]
+    result = plan_tool_path(poses, kinematics(arm), MM, DEG, **limits, **kwargs).trajectory
+    assert 'speed_profile_reason' not in (result.optimizer or {})
+    np.testing.assert_array_equal(result.ppoly.c, own.ppoly.c)
+
+
 def test_lines_a_torque_slow_down_keeps_below_the_speed_are_timed_again(arms, monkeypatch):
     """
     Step 4's torque slow-down can leave the tool below its speed: that counts too.
@@ -379,7 +410,7 @@ def test_lines_a_torque_slow_down_keeps_below_the_speed_are_timed_again(arms, mo
     tau = dynamics.torques(traj.evaluate(t), traj.evaluate(t, 1), traj.evaluate(t, 2))
     assert np.all(np.abs(tau) <= limit * 1.005)
     linear = sampled_tool_speeds(traj, arm[7])[0]
-    assert 0.99 * speed <= linear.max() <= speed * (1 + SPEED_RTOL)
+    assert 0.99 * speed * (1 - 1e-3) <= linear.max() <= speed * (1 + SPEED_RTOL)
 
 
 @pytest.mark.parametrize('gap', [1e-9, 1e-6, 1e-5])
