@@ -344,6 +344,34 @@ def test_torque_limits_hold_along_tool_lines(arms, seed, limited):
         assert sampled_tool_speeds(traj, arm[7])[0].max() <= speed * (1 + SPEED_RTOL)
 
 
+@pytest.mark.parametrize('robot, seed', [('ur5', 1000), ('panda', 1020)])
+def test_lines_the_jerk_keeps_below_the_speed_are_not_retimed(arms, monkeypatch, robot, seed):
+    """
+    Short lines the joints' jerk keeps below the speed: the default does not even try.
+
+    Checked here first: neither the lines' own timing nor the third-order
+    profile, asked for, brings the tool to 99 % of its speed (the v/a
+    profile alone would); the default then plans the own timing without
+    calling the profile (its reach estimate rounds the v/a profile by a
+    jerk ramp).
+    """
+    rng = np.random.default_rng(seed)
+    arm = arms[robot]
+    poses = random_lines(rng, arm, int(rng.integers(2, 6)))
+    speed = float(rng.uniform(0.05, 0.6))
+    kwargs = dict(method='555', timing='optimal', max_tool_speed=speed, **arm[5])
+    own = own_timing(poses, arm, kwargs)
+    asked = plan_tool_path(poses, kinematics(arm), MM, DEG, speed_profile='time_optimal',
+                           **kwargs)
+    for plan in (own, asked):
+        assert sampled_tool_speeds(plan.trajectory, arm[7])[0].max() < 0.99 * speed
+    tried = []
+    monkeypatch.setattr(tl, 'retime_path', lambda *args, **kw: tried.append(1))
+    result = plan_tool_path(poses, kinematics(arm), MM, DEG, **kwargs)
+    assert not tried
+    np.testing.assert_array_equal(result.trajectory.ppoly.c, own.trajectory.ppoly.c)
+
+
 def test_a_retimed_spline_past_a_position_limit_the_lines_touch_is_not_kept(arms):
     """
     The retimed spline overshoots the lines' ends by a hair: at a position limit, not kept.
