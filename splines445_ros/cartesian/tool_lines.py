@@ -627,7 +627,8 @@ def _speed_reachable(path, constraints, limits):
     times = traversal_times(x, path.steps)
     finite = np.isfinite(limits.jerk)
     ramp = float(np.max(limits.acceleration[finite] / limits.jerk[finite], initial=0.0))
-    if ramp > 0.0 and np.all(np.isfinite(times)):
+    # A ramp under the 1 kHz check's period rounds nothing it would see.
+    if ramp >= CHECK_PERIOD and np.all(np.isfinite(times)):
         step = ramp / REACH_RAMP_SAMPLES
         clock = np.arange(-ramp, times[-1] + ramp, step)
         total = np.concatenate([[0.0], np.cumsum(np.interp(clock, times, path.s))])
