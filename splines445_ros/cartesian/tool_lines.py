@@ -39,7 +39,8 @@ uses for method 555 with optimal timing, rest to rest:
    the tool below :data:`AT_SPEED` of every tool speed limit (a piece's
    jerk or acceleration, or the torque, slows the whole spline down, and
    ``_unbound``'s splitting did not help) although the joints' v/a
-   profile along the path reaches it, the plan lasts at most
+   profile along the path, rounded by a jerk ramp, reaches it
+   (:func:`_speed_reachable`), the plan lasts at most
    :data:`RETIME_BELOW_SPEED_SECONDS` and nothing smooths it (no
    ``vibration_frequency``), unless :data:`RETIME_BELOW_SPEED` is False.
    The new spline, checked by step 4 too, is kept when it is shorter than
@@ -115,7 +116,7 @@ AT_SPEED = 0.99
 # factors and the final check hold the limit itself.
 ACCELERATION_MARGIN = 0.99
 # Step 5: a default plan whose own timing leaves the tool below AT_SPEED of its
-# speed limits everywhere, where the joints' v/a profile reaches it, is timed
+# speed limits everywhere, where the joints' rounded v/a profile reaches it, is timed
 # again by the third-order profile (False: never).  On 22 such line sets (UR5
 # and Panda, 0.2-0.5 m/s, j = 10-30 a; the tool at 0.91-0.99 v) the tool then
 # reached 0.99-1.00 v, in 0.86-0.99 of the time (median 0.956), shaking a 4 Hz
