@@ -34,11 +34,13 @@ uses for method 555 with optimal timing, rest to rest:
 5. The third-order profile (before step 4's check, and after it).  With plan()'s
    ``speed_profile`` "time_optimal" the spline is timed again along its own
    path (:func:`planning.time_optimal.retime_path`, the tool speeds rows of
-   the profile) and kept when shorter with its tool within the tolerances.
+   the profile) and kept when shorter with its tool within the tolerances
+   and its joints within their position limits.
    The default tries the same when its spline, checked by step 4, keeps
    the tool below :data:`AT_SPEED` of every tool speed limit (a piece's
-   jerk or acceleration, or the torque, slows the whole spline down, and
-   ``_unbound``'s splitting did not help) although the joints' v/a
+   jerk or acceleration slows the whole spline down and ``_unbound``'s
+   splitting did not help, or step 4 slowed it down for the torque or the
+   tool acceleration) although the joints' v/a
    profile along the path, rounded by a jerk ramp, reaches it
    (:func:`_speed_reachable`), the plan lasts at most
    :data:`RETIME_BELOW_SPEED_SECONDS` and nothing smooths it (no
@@ -125,8 +127,10 @@ RETIME_BELOW_SPEED = True
 # ... on plans of at most this duration [s]: the profile's LPs grow with it
 # (seams of 3-13 s took 85-190 ms more; a 43 s plan of 60 lines 1 s more).
 RETIME_BELOW_SPEED_SECONDS = 20.0
-# Samples per jerk ramp of the reach estimate (_speed_reachable): its resolution.
+# Samples per jerk ramp of the reach estimate (_speed_reachable), its resolution,
+# and at most this many samples in all (a 20 s plan with 1 ms ramps: 1e6 otherwise).
 REACH_RAMP_SAMPLES = 50
+REACH_MAX_SAMPLES = 100000
 # Trajectory.optimizer['speed_profile_reason'] of such a plan.
 BELOW_SPEED = ("the lines' own timing left the tool below 99 % of its speed limit: timed "
                'again by the third-order profile')
@@ -441,8 +445,8 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
     (step 5); ``vibration_frequency`` [Hz] (0: none): that profile also
     cancels the ringing of a mode at it after the stop
     (:mod:`planning.residual_vibration`).  ``position_limits`` (low, high),
-    (n,) arrays or both None: a spline step 5 tries without being asked is
-    kept only within them (the caller checks the plan returned).  ValueError
+    (n,) arrays or both None: step 5's spline is kept only within them
+    (the caller checks the plan returned).  ValueError
     when the inverse kinematics fails, no spline meets the limits, or the
     tolerances are not reached.
     """
@@ -517,7 +521,7 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
     # Step 5: the third-order profile when asked for ...
     if time_optimal:
         traj, measured = _retimed(traj, path, limits, kinematics, constraints, vibration_frequency,
-                                  speed_limits, measure, tolerances)
+                                  speed_limits, measure, tolerances, position_limits)
         if measured is not None:
             deviation, piece_edges = measured
     final = _checked(traj, kinematics, speed_limits, max_tool_acceleration, torque)
@@ -527,11 +531,11 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
             and final.traj.duration <= RETIME_BELOW_SPEED_SECONDS
             and _speed_reachable(path, constraints, limits)):
         retimed, measured = _retimed(traj, path, limits, kinematics, constraints, 0.0,
-                                     speed_limits, measure, tolerances, final.traj.duration)
+                                     speed_limits, measure, tolerances, position_limits,
+                                     final.traj.duration)
         if measured is not None:
             again = _checked(retimed, kinematics, speed_limits, max_tool_acceleration, torque)
-            if (again.top >= AT_SPEED and again.traj.duration < final.traj.duration
-                    and _within(again.traj, position_limits)):
+            if again.top >= AT_SPEED and again.traj.duration < final.traj.duration:
                 again.traj.optimizer['speed_profile_reason'] = BELOW_SPEED
                 final, (deviation, piece_edges) = again, measured
     share = 0.0
@@ -618,11 +622,14 @@ def _speed_reachable(path, constraints, limits):
     speeding up alone at its acceleration limit does exactly that under
     its jerk limit (the S-curve of the trapezoid), so a speed the profile
     holds for less than a ramp is out of reach; elsewhere an estimate (the
-    joints' ramps overlap).  Where the averaged tool speed stays below
-    :data:`AT_SPEED` of every tool speed limit, step 5 is not tried: a
-    limit meant as a cap far above what the arm does, or one the jerk
-    keeps the tool from (on 160 random line sets this left out 9 of the 16
-    tries that would not have been kept, and none of the 15 kept).
+    joints' ramps overlap, and the profile's ends already ramp from rest at
+    the jerk, so short first and last edges lean out of reach).  Where the
+    averaged tool speed stays below :data:`AT_SPEED` of every tool speed
+    limit, step 5 is not tried: a limit meant as a cap far above what the
+    arm does, or one the jerk keeps the tool from.  On 160 random line sets
+    (UR5, Panda, 0.05-0.9 m/s) this left out 11 of the 18 tries that would
+    not have been kept, and none of the 13 kept; on 550 more (helper-25)
+    none of the retimes it leaves out would have been kept.
     """
     x = path.limits.profile(np.ones(path.s.size))
     times = traversal_times(x, path.steps)
@@ -630,10 +637,10 @@ def _speed_reachable(path, constraints, limits):
     ramp = float(np.max(limits.acceleration[finite] / limits.jerk[finite], initial=0.0))
     # A ramp under the 1 kHz check's period rounds nothing it would see.
     if ramp >= CHECK_PERIOD and np.all(np.isfinite(times)):
-        step = ramp / REACH_RAMP_SAMPLES
+        step = max(ramp / REACH_RAMP_SAMPLES, (times[-1] + 2.0 * ramp) / REACH_MAX_SAMPLES)
+        width = max(1, int(round(ramp / step)))
         clock = np.arange(-ramp, times[-1] + ramp, step)
         total = np.concatenate([[0.0], np.cumsum(np.interp(clock, times, path.s))])
-        width = REACH_RAMP_SAMPLES
         mean = (total[width:] - total[:-width]) / width
         speed, at = np.diff(mean) / step, 0.5 * (mean[:-1] + mean[1:])
     else:
@@ -649,7 +656,7 @@ def _speed_reachable(path, constraints, limits):
 
 
 def _retimed(traj, path, limits, kinematics, constraints, vibration_frequency, speeds, measure,
-             tolerances, below=None):
+             tolerances, position_limits, below=None):
     """
     Return (``traj`` timed by the third-order profile, its (deviation, piece edges)).
 
@@ -658,7 +665,9 @@ def _retimed(traj, path, limits, kinematics, constraints, vibration_frequency, s
     :class:`ToolRates`, at :data:`SPEED_MARGIN` like the timing's), the
     tool acceleration and the torque keep their constraint objects, and
     the path's piece factors are step 4's.  The new spline is kept when it
-    is shorter and its tool within the tolerances; otherwise (``traj``,
+    is shorter, its tool within the tolerances and its joints within
+    ``position_limits`` (it can overshoot the lines' ends by ~1e-7 rad,
+    where the lines' own timing touches a limit); otherwise (``traj``,
     None), and unless ``traj`` was simply the shorter, the trajectory says
     why (``speed_profile_skipped``).  ``below``: the profile was not asked
     for but is tried because ``traj``'s tool stays below its speed, and the
@@ -684,9 +693,12 @@ def _retimed(traj, path, limits, kinematics, constraints, vibration_frequency, s
                                 side='right') - 1
         deviation = measure(_Pieces(retimed), edges)
         excess = tolerance_excess(deviation, tolerances)
-        if np.all(excess <= 1.0):
+        if not np.all(excess <= 1.0):
+            skipped = 'the time-optimal spline leaves the tool tolerances'
+        elif not _within(retimed, position_limits):
+            skipped = 'the time-optimal spline leaves the position limits'
+        else:
             return retimed, (deviation, edges)
-        skipped = 'the time-optimal spline leaves the tool tolerances'
     if below is None:
         traj.optimizer = dict(traj.optimizer or {}, speed_profile_skipped=skipped)
     return traj, None

@@ -153,7 +153,7 @@ def test_lines_whose_own_timing_stays_below_the_speed_are_timed_again(arms, monk
     """
     The default retimes the lines when the tool never reaches 99 % of its speed.
 
-    On these two line sets the lines' own timing keeps the tool below it
+    On these line sets the lines' own timing keeps the tool below it
     (checked here first, by the test's FK); the plan is then the third-order
     profile's: shorter, the tool faster and at its speed, every limit and
     tolerance held, and the plan (and the node's status) says why.
@@ -350,8 +350,8 @@ def test_lines_the_jerk_keeps_below_the_speed_are_not_retimed(arms, monkeypatch,
     Short lines the joints' jerk keeps below the speed: the default does not even try.
 
     Checked here first: neither the lines' own timing nor the third-order
-    profile, asked for, brings the tool to 99 % of its speed (the v/a
-    profile alone would); the default then plans the own timing without
+    profile, asked for, brings the tool to 99 % of its speed; the default
+    then plans the own timing without
     calling the profile (its reach estimate rounds the v/a profile by a
     jerk ramp).
     """
@@ -401,6 +401,11 @@ def test_a_retimed_spline_past_a_position_limit_the_lines_touch_is_not_kept(arms
     result = plan_tool_path(poses, kinematics(arm), MM, DEG, **limits, **kwargs).trajectory
     assert 'speed_profile_reason' not in (result.optimizer or {})
     np.testing.assert_array_equal(result.ppoly.c, own.ppoly.c)
+    # Asked for, the profile's spline is not kept there either: planned, and said why.
+    asked = plan_tool_path(poses, kinematics(arm), MM, DEG, speed_profile='time_optimal',
+                           **limits, **kwargs).trajectory
+    assert 'position limits' in asked.optimizer['speed_profile_skipped']
+    np.testing.assert_array_equal(asked.ppoly.c, own.ppoly.c)
 
 
 def test_lines_a_torque_slow_down_keeps_below_the_speed_are_timed_again(arms, monkeypatch):
