@@ -67,10 +67,11 @@ from .path_deviation import tolerance_excess
 from .tool_acceleration import (acceleration_factor, peak_tool_acceleration,
                                 PieceAccelerations, ToolCurve)
 from .tool_kinematics import frame_chain, has_transforms, refused_pose, start_walk
+from ..planning.averaged_timing import AveragedTiming
 from ..planning.path_constraints import ToolAcceleration, ToolSpeed
 from ..planning.path_timing import JointPathSamples, midpoint_fractions, plan_along_path, \
     rescaled
-from ..planning.path_velocity import traversal_times
+from ..planning.path_velocity import path_position, traversal_times
 from ..planning.planner import within_position_limits
 from ..planning.time_optimal import NO_TIME_OPTIMAL_SPLINE, retime_path
 from ..planning.torque import CHECK_PERIOD, check_times, uniform_slow_down
@@ -127,10 +128,6 @@ RETIME_BELOW_SPEED = True
 # ... on plans of at most this duration [s]: the profile's LPs grow with it
 # (seams of 3-13 s took 85-190 ms more; a 43 s plan of 60 lines 1 s more).
 RETIME_BELOW_SPEED_SECONDS = 20.0
-# Samples per jerk ramp of the reach estimate (_speed_reachable), its resolution,
-# and at most this many samples in all (a 20 s plan with 1 ms ramps: 1e6 otherwise).
-REACH_RAMP_SAMPLES = 50
-REACH_MAX_SAMPLES = 100000
 # Trajectory.optimizer['speed_profile_reason'] of such a plan.
 BELOW_SPEED = ("the lines' own timing left the tool below 99 % of its speed limit: timed "
                'again by the third-order profile')
@@ -618,7 +615,7 @@ def _speed_reachable(path, constraints, limits):
     The fastest profile along ``path`` under its own constraints (the
     joints' velocity and acceleration, the tool speeds at
     :data:`SPEED_MARGIN`, any more), its path position averaged over a
-    centred window of one jerk ramp (the longest ``a_j / j_j``): a joint
+    window of one jerk ramp (the longest ``a_j / j_j``): a joint
     speeding up alone at its acceleration limit does exactly that under
     its jerk limit (the S-curve of the trapezoid), so a speed the profile
     holds for less than a ramp is out of reach; elsewhere an estimate (the
@@ -637,12 +634,13 @@ def _speed_reachable(path, constraints, limits):
     ramp = float(np.max(limits.acceleration[finite] / limits.jerk[finite], initial=0.0))
     # A ramp under the 1 kHz check's period rounds nothing it would see.
     if ramp >= CHECK_PERIOD and np.all(np.isfinite(times)):
-        step = max(ramp / REACH_RAMP_SAMPLES, (times[-1] + 2.0 * ramp) / REACH_MAX_SAMPLES)
-        width = max(1, int(round(ramp / step)))
-        clock = np.arange(-ramp, times[-1] + ramp, step)
-        total = np.concatenate([[0.0], np.cumsum(np.interp(clock, times, path.s))])
-        mean = (total[width:] - total[:-width]) / width
-        speed, at = np.diff(mean) / step, 0.5 * (mean[:-1] + mean[1:])
+        # The average over [t - ramp, t] (AveragedTiming) moves at (s(t) - s(t - ramp)) / ramp;
+        # its pieces meet at the grid's times and one ramp later.
+        t = np.concatenate([times, times + ramp])
+        end = times[-1]
+        speed = (path_position(times, x, path.s, np.minimum(t, end))
+                 - path_position(times, x, path.s, np.clip(t - ramp, 0.0, end))) / ramp
+        at = AveragedTiming(times, x, path.s, (ramp,)).position_at(t)
     else:
         speed, at = np.sqrt(np.maximum(x, 0.0)), path.s
     for constraint in constraints:
