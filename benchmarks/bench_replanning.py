@@ -117,6 +117,17 @@ def main():
                   f'({100.0 * stuck / tried:.1f}%) | {delay} | {failed} |')
 
 
+def running_states(running):
+    """Yield (q, qd, qdd) of the running plan ``running`` every :data:`OPTIMAL_STEP`."""
+    for t in np.arange(0.5 * OPTIMAL_STEP, running.duration, OPTIMAL_STEP):
+        yield tuple(running.evaluate(np.array([t]), k)[0] for k in range(3))
+
+
+def at_limit(qd, qdd, vmax, amax):
+    """Whether a state is at :data:`NEAR_LIMIT` of a velocity or acceleration limit."""
+    return max(np.max(np.abs(qd) / vmax), np.max(np.abs(qdd) / amax)) >= NEAR_LIMIT
+
+
 def time_optimal_replanning():
     """Print how often time_optimal follows its own plan from its running plan's states."""
     limits = {'max_velocity': [VMAX] * 3, 'max_acceleration': [AMAX] * 3,
@@ -125,8 +136,7 @@ def time_optimal_replanning():
     reasons, ratios, refused = {}, [], 0
     for _, running_points, goal in cases():
         running = plan(running_points, '555', 'optimal', speed_profile='time_optimal', **limits)
-        for t in np.arange(0.5 * OPTIMAL_STEP, running.duration, OPTIMAL_STEP):
-            q, qd, qdd = (running.evaluate(np.array([t]), k)[0] for k in range(3))
+        for q, qd, qdd in running_states(running):
             points = np.vstack([q, goal])
             boundary = {'start_velocity': qd, 'start_acceleration': qdd}
             try:
@@ -135,7 +145,7 @@ def time_optimal_replanning():
             except ValueError:
                 refused += 1
                 continue
-            near = max(np.max(np.abs(qd)) / VMAX, np.max(np.abs(qdd)) / AMAX) >= NEAR_LIMIT
+            near = at_limit(qd, qdd, VMAX, AMAX)
             counts[near][0] += 1
             why = ours.optimizer.get('speed_profile_skipped')
             if why:
@@ -194,8 +204,7 @@ def arm_replanning():
             running = plan(points[:half], '555', 'optimal', speed_profile='time_optimal',
                            **limits)
             goal = points[half:][::-1]
-            for t in np.arange(0.5 * OPTIMAL_STEP, running.duration, OPTIMAL_STEP):
-                q, qd, qdd = (running.evaluate(np.array([t]), k)[0] for k in range(3))
+            for q, qd, qdd in running_states(running):
                 boundary = {'start_velocity': qd, 'start_acceleration': qdd}
                 try:
                     ours = plan(np.vstack([q, goal]), '555', 'optimal',
@@ -204,7 +213,7 @@ def arm_replanning():
                                    **limits)
                 except ValueError:
                     continue
-                near = max(np.max(np.abs(qd) / vmax), np.max(np.abs(qdd) / amax)) >= NEAR_LIMIT
+                near = at_limit(qd, qdd, vmax, amax)
                 counts[near][0] += 1
                 if not ours.optimizer.get('speed_profile_skipped'):
                     counts[near][1] += 1
