@@ -312,8 +312,10 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
     # (The refinement's own plans keep the default profile: its deviation test
     # sees them; speed_profile "time_optimal" times the tool lines and the
     # refined path's inner-knot plan, each checked against the tolerances.)
+    # Only the path it ends with is checked against the position limits: an
+    # inserted waypoint can bring a plan back within them.
     refining = replace(options, waypoint_tolerance=0.0, inner_knots=0, inner_knots_auto=False,
-                       speed_profile='smoothed')
+                       speed_profile='smoothed', min_position=None, max_position=None)
     lines = (options.method == '555' and options.timing == 'optimal'
              and options.inner_knots > 0 and options.rest)
     if any(speeds) and not lines:
@@ -385,6 +387,8 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
                     traj, deviation, knot_joints, kinematics, edge_poses, segment_edges,
                     (tol_position, tol_orientation),
                     replace(options, waypoint_tolerance=0.0, inner_knots_auto=False))
+            within_position_limits(traj, options.min_position, options.max_position,
+                                   options.joint_names)
             return ToolPath(traj, knots, knot_joints, _knot_of_waypoint(
                 waypoint_knots, segment_edges, len(knots)), segment_edges, inserted,
                 deviation, initial[0], initial[1], iteration)
@@ -506,7 +510,8 @@ def _tool_lines(edge_poses, waypoint_knots, kinematics, tolerances, speeds, max_
         if any(speeds):
             raise
         return None
-    within_position_limits(found.trajectory, options.min_position, options.max_position)
+    within_position_limits(found.trajectory, options.min_position, options.max_position,
+                           options.joint_names)
     return ToolPath(found.trajectory, edge_poses, found.joints, waypoint_knots, segment_edges,
                     found.inserted, found.deviation, found.initial_deviation,
                     found.initial_duration, found.rounds, 'tool lines', found.tool_speed,

@@ -265,7 +265,9 @@ class PlanOptions:
       (:data:`SMOOTHINGS`) and ``windows`` [s], the speed profile's moving
       windows they give (:func:`smoothing_windows`);
     * ``torque``: the :class:`~.torque.TorqueLimit`, or None;
-    * ``speed_profile`` (:data:`SPEED_PROFILES`).
+    * ``speed_profile`` (:data:`SPEED_PROFILES`);
+    * ``joint_names``: the joints' names for the errors (position limits),
+      or None (their indices only).
     """
 
     method: str
@@ -282,6 +284,7 @@ class PlanOptions:
     windows: Tuple[float, ...]
     torque: Optional[TorqueLimit]
     speed_profile: str = 'smoothed'
+    joint_names: Optional[Tuple[str, ...]] = None
 
     @classmethod
     def from_arguments(cls, n_joints, method='445', timing='uniform', max_velocity=None,
@@ -337,7 +340,8 @@ class PlanOptions:
                        max_jerk=None, boundary=(None,) * 4,
                        waypoint_tolerance=DEFAULT_WAYPOINT_TOLERANCE, inner_knots=None,
                        vibration_frequency=0.0, smoothing='auto', max_torque=None,
-                       inverse_dynamics=None, speed_profile='smoothed'):
+                       inverse_dynamics=None, speed_profile='smoothed', min_position=None,
+                       max_position=None, joint_names=None):
         """
         Build the options of one request whose planner settings were validated once already.
 
@@ -354,8 +358,10 @@ class PlanOptions:
         acceleration; None = zeros) of ``n_joints`` (the request's columns;
         limits of another length are refused as plan() refuses them), within
         the limits, and zero with torque limits (``max_torque`` with
-        ``inverse_dynamics``, checked by :class:`~.torque.TorqueLimit`).  No
-        position limits: the caller checks the plan against its own.
+        ``inverse_dynamics``, checked by :class:`~.torque.TorqueLimit`).
+        ``min_position``, ``max_position``: the validated position limits
+        ((n,) each, or None: that side unbounded; both None: none), and
+        ``joint_names`` to name the joint in their errors.
         """
         with np.errstate(over='ignore', invalid='ignore', divide='ignore', under='ignore'):
             knots = (default_inner_knots(method, timing) if inner_knots is None
@@ -375,8 +381,13 @@ class PlanOptions:
                                      np.full(n_joints, np.inf) if max_jerk is None
                                      else np.array(max_jerk, dtype=float))
             check_boundary_feasible(limits, *boundary)
-        return cls(method, timing, limits, boundary, float(waypoint_tolerance), None, None, knots,
-                   inner_knots is None, vibration, smoothing, windows, torque, speed_profile)
+            low = high = None
+            if min_position is not None or max_position is not None:
+                low = position_limit_vector('min_position', min_position, n_joints, -np.inf)
+                high = position_limit_vector('max_position', max_position, n_joints, np.inf)
+        return cls(method, timing, limits, boundary, float(waypoint_tolerance), low, high, knots,
+                   inner_knots is None, vibration, smoothing, windows, torque, speed_profile,
+                   None if joint_names is None else tuple(joint_names))
 
     @property
     def rest(self):

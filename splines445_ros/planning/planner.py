@@ -8,10 +8,10 @@ from .inner_knots import plan_with_inner_knots
 from .optimal import optimal_durations, two_segment_plan, two_segment_search
 from .path_timing import rescaled
 from .plan_options import (check_time_optimal_waypoints, DEFAULT_SMOOTHING,
-                           DEFAULT_WAYPOINT_TOLERANCE, PlanOptions)
+                           DEFAULT_WAYPOINT_TOLERANCE, PlanOptions, speed_profile_value)
 from .ratio_search import GIVE_UP_PASSES
 from .residual_vibration import remeasure_residual
-from .time_optimal import NO_TIME_OPTIMAL_SPLINE, NoSpline, plan_time_optimal
+from .time_optimal import NAME as TIME_OPTIMAL, NO_TIME_OPTIMAL_SPLINE, NoSpline, plan_time_optimal
 from .timing import (chord_durations, rest_to_rest_durations, rest_to_rest_lower_bound,
                      rest_to_rest_scale, scaled_spline, ScaledSpline, uniform_scale)
 from .trajectory import Trajectory
@@ -43,6 +43,9 @@ MOVING_END_GAIN = 0.05
 # Trajectory.optimizer['inner_knots_skipped'] when the inner-knot construction
 # found no spline within the limits (the plan has knots at the waypoints only).
 NO_INNER_KNOT_SPLINE = 'no spline with inner knots found'
+# The start of optimizer['speed_profile_skipped'] or ['speed_profile_reason'] when
+# the profile asked for left the position limits and the other one did not.
+LEAVES_POSITION_LIMITS = 'speed_profile "{}" left the position limits'
 
 
 @dataclass(frozen=True)
@@ -150,7 +153,13 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
     min_position, max_position : (n,) or None
         Joint position limits (-inf / +inf entries: none), checked exactly
         on the polynomials; a plan that leaves them is rejected with the
-        joint, the time and the excess.
+        joint, the time and the excess.  For 555 optimal, a
+        ``speed_profile`` whose plan leaves them gives way to the other one
+        when that one's stays within them (not with ``inner_knots`` or
+        ``smoothing`` given): "smoothed" can start a joint 1e-7-1e-4 rad the
+        wrong way from a start on its limit, "time_optimal" does not.  The
+        plan says so (``optimizer['speed_profile_reason']``, or
+        ``['speed_profile_skipped']`` when time_optimal was asked for).
     inner_knots : int, 0 to 8, or None
         Most free inner knots per segment for method "555" with timing
         "optimal" (:mod:`inner_knots`; fewer on segments shorter than a few
@@ -260,11 +269,62 @@ def plan_with_options(points, options, durations=None):
     request, not to its options).
     """
     with np.errstate(over='ignore', invalid='ignore', divide='ignore', under='ignore'):
-        traj = _plan_limited(points, durations, options)
-        if options.torque is not None:
-            traj = _torque_limited(traj, options.torque)
-        within_position_limits(traj, options.min_position, options.max_position)
+        traj = _profiled(points, durations, options)
+        try:
+            within_position_limits(traj, options.min_position, options.max_position,
+                                   options.joint_names)
+        except ValueError as leaves:
+            return _other_profile_within(points, durations, options, traj, leaves)
     return traj
+
+
+def _profiled(points, durations, options):
+    """Plan under the v/a/j limits, then the torque limits: the plan before its position check."""
+    traj = _plan_limited(points, durations, options)
+    if options.torque is not None:
+        traj = _torque_limited(traj, options.torque)
+    return traj
+
+
+def _other_profile_within(points, durations, options, traj, leaves):
+    """
+    Return the other speed profile's plan when it stays within the position limits.
+
+    ``traj``, planned with ``options``, left them (``leaves``, the error
+    naming the joint).  With speed_profile "smoothed" the construction's
+    spline can start a joint a hair the wrong way from a rest end (its
+    jerk there follows from the whole spline): from a start on a limit
+    that is 1e-7-1e-4 rad past it, on about half of the random requests
+    whose waypoints run one way per joint (test/planning/
+    test_position_limits.py).  "time_optimal"'s jerk at a rest end has the
+    path's direction, so it is tried; the other way round likewise (a
+    time-optimal spline past a limit: "smoothed").  Only for 555 optimal
+    where time_optimal takes the options (no ``inner_knots`` or
+    ``smoothing`` given); ``leaves`` is raised when there is no other
+    profile or its plan fails or leaves the limits too.  The optimizer says
+    so: ``speed_profile_skipped`` (time_optimal asked for) or
+    ``speed_profile_reason`` (:data:`LEAVES_POSITION_LIMITS`).
+    """
+    used = (traj.optimizer or {}).get('speed_profile', 'smoothed')
+    other = 'smoothed' if used == TIME_OPTIMAL else TIME_OPTIMAL
+    if options.timing != 'optimal' or options.method != '555' or (
+            other == TIME_OPTIMAL and options.speed_profile == TIME_OPTIMAL):
+        raise leaves     # no other profile, or time_optimal already fell back
+    try:
+        speed_profile_value(other, options.method, options.timing,
+                            not options.inner_knots_auto, options.smoothing)
+        again = replace(options, speed_profile=other)
+        found = _profiled(points, durations, again)
+        within_position_limits(found, again.min_position, again.max_position)
+    except ValueError:
+        raise leaves from None
+    why = f'{LEAVES_POSITION_LIMITS.format(used)} ({leaves})'
+    if other == 'smoothed':
+        found.optimizer = dict(found.optimizer or {}, speed_profile_skipped=why)
+    else:
+        found.optimizer = dict(found.optimizer or {}, speed_profile_reason=(
+            f'{why}: planned with speed_profile "{TIME_OPTIMAL}" instead'))
+    return found
 
 
 def check_position_limits(traj, min_position=None, max_position=None, joint_names=None):

@@ -122,8 +122,10 @@ def plan_options(config, n_joints, boundary=(None,) * 4, torque=None):
     request's columns, ``boundary`` its start velocity, start acceleration,
     end velocity and end acceleration (None: zeros) and ``torque`` its
     :class:`TorqueOptions` (None = none): these come with the request and
-    are checked (ValueError, with plan()'s texts).  No position limits:
-    the caller checks the plan against the config's, naming the joints.
+    are checked (ValueError, with plan()'s texts).  The config's position
+    limits go with them (empty: none), and its joint names for their errors:
+    plan_with_options checks its plan against them, and tries the other
+    speed profile when the one asked for leaves them.
     """
     return PlanOptions.from_validated(
         n_joints, config.method, config.timing, config.max_velocity, config.max_acceleration,
@@ -131,7 +133,9 @@ def plan_options(config, n_joints, boundary=(None,) * 4, torque=None):
         inner_knots=config.plan_inner_knots(), vibration_frequency=config.vibration_frequency,
         smoothing=config.smoothing, speed_profile=config.speed_profile,
         max_torque=None if torque is None else torque.max_torque,
-        inverse_dynamics=None if torque is None else torque.inverse_dynamics)
+        inverse_dynamics=None if torque is None else torque.inverse_dynamics,
+        min_position=config.min_position or None, max_position=config.max_position or None,
+        joint_names=config.joint_names)
 
 
 def check_config_position_limits(traj, config):

@@ -46,8 +46,14 @@ def configs(draw):
     vibration = draw(st.sampled_from([0.0, 2.5, 8.0])) if optimal_555 and knots else 0.0
     smoothing = (draw(st.sampled_from(['auto', 'windows', 'none']))
                  if optimal_555 and knots and not vibration else 'auto')
+    # Position limits: none, one side or both (the node's config is validated).
+    sides = draw(st.sampled_from([(), ('min',), ('max',), ('min', 'max')]))
+    low = tuple(draw(st.lists(st.floats(-5.0, 0.0), min_size=n, max_size=n))
+                if 'min' in sides else ())
+    high = tuple(draw(st.lists(st.floats(0.0, 5.0), min_size=n, max_size=n))
+                 if 'max' in sides else ())
     config = PlannerConfig(
-        joint_names=tuple(f'j{i}' for i in range(n)),
+        joint_names=tuple(f'j{i}' for i in range(n)), min_position=low, max_position=high,
         max_velocity=tuple(draw(st.lists(limit, min_size=n, max_size=n))),
         max_acceleration=tuple(draw(st.lists(limit, min_size=n, max_size=n))),
         max_jerk=tuple(jerk), method=method, timing=timing, inner_knots=knots,
@@ -97,7 +103,8 @@ def _same_field(a, b):
 
 def _assert_same_options(ours, theirs):
     for field in ('method', 'timing', 'boundary', 'waypoint_tolerance', 'inner_knots',
-                  'inner_knots_auto', 'vibration_frequency', 'smoothing', 'windows'):
+                  'inner_knots_auto', 'vibration_frequency', 'smoothing', 'windows',
+                  'min_position', 'max_position'):
         assert _same_field(getattr(ours, field), getattr(theirs, field)), field
     assert (ours.limits is None) == (theirs.limits is None)
     if ours.limits is not None:
@@ -116,6 +123,7 @@ def _from_arguments(config, n, boundary, torque):
         max_acceleration=list(config.max_acceleration), max_jerk=config.jerk_limits(),
         start_velocity=start_v, start_acceleration=start_a, end_velocity=end_v,
         end_acceleration=end_a, waypoint_tolerance=config.waypoint_tolerance,
+        min_position=config.min_position or None, max_position=config.max_position or None,
         inner_knots=config.plan_inner_knots(), vibration_frequency=config.vibration_frequency,
         smoothing=config.smoothing,
         max_torque=None if torque is None else torque.max_torque,
