@@ -84,6 +84,7 @@ bench: build
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_smoothness.py
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_replanning.py
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_near_duplicates.py
+	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_position_limits.py
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_output.py
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_robot_seam.py
 	$(SOURCE_INSTALL) && $(PYTHON) benchmarks/bench_tool_lines.py

@@ -153,12 +153,14 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
     min_position, max_position : (n,) or None
         Joint position limits (-inf / +inf entries: none), checked exactly
         on the polynomials; a plan that leaves them is rejected with the
-        joint, the time and the excess.  For 555 optimal, a
-        ``speed_profile`` whose plan leaves them gives way to the other one
-        when that one's stays within them (not with ``inner_knots`` or
-        ``smoothing`` given): "smoothed" can start a joint 1e-7-1e-4 rad the
-        wrong way from a start on its limit, "time_optimal" does not.  The
-        plan says so (``optimizer['speed_profile_reason']``, or
+        joint, the time and the excess.  For 555 optimal, "smoothed"'s
+        inner-knot plan can start a joint 1e-7-1e-4 rad the wrong way from a
+        start on its limit (more than half of the moves from limit to limit):
+        the knots-only optimum, then "time_optimal", is returned instead
+        when it stays within them (not with ``inner_knots``, ``smoothing``
+        or, for the first, a ``vibration_frequency`` given), and
+        "time_optimal" asked for gives way to "smoothed" likewise.  The plan
+        says so (``optimizer['speed_profile_reason']``, or
         ``['speed_profile_skipped']`` when time_optimal was asked for).
     inner_knots : int, 0 to 8, or None
         Most free inner knots per segment for method "555" with timing
@@ -288,43 +290,65 @@ def _profiled(points, durations, options):
 
 def _other_profile_within(points, durations, options, traj, leaves):
     """
-    Return the other speed profile's plan when it stays within the position limits.
+    Return another plan of the request that stays within the position limits, if one does.
 
     ``traj``, planned with ``options``, left them (``leaves``, the error
-    naming the joint).  With speed_profile "smoothed" the construction's
-    spline can start a joint a hair the wrong way from a rest end (its
-    jerk there follows from the whole spline): from a start on a limit
-    that is 1e-7-1e-4 rad past it, on about half of the random requests
-    whose waypoints run one way per joint (test/planning/
-    test_position_limits.py).  "time_optimal"'s jerk at a rest end has the
-    path's direction, so it is tried; the other way round likewise (a
-    time-optimal spline past a limit: "smoothed").  Only for 555 optimal
-    where time_optimal takes the options (no ``inner_knots`` or
-    ``smoothing`` given); ``leaves`` is raised when there is no other
-    profile or its plan fails or leaves the limits too.  The optimizer says
-    so: ``speed_profile_skipped`` (time_optimal asked for) or
-    ``speed_profile_reason`` (:data:`LEAVES_POSITION_LIMITS`).
+    naming the joint).  With speed_profile "smoothed" the inner-knot
+    construction's spline can start a joint a hair the wrong way from a
+    rest end (its jerk there follows from the whole spline): from a start
+    on a limit that is 1e-7-1e-4 rad past it, on more than half of the random
+    requests whose waypoints run one way per joint
+    (``benchmarks/bench_position_limits.py``).  Tried in turn, for 555
+    optimal (:func:`_instead`):
+
+    1. the knots-only optimum (knots at the waypoints only, still
+       "smoothed"): slower than the inner-knot plan but as smooth; not
+       with ``inner_knots``, ``smoothing`` or a ``vibration_frequency``
+       given, which it would ignore;
+    2. speed_profile "time_optimal", whose jerk at a rest end has the
+       path's direction: faster, but it shakes about as much as TOPP-RA;
+       not with ``inner_knots`` or ``smoothing`` given;
+
+    and for "time_optimal" asked for, "smoothed".  The first plan within
+    the limits is returned, saying so (``speed_profile_reason``, or
+    ``speed_profile_skipped`` when time_optimal was asked for, each
+    starting with :data:`LEAVES_POSITION_LIMITS`); ``leaves`` is raised
+    when none is.
     """
     used = (traj.optimizer or {}).get('speed_profile', 'smoothed')
-    other = 'smoothed' if used == TIME_OPTIMAL else TIME_OPTIMAL
-    if options.timing != 'optimal' or options.method != '555' or (
-            other == TIME_OPTIMAL and options.speed_profile == TIME_OPTIMAL):
-        raise leaves     # no other profile, or time_optimal already fell back
-    try:
-        speed_profile_value(other, options.method, options.timing,
-                            not options.inner_knots_auto, options.smoothing)
-        again = replace(options, speed_profile=other)
-        found = _profiled(points, durations, again)
-        within_position_limits(found, again.min_position, again.max_position)
-    except ValueError:
-        raise leaves from None
     why = f'{LEAVES_POSITION_LIMITS.format(used)} ({leaves})'
-    if other == 'smoothed':
-        found.optimizer = dict(found.optimizer or {}, speed_profile_skipped=why)
-    else:
-        found.optimizer = dict(found.optimizer or {}, speed_profile_reason=(
-            f'{why}: planned with speed_profile "{TIME_OPTIMAL}" instead'))
-    return found
+    for again, said in _instead(options, traj, used):
+        try:
+            found = _profiled(points, durations, again)
+            within_position_limits(found, again.min_position, again.max_position)
+        except ValueError:
+            continue
+        key = 'speed_profile_skipped' if used == TIME_OPTIMAL else 'speed_profile_reason'
+        found.optimizer = dict(found.optimizer or {}, **{key: f'{why}{said}'})
+        return found
+    raise leaves
+
+
+def _instead(options, traj, used):
+    """Return the (options, what the plan says) to try when ``traj`` leaves the position limits."""
+    if options.timing != 'optimal' or options.method != '555':
+        return []
+    if used == TIME_OPTIMAL:
+        return [(replace(options, speed_profile='smoothed'), '')]
+    if options.speed_profile == TIME_OPTIMAL:
+        return []       # time_optimal fell back to "smoothed" already
+    tries = []
+    if (options.inner_knots_auto and not options.vibration_frequency
+            and options.smoothing == 'auto' and (traj.optimizer or {}).get('inner_knots', 0) > 0):
+        tries.append((replace(options, inner_knots=0, inner_knots_auto=False),
+                      ': planned with knots at the waypoints only instead'))
+    try:
+        speed_profile_value(TIME_OPTIMAL, options.method, options.timing,
+                            not options.inner_knots_auto, options.smoothing)
+    except ValueError:
+        return tries
+    return tries + [(replace(options, speed_profile=TIME_OPTIMAL),
+                     f': planned with speed_profile "{TIME_OPTIMAL}" instead')]
 
 
 def check_position_limits(traj, min_position=None, max_position=None, joint_names=None):

@@ -179,7 +179,8 @@ class PlannerConfig(ValidatedConfig):
     min_position: Tuple[float, ...] = parameter(
         (), 'Per-joint lower position limit [rad or m], checked exactly on every plan, which '
         'is rejected with the joint, time and excess when it leaves them (555 optimal: '
-        'after the other `speed_profile` was tried, see `speed_profile_reason`); empty (the '
+        'after the knots-only optimum and the other `speed_profile` were tried, see '
+        '`speed_profile_reason`); empty (the '
         'default) = none; `-.inf` for a joint without one; integers as typed are fine.')
     max_position: Tuple[float, ...] = parameter(
         (), 'Per-joint upper position limit [rad or m], as `min_position`; `.inf` for a joint '

@@ -1,7 +1,7 @@
 """Exact position extremes: position limits, and the excursion beyond the waypoints."""
 
 from example_counts import examples
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, strategies as st
 import numpy as np
 import pytest
 from splines445_ros.planning import check_position_limits, plan
@@ -121,16 +121,32 @@ def leaves(traj, low, high):
     return False
 
 
-@settings(max_examples=examples(8), deadline=None)
-@given(st.integers(0, 2**32 - 1))
+def expected_instead(points, limits, low, high, **more):
+    """
+    Return the plan the fallback order gives when the smoothed plan leaves [low, high].
+
+    Written out here from the order plan() documents: the knots-only
+    optimum (not with a vibration_frequency), then time_optimal; None when
+    both leave.
+    """
+    tries = [] if more.get('vibration_frequency') else [{'inner_knots': 0}]
+    for extra in tries + [{'speed_profile': 'time_optimal'}]:
+        other = plan(points, '555', 'optimal', **limits, **more, **extra)
+        if not leaves(other, low, high):
+            return other
+    return None
+
+
+@pytest.mark.parametrize('seed', range(1000, 1000 + examples(16)))
 def test_a_move_from_limit_to_limit_is_planned_within_them(seed):
     """
-    Waypoints on their joints' limits: the default plans them, the other profile where needed.
+    Waypoints on their joints' limits: the default plans them, another way where needed.
 
     The smoothed construction can start (or end) a joint a hair the wrong
     way, past a start on its limit; its plan without limits shows whether it
     does.  Where it does not, the limits change nothing; where it does, the
-    time-optimal profile's plan is returned, within them, and says why.
+    knots-only optimum's or the time-optimal profile's plan is returned,
+    within them, and says why.
     """
     points, limits = one_way_request(np.random.default_rng(seed))
     low, high = points.min(axis=0), points.max(axis=0)
@@ -141,38 +157,79 @@ def test_a_move_from_limit_to_limit_is_planned_within_them(seed):
     assert traj.within_limits(rtol=1e-9)
     np.testing.assert_allclose(traj.evaluate(traj.waypoint_times), points, atol=1e-9)
     if leaves(free, low, high):
-        assert traj.optimizer['speed_profile'] == 'time_optimal'
         assert 'left the position limits' in traj.optimizer['speed_profile_reason']
+        np.testing.assert_array_equal(
+            traj.ppoly.c, expected_instead(points, limits, low, high).ppoly.c)
     else:
         np.testing.assert_array_equal(traj.ppoly.c, free.ppoly.c)
         assert 'speed_profile_reason' not in traj.optimizer
 
 
-def creeping_request():
-    """Return the first one-way request (seeds from 0) whose smoothed plan leaves its range."""
-    for seed in range(40):
+def creeping_request(knots_only_leaves=None):
+    """
+    Return the first one-way request (seeds from 0) whose smoothed plan leaves its range.
+
+    ``knots_only_leaves``: True or False, one whose knots-only optimum
+    leaves it too, or stays within it; None: either.
+    """
+    for seed in range(60):
         points, limits = one_way_request(np.random.default_rng(seed))
         low, high = points.min(axis=0), points.max(axis=0)
-        if leaves(plan(points, '555', 'optimal', **limits), low, high):
+        if not leaves(plan(points, '555', 'optimal', **limits), low, high):
+            continue
+        if knots_only_leaves is None or knots_only_leaves == leaves(
+                plan(points, '555', 'optimal', inner_knots=0, **limits), low, high):
             return points, limits, low, high
-    raise AssertionError('no request in 40 where the smoothed plan leaves its range')
+    raise AssertionError('no such request in 60')
 
 
-def test_a_smoothed_plan_that_creeps_past_a_start_on_a_limit():
+@pytest.mark.parametrize('knots_only_leaves', [False, True])
+def test_a_smoothed_plan_that_creeps_past_a_start_on_a_limit(knots_only_leaves):
     """Found on issue 38: 1e-7-1e-4 rad past a start, on about half of such requests."""
-    points, limits, low, high = creeping_request()
+    points, limits, low, high = creeping_request(knots_only_leaves)
     free = plan(points, '555', 'optimal', **limits)
     f_low, f_high = sampled_range(free)
     excess = np.maximum(low - f_low, f_high - high)
     assert 0.0 < excess.max() < 1e-3     # a creep, not a swing
     traj = plan(points, '555', 'optimal', min_position=low, max_position=high, **limits)
+    knots_only = plan(points, '555', 'optimal', inner_knots=0, **limits)
     asked = plan(points, '555', 'optimal', speed_profile='time_optimal', **limits)
-    np.testing.assert_array_equal(traj.ppoly.c, asked.ppoly.c)
-    # Options time_optimal cannot take: refused as before, naming the joint.
-    for more in ({'inner_knots': 4}, {'inner_knots': 0}, {'smoothing': 'windows'}):
+    reason = traj.optimizer['speed_profile_reason']
+    if knots_only_leaves:
+        np.testing.assert_array_equal(traj.ppoly.c, asked.ppoly.c)
+        assert 'planned with speed_profile "time_optimal" instead' in reason
+    else:
+        np.testing.assert_array_equal(traj.ppoly.c, knots_only.ppoly.c)
+        assert 'planned with knots at the waypoints only instead' in reason
+    assert f'joint {int(np.argmax(excess))} goes to' in reason
+    # Options time_optimal and the knots-only plan cannot take: refused as before.
+    for more in ({'inner_knots': 4}, {'smoothing': 'windows'}):
         assert leaves(plan(points, '555', 'optimal', **limits, **more), low, high)
         with pytest.raises(ValueError, match=r'joint \d+ goes to .* (below|above)'):
             plan(points, '555', 'optimal', min_position=low, max_position=high, **limits, **more)
+
+
+def test_a_vibration_frequency_is_not_traded_for_knots_only():
+    """The knots-only plan has no zero at the mode: with a frequency, time_optimal cancels it."""
+    for seed in range(60):
+        points, limits = one_way_request(np.random.default_rng(seed))
+        low, high = points.min(axis=0), points.max(axis=0)
+        shaped = plan(points, '555', 'optimal', vibration_frequency=4.0, **limits)
+        if leaves(shaped, low, high):
+            break
+    else:
+        raise AssertionError('no request in 60 whose shaped plan leaves its range')
+    expected = expected_instead(points, limits, low, high, vibration_frequency=4.0)
+    if expected is None:
+        with pytest.raises(ValueError, match='goes to'):
+            plan(points, '555', 'optimal', vibration_frequency=4.0, min_position=low,
+                 max_position=high, **limits)
+        return
+    traj = plan(points, '555', 'optimal', vibration_frequency=4.0, min_position=low,
+                max_position=high, **limits)
+    assert traj.optimizer['speed_profile'] == 'time_optimal'
+    assert traj.optimizer['vibration_residual'] is not None
+    np.testing.assert_array_equal(traj.ppoly.c, expected.ppoly.c)
 
 
 def test_time_optimal_past_a_limit_the_smoothed_plan_keeps_falls_back():

@@ -1,0 +1,144 @@
+"""
+Moves from limit to limit: how many the default plans, and the price where it changes profile.
+
+Random requests whose waypoints run one way per joint (2-6 waypoints, 2-7
+joints, steps of 0.3-1 rad, v 1-3, a 5-15, j = 20 a), with
+``min_position`` / ``max_position`` at their waypoints' range: every joint
+starts on one limit and ends on the other.  The default (``speed_profile``
+"smoothed") starts some joint a hair the wrong way on about half of them
+(its jerk at a rest end follows from the whole spline); plan() then gives
+the knots-only optimum's plan, or the time-optimal profile's
+(``planner._other_profile_within``).
+
+Printed: how far the smoothed plan leaves the range (a creep: under 1e-3
+rad; more: a swing of its path), how many requests plan() plans within
+the limits and how, and on those planned another way, the plan over the smoothed
+plan the same request gets without limits and over TOPP-RA (its spline
+through the waypoints, v/a only): duration, shaking of a 4 Hz and an 8 Hz
+mode (peak while moving and residual after the stop, benchmarks/shaking.py)
+and planning time (one call each, in turn).
+
+Run: ``python benchmarks/bench_position_limits.py`` (part of ``make bench``;
+``SPLINES445_BENCH_SEED`` repeats a run, ``SPLINES445_BENCH_CASES`` sets the
+count).
+"""
+
+import logging
+import os
+import sys
+import time
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..'))
+
+from bench_planning import toppra_trajectory  # noqa: E402
+import bench_seeds  # noqa: E402, I100
+import numpy as np  # noqa: E402, I100
+from shaking import FREQUENCIES, of_toppra, of_trajectory, shaking_figures  # noqa: E402
+from splines445_ros.planning import plan  # noqa: E402
+from splines445_ros.planning.planner import POSITION_LIMIT_RTOL  # noqa: E402
+
+N_CASES = 80
+CASES_STREAM = 61
+# A smoothed plan past its range by less than this [rad] creeps; more is a swing.
+CREEP = 1e-3
+# The two other plans, by what their speed_profile_reason says.
+KNOTS_ONLY = 'knots at the waypoints only'
+TIME_OPTIMAL = 'time_optimal'
+
+
+def one_way_request(rng):
+    """Waypoints that run one way per joint, and v/a/j limits."""
+    n, count = int(rng.integers(2, 8)), int(rng.integers(2, 7))
+    steps = rng.uniform(0.3, 1.0, (count, n)) * rng.choice([-1.0, 1.0], n)
+    amax = rng.uniform(5.0, 15.0, n)
+    return np.cumsum(steps, axis=0), {'max_velocity': rng.uniform(1.0, 3.0, n),
+                                      'max_acceleration': amax, 'max_jerk': 20.0 * amax}
+
+
+def timed(func):
+    """Return (seconds, result) of one call."""
+    start = time.perf_counter()
+    result = func()
+    return time.perf_counter() - start, result
+
+
+def figures_of(acceleration_of, duration, amax):
+    """[duration, 4 Hz peak, 4 Hz residual, 8 Hz peak, 8 Hz residual] of one trajectory."""
+    figures = shaking_figures(acceleration_of, duration, amax)
+    return np.array([duration] + [figures[f][k] for f in FREQUENCIES for k in (0, 1)])
+
+
+def main():
+    """Draw the requests, plan each with and without limits, print the tables."""
+    logging.getLogger('toppra').setLevel(logging.ERROR)
+    bench_seeds.run_seed()
+    n_cases = bench_seeds.case_count(N_CASES)
+    rng = bench_seeds.generator(CASES_STREAM)
+    creeps = swings = planned = 0
+    excess, planning = [], []
+    kinds = {KNOTS_ONLY: [], TIME_OPTIMAL: []}
+    for _ in range(n_cases):
+        points, limits = one_way_request(rng)
+        low, high = points.min(axis=0), points.max(axis=0)
+        t_free, free = timed(lambda: plan(points, '555', 'optimal', **limits))
+        q_low, q_high = free.position_extrema()[:2]
+        slack = POSITION_LIMIT_RTOL * np.maximum(1.0, np.abs(np.concatenate([low, high])))
+        beyond = np.concatenate([low - q_low, q_high - high])
+        if np.any(beyond > slack):
+            excess.append(float(beyond.max()))
+            creeps += excess[-1] < CREEP
+            swings += excess[-1] >= CREEP
+        try:
+            t_limited, limited = timed(lambda: plan(points, '555', 'optimal', min_position=low,
+                                                    max_position=high, **limits))
+        except ValueError:
+            continue
+        planned += 1
+        reason = limited.optimizer.get('speed_profile_reason')
+        if not reason:
+            continue
+        amax = limits['max_acceleration']
+        top = toppra_trajectory(points, limits['max_velocity'], amax)
+        ours = figures_of(of_trajectory(limited), limited.duration, amax)
+        smoothed = figures_of(of_trajectory(free), free.duration, amax)
+        theirs = figures_of(of_toppra(top), top.duration, amax)
+        kind = KNOTS_ONLY if KNOTS_ONLY in reason else TIME_OPTIMAL
+        kinds[kind].append((ours / smoothed, ours / theirs, smoothed / theirs))
+        planning.append([t_limited / t_free, 1e3 * (t_limited - t_free)])
+    print(f"{n_cases} one-way requests (stream {CASES_STREAM}), limits at the waypoints' "
+          'range, 555 optimal, j = 20 a:')
+    print('| smoothed plan leaves the range: creep (< 1e-3 rad) | swing | its excess [rad]: '
+          'median / largest | planned within the limits | with knots at the waypoints only '
+          '| with time_optimal |')
+    print('|---|---|---|---|---|---|')
+    spread = (f'{np.median(excess):.2g} / {np.max(excess):.2g}' if excess else '-')
+    print(f'| {creeps} | {swings} | {spread} | {planned} of {n_cases} '
+          f'| {len(kinds[KNOTS_ONLY])} | {len(kinds[TIME_OPTIMAL])} |')
+    if not planning:
+        return 0
+    names = ['duration'] + [f'{f:g} Hz {kind}' for f in FREQUENCIES
+                            for kind in ('peak', 'residual')]
+    print()
+    print('The requests planned another way (median, range):')
+    print('| plan / reference | requests | ' + ' | '.join(names) + ' |')
+    print('|' + '---|' * (len(names) + 2))
+    for kind, rows in kinds.items():
+        if not rows:
+            continue
+        rows = np.array(rows)
+        for k, label in enumerate((f'{kind} / smoothed (no limits)', f'{kind} / TOPP-RA',
+                                   'smoothed (no limits) / TOPP-RA')):
+            print(f'| {label} | {len(rows)} | ' + ' | '.join(
+                f'{np.median(c):.3g} ({c.min():.3g}-{c.max():.3g})' for c in rows[:, k].T)
+                + ' |')
+    planning = np.array(planning)
+    print()
+    print(f'Planning with the limits / without, on those: {np.median(planning[:, 0]):.2f} '
+          f'({planning[:, 0].min():.2f}-{planning[:, 0].max():.2f}), '
+          f'{np.median(planning[:, 1]):.0f} ms more ({planning[:, 1].min():.0f}-'
+          f'{planning[:, 1].max():.0f})')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
