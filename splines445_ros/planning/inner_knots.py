@@ -41,7 +41,10 @@ Construction (:func:`plan_with_inner_knots`):
    the banded jerk and snap continuity system of 555
    (:mod:`continuity_system`) over all knots, with the request's boundary
    values; every piece is the quintic of eqs. (13)-(23) between its knots'
-   position, velocity and acceleration.
+   position, velocity and acceleration.  Rest to rest with windows, the
+   first and last inner knots are then moved a hair where a joint's jerk
+   at a rest end points against the path, so that no joint starts or
+   stops the wrong way (:meth:`KnotCandidate._end_jerks_along_path`).
 5. Exact limits.  The peaks are exact (:mod:`peaks`, roots of the derivative
    polynomials).  A rest-to-rest spline whose durations are all multiplied
    by ``f`` has peaks ``v / f``, ``a / f**2``, ``j / f**3``, so the factor
@@ -102,6 +105,9 @@ from .trajectory import REBUILD_RTOL, representable_durations, require_finite, T
 # Torque limits without windows: coarser grid and stop pay for 6 inner knots.
 TORQUE_GRID_STEPS = 20
 TORQUE_MIN_GAIN = 1e-2
+# Step 4 with windows: no joint's jerk at a rest end against the path
+# (:meth:`KnotCandidate._end_jerks_along_path`; False: as the fit gives it).
+END_JERK_SIGN = True
 # Grid steps per segment of the speed profile (step 2).
 GRID_STEPS = 24
 # Torque limits without windows: shorter pieces follow the profile's jumps
@@ -209,8 +215,8 @@ class _Path:
     :func:`knots_per_segment`, :func:`ramp_accelerations`), the torque's
     ``piece_factors`` (or None) and ``torque_neighbours`` (step 6's power of
     them for the neighbours, 0: none), ``keep_time_scale`` (:func:`plan_with_inner_knots`),
-    step 6's stop ``min_gain`` (:func:`iterate_knots`) and step 2's averaged
-    :meth:`timing`.  :class:`path_timing.JointPathSamples`
+    step 6's stop ``min_gain`` (:func:`iterate_knots`), step 2's ``windows``
+    and its averaged :meth:`timing`.  :class:`path_timing.JointPathSamples`
     has the same, for a path the caller gives.
     """
 
@@ -403,6 +409,8 @@ class KnotCandidate:
             coeffs = spline_coefficients('555', self.positions, pieces, boundary)
         except ValueError:
             return
+        if rest and path.windows and END_JERK_SIGN:
+            coeffs = self._end_jerks_along_path(coeffs, pieces, path)
         self.factors, self.ratios = exact_factors(coeffs, pieces, limits)
         self.neighbours = None
         if path.piece_factors is not None:
@@ -428,6 +436,44 @@ class KnotCandidate:
         self.coeffs, self.scale = coeffs, (f if rest else 1.0)
         self.feasible = rest or f <= _ROUNDOFF
         self.total = float(self.pieces.sum()) if self.feasible else np.inf
+
+    def _end_jerks_along_path(self, coeffs, pieces, path):
+        """
+        Return ``coeffs`` with no joint's jerk at a rest end against the path's direction.
+
+        Step 4 with windows, rest to rest.  The spline's jerk at a rest end
+        follows from the whole spline; the averaged profile's is 0 there
+        (its acceleration ramps in over a window), so its sign is an
+        accident of the fit, and a joint whose jerk points against the
+        path's tangent starts (or ends) the wrong way: 1e-7-1e-4 rad, past a
+        start on a position limit (``benchmarks/bench_position_limits.py``).
+        The first and last inner knots are moved, per joint, to set such a
+        jerk to 0: the spline is linear in its knot positions, so one solve
+        with unit positions gives the move (a hair: the jerk was a
+        round-off of the fit).  The spline then still passes every waypoint
+        and the path's ends, and step 5 scales it to its limits as before.
+        """
+        first, last = 1, self.positions.shape[0] - 2
+        if not (self.counts[0] > 0 and self.counts[-1] > 0) or first >= last:
+            return coeffs
+        h = pieces[-1]
+
+        def end_jerks(c):
+            return np.stack([6.0 * c[0, 3], 6.0 * c[-1, 3] + 24.0 * c[-1, 4] * h
+                             + 60.0 * c[-1, 5] * h * h])
+
+        jerks = end_jerks(coeffs)                                   # (2, n)
+        tangent = np.stack([path.ppoly(path.s[0], 1), path.ppoly(path.s[-1], 1)])
+        wrong = jerks * np.sign(tangent) < 0.0
+        if not np.any(wrong):
+            return coeffs
+        unit = np.zeros((self.positions.shape[0], 2))
+        unit[first, 0] = unit[last, 1] = 1.0
+        units = spline_coefficients('555', unit, pieces, (np.zeros(2),) * 4)
+        sensitivity = end_jerks(units)                              # (2 ends, 2 knots)
+        moves = np.linalg.solve(sensitivity, -np.where(wrong, jerks, 0.0))  # (2 knots, n)
+        self.positions[[first, last]] += moves
+        return coeffs + units[..., 0, None] * moves[0] + units[..., 1, None] * moves[1]
 
     def better_than(self, other):
         """Whether this candidate is to be kept over ``other`` (None or a candidate)."""

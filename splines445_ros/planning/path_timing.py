@@ -129,7 +129,7 @@ class JointPathSamples:
     ``start``, ``end``, ``most``, ``min_piece``, ``ramp_pieces``,
     ``ramp_acceleration`` (:func:`knot_pieces.ramp_accelerations`),
     ``piece_factors``, ``torque_neighbours`` (0), ``keep_time_scale``
-    (False), ``rounding`` and :meth:`timing`.
+    (False), ``rounding``, ``windows`` and :meth:`timing`.
 
     ``round_corners`` (tool lines with a speed limit, no smoothing
     windows): the profile's corners are rounded over a centred window

@@ -123,9 +123,11 @@ class FollowedPath:
 
     The grid ``s``, the ``ppoly`` ``q(s)``, the waypoints ``points`` and
     ``piece_factors``, the torque's per piece (None: no torque limits);
-    no corner rounding, scaled to its limits.
+    no corner rounding, scaled to its limits, and no ``windows``: the
+    profile is not averaged (its jerk at a rest end is along the path).
     """
 
+    windows = ()
     rounding = 0.0
     keep_time_scale = False
     torque_neighbours = 0.0

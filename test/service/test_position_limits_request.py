@@ -3,9 +3,10 @@ The node's position limits reach the planning core (issue 38's follow-up).
 
 ``request_planning.plan_request`` hands the config's ``min_position`` /
 ``max_position`` and joint names to ``plan_with_options``, so a request
-whose waypoints sit on the limits gets what plan() gives it: the other
-speed profile where the smoothed one creeps past a start on a limit, and
-errors that name the joint.
+whose waypoints sit on the limits gets what plan() gives it: another plan
+where the smoothed one leaves them (here the construction as it was
+before, which crept past a start on a limit), and errors that name the
+joint.
 """
 
 import os
@@ -18,7 +19,7 @@ from splines445_ros.service.planner_config import PlannerConfig
 from splines445_ros.service.request_planning import plan_request, summary_values, WaypointRequest
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), '..', 'planning'))
-from test_position_limits import creeping_request  # noqa: E402, I100
+from test_position_limits import creeping_construction, creeping_request  # noqa: E402, F401, I100
 
 
 def config_of(limits, low, high):
@@ -38,6 +39,7 @@ def request_of(points):
     return WaypointRequest(points, zeros, zeros, zeros, zeros, None)
 
 
+@pytest.mark.usefixtures('creeping_construction')
 def test_a_request_on_the_limits_is_planned_like_plan_plans_it():
     points, limits, low, high = creeping_request()
     traj = plan_request(config_of(limits, low, high), request_of(points))
@@ -47,6 +49,7 @@ def test_a_request_on_the_limits_is_planned_like_plan_plans_it():
     assert 'left the position limits' in status['speed_profile_reason']
 
 
+@pytest.mark.usefixtures('creeping_construction')
 def test_a_request_past_the_limits_names_the_joint():
     points, limits, low, high = creeping_request()
     free = plan(points, '555', 'optimal', speed_profile='time_optimal', **limits)
