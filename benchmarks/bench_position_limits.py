@@ -4,11 +4,13 @@ Moves from limit to limit: how many the default plans, and the price where it ch
 Random requests whose waypoints run one way per joint (2-6 waypoints, 2-7
 joints, steps of 0.3-1 rad, v 1-3, a 5-15, j = 20 a), with
 ``min_position`` / ``max_position`` at their waypoints' range: every joint
-starts on one limit and ends on the other.  The default (``speed_profile``
-"smoothed") starts some joint a hair the wrong way on about half of them
-(its jerk at a rest end follows from the whole spline); plan() then gives
-the knots-only optimum's plan, or the time-optimal profile's
-(``planner._other_profile_within``).
+starts on one limit and ends on the other.  The smoothed inner-knot
+spline used to start some joint a hair the wrong way on more than half of
+them (its jerk at a rest end was whatever the fit gave); step 4 of
+``planning/inner_knots.py`` now sets such a jerk to 0
+(``END_JERK_SIGN``; both are run, on the same requests).  Where a plan
+still leaves the limits, plan() gives the knots-only optimum's plan, or the
+time-optimal profile's (``planner._other_profile_within``).
 
 Printed: how far the smoothed plan leaves the range (a creep: under 1e-3
 rad; more: a swing of its path), how many requests plan() plans within
@@ -34,7 +36,7 @@ from bench_planning import toppra_trajectory  # noqa: E402
 import bench_seeds  # noqa: E402, I100
 import numpy as np  # noqa: E402, I100
 from shaking import FREQUENCIES, of_toppra, of_trajectory, shaking_figures  # noqa: E402
-from splines445_ros.planning import plan  # noqa: E402
+from splines445_ros.planning import inner_knots, plan  # noqa: E402
 from splines445_ros.planning.planner import POSITION_LIMIT_RTOL  # noqa: E402
 
 N_CASES = 80
@@ -68,32 +70,32 @@ def figures_of(acceleration_of, duration, amax):
     return np.array([duration] + [figures[f][k] for f in FREQUENCIES for k in (0, 1)])
 
 
-def main():
-    """Draw the requests, plan each with and without limits, print the tables."""
-    logging.getLogger('toppra').setLevel(logging.ERROR)
-    bench_seeds.run_seed()
-    n_cases = bench_seeds.case_count(N_CASES)
-    rng = bench_seeds.generator(CASES_STREAM)
-    creeps = swings = planned = 0
-    excess, planning = [], []
-    kinds = {KNOTS_ONLY: [], TIME_OPTIMAL: []}
-    for _ in range(n_cases):
-        points, limits = one_way_request(rng)
+def run(requests):
+    """
+    Plan every request with and without its limits; return the counts and the figures.
+
+    ``{'creeps', 'swings', 'planned', 'excess', 'planning', KNOTS_ONLY,
+    TIME_OPTIMAL}``: the last two hold, per request planned that way, its
+    figures over the smoothed plan without limits, over TOPP-RA, and the
+    smoothed plan's over TOPP-RA.
+    """
+    out = {'creeps': 0, 'swings': 0, 'planned': 0, 'excess': [], 'planning': [],
+           KNOTS_ONLY: [], TIME_OPTIMAL: []}
+    for points, limits in requests:
         low, high = points.min(axis=0), points.max(axis=0)
         t_free, free = timed(lambda: plan(points, '555', 'optimal', **limits))
         q_low, q_high = free.position_extrema()[:2]
         slack = POSITION_LIMIT_RTOL * np.maximum(1.0, np.abs(np.concatenate([low, high])))
         beyond = np.concatenate([low - q_low, q_high - high])
         if np.any(beyond > slack):
-            excess.append(float(beyond.max()))
-            creeps += excess[-1] < CREEP
-            swings += excess[-1] >= CREEP
+            out['excess'].append(float(beyond.max()))
+            out['creeps' if out['excess'][-1] < CREEP else 'swings'] += 1
         try:
             t_limited, limited = timed(lambda: plan(points, '555', 'optimal', min_position=low,
                                                     max_position=high, **limits))
         except ValueError:
             continue
-        planned += 1
+        out['planned'] += 1
         reason = limited.optimizer.get('speed_profile_reason')
         if not reason:
             continue
@@ -103,40 +105,61 @@ def main():
         smoothed = figures_of(of_trajectory(free), free.duration, amax)
         theirs = figures_of(of_toppra(top), top.duration, amax)
         kind = KNOTS_ONLY if KNOTS_ONLY in reason else TIME_OPTIMAL
-        kinds[kind].append((ours / smoothed, ours / theirs, smoothed / theirs))
-        planning.append([t_limited / t_free, 1e3 * (t_limited - t_free)])
+        out[kind].append((ours / smoothed, ours / theirs, smoothed / theirs))
+        out['planning'].append([t_limited / t_free, 1e3 * (t_limited - t_free)])
+    return out
+
+
+def main():
+    """Draw the requests, plan each with and without limits, print the tables."""
+    logging.getLogger('toppra').setLevel(logging.ERROR)
+    bench_seeds.run_seed()
+    n_cases = bench_seeds.case_count(N_CASES)
+    rng = bench_seeds.generator(CASES_STREAM)
+    requests = [one_way_request(rng) for _ in range(n_cases)]
+    runs = {}
+    saved = inner_knots.END_JERK_SIGN
+    for flag in (False, True):
+        inner_knots.END_JERK_SIGN = flag
+        try:
+            runs[flag] = run(requests)
+        finally:
+            inner_knots.END_JERK_SIGN = saved
     print(f"{n_cases} one-way requests (stream {CASES_STREAM}), limits at the waypoints' "
-          'range, 555 optimal, j = 20 a:')
-    print('| smoothed plan leaves the range: creep (< 1e-3 rad) | swing | its excess [rad]: '
-          'median / largest | planned within the limits | with knots at the waypoints only '
-          '| with time_optimal |')
-    print('|---|---|---|---|---|---|')
-    spread = (f'{np.median(excess):.2g} / {np.max(excess):.2g}' if excess else '-')
-    print(f'| {creeps} | {swings} | {spread} | {planned} of {n_cases} '
-          f'| {len(kinds[KNOTS_ONLY])} | {len(kinds[TIME_OPTIMAL])} |')
-    if not planning:
-        return 0
+          'range, 555 optimal, j = 20 a; step 4 of inner_knots as the fit gives the jerk at '
+          'the rest ends (END_JERK_SIGN False) and along the path (True, the default):')
+    print('| END_JERK_SIGN | smoothed plan leaves the range: creep (< 1e-3 rad) | swing '
+          '| its excess [rad]: median / largest | planned within the limits | with knots at '
+          'the waypoints only | with time_optimal |')
+    print('|---|---|---|---|---|---|---|')
+    for flag, out in runs.items():
+        excess = out['excess']
+        spread = (f'{np.median(excess):.2g} / {np.max(excess):.2g}' if excess else '-')
+        print(f"| {flag} | {out['creeps']} | {out['swings']} | {spread} | {out['planned']} of "
+              f'{n_cases} | {len(out[KNOTS_ONLY])} | {len(out[TIME_OPTIMAL])} |')
     names = ['duration'] + [f'{f:g} Hz {kind}' for f in FREQUENCIES
                             for kind in ('peak', 'residual')]
-    print()
-    print('The requests planned another way (median, range):')
-    print('| plan / reference | requests | ' + ' | '.join(names) + ' |')
-    print('|' + '---|' * (len(names) + 2))
-    for kind, rows in kinds.items():
-        if not rows:
+    for flag, out in runs.items():
+        if not out['planning']:
             continue
-        rows = np.array(rows)
-        for k, label in enumerate((f'{kind} / smoothed (no limits)', f'{kind} / TOPP-RA',
-                                   'smoothed (no limits) / TOPP-RA')):
-            print(f'| {label} | {len(rows)} | ' + ' | '.join(
-                f'{np.median(c):.3g} ({c.min():.3g}-{c.max():.3g})' for c in rows[:, k].T)
-                + ' |')
-    planning = np.array(planning)
-    print()
-    print(f'Planning with the limits / without, on those: {np.median(planning[:, 0]):.2f} '
-          f'({planning[:, 0].min():.2f}-{planning[:, 0].max():.2f}), '
-          f'{np.median(planning[:, 1]):.0f} ms more ({planning[:, 1].min():.0f}-'
-          f'{planning[:, 1].max():.0f})')
+        print()
+        print(f'END_JERK_SIGN {flag}: the requests planned another way (median, range):')
+        print('| plan / reference | requests | ' + ' | '.join(names) + ' |')
+        print('|' + '---|' * (len(names) + 2))
+        for kind in (KNOTS_ONLY, TIME_OPTIMAL):
+            if not out[kind]:
+                continue
+            rows = np.array(out[kind])
+            for k, label in enumerate((f'{kind} / smoothed (no limits)', f'{kind} / TOPP-RA',
+                                       'smoothed (no limits) / TOPP-RA')):
+                print(f'| {label} | {len(rows)} | ' + ' | '.join(
+                    f'{np.median(c):.3g} ({c.min():.3g}-{c.max():.3g})' for c in rows[:, k].T)
+                    + ' |')
+        planning = np.array(out['planning'])
+        print(f'Planning with the limits / without, on those: {np.median(planning[:, 0]):.2f} '
+              f'({planning[:, 0].min():.2f}-{planning[:, 0].max():.2f}), '
+              f'{np.median(planning[:, 1]):.0f} ms more ({planning[:, 1].min():.0f}-'
+              f'{planning[:, 1].max():.0f})')
     return 0
 
 

@@ -68,7 +68,7 @@ from .tool_lines import edge_geometry, LineUnreachable, plan_tool_lines
 from ..planning import merge_duplicates
 from ..planning.path_constraints import GravityOverload
 from ..planning.plan_options import PlanOptions, smoothing_windows
-from ..planning.planner import plan_with_options, within_position_limits
+from ..planning.planner import plan_with_options, POSITION_LIMIT_RTOL, within_position_limits
 from ..planning.validation import waypoint_array
 from ..robot import rotations as rot
 
@@ -229,6 +229,23 @@ def _inverse(kinematics, poses, describe):
     return joints
 
 
+def _joints_within(joints, options, describe):
+    """Raise ValueError naming the first pose whose ``joints`` (K, n) leave the position limits."""
+    low, high = options.min_position, options.max_position
+    if low is None:
+        return
+    slack = POSITION_LIMIT_RTOL * np.maximum(1.0, np.abs(np.stack([low, high])))
+    bad = (joints < low - slack[0]) | (joints > high + slack[1])
+    if not np.any(bad):
+        return
+    k, j = (int(i) for i in np.argwhere(bad)[0])
+    joint = f'joint {j}' + ('' if options.joint_names is None else f' ({options.joint_names[j]})')
+    side, limit = (('below min_position', low[j]) if joints[k, j] < low[j]
+                   else ('above max_position', high[j]))
+    raise ValueError(f'{describe(k)} needs {joint} at {joints[k, j]:.6g}, {side}[{j}] = '
+                     f'{limit:g}')
+
+
 def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviation=None,
                    max_inserted=DEFAULT_MAX_INSERTED, method='445', timing='uniform',
                    durations=None, max_tool_speed=None, max_tool_angular_speed=None,
@@ -345,6 +362,9 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
         if found is not None:
             return found
     joints = _inverse(kinematics, request, lambda k: f'tool waypoint {k}')
+    # Checked here: the refinement checks only the plan it ends with, and would
+    # insert waypoints in vain around one the plan must pass outside the limits.
+    _joints_within(joints, options, lambda k: f'tool waypoint {k}')
     if timing == 'fixed':
         if durations is None:
             raise ValueError('timing "fixed" needs durations, one per pair of tool waypoints')

@@ -153,14 +153,15 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
     min_position, max_position : (n,) or None
         Joint position limits (-inf / +inf entries: none), checked exactly
         on the polynomials; a plan that leaves them is rejected with the
-        joint, the time and the excess.  For 555 optimal, "smoothed"'s
-        inner-knot plan can start a joint 1e-7-1e-4 rad the wrong way from a
-        start on its limit (more than half of the moves from limit to limit):
+        joint, the time and the excess.  For 555 optimal where such a plan
+        leaves them (a knots-only optimum that starts a joint a hair the
+        wrong way from a start on its limit, a path that swings out),
         the knots-only optimum, then "time_optimal", is returned instead
-        when it stays within them (not with ``inner_knots``, ``smoothing``
-        or, for the first, a ``vibration_frequency`` given), and
-        "time_optimal" asked for gives way to "smoothed" likewise.  The plan
-        says so (``optimizer['speed_profile_reason']``, or
+        when it stays within them, and "time_optimal" asked for gives way
+        to "smoothed" likewise: not with ``inner_knots``, ``smoothing`` or a
+        ``vibration_frequency`` given, above :data:`SMALL_REQUEST`
+        waypoints, or where a moving end heads past a limit it sits on.  The
+        plan says so (``optimizer['speed_profile_reason']``, or
         ``['speed_profile_skipped']`` when time_optimal was asked for).
     inner_knots : int, 0 to 8, or None
         Most free inner knots per segment for method "555" with timing
@@ -293,18 +294,18 @@ def _other_profile_within(points, durations, options, traj, leaves):
     Return another plan of the request that stays within the position limits, if one does.
 
     ``traj``, planned with ``options``, left them (``leaves``, the error
-    naming the joint).  With speed_profile "smoothed" the inner-knot
-    construction's spline can start a joint a hair the wrong way from a
-    rest end (its jerk there follows from the whole spline): from a start
-    on a limit that is 1e-7-1e-4 rad past it, on more than half of the random
-    requests whose waypoints run one way per joint
-    (``benchmarks/bench_position_limits.py``).  Tried in turn, for 555
-    optimal (:func:`_instead`):
+    naming the joint).  Two plans of one request leave them differently:
+    the knots-only optimum (when it beats the inner-knot plan) can start a
+    joint a hair the wrong way from a rest start on a limit, and each
+    profile's path swings out its own way between waypoints
+    (``benchmarks/bench_position_limits.py``: 1-2 of 80 moves from limit
+    to limit; the inner-knot construction itself no longer creeps, step 4
+    of :mod:`inner_knots`).  Tried in turn, for 555 optimal where
+    :func:`_instead` allows it:
 
     1. the knots-only optimum (knots at the waypoints only, still
        "smoothed"): slower than the inner-knot plan but as smooth; not
-       with ``inner_knots``, ``smoothing`` or a ``vibration_frequency``
-       given, which it would ignore;
+       with ``inner_knots`` or ``smoothing`` given, which it would ignore;
     2. speed_profile "time_optimal", whose jerk at a rest end has the
        path's direction: faster, but it shakes about as much as TOPP-RA;
        not with ``inner_knots`` or ``smoothing`` given;
@@ -317,7 +318,7 @@ def _other_profile_within(points, durations, options, traj, leaves):
     """
     used = (traj.optimizer or {}).get('speed_profile', 'smoothed')
     why = f'{LEAVES_POSITION_LIMITS.format(used)} ({leaves})'
-    for again, said in _instead(options, traj, used):
+    for again, said in _instead(options, traj, used, points):
         try:
             found = _profiled(points, durations, again)
             within_position_limits(found, again.min_position, again.max_position)
@@ -329,17 +330,29 @@ def _other_profile_within(points, durations, options, traj, leaves):
     raise leaves
 
 
-def _instead(options, traj, used):
-    """Return the (options, what the plan says) to try when ``traj`` leaves the position limits."""
-    if options.timing != 'optimal' or options.method != '555':
+def _instead(options, traj, used, points):
+    """
+    Return the (options, what the plan says) to try when ``traj`` leaves the position limits.
+
+    None for requests of more than :data:`SMALL_REQUEST` waypoints (the
+    other plans cost up to seconds there, for a refusal more often than
+    not), nor where a moving end heads past a limit it sits on
+    (:func:`_heads_past_a_limit`: no plan stays within).  With a
+    ``vibration_frequency``, "smoothed" is not traded: the knots-only plan
+    has no zero at the mode, and time_optimal's cancellation is narrow (a
+    mode 10 % off rings 0.4-0.8 of TOPP-RA's, against 0.1 with the
+    windows).
+    """
+    if (options.timing != 'optimal' or options.method != '555'
+            or points.shape[0] > SMALL_REQUEST or _heads_past_a_limit(points, options)):
         return []
     if used == TIME_OPTIMAL:
         return [(replace(options, speed_profile='smoothed'), '')]
-    if options.speed_profile == TIME_OPTIMAL:
-        return []       # time_optimal fell back to "smoothed" already
+    if options.speed_profile == TIME_OPTIMAL or options.vibration_frequency:
+        return []       # time_optimal fell back to "smoothed" already, or a mode to cancel
     tries = []
-    if (options.inner_knots_auto and not options.vibration_frequency
-            and options.smoothing == 'auto' and (traj.optimizer or {}).get('inner_knots', 0) > 0):
+    if (options.inner_knots_auto and options.smoothing == 'auto'
+            and (traj.optimizer or {}).get('inner_knots', 0) > 0):
         tries.append((replace(options, inner_knots=0, inner_knots_auto=False),
                       ': planned with knots at the waypoints only instead'))
     try:
@@ -349,6 +362,28 @@ def _instead(options, traj, used):
         return tries
     return tries + [(replace(options, speed_profile=TIME_OPTIMAL),
                      f': planned with speed_profile "{TIME_OPTIMAL}" instead')]
+
+
+def _heads_past_a_limit(points, options):
+    """
+    Whether a moving end sits on a position limit and heads past it (no plan stays within).
+
+    At the start ``q0 + v t + a t**2 / 2``: past the upper limit for
+    ``v > 0``, or ``v = 0`` and ``a > 0``; at the end, where the motion
+    comes from, past it for ``v < 0``, or ``v = 0`` and ``a > 0``; the
+    lower limit likewise, mirrored.
+    """
+    low, high = options.min_position, options.max_position
+    v0, a0, v1, a1 = options.boundary
+    slack = POSITION_LIMIT_RTOL * np.maximum(1.0, np.abs(np.stack([low, high])))
+    for q, v, a, sign in ((points[0], v0, a0, 1.0), (points[-1], v1, a1, -1.0)):
+        up = sign * v > 0.0
+        up |= (v == 0.0) & (a > 0.0)
+        down = sign * v < 0.0
+        down |= (v == 0.0) & (a < 0.0)
+        if np.any((q >= high - slack[1]) & up) or np.any((q <= low + slack[0]) & down):
+            return True
+    return False
 
 
 def check_position_limits(traj, min_position=None, max_position=None, joint_names=None):

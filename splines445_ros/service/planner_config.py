@@ -233,7 +233,8 @@ class PlannerConfig(ValidatedConfig):
         'plans joint-space `waypoints` requests (replanning from a moving state too) with at '
         'most '
         f'{MAX_TIME_OPTIMAL_WAYPOINTS} waypoints; where it finds no spline (a moving state it '
-        "cannot keep, a joint reversing alone) the plan is `smoothed`'s, with a warning. "
+        'cannot keep, a joint reversing alone) or its plan leaves `min_position` / '
+        "`max_position` and `smoothed`'s does not, the plan is `smoothed`'s, with a warning. "
         '`smoothing` and `inner_knots` are refused with it (it would ignore them); '
         '`vibration_frequency` cancels the ringing of a mode at it after the stop. On '
         'tool_waypoints requests '

@@ -14,7 +14,8 @@ import numpy as np
 from ..cartesian.tool_paths import plan_tool_path
 from ..planning.path_constraints import GravityOverload
 from ..planning.plan_options import BOUNDARY_NAMES, PlanOptions
-from ..planning.planner import check_position_limits, NO_INNER_KNOT_SPLINE, plan_with_options
+from ..planning.planner import (check_position_limits, LEAVES_POSITION_LIMITS,
+                                NO_INNER_KNOT_SPLINE, plan_with_options)
 from ..planning.validation import waypoint_array
 from ..robot.user_text import format_vector
 
@@ -451,10 +452,21 @@ def speed_profile_warning(traj):
             'but slower)')
 
 
+def position_limits_warning(traj):
+    """
+    Return a warning when the smoothed plan left the position limits and another was given.
+
+    The knots-only optimum (slower) or speed_profile "time_optimal" (it
+    shakes more): ``speed_profile_reason`` says which and why, else None.
+    """
+    reason = (traj.optimizer or {}).get('speed_profile_reason') or ''
+    return reason if reason.startswith(LEAVES_POSITION_LIMITS.format('smoothed')) else None
+
+
 def plan_warnings(traj):
-    """Return the plan's warnings joined (slow, no inner-knot or time-optimal spline), or None."""
+    """Return the plan's warnings joined (slow, another plan than asked for), or None."""
     found = [w for w in (slow_plan_warning(traj), inner_knots_warning(traj),
-                         speed_profile_warning(traj)) if w]
+                         speed_profile_warning(traj), position_limits_warning(traj)) if w]
     return '; '.join(found) or None
 
 

@@ -267,3 +267,34 @@ def test_demo_table_and_figure(tmp_path):
     plot_refined_paths(runs, path)
     with open(path, 'rb') as handle:
         assert handle.read(8) == b'\x89PNG\r\n\x1a\n'
+
+
+@pytest.mark.parametrize('side', ['max', 'min'])
+def test_a_tool_waypoint_beyond_the_position_limits_is_named_at_once(side):
+    """
+    A tool waypoint whose joints lie beyond a limit: refused naming it, before any refinement.
+
+    The refinement checks only the plan it ends with; inserting waypoints
+    around one that the plan must pass outside the limits cannot help (found
+    in review: 200 insertions, then a deviation error).  The limit goes
+    just inside the waypoint that sets its joint's range (by the joints the
+    inverse kinematics gives).
+    """
+    poses = np.array([[1.2, 0.6, 0.3], [0.6, 1.3, 1.0], [-0.4, 1.2, 1.8]])
+    joints = ARM.inverse(poses)
+    low, high = joints.min(axis=0) - 1.0, joints.max(axis=0) + 1.0
+    # The joint whose extreme waypoint stands out most from the others.
+    ordered = np.sort(joints, axis=0)
+    gaps = ordered[-1] - ordered[-2] if side == 'max' else ordered[1] - ordered[0]
+    j = int(np.argmax(gaps))
+    k = int(np.argmax(joints[:, j]) if side == 'max' else np.argmin(joints[:, j]))
+    assert gaps[j] > 0.1
+    if side == 'max':
+        high[j] = joints[k, j] - 0.05
+    else:
+        low[j] = joints[k, j] + 0.05
+    words = 'above max' if side == 'max' else 'below min'
+    with pytest.raises(ValueError, match=rf'tool waypoint {k} needs joint {j} at .* {words}'):
+        plan_tool_path(poses, ARM, 1e-4, method='445', timing='uniform',
+                       max_velocity=[1.0] * 3, max_acceleration=[3.0] * 3,
+                       min_position=low, max_position=high)

@@ -16,7 +16,8 @@ import numpy as np
 import pytest
 from splines445_ros.planning import plan
 from splines445_ros.service.planner_config import PlannerConfig
-from splines445_ros.service.request_planning import plan_request, summary_values, WaypointRequest
+from splines445_ros.service.request_planning import (plan_request, plan_warnings, summary_values,
+                                                     WaypointRequest)
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), '..', 'planning'))
 from test_position_limits import creeping_construction, creeping_request  # noqa: E402, F401, I100
@@ -47,6 +48,9 @@ def test_a_request_on_the_limits_is_planned_like_plan_plans_it():
     np.testing.assert_array_equal(traj.ppoly.c, ours.ppoly.c)
     status = summary_values(traj, [f'j{i}' for i in range(low.size)])
     assert 'left the position limits' in status['speed_profile_reason']
+    # Another plan than the one asked for: a WARN status says which and why.
+    assert status['speed_profile_reason'] in plan_warnings(traj)
+    assert plan_warnings(plan(points, '555', 'optimal', **limits)) is None
 
 
 @pytest.mark.usefixtures('creeping_construction')
