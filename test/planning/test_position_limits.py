@@ -98,12 +98,22 @@ def test_a_goal_exactly_on_a_limit_is_not_a_violation(vmax, amax):
 
 
 def one_way_request(rng):
-    """Waypoints that run one way per joint (its start and goal bound it), and v/a/j limits."""
+    """
+    Waypoints that run one way per joint, and v/a/j limits (j = 20 a).
+
+    Each joint goes 0.5-3 rad from its start to its goal, through the
+    waypoints at increasing fractions of the way (steps of a third to three
+    times the mean), so its start and goal bound it.
+    """
     n, count = int(rng.integers(2, 7)), int(rng.integers(2, 6))
-    steps = rng.uniform(0.3, 1.0, (count, n)) * rng.choice([-1.0, 1.0], n)
+    start = rng.uniform(-1.0, 1.0, n)
+    way = rng.uniform(0.5, 3.0, n) * np.where(rng.random(n) < 0.5, -1.0, 1.0)
+    fractions = np.cumsum(rng.uniform(1.0, 3.0, (count, n)), axis=0)
+    fractions = (fractions - fractions[0]) / (fractions[-1] - fractions[0])
     amax = rng.uniform(5.0, 15.0, n)
-    return np.cumsum(steps, axis=0), {'max_velocity': rng.uniform(1.0, 3.0, n),
-                                      'max_acceleration': amax, 'max_jerk': 20.0 * amax}
+    limits = {'max_velocity': rng.uniform(1.0, 3.0, n), 'max_acceleration': amax,
+              'max_jerk': 20.0 * amax}
+    return start + fractions * way, limits
 
 
 def sampled_range(traj, count=20001):
