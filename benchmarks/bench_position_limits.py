@@ -18,7 +18,9 @@ the limits and how, and on those planned another way, the plan over the smoothed
 plan the same request gets without limits and over TOPP-RA (its spline
 through the waypoints, v/a only): duration, shaking of a 4 Hz and an 8 Hz
 mode (peak while moving and residual after the stop, benchmarks/shaking.py)
-and planning time (one call each, in turn).
+and planning time (one call each, in turn).  Last, what the switch does to
+the same requests' plans without limits (the default and
+``vibration_frequency`` 4 Hz): the ratios of the plans it changes.
 
 Run: ``python benchmarks/bench_position_limits.py`` (part of ``make bench``;
 ``SPLINES445_BENCH_SEED`` repeats a run, ``SPLINES445_BENCH_CASES`` sets the
@@ -43,6 +45,8 @@ N_CASES = 80
 CASES_STREAM = 61
 # A smoothed plan past its range by less than this [rad] creeps; more is a swing.
 CREEP = 1e-3
+# The vibration_frequency [Hz] of the switch's second row.
+SHAPED = 4.0
 # The two other plans, by what their speed_profile_reason says.
 KNOTS_ONLY = 'knots at the waypoints only'
 TIME_OPTIMAL = 'time_optimal'
@@ -110,6 +114,34 @@ def run(requests):
     return out
 
 
+def switch_effect(requests, **more):
+    """
+    Return (changed, ratios): the plans without limits END_JERK_SIGN changes, True over False.
+
+    ``ratios`` per changed plan: duration, 4 Hz peak and residual, 8 Hz
+    peak and residual (``more``: plan() arguments, e.g. a vibration_frequency).
+    """
+    ratios, changed = [], 0
+    saved = inner_knots.END_JERK_SIGN
+    for points, limits in requests:
+        plans = []
+        for flag in (False, True):
+            inner_knots.END_JERK_SIGN = flag
+            try:
+                plans.append(plan(points, '555', 'optimal', **limits, **more))
+            finally:
+                inner_knots.END_JERK_SIGN = saved
+        before, after = plans
+        if before.ppoly.c.shape == after.ppoly.c.shape and np.array_equal(before.ppoly.c,
+                                                                          after.ppoly.c):
+            continue
+        changed += 1
+        amax = limits['max_acceleration']
+        ratios.append(figures_of(of_trajectory(after), after.duration, amax)
+                      / figures_of(of_trajectory(before), before.duration, amax))
+    return changed, np.array(ratios)
+
+
 def main():
     """Draw the requests, plan each with and without limits, print the tables."""
     logging.getLogger('toppra').setLevel(logging.ERROR)
@@ -139,6 +171,17 @@ def main():
               f'{n_cases} | {len(out[KNOTS_ONLY])} | {len(out[TIME_OPTIMAL])} |')
     names = ['duration'] + [f'{f:g} Hz {kind}' for f in FREQUENCIES
                             for kind in ('peak', 'residual')]
+    print()
+    print('The same requests without limits: the plans END_JERK_SIGN changes, True over False '
+          '(median, range):')
+    print('| plan | changed | ' + ' | '.join(names) + ' |')
+    print('|' + '---|' * (len(names) + 2))
+    for label, more in (('default', {}), (f'vibration_frequency={SHAPED:g}',
+                                          {'vibration_frequency': SHAPED})):
+        changed, ratios = switch_effect(requests, **more)
+        cells = (' | '.join(f'{np.median(c):.4g} ({c.min():.4g}-{c.max():.4g})'
+                            for c in ratios.T) if changed else ' | '.join('-' for _ in names))
+        print(f'| {label} | {changed} of {n_cases} | {cells} |')
     for flag, out in runs.items():
         if not out['planning']:
             continue
