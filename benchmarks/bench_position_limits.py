@@ -20,7 +20,7 @@ through the waypoints, v/a only): duration, shaking of a 4 Hz and an 8 Hz
 mode (peak while moving and residual after the stop, benchmarks/shaking.py)
 and planning time (one call each, in turn).  Last, what the switch does to
 the same requests' plans without limits (the default and
-``vibration_frequency`` 4 Hz): the ratios of the plans it changes.
+``vibration_frequency`` 4 and 1.5 Hz): the ratios of the plans it changes.
 
 Run: ``python benchmarks/bench_position_limits.py`` (part of ``make bench``;
 ``SPLINES445_BENCH_SEED`` repeats a run, ``SPLINES445_BENCH_CASES`` sets the
@@ -45,8 +45,8 @@ N_CASES = 80
 CASES_STREAM = 61
 # A smoothed plan past its range by less than this [rad] creeps; more is a swing.
 CREEP = 1e-3
-# The vibration_frequency [Hz] of the switch's second row.
-SHAPED = 4.0
+# The vibration_frequency [Hz] of the switch's other rows.
+SHAPED = (4.0, 1.5)
 # The two other plans, by what their speed_profile_reason says.
 KNOTS_ONLY = 'knots at the waypoints only'
 TIME_OPTIMAL = 'time_optimal'
@@ -137,8 +137,15 @@ def switch_effect(requests, **more):
             continue
         changed += 1
         amax = limits['max_acceleration']
-        ratios.append(figures_of(of_trajectory(after), after.duration, amax)
-                      / figures_of(of_trajectory(before), before.duration, amax))
+        row = (figures_of(of_trajectory(after), after.duration, amax)
+               / figures_of(of_trajectory(before), before.duration, amax))
+        mode = more.get('vibration_frequency')
+        if mode:
+            # The residual at the mode the plan cancels.
+            at = [shaking_figures(of_trajectory(t), t.duration, amax, (mode,))[mode][1]
+                  for t in (after, before)]
+            row = np.append(row, at[0] / at[1])
+        ratios.append(row)
     return changed, np.array(ratios)
 
 
@@ -174,14 +181,14 @@ def main():
     print()
     print('The same requests without limits: the plans END_JERK_SIGN changes, True over False '
           '(median, range):')
-    print('| plan | changed | ' + ' | '.join(names) + ' |')
-    print('|' + '---|' * (len(names) + 2))
-    for label, more in (('default', {}), (f'vibration_frequency={SHAPED:g}',
-                                          {'vibration_frequency': SHAPED})):
+    print('| plan | changed | ' + ' | '.join(names) + ' | residual at its mode |')
+    print('|' + '---|' * (len(names) + 3))
+    for label, more in [('default', {})] + [(f'vibration_frequency={f:g}',
+                                             {'vibration_frequency': f}) for f in SHAPED]:
         changed, ratios = switch_effect(requests, **more)
-        cells = (' | '.join(f'{np.median(c):.4g} ({c.min():.4g}-{c.max():.4g})'
-                            for c in ratios.T) if changed else ' | '.join('-' for _ in names))
-        print(f'| {label} | {changed} of {n_cases} | {cells} |')
+        cells = [f'{np.median(c):.4g} ({c.min():.4g}-{c.max():.4g})' for c in ratios.T]
+        cells += ['-'] * (len(names) + 1 - len(cells))
+        print(f'| {label} | {changed} of {n_cases} | ' + ' | '.join(cells) + ' |')
     for flag, out in runs.items():
         if not out['planning']:
             continue

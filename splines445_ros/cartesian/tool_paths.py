@@ -351,7 +351,7 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
         try:
             found = _tool_lines(edge_poses[close], (np.cumsum(close) - 1)[waypoint_knots],
                                 kinematics, (tol_position, tol_orientation), speeds,
-                                max_inserted, options)
+                                max_inserted, options, kept_index[close])
         except LineUnreachable as exc:
             # A tool waypoint out of reach is named as such (as the refinement does).
             _inverse(kinematics, request, lambda k: f'tool waypoint {k}')
@@ -498,13 +498,15 @@ def _speed_limit(name, value):
 
 
 def _tool_lines(edge_poses, waypoint_knots, kinematics, tolerances, speeds, max_inserted,
-                options):
+                options, names):
     """
     Return the :class:`ToolPath` of :func:`tool_lines.plan_tool_lines`, or None to refine instead.
 
     None when that construction fails without a tool speed limit (the
     refinement then names the problem); with one its error is raised, a
-    line out of reach as the :class:`tool_lines.LineUnreachable`.
+    line out of reach as the :class:`tool_lines.LineUnreachable`.  A tool
+    waypoint whose joints lie beyond the position limits is named
+    (``names``: each edge pose's index among the request's waypoints).
     """
     segment_edges = np.arange(len(edge_poses) - 1)
 
@@ -530,6 +532,7 @@ def _tool_lines(edge_poses, waypoint_knots, kinematics, tolerances, speeds, max_
         if any(speeds):
             raise
         return None
+    _joints_within(found.joints, options, lambda k: f'tool waypoint {names[k]}')
     within_position_limits(found.trajectory, options.min_position, options.max_position,
                            options.joint_names)
     return ToolPath(found.trajectory, edge_poses, found.joints, waypoint_knots, segment_edges,

@@ -42,9 +42,11 @@ Construction (:func:`plan_with_inner_knots`):
    (:mod:`continuity_system`) over all knots, with the request's boundary
    values; every piece is the quintic of eqs. (13)-(23) between its knots'
    position, velocity and acceleration.  Rest to rest with windows, the
-   first and last inner knots are then moved a hair where a joint's jerk
-   at a rest end points against the path, so that no joint starts or
-   stops the wrong way (:meth:`KnotCandidate._end_jerks_along_path`).
+   inner knots next to the ends are then moved where a joint's jerk at a
+   rest end points against the path, so that no joint starts or stops the
+   wrong way (:meth:`KnotCandidate._end_jerks_along_path`); step 7's
+   knots-only candidate, with no inner knot to move, does not replace a
+   spline that runs along the path if it does not.
 5. Exact limits.  The peaks are exact (:mod:`peaks`, roots of the derivative
    polynomials).  A rest-to-rest spline whose durations are all multiplied
    by ``f`` has peaks ``v / f``, ``a / f**2``, ``j / f**3``, so the factor
@@ -409,6 +411,7 @@ class KnotCandidate:
             coeffs = spline_coefficients('555', self.positions, pieces, boundary)
         except ValueError:
             return
+        self.against_path = False
         if rest and path.windows and END_JERK_SIGN:
             coeffs = self._end_jerks_along_path(coeffs, pieces, path)
         self.factors, self.ratios = exact_factors(coeffs, pieces, limits)
@@ -444,36 +447,61 @@ class KnotCandidate:
         Step 4 with windows, rest to rest.  The spline's jerk at a rest end
         follows from the whole spline; the averaged profile's is 0 there
         (its acceleration ramps in over a window), so its sign is an
-        accident of the fit, and a joint whose jerk points against the
-        path's tangent starts (or ends) the wrong way: 1e-7-1e-4 rad, past a
-        start on a position limit (``benchmarks/bench_position_limits.py``).
-        The first and last inner knots are moved, per joint, to set such a
-        jerk to 0: the spline is linear in its knot positions, so one solve
-        with unit positions gives the move (a hair: the jerk was a
-        round-off of the fit).  The spline then still passes every waypoint
-        and the path's ends, and step 5 scales it to its limits as before.
+        accident of the fit (a few % of the limit), and a joint whose jerk
+        points against the path's tangent starts (or ends) the wrong way:
+        1e-7-1e-3 rad, past a start on a position limit
+        (``benchmarks/bench_position_limits.py``).  The inner knot next to
+        each such end is moved, per joint, to set that jerk to 0: the spline
+        is linear in its knot positions, so one solve with unit positions
+        gives the move (up to 1e-2 rad at a knot tens of milliseconds from
+        the end).  With an inner knot next to both ends both are set at
+        once; with one, it sets its own end where that does not turn the
+        other against the path.  The spline still passes every waypoint and
+        the path's ends, and step 5 scales it to its limits as before.
+        ``against_path`` says whether a joint still starts or stops the wrong
+        way (no inner knot to move).
         """
-        first, last = 1, self.positions.shape[0] - 2
-        if not (self.counts[0] > 0 and self.counts[-1] > 0) or first >= last:
-            return coeffs
         h = pieces[-1]
 
         def end_jerks(c):
             return np.stack([6.0 * c[0, 3], 6.0 * c[-1, 3] + 24.0 * c[-1, 4] * h
                              + 60.0 * c[-1, 5] * h * h])
 
-        jerks = end_jerks(coeffs)                                   # (2, n)
-        tangent = np.stack([path.ppoly(path.s[0], 1), path.ppoly(path.s[-1], 1)])
-        wrong = jerks * np.sign(tangent) < 0.0
+        jerks = end_jerks(coeffs)                                   # (2 ends, n)
+        sign = np.sign(np.stack([path.ppoly(path.s[0], 1), path.ppoly(path.s[-1], 1)]))
+        wrong = jerks * sign < 0.0
         if not np.any(wrong):
             return coeffs
-        unit = np.zeros((self.positions.shape[0], 2))
-        unit[first, 0] = unit[last, 1] = 1.0
-        units = spline_coefficients('555', unit, pieces, (np.zeros(2),) * 4)
-        sensitivity = end_jerks(units)                              # (2 ends, 2 knots)
-        moves = np.linalg.solve(sensitivity, -np.where(wrong, jerks, 0.0))  # (2 knots, n)
-        self.positions[[first, last]] += moves
-        return coeffs + units[..., 0, None] * moves[0] + units[..., 1, None] * moves[1]
+        # The inner knot next to each end (None: its segment has none).
+        near = [1 if self.counts[0] > 0 else None,
+                self.positions.shape[0] - 2 if self.counts[-1] > 0 else None]
+        knots = sorted({k for k in near if k is not None})
+        if not knots:
+            self.against_path = True
+            return coeffs
+        unit = np.zeros((self.positions.shape[0], len(knots)))
+        unit[knots, np.arange(len(knots))] = 1.0
+        units = spline_coefficients('555', unit, pieces, (np.zeros(len(knots)),) * 4)
+        sensitivity = end_jerks(units)                              # (2 ends, knots)
+        if len(knots) == 2:
+            moves = np.linalg.solve(sensitivity, -np.where(wrong, jerks, 0.0))
+        else:
+            # One knot: per joint, the one wrong end it is next to.
+            serves = np.array([near[e] == knots[0] for e in (0, 1)])[:, None] & wrong
+            end = np.argmax(serves, axis=0)                         # (n,)
+            n = np.arange(jerks.shape[1])
+            move = np.where(serves.sum(axis=0) == 1, -jerks[end, n] / sensitivity[end, 0], 0.0)
+            other = 1 - end
+            turned = ((jerks[other, n] + sensitivity[other, 0] * move) * sign[other, n] < 0.0
+                      ) & ~wrong[other, n]
+            move = np.where(turned, 0.0, move)
+            moves = move[None, :]
+            wrong[end, n] &= move == 0.0
+        if len(knots) == 2:
+            wrong[:] = False
+        self.against_path = bool(np.any(wrong))
+        self.positions[knots] += moves
+        return coeffs + np.einsum('skm,mn->skn', units, moves)
 
     def better_than(self, other):
         """Whether this candidate is to be kept over ``other`` (None or a candidate)."""
@@ -626,10 +654,13 @@ def _construct(problem, knots_only=True, give_up=None):
     # The same timing with knots at the waypoints only, for the requests
     # (few segments, one joint reversing) where that is shorter: on the
     # profiles of the best factors and of the first ones, both built already.
+    # (Not one that starts or stops a joint the wrong way, step 4, where the best
+    # does not: with a vibration_frequency such a tie went to it by 0.1 %.)
     for profile in (best.profile, start) if knots_only else ():
         candidate = KnotCandidate(problem, profile.local, np.zeros_like(best.counts),
                                   profile=profile)
-        if candidate.valid and candidate.better_than(best):
+        if (candidate.valid and candidate.better_than(best)
+                and best.against_path >= candidate.against_path):
             best = candidate
     if not best.feasible:
         best = _with_margin(problem, best)

@@ -269,14 +269,16 @@ def test_demo_table_and_figure(tmp_path):
         assert handle.read(8) == b'\x89PNG\r\n\x1a\n'
 
 
+@pytest.mark.parametrize('method, timing', [('445', 'uniform'), ('555', 'optimal')])
 @pytest.mark.parametrize('side', ['max', 'min'])
-def test_a_tool_waypoint_beyond_the_position_limits_is_named_at_once(side):
+def test_a_tool_waypoint_beyond_the_position_limits_is_named_at_once(side, method, timing):
     """
     A tool waypoint whose joints lie beyond a limit: refused naming it, before any refinement.
 
     The refinement checks only the plan it ends with; inserting waypoints
     around one that the plan must pass outside the limits cannot help (found
-    in review: 200 insertions, then a deviation error).  The limit goes
+    in review: 200 insertions, then a deviation error); the tool lines (555
+    optimal) named the joint and a time only.  The limit goes
     just inside the waypoint that sets its joint's range (by the joints the
     inverse kinematics gives).
     """
@@ -295,6 +297,6 @@ def test_a_tool_waypoint_beyond_the_position_limits_is_named_at_once(side):
         low[j] = joints[k, j] + 0.05
     words = 'above max' if side == 'max' else 'below min'
     with pytest.raises(ValueError, match=rf'tool waypoint {k} needs joint {j} at .* {words}'):
-        plan_tool_path(poses, ARM, 1e-4, method='445', timing='uniform',
+        plan_tool_path(poses, ARM, 1e-4, method=method, timing=timing,
                        max_velocity=[1.0] * 3, max_acceleration=[3.0] * 3,
                        min_position=low, max_position=high)
