@@ -298,7 +298,7 @@ def _other_profile_within(points, durations, options, traj, leaves):
     the knots-only optimum (when it beats the inner-knot plan) can start a
     joint a hair the wrong way from a rest start on a limit, and each
     profile's path swings out its own way between waypoints
-    (``benchmarks/bench_position_limits.py``: 1-2 of 80 moves from limit
+    (``benchmarks/bench_position_limits.py``: 3-6 of 80 moves from limit
     to limit; the inner-knot construction itself no longer creeps, step 4
     of :mod:`inner_knots`).  Tried in turn, for 555 optimal where
     :func:`_instead` allows it:
