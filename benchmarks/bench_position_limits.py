@@ -18,9 +18,10 @@ the limits and how, and on those planned another way, the plan over the smoothed
 plan the same request gets without limits and over TOPP-RA (its spline
 through the waypoints, v/a only): duration, shaking of a 4 Hz and an 8 Hz
 mode (peak while moving and residual after the stop, benchmarks/shaking.py)
-and planning time (one call each, in turn).  Last, what the switch does to
-the same requests' plans without limits (the default and
-``vibration_frequency`` 4 and 1.5 Hz): the ratios of the plans it changes.
+and planning time (one call each, in turn).  Printed second, before those
+tables: what the switch does to the same requests' plans without limits
+(the default and ``vibration_frequency`` 4 and 1.5 Hz), the ratios of the
+plans it changes.
 
 Run: ``python benchmarks/bench_position_limits.py`` (part of ``make bench``;
 ``SPLINES445_BENCH_SEED`` repeats a run, ``SPLINES445_BENCH_CASES`` sets the

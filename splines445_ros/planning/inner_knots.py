@@ -44,7 +44,8 @@ Construction (:func:`plan_with_inner_knots`):
    position, velocity and acceleration.  Rest to rest with windows, the
    inner knots next to the ends are then moved where a joint's jerk at a
    rest end points against the path, so that no joint starts or stops the
-   wrong way (:meth:`KnotCandidate._end_jerks_along_path`); step 7's
+   wrong way where such a knot sits next to that end
+   (:meth:`KnotCandidate._end_jerks_along_path`); step 7's
    knots-only candidate, with no inner knot to move, does not replace a
    spline that runs along the path if it does not.
 5. Exact limits.  The peaks are exact (:mod:`peaks`, roots of the derivative
@@ -108,7 +109,8 @@ from .trajectory import REBUILD_RTOL, representable_durations, require_finite, T
 TORQUE_GRID_STEPS = 20
 TORQUE_MIN_GAIN = 1e-2
 # Step 4 with windows: no joint's jerk at a rest end against the path
-# (:meth:`KnotCandidate._end_jerks_along_path`; False: as the fit gives it).
+# (:meth:`KnotCandidate._end_jerks_along_path`; False: as the fit gives it,
+# and step 7's knots-only candidate may replace a spline that runs along it).
 END_JERK_SIGN = True
 # Grid steps per segment of the speed profile (step 2).
 GRID_STEPS = 24

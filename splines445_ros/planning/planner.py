@@ -157,10 +157,11 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         leaves them (a knots-only optimum that starts a joint a hair the
         wrong way from a start on its limit, a path that swings out),
         the knots-only optimum, then "time_optimal", is returned instead
-        when it stays within them, and "time_optimal" asked for gives way
-        to "smoothed" likewise: not with ``inner_knots``, ``smoothing`` or a
-        ``vibration_frequency`` given, above :data:`SMALL_REQUEST`
-        waypoints, or where a moving end heads past a limit it sits on.  The
+        when it stays within them (not with ``inner_knots``, ``smoothing``
+        or a ``vibration_frequency`` given), and "time_optimal" asked for
+        gives way to "smoothed" likewise; neither above
+        :data:`SMALL_REQUEST` waypoints, or where a moving end heads past a
+        limit it sits on.  The
         plan says so (``optimizer['speed_profile_reason']``, or
         ``['speed_profile_skipped']`` when time_optimal was asked for).
     inner_knots : int, 0 to 8, or None

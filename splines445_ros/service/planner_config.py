@@ -178,9 +178,10 @@ class PlannerConfig(ValidatedConfig):
         'exact duplicates only.', low=0.0, high=MAX_WAYPOINT_TOLERANCE)
     min_position: Tuple[float, ...] = parameter(
         (), 'Per-joint lower position limit [rad or m], checked exactly on every plan, which '
-        'is rejected with the joint, time and excess when it leaves them (555 optimal: '
-        'after the knots-only optimum and the other `speed_profile` were tried, see '
-        '`speed_profile_reason`); empty (the '
+        'is rejected with the joint, time and excess when it leaves them (joint requests with '
+        '555 optimal and at most 30 waypoints: after other plans were tried, the knots-only '
+        'optimum and the other `speed_profile`, as doc/methods.md says; see '
+        '`speed_profile_reason` and `speed_profile_skipped`); empty (the '
         'default) = none; `-.inf` for a joint without one; integers as typed are fine.')
     max_position: Tuple[float, ...] = parameter(
         (), 'Per-joint upper position limit [rad or m], as `min_position`; `.inf` for a joint '
@@ -234,7 +235,8 @@ class PlannerConfig(ValidatedConfig):
         'most '
         f'{MAX_TIME_OPTIMAL_WAYPOINTS} waypoints; where it finds no spline (a moving state it '
         'cannot keep, a joint reversing alone) or its plan leaves `min_position` / '
-        "`max_position` and `smoothed`'s does not, the plan is `smoothed`'s, with a warning. "
+        "`max_position` and `smoothed`'s does not (at most 30 waypoints, not where a moving "
+        "end heads past a limit it sits on), the plan is `smoothed`'s, with a warning. "
         '`smoothing` and `inner_knots` are refused with it (it would ignore them); '
         '`vibration_frequency` cancels the ringing of a mode at it after the stop. On '
         'tool_waypoints requests '
