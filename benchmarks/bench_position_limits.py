@@ -40,7 +40,7 @@ import bench_seeds  # noqa: E402, I100
 import numpy as np  # noqa: E402, I100
 from shaking import FREQUENCIES, of_toppra, of_trajectory, shaking_figures  # noqa: E402
 from splines445_ros.planning import inner_knots, plan  # noqa: E402
-from splines445_ros.planning.planner import POSITION_LIMIT_RTOL  # noqa: E402
+from splines445_ros.planning.planner import position_limit_slack  # noqa: E402
 
 N_CASES = 80
 CASES_STREAM = 61
@@ -90,7 +90,7 @@ def run(requests):
         low, high = points.min(axis=0), points.max(axis=0)
         t_free, free = timed(lambda: plan(points, '555', 'optimal', **limits))
         q_low, q_high = free.position_extrema()[:2]
-        slack = POSITION_LIMIT_RTOL * np.maximum(1.0, np.abs(np.concatenate([low, high])))
+        slack = position_limit_slack(low, high).ravel()
         beyond = np.concatenate([low - q_low, q_high - high])
         if np.any(beyond > slack):
             out['excess'].append(float(beyond.max()))

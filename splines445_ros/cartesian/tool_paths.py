@@ -68,7 +68,8 @@ from .tool_lines import edge_geometry, LineUnreachable, plan_tool_lines
 from ..planning import merge_duplicates
 from ..planning.path_constraints import GravityOverload
 from ..planning.plan_options import PlanOptions, smoothing_windows
-from ..planning.planner import plan_with_options, POSITION_LIMIT_RTOL, within_position_limits
+from ..planning.planner import (joint_label, plan_with_options, position_limit_slack,
+                                within_position_limits)
 from ..planning.validation import waypoint_array
 from ..robot import rotations as rot
 
@@ -234,12 +235,12 @@ def _joints_within(joints, options, describe):
     low, high = options.min_position, options.max_position
     if low is None:
         return
-    slack = POSITION_LIMIT_RTOL * np.maximum(1.0, np.abs(np.stack([low, high])))
+    slack = position_limit_slack(low, high)
     bad = (joints < low - slack[0]) | (joints > high + slack[1])
     if not np.any(bad):
         return
     k, j = (int(i) for i in np.argwhere(bad)[0])
-    joint = f'joint {j}' + ('' if options.joint_names is None else f' ({options.joint_names[j]})')
+    joint = joint_label(j, options.joint_names)
     side, limit = (('below min_position', low[j]) if joints[k, j] < low[j]
                    else ('above max_position', high[j]))
     raise ValueError(f'{describe(k)} needs {joint} at {joints[k, j]:.6g}, {side}[{j}] = '

@@ -487,6 +487,7 @@ class KnotCandidate:
         sensitivity = end_jerks(units)                              # (2 ends, knots)
         if len(knots) == 2:
             moves = np.linalg.solve(sensitivity, -np.where(wrong, jerks, 0.0))
+            wrong[:] = False
         else:
             # One knot: per joint, the one wrong end it is next to.
             serves = np.array([near[e] == knots[0] for e in (0, 1)])[:, None] & wrong
@@ -499,8 +500,6 @@ class KnotCandidate:
             move = np.where(turned, 0.0, move)
             moves = move[None, :]
             wrong[end, n] &= move == 0.0
-        if len(knots) == 2:
-            wrong[:] = False
         self.against_path = bool(np.any(wrong))
         self.positions[knots] += moves
         return coeffs + np.einsum('skm,mn->skn', units, moves)

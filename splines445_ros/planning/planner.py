@@ -376,7 +376,7 @@ def _heads_past_a_limit(points, options):
     """
     low, high = options.min_position, options.max_position
     v0, a0, v1, a1 = options.boundary
-    slack = POSITION_LIMIT_RTOL * np.maximum(1.0, np.abs(np.stack([low, high])))
+    slack = position_limit_slack(low, high)
     for q, v, a, sign in ((points[0], v0, a0, 1.0), (points[-1], v1, a1, -1.0)):
         up = sign * v > 0.0
         up |= (v == 0.0) & (a > 0.0)
@@ -418,18 +418,33 @@ def within_position_limits(traj, low, high, joint_names=None):
         return
     q_low, q_high, t_low, t_high = traj.position_extrema()
     excess = np.stack([low - q_low, q_high - high])
-    # A velocity root a hair inside a segment next to a knot that sits on a
-    # limit can evaluate an ulp past it: round-off, not a violation.
-    slack = POSITION_LIMIT_RTOL * np.maximum(1.0, np.abs(np.stack([low, high])))
-    if np.all(excess <= np.where(np.isfinite(slack), slack, 0.0)):
+    if np.all(excess <= position_limit_slack(low, high)):
         return
     side, j = np.unravel_index(int(np.argmax(excess)), excess.shape)
-    joint = f'joint {j}' + ('' if joint_names is None else f' ({joint_names[j]})')
+    joint = joint_label(j, joint_names)
     if side == 0:
         raise ValueError(f'{joint} goes to {q_low[j]:.6g} at t = {t_low[j]:.6g} s, '
                          f'{excess[0, j]:.3g} below min_position[{j}] = {low[j]:g}')
     raise ValueError(f'{joint} goes to {q_high[j]:.6g} at t = {t_high[j]:.6g} s, '
                      f'{excess[1, j]:.3g} above max_position[{j}] = {high[j]:g}')
+
+
+def position_limit_slack(low, high):
+    """
+    Return (2, n): how far past ``low`` and ``high`` a position is still within them.
+
+    A velocity root a hair inside a segment next to a knot that sits on a
+    limit can evaluate an ulp past it: round-off, not a violation
+    (:data:`POSITION_LIMIT_RTOL`, relative to the limit, at least 1); 0 on
+    an unbounded side.
+    """
+    slack = POSITION_LIMIT_RTOL * np.maximum(1.0, np.abs(np.stack([low, high])))
+    return np.where(np.isfinite(slack), slack, 0.0)
+
+
+def joint_label(j, joint_names=None):
+    """Return how errors name joint ``j``: ``joint 1``, or ``joint 1 (shoulder)`` with names."""
+    return f'joint {j}' + ('' if joint_names is None else f' ({joint_names[j]})')
 
 
 def _torque_limited(traj, torque, to_beat=None):

@@ -14,8 +14,7 @@ import numpy as np
 from ..cartesian.tool_paths import plan_tool_path
 from ..planning.path_constraints import GravityOverload
 from ..planning.plan_options import BOUNDARY_NAMES, PlanOptions
-from ..planning.planner import (check_position_limits, LEAVES_POSITION_LIMITS,
-                                NO_INNER_KNOT_SPLINE, plan_with_options)
+from ..planning.planner import LEAVES_POSITION_LIMITS, NO_INNER_KNOT_SPLINE, plan_with_options
 from ..planning.validation import waypoint_array
 from ..robot.user_text import format_vector
 
@@ -95,7 +94,6 @@ def plan_request(config, request, torque=None):
         if torque is None or config.timing != 'fixed' or isinstance(exc, GravityOverload):
             raise
         raise _named_joint(exc, config.joint_names) from exc
-    check_config_position_limits(traj, config)
     if not traj.within_limits(rtol=FIXED_TIMING_RTOL):
         b = traj.binding
         raise ValueError(
@@ -137,18 +135,6 @@ def plan_options(config, n_joints, boundary=(None,) * 4, torque=None):
         inverse_dynamics=None if torque is None else torque.inverse_dynamics,
         min_position=config.min_position or None, max_position=config.max_position or None,
         joint_names=config.joint_names)
-
-
-def check_config_position_limits(traj, config):
-    """
-    Raise ValueError when ``traj`` leaves the position limits of ``config`` (a joint named).
-
-    The limits (``min_position``, ``max_position``; empty = none) were
-    validated with the config; :func:`planner.check_position_limits` fills
-    the unset side with infinities and compares.
-    """
-    check_position_limits(traj, config.min_position or None, config.max_position or None,
-                          config.joint_names)
 
 
 def _named_joint(exc, joint_names):
@@ -229,7 +215,6 @@ def plan_tool_poses(config, poses, kinematics, torque=None):
                                max_tool_angular_speed=config.max_tool_angular_speed,
                                max_tool_acceleration=config.max_tool_acceleration,
                                options=options)
-    check_config_position_limits(tool_path.trajectory, config)
     return tool_path
 
 
