@@ -15,9 +15,9 @@ j = 10 a), no torque limit:
 * ours: ``plan(points, '555', 'optimal', **arm.plan_limits())``, the
   default (inner knots, smoothing windows); the same with
   ``vibration_frequency=4``; and with ``speed_profile='time_optimal'``
-  (``planning/time_optimal.py``: the third-order profile followed by a C4
+  (``planning/path_following/time_optimal.py``: the third-order profile followed by a C4
   spline), also with ``vibration_frequency=4`` (the mode's ringing after
-  the stop cancelled by the profile, ``planning/residual_vibration.py``);
+  the stop cancelled by the profile, ``planning/speed_profile/residual_vibration.py``);
 * TOPP-RA: as in ``bench_inner_knots`` (``bench_planning.toppra_trajectory``:
   toppra's spline through the waypoints, v/a, its default grid; no jerk
   limit).
@@ -30,9 +30,9 @@ median / worst over the arm's paths.  Planning times: best of
 ``vibration_frequency`` plans once each).  Then, per arm, what a speed
 profile alone could reach on the path the construction starts from
 (:func:`profile_bounds`: the natural cubic through the waypoints at their
-rest-to-rest times, step 1 of ``planning/inner_knots.py``), over TOPP-RA's
-duration: the fastest v/a profile (``planning/path_velocity.py``), and the
-fastest v/a/j one that the sequential LPs of ``planning/jerk_profile.py``
+rest-to-rest times, step 1 of ``planning/path_following/inner_knots.py``), over TOPP-RA's
+duration: the fastest v/a profile (``planning/speed_profile/path_velocity.py``), and the
+fastest v/a/j one that the sequential LPs of ``planning/speed_profile/jerk_profile.py``
 find (their jerk rows are conservative: a profile that holds the jerk
 limits on the grid, not a lower bound).  Their ratio is the price of the
 jerk limit on that path; our duration over the v/a/j one is what the
@@ -56,13 +56,14 @@ import numpy as np  # noqa: E402, I100
 import own_path  # noqa: E402, I100
 from shaking import of_toppra, shaking_figures, shaking_ratios  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
-from splines445_ros.planning.inner_knots import first_path, GRID_STEPS  # noqa: E402
-from splines445_ros.planning.jerk_profile import ThirdOrderProfile  # noqa: E402
-from splines445_ros.planning.limits import JointLimits  # noqa: E402
-from splines445_ros.planning.path_constraints import (  # noqa: E402
+from splines445_ros.planning.constraints.path_constraints import (  # noqa: E402
     GriddedPath, JointAcceleration, JointJerk, JointVelocity)
-from splines445_ros.planning.path_velocity import PathLimits, traversal_times  # noqa: E402
-from splines445_ros.planning.timing import rest_to_rest_durations  # noqa: E402
+from splines445_ros.planning.durations.timing import rest_to_rest_durations  # noqa: E402
+from splines445_ros.planning.path_following.inner_knots import first_path, GRID_STEPS  # noqa: E402
+from splines445_ros.planning.speed_profile.jerk_profile import ThirdOrderProfile  # noqa: E402
+from splines445_ros.planning.speed_profile.path_velocity import (  # noqa: E402
+    PathLimits, traversal_times)
+from splines445_ros.planning.spline.limits import JointLimits  # noqa: E402
 from wall_time import best_of, interleaved_best_of  # noqa: E402
 
 CASES = 10
@@ -77,7 +78,7 @@ def construction_path(knots, points, steps=GRID_STEPS):
     """
     Return (q(s), s): the natural cubic through ``points`` at ``knots``, and its grid.
 
-    Step 1's path of ``planning/inner_knots.py`` when ``knots`` are the
+    Step 1's path of ``planning/path_following/inner_knots.py`` when ``knots`` are the
     cumulative rest-to-rest times (:func:`rest_to_rest_knots`); the grid has
     ``steps`` steps per segment (``inner_knots.GRID_STEPS``): plan()'s
     own :func:`inner_knots.first_path`, rest to rest.

@@ -9,9 +9,9 @@ default grid), the lower bound LB of the issue, and 555 optimal with knots
 at the waypoints only (``inner_knots=0``, before the issue) and with inner
 knots (the default), for no jerk limit, j = 20 a and j = 5 a, plus the
 default with ``vibration_frequency=4`` and ``speed_profile='time_optimal'``
-(``planning/time_optimal.py``) with no jerk limit and at j = 20 a, and
+(``planning/path_following/time_optimal.py``) with no jerk limit and at j = 20 a, and
 time_optimal with ``vibration_frequency=4`` (the mode's ringing after the
-stop cancelled by its profile, ``planning/residual_vibration.py``).
+stop cancelled by its profile, ``planning/speed_profile/residual_vibration.py``).
 
 Every plan's figures (issue 38, ``bench_figures.py``), each over TOPP-RA's
 on the same case: the duration; the duration over TOPP-RA's along our own

@@ -7,7 +7,7 @@ Fresh random rest-to-rest requests every run (``bench_seeds``), drawn as
 (555 optimal, inner knots, the second-order profile pulled back by its
 rounds), and ``inner_knots.plan_with_inner_knots(..., third_order=True)``
 with 8 inner knots at most and three choices of smoothing windows: the
-profile then holds the jerk limits itself (:mod:`planning.jerk_profile`).
+profile then holds the jerk limits itself (:mod:`planning.speed_profile.jerk_profile`).
 Every row prints the figures of ``bench_figures.NAMES`` (duration over
 TOPP-RA's and over TOPP-RA's along our own path, shaking at 4 and 8 Hz,
 planning time over TOPP-RA's), median and worst.
@@ -31,8 +31,8 @@ import numpy as np  # noqa: E402
 import own_path  # noqa: E402
 from shaking import of_toppra, shaking_figures, shaking_ratios  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
-from splines445_ros.planning.inner_knots import plan_with_inner_knots  # noqa: E402
-from splines445_ros.planning.limits import JointLimits  # noqa: E402
+from splines445_ros.planning.path_following.inner_knots import plan_with_inner_knots  # noqa: E402
+from splines445_ros.planning.spline.limits import JointLimits  # noqa: E402
 
 N_CASES = 12
 JERK_RATIO = 20.0

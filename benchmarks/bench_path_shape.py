@@ -53,11 +53,13 @@ import bench_seeds  # noqa: E402
 import numpy as np  # noqa: E402
 import path_shape  # noqa: E402
 from shaking import of_toppra, shaking_figures, shaking_ratios  # noqa: E402
-from splines445_ros.planning import inner_knots, plan  # noqa: E402
-from splines445_ros.planning.natural_cubic import natural_cubic_spline  # noqa: E402
-from splines445_ros.planning.path_constraints import (  # noqa: E402
+from splines445_ros.planning import plan  # noqa: E402
+from splines445_ros.planning.constraints.path_constraints import (  # noqa: E402
     GriddedPath, JointAcceleration, JointVelocity)
-from splines445_ros.planning.path_velocity import PathLimits, traversal_times  # noqa: E402
+from splines445_ros.planning.path_following import inner_knots  # noqa: E402
+from splines445_ros.planning.speed_profile.path_velocity import (  # noqa: E402
+    PathLimits, traversal_times)
+from splines445_ros.planning.spline.natural_cubic import natural_cubic_spline  # noqa: E402
 from wall_time import interleaved_best_of  # noqa: E402
 
 N_CASES = 8

@@ -7,7 +7,7 @@ joints, steps of 0.3-1 rad, v 1-3, a 5-15, j = 20 a), with
 starts on one limit and ends on the other.  The smoothed inner-knot
 spline used to start some joint a hair the wrong way on more than half of
 them (its jerk at a rest end was whatever the fit gave); step 4 of
-``planning/inner_knots.py`` now sets such a jerk to 0
+``planning/path_following/inner_knots.py`` now sets such a jerk to 0
 (``END_JERK_SIGN``; both are run, on the same requests).  Where a plan
 still leaves the limits, plan() gives the knots-only optimum's plan, or the
 time-optimal profile's (``planner._other_profile_within``).
@@ -39,7 +39,8 @@ from bench_planning import toppra_trajectory  # noqa: E402
 import bench_seeds  # noqa: E402, I100
 import numpy as np  # noqa: E402, I100
 from shaking import FREQUENCIES, of_toppra, of_trajectory, shaking_figures  # noqa: E402
-from splines445_ros.planning import inner_knots, plan  # noqa: E402
+from splines445_ros.planning import plan  # noqa: E402
+from splines445_ros.planning.path_following import inner_knots  # noqa: E402
 from splines445_ros.planning.planner import position_limit_slack  # noqa: E402
 
 N_CASES = 80

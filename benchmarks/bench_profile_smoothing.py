@@ -4,12 +4,12 @@ Smoothing by the third-order profile itself instead of box windows (issue 38), o
 plan()'s default averages its second-order profile over two box windows
 (0.3 + 0.15 s): that keeps the 4 Hz shaking low, costs about W in duration,
 and the averaged profile is not feasible, so relaxation rounds pull it back.
-The question here: can the third-order profile (:mod:`planning.jerk_profile`)
+The question here: can the third-order profile (:mod:`planning.speed_profile.jerk_profile`)
 provide that smoothing itself?  Its jerk rows are held at a *smoothing jerk*
 ``j_s = min(j, c a / W)`` per joint (an acceleration swing of ``a`` then
 takes at least ``W / c``, as a box of width ``W`` spreads a step over ``W``),
 with no windows, while the final spline only holds the true limits (v, a and
-j = 20 a: step 5 of :mod:`planning.inner_knots` scales to those).  A second
+j = 20 a: step 5 of :mod:`planning.path_following.inner_knots` scales to those).  A second
 family bounds the rate of the *path* acceleration instead, ``|d sddot / dt| <=
 c u_max(s) / W`` with ``u_max(s) = min_j a_j / |q'_j(s)|`` (the tangential
 part of the joint jerk only; the true joint jerk rows stay).
@@ -57,11 +57,14 @@ import bench_seeds  # noqa: E402
 import numpy as np  # noqa: E402
 import own_path  # noqa: E402
 from shaking import of_toppra, shaking_figures, shaking_ratios  # noqa: E402
-from splines445_ros.planning import inner_knots, plan  # noqa: E402
-from splines445_ros.planning.inner_knots import end_ramps, plan_with_inner_knots  # noqa: E402
-from splines445_ros.planning.jerk_profile import ThirdOrderProfile  # noqa: E402
-from splines445_ros.planning.limits import JointLimits  # noqa: E402
-from splines445_ros.planning.path_constraints import JerkConstraint, JointJerk  # noqa: E402
+from splines445_ros.planning import plan  # noqa: E402
+from splines445_ros.planning.constraints.path_constraints import (  # noqa: E402
+    JerkConstraint, JointJerk)
+from splines445_ros.planning.path_following import inner_knots  # noqa: E402
+from splines445_ros.planning.path_following.inner_knots import (  # noqa: E402
+    end_ramps, plan_with_inner_knots)
+from splines445_ros.planning.speed_profile.jerk_profile import ThirdOrderProfile  # noqa: E402
+from splines445_ros.planning.spline.limits import JointLimits  # noqa: E402
 
 N_CASES = 10
 JERK_RATIO = 20.0

@@ -1,7 +1,7 @@
 """
 A third-order profile that can be followed (issue 38) on the 6-7-joint arms, one run.
 
-``splines445_ros.planning.smooth_profile`` plans ``x(s) = sdot**2`` as a C2
+``splines445_ros.planning.speed_profile.smooth_profile`` plans ``x(s) = sdot**2`` as a C2
 function of ``s`` under the v/a/j limits; this bench measures it against
 TOPP-RA (v/a, ``bench_planning.toppra_trajectory``), the grid LP of
 ``jerk_profile.ThirdOrderProfile`` (``bench_arm_moves.profile_bounds``:
@@ -51,9 +51,9 @@ from bench_torque import arm_paths  # noqa: E402
 import numpy as np  # noqa: E402
 from shaking import FREQUENCIES, of_toppra, shaking_figures, shaking_ratios  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
-from splines445_ros.planning import smooth_profile  # noqa: E402
-from splines445_ros.planning.limits import JointLimits  # noqa: E402
-from splines445_ros.planning.smooth_profile import SmoothProfile  # noqa: E402
+from splines445_ros.planning.speed_profile import smooth_profile  # noqa: E402
+from splines445_ros.planning.speed_profile.smooth_profile import SmoothProfile  # noqa: E402
+from splines445_ros.planning.spline.limits import JointLimits  # noqa: E402
 
 CASES = 3
 PERIOD = 1e-3           # the controller's: samples every 1 ms

@@ -9,9 +9,9 @@ figure over TOPP-RA's duration on its chord spline:
   (:mod:`own_path`);
 * ``profile v/a``: the fastest second-order profile along the construction's
   path (the natural cubic on the rest-to-rest times, 24 grid steps per
-  segment: :mod:`planning.path_velocity`), no spline, no jerk limit;
+  segment: :mod:`planning.speed_profile.path_velocity`), no spline, no jerk limit;
 * ``profile v/a/j``: the same with the jerk limits held by the profile
-  itself (:mod:`planning.jerk_profile`);
+  itself (:mod:`planning.speed_profile.jerk_profile`);
 * ``+ windows``: ``profile v/a`` plus the widths of the smoothing windows
   (the box averages of step 2 lengthen a profile by exactly their widths);
 * ``averaged, scaled``: that averaged profile ``q(s(t))`` sampled every
@@ -42,15 +42,17 @@ import numpy as np  # noqa: E402
 import own_path  # noqa: E402
 from shaking import of_toppra, shaking_figures, shaking_ratios  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
-from splines445_ros.planning.averaged_timing import AveragedTiming  # noqa: E402
-from splines445_ros.planning.inner_knots import GRID_STEPS, plan_with_inner_knots  # noqa: E402
-from splines445_ros.planning.jerk_profile import ThirdOrderProfile  # noqa: E402
-from splines445_ros.planning.limits import JointLimits  # noqa: E402
-from splines445_ros.planning.natural_cubic import natural_cubic_spline  # noqa: E402
-from splines445_ros.planning.path_constraints import (  # noqa: E402
+from splines445_ros.planning.constraints.path_constraints import (  # noqa: E402
     GriddedPath, JointAcceleration, JointJerk, JointVelocity)
-from splines445_ros.planning.path_velocity import PathLimits, traversal_times  # noqa: E402
-from splines445_ros.planning.timing import rest_to_rest_durations  # noqa: E402
+from splines445_ros.planning.durations.timing import rest_to_rest_durations  # noqa: E402
+from splines445_ros.planning.path_following.inner_knots import (  # noqa: E402
+    GRID_STEPS, plan_with_inner_knots)
+from splines445_ros.planning.speed_profile.averaged_timing import AveragedTiming  # noqa: E402
+from splines445_ros.planning.speed_profile.jerk_profile import ThirdOrderProfile  # noqa: E402
+from splines445_ros.planning.speed_profile.path_velocity import (  # noqa: E402
+    PathLimits, traversal_times)
+from splines445_ros.planning.spline.limits import JointLimits  # noqa: E402
+from splines445_ros.planning.spline.natural_cubic import natural_cubic_spline  # noqa: E402
 
 N_CASES = 10
 JERK_RATIO = 20.0

@@ -14,7 +14,7 @@ duration:
 * ours (``plan_tool_path``, method 555 optimal, 1 mm / 1 degree);
 * TOPP-RA along our own joint path (``own_path``; v/a, no jerk);
 * the fastest v/a profile along the joint path our construction timed
-  (:mod:`planning.path_velocity`, with its stops at the corners): what a
+  (:mod:`planning.speed_profile.path_velocity`, with its stops at the corners): what a
   plan with no jerk limit could reach on it;
 * the 4 Hz shaking peak of ours over TOPP-RA's;
 * ``speed_profile='time_optimal'`` (the third-order profile, issue 38),
@@ -43,10 +43,11 @@ import own_path  # noqa: E402
 from shaking import of_toppra, shaking_figures, shaking_ratios  # noqa: E402
 from splines445_ros.cartesian import tool_lines  # noqa: E402
 from splines445_ros.cartesian.tool_paths import plan_tool_path  # noqa: E402
-from splines445_ros.planning.limits import JointLimits  # noqa: E402
-from splines445_ros.planning.path_constraints import (  # noqa: E402
+from splines445_ros.planning.constraints.path_constraints import (  # noqa: E402
     JointAcceleration, JointVelocity)
-from splines445_ros.planning.path_velocity import PathLimits, traversal_times  # noqa: E402
+from splines445_ros.planning.speed_profile.path_velocity import (  # noqa: E402
+    PathLimits, traversal_times)
+from splines445_ros.planning.spline.limits import JointLimits  # noqa: E402
 from splines445_ros.tools import robot_seam_demo as rsd  # noqa: E402
 
 JERK_FACTORS = (1.0, 2.0, 5.0, np.inf)   # inf: no jerk limit (time_optimal only)

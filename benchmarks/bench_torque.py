@@ -41,7 +41,7 @@ pass for the torques at rest), TOPP-RA its ``torques``.
   Collocation holds the torque at its grid points only: checked here at
   1 kHz, and its Interpolation discretisation shown next to it.
 
-* ``speed_profile='time_optimal'`` (issue 38, ``planning/time_optimal.py``):
+* ``speed_profile='time_optimal'`` (issue 38, ``planning/path_following/time_optimal.py``):
   the same limits, the torque a row of the third-order profile, timed in
   turn with TOPP-RA and ours; its figures in a table of their own, with
   its 1 kHz peak torque.
@@ -77,7 +77,8 @@ import numpy as np  # noqa: E402, I100
 import own_path  # noqa: E402, I100
 from shaking import of_toppra, shaking_figures, shaking_ratios  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
-from splines445_ros.planning.torque import CHECK_PERIOD  # noqa: E402 - [s] the 1 kHz torque check
+from splines445_ros.planning.constraints.torque import (  # noqa: E402 - [s] the 1 kHz torque check
+    CHECK_PERIOD)
 from splines445_ros.robot.dynamics import ArmDynamics, effort_limits  # noqa: E402, I100
 from wall_time import interleaved_best_of  # noqa: E402
 
@@ -388,8 +389,9 @@ def print_summary(summary, cases):
         print(f'| {name} | {payload:.2f} ({held:.1f}) | {len(rows)} / {len(refused)} | '
               + cells + ' |')
     print()
-    print("The same paths with speed_profile='time_optimal' (planning/time_optimal.py: the "
-          'torque a row of the third-order profile), and its peak torque / limit at 1 kHz')
+    print("The same paths with speed_profile='time_optimal' "
+          '(planning/path_following/time_optimal.py: the torque a row of the third-order '
+          'profile), and its peak torque / limit at 1 kHz')
     print('| arm | payload [kg] | ' + bench_figures.header() + ' | peak torque |')
     print(bench_figures.rule(3 + k))
     for name, payload, _, rows, _ in summary:

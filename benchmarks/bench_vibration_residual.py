@@ -5,7 +5,7 @@ Random rest-to-rest requests (``bench_inner_knots.random_case``, fresh
 every run, the seed printed first; j = 20 a), at mode frequencies
 :data:`FREQUENCIES`.  For each: TOPP-RA (v/a, its own spline); time_optimal
 without and with ``vibration_frequency=f`` (its profile cancels the mode's
-ringing, ``planning/residual_vibration.py``); the default construction
+ringing, ``planning/speed_profile/residual_vibration.py``); the default construction
 with ``vibration_frequency=f`` (its two windows of ``1 / f``).  Columns,
 median / worst over the requests, each over TOPP-RA's on the same request:
 

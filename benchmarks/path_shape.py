@@ -2,9 +2,9 @@
 A faster path by the gradient of its traversal time (issue 38): an experiment, not plan()'s code.
 
 plan() times the natural cubic ``q(s)`` through the waypoints at their
-rest-to-rest times (step 1 of ``planning/inner_knots.py``).  Its knot
+rest-to-rest times (step 1 of ``planning/path_following/inner_knots.py``).  Its knot
 durations fix the path's shape, and the fastest speed profile along it
-(``planning/path_velocity.py``) takes a time ``T`` that depends on that
+(``planning/speed_profile/path_velocity.py``) takes a time ``T`` that depends on that
 shape.  This module computes ``T`` and its exact gradient with respect to
 the shape's parameters, by a reverse (adjoint) sweep through the profile,
 and moves the shape with a few evaluations of both.
@@ -101,11 +101,11 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.linalg.lapack import dgtsv
-from splines445_ros.planning.inner_knots import GRID_STEPS
-from splines445_ros.planning.limits import JointLimits
-from splines445_ros.planning.natural_cubic import natural_cubic_spline
-from splines445_ros.planning.path_velocity import FALLS_SHARE
-from splines445_ros.planning.timing import rest_to_rest_durations
+from splines445_ros.planning.durations.timing import rest_to_rest_durations
+from splines445_ros.planning.path_following.inner_knots import GRID_STEPS
+from splines445_ros.planning.speed_profile.path_velocity import FALLS_SHARE
+from splines445_ros.planning.spline.limits import JointLimits
+from splines445_ros.planning.spline.natural_cubic import natural_cubic_spline
 
 FAMILIES = ('a', 'b1')
 # Grid steps per piece of the family's cubic: plan()'s GRID_STEPS per segment

@@ -2,8 +2,9 @@
 Test set-up shared by every test module.
 
 * The test folders mirror the package's rooms, as toppra's tests mirror its
-  packages: ``planning/``, ``robot/``, ``cartesian/``, ``sim/``, ``service/``,
-  ``nodes/``, ``tools/``; the checks of the whole tree (lint, docs, layout)
+  packages: ``planning/`` (with a folder per room of ``planning``),
+  ``robot/``, ``cartesian/``, ``sim/``, ``service/``, ``nodes/``,
+  ``tools/``; the checks of the whole tree (lint, docs, layout)
   and the helpers stay at the top.
 
 * DDS discovery stays on this machine (ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST)
@@ -25,8 +26,9 @@ import sys
 # builds on another room's test module imports it whichever folder runs first.
 _HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path[:0] = [_HERE] + sorted(
-    os.path.join(_HERE, name) for name in os.listdir(_HERE)
-    if os.path.isdir(os.path.join(_HERE, name)) and not name.startswith(('.', '_')))
+    folder for folder, _, _ in os.walk(_HERE)
+    if folder != _HERE and not any(
+        part.startswith(('.', '_')) for part in os.path.relpath(folder, _HERE).split(os.sep)))
 
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 os.environ.setdefault('ROS_DOMAIN_ID', str(1 + os.getpid() % 100))

@@ -43,6 +43,21 @@ MAY_IMPORT = {
     'tools': {'tools', 'nodes', 'service', 'sim', 'cartesian', 'robot', 'planning'},
     'arm': {'arm', 'robot', 'sim', 'cartesian', 'planning'},
 }
+# The rooms of planning (and its three top modules) -> the ones each may import.
+# ``planning/__init__.py`` (the public API) may import them all.
+PLANNING_MAY_IMPORT = {
+    'validation': set(),
+    'spline': {'validation'},
+    'durations': {'spline', 'validation'},
+    'constraints': {'spline', 'validation'},
+    'speed_profile': {'constraints', 'spline', 'validation'},
+    'plan_options': {'constraints', 'spline', 'validation'},
+    'path_following': {'speed_profile', 'constraints', 'durations', 'spline', 'plan_options',
+                       'validation'},
+}
+PLANNING_MAY_IMPORT['planner'] = set(PLANNING_MAY_IMPORT)
+PLANNING_ROOMS = sorted(name for name in PLANNING_MAY_IMPORT
+                        if name not in ('validation', 'plan_options', 'planner'))
 ROS_FREE = {'planning', 'robot', 'cartesian', 'sim', 'service', 'arm'}
 ROS_MODULES = {'rclpy', 'rcl_interfaces', 'builtin_interfaces', 'launch', 'launch_ros',
                'ament_index_python', 'rosidl_runtime_py'}
@@ -96,6 +111,22 @@ def layer_of(module):
     return parts[1] if len(parts) > 1 else ''
 
 
+def room_of(module):
+    """Return the room of ``planning`` (or its top module) a dotted name is in, or ''."""
+    parts = module.split('.')
+    return parts[2] if len(parts) > 2 and parts[1] == 'planning' else ''
+
+
+def planning_violations(module, where, name):
+    """Broken room rules of one import inside ``planning``, as readable strings."""
+    room, target = room_of(module), room_of(name)
+    if not target or target == room or layer_of(name) != 'planning':
+        return []
+    if target in PLANNING_MAY_IMPORT.get(room, set()):
+        return []
+    return [f'{where}: planning.{room} imports {name}']
+
+
 def violations(root):
     """Every broken rule below the package ``root``, as readable strings."""
     package = os.path.basename(root)
@@ -107,8 +138,13 @@ def violations(root):
         if layer not in MAY_IMPORT:
             found.append(f'{module}: outside the layer folders {sorted(MAY_IMPORT)}')
             continue
+        if (layer == 'planning' and module.count('.') > 1
+                and room_of(module) not in PLANNING_MAY_IMPORT):
+            found.append(f'{module}: outside the rooms of planning {sorted(PLANNING_MAY_IMPORT)}')
         for line, name in imported_names(module, path):
             where = f'{os.path.relpath(path, os.path.dirname(root))}:{line}'
+            if layer == 'planning' and room_of(module):
+                found += planning_violations(module, where, name)
             if name.split('.')[0] == package:
                 target = layer_of(name)
                 if target in MAY_IMPORT and target not in MAY_IMPORT[layer]:
@@ -171,7 +207,7 @@ def test_layers_import_only_what_they_may():
 
 
 def test_every_folder_states_its_rules():
-    for layer in MAY_IMPORT:
+    for layer in list(MAY_IMPORT) + [f'planning/{room}' for room in PLANNING_ROOMS]:
         with open(os.path.join(ROOT, layer, '__init__.py'), encoding='utf-8') as handle:
             doc = ast.get_docstring(ast.parse(handle.read()))
         assert doc and 'May import' in doc, f'{layer}/__init__.py must say what it may import'
@@ -193,6 +229,13 @@ def test_checker_flags_bad_imports(tmp_path):
     write_file(root, 'nodes/old.py', 'from ..arm import kinematics\n')
     write_file(root, 'service/up.py', 'from ..nodes import node\n')
     write_file(root, 'stray.py', 'import os\n')
+    write_file(root, 'planning/spline/__init__.py', '"""Room."""\n')
+    write_file(root, 'planning/spline/up.py',
+               'from ..validation import checked\nfrom ..durations import timing\n')
+    write_file(root, 'planning/durations/__init__.py', '"""Room."""\n')
+    write_file(root, 'planning/durations/timing.py', 'from ..spline import up\n')
+    write_file(root, 'planning/durations/lazy.py', 'def f():\n    from ..planner import plan\n')
+    write_file(root, 'planning/attic/old.py', 'import os\n')
     found = violations(root)
     expected = [
         'pkg.stray: outside the layer folders',
@@ -204,11 +247,15 @@ def test_checker_flags_bad_imports(tmp_path):
         'pkg/planning/sneaky.py:2: planning imports pkg.robot',
         'pkg/nodes/old.py:1: nodes imports pkg.arm',
         'pkg/service/up.py:1: service imports pkg.nodes',
+        'pkg/planning/spline/up.py:2: planning.spline imports pkg.planning.durations',
+        'pkg/planning/durations/lazy.py:2: planning.durations imports pkg.planning.planner',
+        'pkg.planning.attic.old: outside the rooms of planning',
     ]
     for text in expected:
         assert any(v.startswith(text) for v in found), (text, found)
     # Allowed imports (tools -> nodes/planning, nodes -> robot, robot -> planning) are not flagged.
     assert not any('tools/demo.py' in v or 'robot/sim.py:1' in v or 'node.py:2' in v
+                   or 'spline/up.py:1' in v or 'durations/timing.py' in v
                    for v in found), found
 
 

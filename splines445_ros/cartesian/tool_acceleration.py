@@ -8,13 +8,13 @@ three places, as they hold a tool speed:
    has the path derivatives ``p'`` and ``p''`` (:class:`ToolCurve`), and
    the tool's acceleration at path speed ``sdot`` and path acceleration
    ``sddot`` is ``p' sddot + p'' sdot**2``: second order in TOPP-RA's sense,
-   the rows of :class:`planning.path_constraints.ToolAcceleration`.
+   the rows of :class:`planning.constraints.path_constraints.ToolAcceleration`.
 2. Spline pieces.  The construction's C4 spline is sampled per piece
    (:class:`PieceAccelerations`) and a piece whose tool acceleration
    exceeds ``A`` gets the time factor ``sqrt(peak / A)``: a piece ``f``
    times slower has ``1 / f**2`` of its accelerations.
 3. Check.  The final trajectory's tool acceleration is sampled every
-   :data:`planning.torque.CHECK_PERIOD` and its largest local maxima are
+   :data:`planning.constraints.torque.CHECK_PERIOD` and its largest local maxima are
    refined by golden-section search (:func:`peak_tool_acceleration`); a
    rest-to-rest spline over ``A`` is slowed down uniformly by
    ``sqrt(peak / A)``.
@@ -31,7 +31,7 @@ import numpy as np
 
 from .golden_search import refined_peak
 from .tool_kinematics import has_transforms
-from ..planning.torque import CHECK_PERIOD, check_times
+from ..planning.constraints.torque import CHECK_PERIOD, check_times
 
 # The step [m of s] of p' and p'' along the joint path (ToolCurve): far below
 # the path samples' finest spacing (0.3 mm near a corner), far above round-off.

@@ -12,12 +12,12 @@ uses for method 555 with optimal timing, rest to rest:
    halving distances: the joint path turns sharply there), and the inverse
    kinematics of the samples is the joint path (the kinematics' walk, on the
    seed's branch).
-2. Timing.  :func:`planning.path_timing.plan_along_path` times that joint
+2. Timing.  :func:`planning.path_following.path_timing.plan_along_path` times that joint
    path under the joint limits and, when given, the tool speeds: on an edge
    of length ``L``, rotation ``theta`` and path length ``l``, the tool moves
    ``L / l`` metres and turns ``theta / l`` radians per unit of ``s``, so
    ``max_tool_speed`` is the first-order constraint ``sdot <= v l / L``
-   (:class:`planning.path_constraints.ToolSpeed`).  The C4 555 spline passes
+   (:class:`planning.constraints.path_constraints.ToolSpeed`).  The C4 555 spline passes
    its knots (on the path) at the profile's times, every waypoint exactly.
 3. Taylor's test.  The deviation of the timed spline's tool from the lines
    is measured per piece (:class:`path_deviation.PathMeasure`, exact maxima);
@@ -33,7 +33,7 @@ uses for method 555 with optimal timing, rest to rest:
    its factor and keeps the v/a/j limits).
 5. The third-order profile (before step 4's check, and after it).  With plan()'s
    ``speed_profile`` "time_optimal" the spline is timed again along its own
-   path (:func:`planning.time_optimal.retime_path`, the tool speeds rows of
+   path (:func:`planning.path_following.time_optimal.retime_path`, the tool speeds rows of
    the profile) and kept when shorter with its tool within the tolerances
    and its joints within their position limits.
    The default tries the same when its spline, checked by step 4, keeps
@@ -64,17 +64,17 @@ import numpy as np
 
 from .golden_search import CHECK_MAXIMA, CHECK_STEPS, golden_maxima, sampled_maxima
 from .path_deviation import tolerance_excess
-from .tool_acceleration import (acceleration_factor, peak_tool_acceleration,
-                                PieceAccelerations, ToolCurve)
+from .tool_acceleration import (acceleration_factor, peak_tool_acceleration, PieceAccelerations,
+                                ToolCurve)
 from .tool_kinematics import frame_chain, has_transforms, refused_pose, start_walk
-from ..planning.averaged_timing import AveragedTiming
-from ..planning.path_constraints import ToolAcceleration, ToolSpeed
-from ..planning.path_timing import JointPathSamples, midpoint_fractions, plan_along_path, \
-    rescaled
-from ..planning.path_velocity import path_position, traversal_times
+from ..planning.constraints.path_constraints import ToolAcceleration, ToolSpeed
+from ..planning.constraints.torque import CHECK_PERIOD, check_times, uniform_slow_down
+from ..planning.path_following.path_timing import (JointPathSamples, midpoint_fractions,
+                                                   plan_along_path, rescaled)
+from ..planning.path_following.time_optimal import NO_TIME_OPTIMAL_SPLINE, retime_path
 from ..planning.planner import within_position_limits
-from ..planning.time_optimal import NO_TIME_OPTIMAL_SPLINE, retime_path
-from ..planning.torque import CHECK_PERIOD, check_times, uniform_slow_down
+from ..planning.speed_profile.averaged_timing import AveragedTiming
+from ..planning.speed_profile.path_velocity import path_position, traversal_times
 from ..robot import rotations as rot
 
 # Path length [m] that one radian of tool rotation counts for in s.
@@ -432,16 +432,16 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
     limit [m/s^2] of the tool frame origin's linear acceleration
     (:mod:`tool_acceleration`: a constraint of the profile, a factor of
     every piece, and a 1 kHz check at the end).  ``torque`` (a
-    :class:`planning.torque.TorqueLimit`) adds the joint torque: one more
+    :class:`planning.constraints.torque.TorqueLimit`) adds the joint torque: one more
     constraint of the timing, one more factor of every piece, and a 1 kHz
     check at the end (the spline is slowed down uniformly when it needs
     it).  ``time_optimal`` (plan()'s ``speed_profile``): the spline found is
     then timed again along its own path by the third-order profile
-    (:func:`planning.time_optimal.retime_path`, every limit above a row or a
+    (:func:`planning.path_following.time_optimal.retime_path`, every limit above a row or a
     factor of it), and kept when its tool stays within the tolerances
     (step 5); ``vibration_frequency`` [Hz] (0: none): that profile also
     cancels the ringing of a mode at it after the stop
-    (:mod:`planning.residual_vibration`).  ``position_limits`` (low, high),
+    (:mod:`planning.speed_profile.residual_vibration`).  ``position_limits`` (low, high),
     (n,) arrays or both None: step 5's spline is kept only within them
     (the caller checks the plan returned).  ValueError
     when the inverse kinematics fails, no spline meets the limits, or the

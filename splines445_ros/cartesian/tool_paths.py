@@ -66,7 +66,7 @@ from .path_deviation import Deviation, PathMeasure, tolerance_excess
 from .tool_kinematics import declared_joint_count, refused_pose
 from .tool_lines import edge_geometry, LineUnreachable, plan_tool_lines
 from ..planning import merge_duplicates
-from ..planning.path_constraints import GravityOverload
+from ..planning.constraints.path_constraints import GravityOverload
 from ..planning.plan_options import PlanOptions, smoothing_windows
 from ..planning.planner import (joint_label, plan_with_options, position_limit_slack,
                                 within_position_limits)
@@ -550,7 +550,7 @@ def _with_inner_knots(traj, deviation, joints, kinematics, edge_poses, segment_e
 
     The refinement inserts waypoints with knots at the waypoints only: its
     optimum shapes each segment through its durations, which the deviation
-    test sees.  With inner knots (555 optimal, :mod:`planning.inner_knots`)
+    test sees.  With inner knots (555 optimal, :mod:`planning.path_following.inner_knots`)
     the segments follow another path between the same waypoints, usually
     faster; it is kept when it is shorter and still within the tolerances.
     """

@@ -8,18 +8,31 @@ Usage::
                 max_velocity=[2, 2, 2], max_acceleration=[10, 10, 10])
     traj.evaluate([0.0, 0.5], derivative=1)
 
+One room (folder) per concept, each importing only the rooms above it in
+this list (its ``__init__`` says which; ``test/test_layout.py`` checks)::
+
+    spline          the 445/434/555 pieces, their banded system, peaks, Trajectory
+    durations       segment durations with knots at the waypoints (paper, optimal)
+    constraints     the limits along a path, one class per limit; torque
+    speed_profile   speed profiles s(t) along a path that hold the constraints
+    path_following  C4 splines with inner knots that follow a speed profile
+
+and three modules at the top: ``validation`` (array checks, imported by
+every room), ``plan_options`` (the validated request) and ``planner``
+(``plan()``: which timing, and the other plans where one fails).
+
 May import: numpy and scipy only.  Never rclpy or ROS message packages, and
 nothing from the rest of the package (``robot``, ``cartesian``, ``sim``,
 ``service``, ``nodes``, ``tools``): it is the bottom layer (``test/test_layout.py``
 checks this).
 """
 
-from .limits import BindingLimit, JointLimits
-from .methods import get_method, Method, METHOD_DEFINITIONS, METHODS
+from .durations.timing import chord_durations
 from .plan_options import DEFAULT_WAYPOINT_TOLERANCE, PlanOptions, TIMINGS
 from .planner import check_position_limits, merge_duplicates, plan, plan_with_options
-from .timing import chord_durations
-from .trajectory import Samples, Trajectory
+from .spline.limits import BindingLimit, JointLimits
+from .spline.methods import get_method, Method, METHOD_DEFINITIONS, METHODS
+from .spline.trajectory import Samples, Trajectory
 
 __all__ = [
     'BindingLimit', 'check_position_limits', 'chord_durations', 'DEFAULT_WAYPOINT_TOLERANCE',

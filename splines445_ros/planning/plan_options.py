@@ -21,9 +21,9 @@ from typing import Optional, Tuple
 
 import numpy as np
 
-from .limits import check_boundary_feasible, JointLimits
-from .methods import get_method
-from .torque import TorqueLimit
+from .constraints.torque import TorqueLimit
+from .spline.limits import check_boundary_feasible, JointLimits
+from .spline.methods import get_method
 from .validation import boundary_vector, non_negative, position_limit_vector
 
 # The defaults and bounds of a request, each with its reason; the measurements

@@ -4,17 +4,18 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .inner_knots import plan_with_inner_knots
-from .optimal import optimal_durations, two_segment_plan, two_segment_search
-from .path_timing import rescaled
+from .durations.optimal import optimal_durations, two_segment_plan, two_segment_search
+from .durations.ratio_search import GIVE_UP_PASSES
+from .durations.timing import (chord_durations, rest_to_rest_durations, rest_to_rest_lower_bound,
+                               rest_to_rest_scale, scaled_spline, ScaledSpline, uniform_scale)
+from .path_following.inner_knots import plan_with_inner_knots
+from .path_following.path_timing import rescaled
+from .path_following.time_optimal import (NAME as TIME_OPTIMAL, NO_TIME_OPTIMAL_SPLINE, NoSpline,
+                                          plan_time_optimal)
 from .plan_options import (check_time_optimal_waypoints, DEFAULT_SMOOTHING,
                            DEFAULT_WAYPOINT_TOLERANCE, PlanOptions, speed_profile_value)
-from .ratio_search import GIVE_UP_PASSES
-from .residual_vibration import remeasure_residual
-from .time_optimal import NAME as TIME_OPTIMAL, NO_TIME_OPTIMAL_SPLINE, NoSpline, plan_time_optimal
-from .timing import (chord_durations, rest_to_rest_durations, rest_to_rest_lower_bound,
-                     rest_to_rest_scale, scaled_spline, ScaledSpline, uniform_scale)
-from .trajectory import Trajectory
+from .speed_profile.residual_vibration import remeasure_residual
+from .spline.trajectory import Trajectory
 from .validation import duration_array, position_limit_vector, waypoint_array
 
 # The constants of plan(), each with its reason in one line; the measurements

@@ -12,7 +12,7 @@ from typing import Optional
 import numpy as np
 
 from ..cartesian.tool_paths import plan_tool_path
-from ..planning.path_constraints import GravityOverload
+from ..planning.constraints.path_constraints import GravityOverload
 from ..planning.plan_options import BOUNDARY_NAMES, PlanOptions
 from ..planning.planner import LEAVES_POSITION_LIMITS, NO_INNER_KNOT_SPLINE, plan_with_options
 from ..planning.validation import waypoint_array
@@ -416,7 +416,7 @@ def inner_knots_warning(traj):
     """
     Return a warning when 555 optimal's inner knots were asked for and none was found, else None.
 
-    The construction (:mod:`~splines445_ros.planning.inner_knots`) found no
+    The construction (:mod:`~splines445_ros.planning.path_following.inner_knots`) found no
     spline with inner knots within the limits (boundary values it cannot
     keep, for one): the plan returned is the knots-only optimum, within
     every limit but slower and without the smoothing windows.  A knots-only

@@ -37,7 +37,7 @@ from .figures import plt
 from .in_process import InProcessSystem
 from ..cartesian.tool_paths import plan_tool_path
 from ..nodes.diagnostics import status_values
-from ..planning.torque import CHECK_PERIOD
+from ..planning.constraints.torque import CHECK_PERIOD
 from ..robot import rotations as rot
 from ..robot.inverse_kinematics import ModelKinematics
 from ..robot.joint_limits_file import read_joint_limits_file, resolve_limits

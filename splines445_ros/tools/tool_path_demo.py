@@ -24,7 +24,7 @@ import numpy as np
 from .figures import plt
 from ..cartesian.tool_paths import plan_tool_path
 from ..planning import METHODS
-from ..planning.torque import CHECK_PERIOD
+from ..planning.constraints.torque import CHECK_PERIOD
 from ..robot import paper_example as pe
 from ..robot.kinematics import PlanarArm
 

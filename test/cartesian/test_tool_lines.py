@@ -481,7 +481,7 @@ def test_the_timing_leaves_rest_and_comes_to_rest_at_the_path_jerk():
     ramps leave the profile alone.
     """
     from splines445_ros.planning import JointLimits
-    from splines445_ros.planning.path_timing import JointPathSamples, RAMP_SHARE
+    from splines445_ros.planning.path_following.path_timing import JointPathSamples, RAMP_SHARE
     s = np.linspace(0.0, 2.0, 201)
     q = np.column_stack([s, 0.5 * s])
     limits = JointLimits.from_user(2, [1.0, 1.0], [4.0, 4.0], [40.0, 40.0])

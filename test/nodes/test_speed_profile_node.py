@@ -13,8 +13,9 @@ import pytest
 from rclpy.parameter import Parameter
 from splines445_ros.nodes.planner_node import PlannerNode
 from splines445_ros.nodes.ros_conversions import WaypointRequest
-from splines445_ros.planning import planner, time_optimal
-from splines445_ros.planning.residual_vibration import trajectory_residual
+from splines445_ros.planning import planner
+from splines445_ros.planning.path_following import time_optimal
+from splines445_ros.planning.speed_profile.residual_vibration import trajectory_residual
 from splines445_ros.service.planner_config import PlannerConfig
 from splines445_ros.service.request_planning import (plan_request, plan_tool_request,
                                                      plan_warnings, start_from_state,

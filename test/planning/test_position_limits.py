@@ -4,7 +4,8 @@ from example_counts import examples
 from hypothesis import given, strategies as st
 import numpy as np
 import pytest
-from splines445_ros.planning import check_position_limits, inner_knots, plan, planner
+from splines445_ros.planning import check_position_limits, plan, planner
+from splines445_ros.planning.path_following import inner_knots
 
 
 @st.composite

@@ -22,8 +22,8 @@ import numpy as np
 import pytest
 
 from splines445_ros.planning import plan
-from splines445_ros.planning.inner_knots import plan_with_inner_knots
-from splines445_ros.planning.limits import JointLimits
+from splines445_ros.planning.path_following.inner_knots import plan_with_inner_knots
+from splines445_ros.planning.spline.limits import JointLimits
 
 RATE = 1000.0
 ZETA = 0.02

@@ -46,15 +46,16 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from .averaged_timing import AveragedTiming, regula_falsi
 from .inner_knots import (end_ramps, iterate_knots, IterationBudget, kept_trajectory,
                           KnotCandidate, SpeedProfile, TimingProblem)
 from .knot_pieces import (equal_fractions, knot_times, knots_per_segment, ramp_accelerations,
                           shortest_piece)
-from .path_constraints import GriddedPath, JointAcceleration, JointTorque, JointVelocity
-from .path_velocity import path_position, PathLimits
-from .plan_options import DEFAULT_SMOOTHING
-from .residual_vibration import remeasure_residual
+from ..constraints.path_constraints import (GriddedPath, JointAcceleration, JointTorque,
+                                            JointVelocity)
+from ..plan_options import DEFAULT_SMOOTHING
+from ..speed_profile.averaged_timing import AveragedTiming, regula_falsi
+from ..speed_profile.path_velocity import path_position, PathLimits
+from ..speed_profile.residual_vibration import remeasure_residual
 
 # The constants of the timing along a path, each with its reason in one line;
 # the measurements behind them are in doc/inner_knots.md ("Where the

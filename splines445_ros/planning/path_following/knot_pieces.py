@@ -9,9 +9,9 @@ for (the ratios of :mod:`peaks`, ``max(r_v, r_a**(1/2), r_j**(1/3))``).
 
 import numpy as np
 
-from .limits import limit_ratios
-from .path_velocity import joint_acceleration_peaks
-from .peaks import row_max, velocity_ratios_above
+from ..speed_profile.path_velocity import joint_acceleration_peaks
+from ..spline.limits import limit_ratios
+from ..spline.peaks import row_max, velocity_ratios_above
 
 # Each constant with its reason in one line; the measurements behind them are
 # in doc/inner_knots.md ("Where the constants come from").

@@ -32,13 +32,13 @@ to compute and to use (:class:`PeakJacobian`).
 import numpy as np
 from scipy.sparse import csr_matrix
 
-from .continuity_system import banded_solve, ContinuitySystem
 from .dense_lp import DENSE_LP_SEGMENTS
-from .limits import QUANTITIES
-from .methods import get_method
-from .peaks import (flat_polynomials, peak_candidates, peak_sensitivities_at,
-                    peaks_of_candidates, sampled_peaks)
-from .segments import input_map_derivatives
+from ..spline.continuity_system import banded_solve, ContinuitySystem
+from ..spline.limits import QUANTITIES
+from ..spline.methods import get_method
+from ..spline.peaks import (flat_polynomials, peak_candidates, peak_sensitivities_at,
+                            peaks_of_candidates, sampled_peaks)
+from ..spline.segments import input_map_derivatives
 
 # Jacobian entries (d log r / d log T) below this are dropped.
 NEGLIGIBLE = 1e-6

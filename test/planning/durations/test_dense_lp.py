@@ -12,7 +12,7 @@ from example_counts import examples
 from hypothesis import given, settings, strategies as st
 import numpy as np
 from scipy.optimize import Bounds, LinearConstraint, milp
-from splines445_ros.planning.dense_lp import solve_elastic_lp
+from splines445_ros.planning.durations.dense_lp import solve_elastic_lp
 
 
 def highs_value(c, A, b, lower, upper, penalty):

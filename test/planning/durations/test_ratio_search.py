@@ -15,10 +15,10 @@ import pytest
 from reference_spline import exact_peaks, global_coefficients
 from scipy.interpolate import PPoly
 from splines445_ros.planning import plan
-from splines445_ros.planning.inner_knots import plan_with_inner_knots
-from splines445_ros.planning.limits import JointLimits
+from splines445_ros.planning.durations.ratio_search import GIVE_UP_DIP, RatioSearch
+from splines445_ros.planning.path_following.inner_knots import plan_with_inner_knots
 from splines445_ros.planning.plan_options import DEFAULT_INNER_KNOTS
-from splines445_ros.planning.ratio_search import GIVE_UP_DIP, RatioSearch
+from splines445_ros.planning.spline.limits import JointLimits
 
 
 def request(seed):

@@ -17,12 +17,14 @@ from scipy.interpolate import CubicSpline, make_interp_spline
 from scipy.optimize import linprog
 from scipy.signal import lsim
 from splines445_ros.planning import plan
-from splines445_ros.planning import planner, smooth_profile, time_optimal
-from splines445_ros.planning.limits import JointLimits
-from splines445_ros.planning.path_timing import rescaled
+from splines445_ros.planning import planner
+from splines445_ros.planning.durations.timing import rest_to_rest_durations
+from splines445_ros.planning.path_following import time_optimal
+from splines445_ros.planning.path_following.path_timing import rescaled
+from splines445_ros.planning.path_following.time_optimal import MAX_KNOTS
 from splines445_ros.planning.plan_options import MAX_TIME_OPTIMAL_WAYPOINTS
-from splines445_ros.planning.time_optimal import MAX_KNOTS
-from splines445_ros.planning.timing import rest_to_rest_durations
+from splines445_ros.planning.speed_profile import smooth_profile
+from splines445_ros.planning.spline.limits import JointLimits
 
 PERIOD = 1e-3
 # 1 ms finite differences see a mean over 1-3 ms of a plan exactly at its

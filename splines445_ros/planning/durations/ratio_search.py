@@ -25,8 +25,8 @@ SLP kept to the basin it started in.
 
 import numpy as np
 
-from .continuity_system import ContinuitySystem
-from .limits import limit_ratios
+from ..spline.continuity_system import ContinuitySystem
+from ..spline.limits import limit_ratios
 
 # Values of x per pass (odd: the best point's neighbours bracket the next pass).
 RATIO_GRID_POINTS = 33

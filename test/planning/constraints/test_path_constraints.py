@@ -14,10 +14,11 @@ from hypothesis import assume, given, settings, strategies as st
 import numpy as np
 import pytest
 from splines445_ros.planning import plan
-from splines445_ros.planning.path_constraints import (
-    GravityOverload, GriddedPath, JointAcceleration, JointTorque, JointVelocity, ToolSpeed)
-from splines445_ros.planning.path_timing import _RoundedTiming
-from splines445_ros.planning.path_velocity import PathLimits, traversal_times
+from splines445_ros.planning.constraints.path_constraints import (GravityOverload, GriddedPath,
+                                                                  JointAcceleration, JointTorque,
+                                                                  JointVelocity, ToolSpeed)
+from splines445_ros.planning.path_following.path_timing import _RoundedTiming
+from splines445_ros.planning.speed_profile.path_velocity import PathLimits, traversal_times
 
 EXAMPLES = int(os.environ.get('SPLINES445_PROPERTY_EXAMPLES', str(examples(25))))
 LINKS = (0.5, 0.4)          # m

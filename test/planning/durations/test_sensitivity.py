@@ -5,7 +5,7 @@ from hypothesis import given, settings, strategies as st
 import numpy as np
 import pytest
 from splines445_ros.planning import JointLimits
-from splines445_ros.planning.sensitivity import PeakRatios
+from splines445_ros.planning.durations.sensitivity import PeakRatios
 
 
 @pytest.mark.parametrize('method', ['445', '434', '555'])

@@ -29,9 +29,8 @@ from scipy.linalg.lapack import dgbsv
 
 from .methods import ACC, get_method, VEL
 from .peaks import row_max
-from .segments import (
-    A_END, A_START, derivative_weights, DP, input_maps, INPUT_ORDER, V_END, V_START,
-)
+from .segments import (A_END, A_START, derivative_weights, DP, input_maps, INPUT_ORDER, V_END,
+                       V_START)
 
 
 def spline_coefficients(method, points, durations, boundary):

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 from scipy.signal import lsim
-from splines445_ros.planning.residual_vibration import residual_shares
+from splines445_ros.planning.speed_profile.residual_vibration import residual_shares
 
 
 @pytest.mark.parametrize('width', [0.05, 0.125, 0.2, 0.25, 0.4])

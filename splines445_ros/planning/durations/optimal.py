@@ -54,12 +54,12 @@ from scipy.optimize import Bounds, LinearConstraint, milp
 from scipy.sparse import csc_array
 
 from .dense_lp import DENSE_LP_SEGMENTS, solve_elastic_lp
-from .limits import limit_ratios
-from .methods import get_method
 from .ratio_search import RatioSearch
 from .sensitivity import PeakRatios
 from .timing import chord_durations, ScaledSpline, uniform_scale
-from .trajectory import Trajectory
+from ..spline.limits import limit_ratios
+from ..spline.methods import get_method
+from ..spline.trajectory import Trajectory
 
 # The constants of the optimiser, each with its reason in one line; the
 # measurements behind them are in doc/methods.md ("Where the constants come

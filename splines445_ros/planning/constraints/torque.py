@@ -34,7 +34,7 @@ import math
 import numpy as np
 
 from .path_constraints import GRAVITY_RTOL, GravityOverload, JointTorque, refuse_gravity_overload
-from .segments import sample_segments
+from ..spline.segments import sample_segments
 
 # Period [s] of the dense checks of a plan: the torque here, the tool speed in
 # cartesian.tool_lines, the demos' deviations (1 kHz, a servo rate).

@@ -18,9 +18,9 @@ monotone in ``lambda`` and the factor is searched (see :func:`uniform_scale`).
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from .continuity_system import ContinuitySystem
-from .limits import limit_ratios
-from .peaks import sampled_segment_peaks_of
+from ..spline.continuity_system import ContinuitySystem
+from ..spline.limits import limit_ratios
+from ..spline.peaks import sampled_segment_peaks_of
 
 # Factors (relative to the rest-to-rest factor) scanned for a feasible one.
 SCAN_GRID = np.geomspace(1.0 / 30.0, 1000.0, 32)

@@ -105,10 +105,10 @@ try:
 except (ImportError, AttributeError):   # e.g. an apt ROS install: scipy's linprog instead
     highspy = None
 
-from .path_constraints import GriddedPath, JointAcceleration, JointVelocity
 from .path_velocity import PathLimits
 from .residual_vibration import content_weights, static_scale
-from .validation import positive_array
+from ..constraints.path_constraints import GriddedPath, JointAcceleration, JointVelocity
+from ..validation import positive_array
 
 # The passes' profile counts as stopped below this share of its largest x (a
 # stop at a zero-inertia point, _lift_isolated_stops; those seen were 1e-7 of it,

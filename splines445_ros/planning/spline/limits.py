@@ -6,7 +6,7 @@ from functools import cached_property
 import numpy as np
 
 from .peaks import segment_peaks_of
-from .validation import positive_array
+from ..validation import positive_array
 
 QUANTITIES = ('velocity', 'acceleration', 'jerk')
 

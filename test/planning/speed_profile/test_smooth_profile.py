@@ -13,14 +13,14 @@ takes velocity, acceleration and jerk by finite differences.
 import numpy as np
 import pytest
 from scipy.interpolate import CubicHermiteSpline
-from splines445_ros.planning import smooth_profile
-from splines445_ros.planning.limits import JointLimits
-from splines445_ros.planning.natural_cubic import natural_cubic_spline
-from splines445_ros.planning.path_constraints import (GriddedPath, JointAcceleration,
-                                                      JointVelocity)
-from splines445_ros.planning.path_velocity import PathLimits, traversal_times
-from splines445_ros.planning.smooth_profile import SmoothProfile
-from splines445_ros.planning.timing import rest_to_rest_durations
+from splines445_ros.planning.constraints.path_constraints import (GriddedPath, JointAcceleration,
+                                                                  JointVelocity)
+from splines445_ros.planning.durations.timing import rest_to_rest_durations
+from splines445_ros.planning.speed_profile import smooth_profile
+from splines445_ros.planning.speed_profile.path_velocity import PathLimits, traversal_times
+from splines445_ros.planning.speed_profile.smooth_profile import SmoothProfile
+from splines445_ros.planning.spline.limits import JointLimits
+from splines445_ros.planning.spline.natural_cubic import natural_cubic_spline
 
 SEEDS = tuple(range(1, 9))
 GRID_STEPS = 24

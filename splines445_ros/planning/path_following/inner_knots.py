@@ -88,19 +88,19 @@ from typing import Optional
 
 import numpy as np
 
-from .averaged_timing import AveragedTiming
-from .continuity_system import spline_coefficients
-from .jerk_profile import ThirdOrderProfile
 from .knot_pieces import (equal_fractions, exact_factors, knot_times, knots_per_segment,
                           ramp_accelerations, RAMP_PIECES)
-from .limits import limit_ratios
-from .natural_cubic import natural_cubic_spline
-from .path_constraints import (GravityOverload, GriddedPath, JointAcceleration, JointJerk,
-                               JointVelocity)
-from .path_velocity import PathLimits, traversal_times
-from .plan_options import DEFAULT_SMOOTHING, torque_without_windows
-from .timing import closed_form_scale, rest_to_rest_durations
-from .trajectory import REBUILD_RTOL, representable_durations, require_finite, Trajectory
+from ..constraints.path_constraints import (GravityOverload, GriddedPath, JointAcceleration,
+                                            JointJerk, JointVelocity)
+from ..durations.timing import closed_form_scale, rest_to_rest_durations
+from ..plan_options import DEFAULT_SMOOTHING, torque_without_windows
+from ..speed_profile.averaged_timing import AveragedTiming
+from ..speed_profile.jerk_profile import ThirdOrderProfile
+from ..speed_profile.path_velocity import PathLimits, traversal_times
+from ..spline.continuity_system import spline_coefficients
+from ..spline.limits import limit_ratios
+from ..spline.natural_cubic import natural_cubic_spline
+from ..spline.trajectory import REBUILD_RTOL, representable_durations, require_finite, Trajectory
 
 # The constants of the construction, each with its reason in one line; the
 # measurements behind them are in doc/inner_knots.md ("Where the constants

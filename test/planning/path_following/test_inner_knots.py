@@ -17,13 +17,14 @@ import pytest
 from reference_spline import exact_peaks
 from scipy.interpolate import make_interp_spline
 from splines445_ros.planning import plan
-from splines445_ros.planning.continuity_system import spline_coefficients
-from splines445_ros.planning.inner_knots import plan_with_inner_knots
-from splines445_ros.planning.limits import JointLimits
-from splines445_ros.planning.path_constraints import GriddedPath, JointAcceleration, JointVelocity
-from splines445_ros.planning.path_velocity import PathLimits, traversal_times
+from splines445_ros.planning.constraints.path_constraints import (GriddedPath, JointAcceleration,
+                                                                  JointVelocity)
+from splines445_ros.planning.path_following.inner_knots import plan_with_inner_knots
 from splines445_ros.planning.plan_options import DEFAULT_INNER_KNOTS
 from splines445_ros.planning.planner import SMALL_REQUEST
+from splines445_ros.planning.speed_profile.path_velocity import PathLimits, traversal_times
+from splines445_ros.planning.spline.continuity_system import spline_coefficients
+from splines445_ros.planning.spline.limits import JointLimits
 
 # The knots-only rival and plan(inner_knots=0) are local optima from other
 # starts: plan() may be longer than the latter by the optimiser's tolerance.
@@ -307,10 +308,10 @@ def test_paper_example_with_its_boundary_values_keeps_the_smoother_knots_only_pl
     MOVING_END_GAIN, so plan() keeps the knots-only optimum, whose jerk
     varies far less.
     """
-    from splines445_ros.robot import paper_example as pe
-    from splines445_ros.planning.inner_knots import plan_with_inner_knots
-    from splines445_ros.planning.limits import JointLimits
+    from splines445_ros.planning.path_following.inner_knots import plan_with_inner_knots
     from splines445_ros.planning.planner import MOVING_END_GAIN
+    from splines445_ros.planning.spline.limits import JointLimits
+    from splines445_ros.robot import paper_example as pe
     kwargs = pe.plan_kwargs()
     kwargs['max_jerk'] = None
     points = pe.joint_waypoints()
@@ -461,8 +462,8 @@ def test_the_averaged_profile_and_its_inverse(seed, windows):
     profile's positions.  ``time_at`` must invert ``position_at`` to 1e-9 of
     the path, in order, with the ends pinned to 0 and the duration.
     """
-    from splines445_ros.planning.averaged_timing import AveragedTiming
-    from splines445_ros.planning.path_velocity import path_position
+    from splines445_ros.planning.speed_profile.averaged_timing import AveragedTiming
+    from splines445_ros.planning.speed_profile.path_velocity import path_position
     rng = np.random.default_rng(seed)
     s = np.concatenate([[0.0], np.cumsum(rng.uniform(0.01, 0.1, 60))])
     x = np.concatenate([[0.0], rng.uniform(0.05, 2.0, 59), [0.0]])
@@ -494,7 +495,7 @@ def test_the_averaged_profile_and_its_inverse(seed, windows):
 def test_the_natural_cubic_path_is_scipys(seed, n_points, n_joints):
     """Step 1's natural cubic spline against scipy's CubicSpline (bc_type 'natural')."""
     from scipy.interpolate import CubicSpline
-    from splines445_ros.planning.natural_cubic import natural_cubic_spline
+    from splines445_ros.planning.spline.natural_cubic import natural_cubic_spline
     rng = np.random.default_rng(seed)
     knots = np.concatenate([[0.0], np.cumsum(rng.uniform(0.01, 3.0, n_points - 1))])
     points = np.cumsum(rng.uniform(-1.0, 1.0, (n_points, n_joints)), axis=0)

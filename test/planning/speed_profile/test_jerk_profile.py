@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 from scipy.interpolate import CubicSpline
 from splines445_ros.planning import plan
-from splines445_ros.planning.inner_knots import plan_with_inner_knots
-from splines445_ros.planning.jerk_profile import ThirdOrderProfile
-from splines445_ros.planning.limits import JointLimits
-from splines445_ros.planning.path_constraints import (GriddedPath, JointAcceleration, JointJerk,
-                                                      JointVelocity)
-from splines445_ros.planning.path_velocity import PathLimits
+from splines445_ros.planning.constraints.path_constraints import (GriddedPath, JointAcceleration,
+                                                                  JointJerk, JointVelocity)
+from splines445_ros.planning.path_following.inner_knots import plan_with_inner_knots
+from splines445_ros.planning.speed_profile.jerk_profile import ThirdOrderProfile
+from splines445_ros.planning.speed_profile.path_velocity import PathLimits
+from splines445_ros.planning.spline.limits import JointLimits
 
 RTOL = 1e-6
 

@@ -58,9 +58,9 @@ import numpy as np
 from .inner_knots import (END_SEGMENT_SHARES, first_path, GRID_STEPS, kept_trajectory,
                           KnotCandidate, TimingProblem)
 from .path_timing import midpoint_fractions
-from .residual_vibration import report_residual, trajectory_residual
-from .smooth_profile import END_STEPS, SmoothProfile
-from .timing import rest_to_rest_durations
+from ..durations.timing import rest_to_rest_durations
+from ..speed_profile.residual_vibration import report_residual, trajectory_residual
+from ..speed_profile.smooth_profile import END_STEPS, SmoothProfile
 
 # The profile is planned with this share of each jerk limit: the spline
 # through its knots overshoots the profile's jerk corners, and the exact

@@ -15,8 +15,8 @@ from hypothesis import given, settings, strategies as st
 import numpy as np
 import pytest
 from splines445_ros.planning import plan
-from splines445_ros.planning.path_constraints import GriddedPath, JointTorque
-from splines445_ros.planning.torque import GravityOverload, TorqueLimit
+from splines445_ros.planning.constraints.path_constraints import GriddedPath, JointTorque
+from splines445_ros.planning.constraints.torque import GravityOverload, TorqueLimit
 from test_path_constraints import two_link_torques
 
 EXAMPLES = int(os.environ.get('SPLINES445_PROPERTY_EXAMPLES', str(examples(12))))
@@ -329,7 +329,7 @@ def test_a_check_rescaled_is_the_check_of_the_slowed_down_trajectory(seed, facto
 @given(seed=st.integers(0, 2**32 - 1))
 def test_the_coarse_torque_factor_is_a_lower_bound_of_the_dense_one(seed):
     """factor_at_least (10 ms samples) against the slow-down 10 kHz samples need, computed here."""
-    from splines445_ros.planning.torque import TorqueLimit
+    from splines445_ros.planning.constraints.torque import TorqueLimit
     rng = np.random.default_rng(seed)
     points, limit = random_request(rng)
     traj = plan(points, '555', 'fixed', durations=rng.uniform(0.2, 1.0, len(points) - 1))
@@ -383,7 +383,7 @@ def test_piece_factors_are_the_need_at_each_pieces_samples_both_ends_included(se
     The times include both ends of every piece: a knot is sampled once and
     counts for both of its pieces.
     """
-    from splines445_ros.planning.torque import TORQUE_PIECE_SAMPLES
+    from splines445_ros.planning.constraints.torque import TORQUE_PIECE_SAMPLES
     rng = np.random.default_rng(seed)
     points, limit = random_request(rng)
     traj = plan(points, '555', 'fixed', durations=rng.uniform(0.1, 0.5, len(points) - 1))
@@ -456,7 +456,7 @@ def test_gravity_between_samples_past_the_far_side_of_a_limit_needs_an_infinite_
     there at any speed, so the check's factor must say so, at its own
     timing and slowed down (the ratios already did).
     """
-    from splines445_ros.planning.torque import TorqueCheck
+    from splines445_ros.planning.constraints.torque import TorqueCheck
     t = np.arange(0.0, 0.0205, 1e-3)
     gravity = (-1.0 - 1e-5 + 2000.0 * (t - 0.0105) ** 2)[:, None]
     assert np.all(np.abs(gravity) <= 1.0)

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from reference_spline import CONTINUOUS, exact_peaks
 from splines445_ros.planning import plan, planner
-from splines445_ros.planning.optimal import optimal_durations
+from splines445_ros.planning.durations.optimal import optimal_durations
 
 
 @st.composite
@@ -222,11 +222,12 @@ def test_a_rival_that_gives_up_is_none_only_when_it_cannot_win(seed, n_points, s
     # With a total to beat, optimal_durations skips the rest of a rival
     # (its scaled start, its restoring and building) only when it cannot
     # beat that total; otherwise its plan is the one without those shortcuts.
-    from splines445_ros.planning import optimal
-    from splines445_ros.planning.limits import JointLimits
-    from splines445_ros.planning.timing import (chord_durations, rest_to_rest_lower_bound,
-                                                rest_to_rest_scale, scaled_spline)
-    from splines445_ros.planning.trajectory import Trajectory
+    from splines445_ros.planning.durations import optimal
+    from splines445_ros.planning.durations.timing import (chord_durations,
+                                                          rest_to_rest_lower_bound,
+                                                          rest_to_rest_scale, scaled_spline)
+    from splines445_ros.planning.spline.limits import JointLimits
+    from splines445_ros.planning.spline.trajectory import Trajectory
     rng = np.random.default_rng(seed)
     n = 3
     points = np.cumsum(rng.uniform(-1.0, 1.0, (n_points, n)), axis=0)
@@ -257,7 +258,7 @@ def test_a_rival_that_gives_up_is_none_only_when_it_cannot_win(seed, n_points, s
 
 def test_small_lps_fall_back_to_highs_when_the_dense_simplex_gives_up(monkeypatch):
     """The dense simplex's LPs (up to 12 segments) and HiGHS's give the same plan."""
-    from splines445_ros.planning import optimal
+    from splines445_ros.planning.durations import optimal
     rng = np.random.default_rng(7)
     points = np.cumsum(rng.uniform(-1.0, 1.0, (6, 3)), axis=0)
     kwargs = {'max_velocity': [2.0] * 3, 'max_acceleration': [10.0] * 3,
