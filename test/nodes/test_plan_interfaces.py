@@ -36,7 +36,10 @@ LONG = np.array([[0.0, 0.0, 0.0], [1.5, 2.0, -1.5], [3.0, 0.0, 1.5], [0.0, -1.0,
 
 @pytest.fixture
 def system():
-    parameters = {'kinematics': 'planar_3dof', 'replan_lead_time': 0.1}
+    # A lead time with room for the arm's delivery too: the trajectory is stamped to take
+    # over at now + lead, and one that reaches the arm after that (planning and markers
+    # on a loaded machine, in this one process) would switch late, with a step.
+    parameters = {'kinematics': 'planar_3dof', 'replan_lead_time': 0.5}
     with InProcessSystem(planner_parameters=parameters, params_file=CONFIG,
                          arm_parameters={'simulation': 'kinematic',
                                          'initial_positions': [0.0, 0.0, 0.0]}) as s:
