@@ -56,7 +56,7 @@ import numpy as np  # noqa: E402, I100
 import own_path  # noqa: E402, I100
 from shaking import of_toppra, shaking_figures, shaking_ratios  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
-from splines445_ros.planning.constraints.path_constraints import (  # noqa: E402
+from splines445_ros.planning.constraints import (  # noqa: E402
     GriddedPath, JointAcceleration, JointJerk, JointVelocity)
 from splines445_ros.planning.durations.timing import rest_to_rest_durations  # noqa: E402
 from splines445_ros.planning.path_following.inner_knots import first_path, GRID_STEPS  # noqa: E402

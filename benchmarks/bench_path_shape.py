@@ -54,7 +54,7 @@ import numpy as np  # noqa: E402
 import path_shape  # noqa: E402
 from shaking import of_toppra, shaking_figures, shaking_ratios  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
-from splines445_ros.planning.constraints.path_constraints import (  # noqa: E402
+from splines445_ros.planning.constraints import (  # noqa: E402
     GriddedPath, JointAcceleration, JointVelocity)
 from splines445_ros.planning.path_following import inner_knots  # noqa: E402
 from splines445_ros.planning.speed_profile.path_velocity import (  # noqa: E402

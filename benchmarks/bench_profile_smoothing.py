@@ -58,8 +58,7 @@ import numpy as np  # noqa: E402
 import own_path  # noqa: E402
 from shaking import of_toppra, shaking_figures, shaking_ratios  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
-from splines445_ros.planning.constraints.path_constraints import (  # noqa: E402
-    JerkConstraint, JointJerk)
+from splines445_ros.planning.constraints import JerkConstraint, JointJerk  # noqa: E402
 from splines445_ros.planning.path_following import inner_knots  # noqa: E402
 from splines445_ros.planning.path_following.inner_knots import (  # noqa: E402
     end_ramps, plan_with_inner_knots)

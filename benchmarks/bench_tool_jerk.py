@@ -43,8 +43,7 @@ import own_path  # noqa: E402
 from shaking import of_toppra, shaking_figures, shaking_ratios  # noqa: E402
 from splines445_ros.cartesian import tool_lines  # noqa: E402
 from splines445_ros.cartesian.tool_paths import plan_tool_path  # noqa: E402
-from splines445_ros.planning.constraints.path_constraints import (  # noqa: E402
-    JointAcceleration, JointVelocity)
+from splines445_ros.planning.constraints import JointAcceleration, JointVelocity  # noqa: E402
 from splines445_ros.planning.speed_profile.path_velocity import (  # noqa: E402
     PathLimits, traversal_times)
 from splines445_ros.planning.spline.limits import JointLimits  # noqa: E402

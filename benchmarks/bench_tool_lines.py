@@ -123,7 +123,7 @@ from shaking import of_toppra, shaking_figures, shaking_ratios  # noqa: E402
 from splines445_ros.cartesian import tool_lines as tl  # noqa: E402
 from splines445_ros.cartesian.tool_paths import plan_tool_path  # noqa: E402
 from splines445_ros.planning import JointLimits  # noqa: E402
-from splines445_ros.planning.constraints.path_constraints import ToolSpeed  # noqa: E402
+from splines445_ros.planning.constraints import ToolSpeed  # noqa: E402
 from splines445_ros.planning.path_following.path_timing import JointPathSamples  # noqa: E402
 from splines445_ros.planning.speed_profile.path_velocity import traversal_times  # noqa: E402
 from splines445_ros.robot import rotations as rot  # noqa: E402

@@ -8,7 +8,7 @@ three places, as they hold a tool speed:
    has the path derivatives ``p'`` and ``p''`` (:class:`ToolCurve`), and
    the tool's acceleration at path speed ``sdot`` and path acceleration
    ``sddot`` is ``p' sddot + p'' sdot**2``: second order in TOPP-RA's sense,
-   the rows of :class:`planning.constraints.path_constraints.ToolAcceleration`.
+   the rows of :class:`planning.constraints.ToolAcceleration`.
 2. Spline pieces.  The construction's C4 spline is sampled per piece
    (:class:`PieceAccelerations`) and a piece whose tool acceleration
    exceeds ``A`` gets the time factor ``sqrt(peak / A)``: a piece ``f``

@@ -17,7 +17,7 @@ uses for method 555 with optimal timing, rest to rest:
    of length ``L``, rotation ``theta`` and path length ``l``, the tool moves
    ``L / l`` metres and turns ``theta / l`` radians per unit of ``s``, so
    ``max_tool_speed`` is the first-order constraint ``sdot <= v l / L``
-   (:class:`planning.constraints.path_constraints.ToolSpeed`).  The C4 555 spline passes
+   (:class:`planning.constraints.ToolSpeed`).  The C4 555 spline passes
    its knots (on the path) at the profile's times, every waypoint exactly.
 3. Taylor's test.  The deviation of the timed spline's tool from the lines
    is measured per piece (:class:`path_deviation.PathMeasure`, exact maxima);
@@ -67,7 +67,7 @@ from .path_deviation import tolerance_excess
 from .tool_acceleration import (acceleration_factor, peak_tool_acceleration, PieceAccelerations,
                                 ToolCurve)
 from .tool_kinematics import frame_chain, has_transforms, refused_pose, start_walk
-from ..planning.constraints.path_constraints import ToolAcceleration, ToolSpeed
+from ..planning.constraints import ToolAcceleration, ToolSpeed
 from ..planning.constraints.torque import CHECK_PERIOD, check_times, uniform_slow_down
 from ..planning.path_following.path_timing import (JointPathSamples, midpoint_fractions,
                                                    plan_along_path, rescaled)

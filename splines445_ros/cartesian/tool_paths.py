@@ -66,7 +66,7 @@ from .path_deviation import Deviation, PathMeasure, tolerance_excess
 from .tool_kinematics import declared_joint_count, refused_pose
 from .tool_lines import edge_geometry, LineUnreachable, plan_tool_lines
 from ..planning import merge_duplicates
-from ..planning.constraints.path_constraints import GravityOverload
+from ..planning.constraints import GravityOverload
 from ..planning.plan_options import PlanOptions, smoothing_windows
 from ..planning.planner import (joint_label, plan_with_options, position_limit_slack,
                                 within_position_limits)

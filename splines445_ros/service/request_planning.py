@@ -12,7 +12,7 @@ from typing import Optional
 import numpy as np
 
 from ..cartesian.tool_paths import plan_tool_path
-from ..planning.constraints.path_constraints import GravityOverload
+from ..planning.constraints import GravityOverload
 from ..planning.plan_options import BOUNDARY_NAMES, PlanOptions
 from ..planning.planner import LEAVES_POSITION_LIMITS, NO_INNER_KNOT_SPLINE, plan_with_options
 from ..planning.validation import waypoint_array

@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 from splines445_ros.cartesian.tool_acceleration import PieceAccelerations, ToolCurve
 from splines445_ros.cartesian.tool_paths import plan_tool_path
-from splines445_ros.planning.constraints.path_constraints import GriddedPath, ToolAcceleration
+from splines445_ros.planning.constraints import GriddedPath, ToolAcceleration
 from test_tool_lines import arms, kinematics, random_lines, ROBOTS  # noqa: F401 (fixture)
 from test_tool_paths_6d import check_1khz, DEG, MM
 

@@ -20,7 +20,7 @@ its torque is ``g + d / f**2`` with ``d = tau - g`` the dynamic part at
 
 and the smallest common factor is the largest of those (:meth:`TorqueLimit.
 time_factor`).  A pose where gravity alone exceeds a limit holds it at no
-speed: :class:`path_constraints.GravityOverload`.
+speed: :class:`constraints.GravityOverload`.
 
 The check of a finished trajectory samples it every :data:`CHECK_PERIOD`
 (1 kHz).  Between two samples the torque is a smooth function of time; the
@@ -33,7 +33,7 @@ import math
 
 import numpy as np
 
-from .path_constraints import GRAVITY_RTOL, GravityOverload, JointTorque, refuse_gravity_overload
+from .joint_torque import GRAVITY_RTOL, GravityOverload, JointTorque, refuse_gravity_overload
 from ..spline.segments import sample_segments
 
 # Period [s] of the dense checks of a plan: the torque here, the tool speed in
@@ -82,7 +82,7 @@ class TorqueLimit:
 
     def constraint(self, interpolated=False):
         """
-        Return the path-velocity constraint object (:class:`path_constraints.JointTorque`).
+        Return the path-velocity constraint object (:class:`constraints.JointTorque`).
 
         ``interpolated``: its rows also hold at the end of every grid step.
         """

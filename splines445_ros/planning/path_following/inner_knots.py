@@ -90,8 +90,7 @@ import numpy as np
 
 from .knot_pieces import (equal_fractions, exact_factors, knot_times, knots_per_segment,
                           ramp_accelerations, RAMP_PIECES)
-from ..constraints.path_constraints import (GravityOverload, GriddedPath, JointAcceleration,
-                                            JointJerk, JointVelocity)
+from ..constraints import GravityOverload, GriddedPath, JointAcceleration, JointJerk, JointVelocity
 from ..durations.timing import closed_form_scale, rest_to_rest_durations
 from ..plan_options import DEFAULT_SMOOTHING, torque_without_windows
 from ..speed_profile.averaged_timing import AveragedTiming

@@ -11,7 +11,7 @@ waypoints that must be passed exactly.  The rest is the same construction
 1. Path.  A C2 cubic spline through the samples, ``q(s)``; its grid has
    :data:`GRID_PER_SAMPLE` steps per sample interval.
 2. Speed along it.  The fastest path speed under the caller's constraint
-   objects (:mod:`path_constraints`: joint velocity and acceleration always,
+   objects (:mod:`constraints`: joint velocity and acceleration always,
    tool speed or torque when given), times the local factors, averaged over
    the smoothing windows; rest to rest.
    A waypoint where that profile nearly stops (a sharp corner of the path)
@@ -50,8 +50,7 @@ from .inner_knots import (end_ramps, iterate_knots, IterationBudget, kept_trajec
                           KnotCandidate, SpeedProfile, TimingProblem)
 from .knot_pieces import (equal_fractions, knot_times, knots_per_segment, ramp_accelerations,
                           shortest_piece)
-from ..constraints.path_constraints import (GriddedPath, JointAcceleration, JointTorque,
-                                            JointVelocity)
+from ..constraints import GriddedPath, JointAcceleration, JointTorque, JointVelocity
 from ..plan_options import DEFAULT_SMOOTHING
 from ..speed_profile.averaged_timing import AveragedTiming, regula_falsi
 from ..speed_profile.path_velocity import path_position, PathLimits

@@ -41,7 +41,7 @@ holds, the end segments' own times are changed as the default construction
 does (``inner_knots.END_SEGMENT_SHARES``): 20 of 20 random moving starts
 were followed on each of three seeds (14 without the shares, which single
 segments needed).  The joint torque is one more row of
-the profile (a ``path_constraints.JointTorque``, linear in ``x`` and
+the profile (a ``constraints.JointTorque``, linear in ``x`` and
 ``x'``).  Measured on the vendor arms (doc/benchmarks.md,
 ``bench_arm_moves.py``): 0.91-0.96 of the default's duration, with a 4 Hz
 peak of about 1.6 times the default's (still half of TOPP-RA's but on the

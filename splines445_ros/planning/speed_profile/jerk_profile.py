@@ -3,7 +3,7 @@ The fastest speed profile along a path under third-order constraints, by sequent
 
 :mod:`path_velocity` finds the fastest profile under first- and
 second-order constraints; its acceleration jumps, and the C4 spline that
-follows it overshoots there.  Here the jerk (:class:`path_constraints.
+follows it overshoots there.  Here the jerk (:class:`constraints.
 JointJerk`) is a constraint of the profile itself.  On the grid ``s_0 <
 ... < s_M`` of a rest-to-rest path, with ``x_i = sdot**2`` and the path
 acceleration ``u_i = (x_{i+1} - x_i) / (2 ds_i)`` on step ``i``:
@@ -56,7 +56,7 @@ class ThirdOrderProfile:
     """
     The LPs of one gridded path: its second-order rows and third-order terms, prepared once.
 
-    ``path`` is a :class:`path_constraints.GriddedPath` with ``third``;
+    ``path`` is a :class:`constraints.GriddedPath` with ``third``;
     ``constraints`` its constraint objects of order 2 (rows) and 3 (terms);
     order 1 comes with the ``x_max`` of every call.
     """

@@ -15,7 +15,7 @@ constraint per joint the per-step problem is an interval, no LP) gives the
 largest ``x`` from which the end is still reachable (backward pass) and the
 fastest profile that stays within it (forward pass).
 
-The limits come as constraint objects (:mod:`path_constraints`): joint
+The limits come as constraint objects (:mod:`constraints`): joint
 velocity and tool speed bound ``x``; joint acceleration and joint torque
 are rows ``lo <= a u + b x <= hi``, each giving ``u`` an interval whose ends
 are linear in ``x``.  A constraint that asks for it (``interpolated``, the
@@ -44,7 +44,7 @@ class PathLimits:
     """
     The constraints along one gridded path, ready for many profiles.
 
-    ``path`` is a :class:`path_constraints.GriddedPath` and ``constraints``
+    ``path`` is a :class:`constraints.GriddedPath` and ``constraints``
     its constraint objects (first order: a bound on ``x``; second order:
     rows ``lo <= a u + b x <= hi``).  Every bound is proportional to the
     square of the local factor (see the module docstring), so they are
@@ -239,7 +239,7 @@ def joint_acceleration_peaks(path, x):
     """
     Return each joint's largest ``|q''|`` in time (n,) along the profile ``x`` of ``path``.
 
-    ``path`` a :class:`path_constraints.GriddedPath`.  The path acceleration
+    ``path`` a :class:`constraints.GriddedPath`.  The path acceleration
     ``u`` is constant on a step, so at both ends of step i the joint
     acceleration is ``q' u_i + q'' x`` (the velocity-dependent part at the
     grid point's speed).

@@ -23,7 +23,7 @@ linear in its coefficients ``z``:
   :mod:`path_velocity`, which holds the velocity; its stops at
   zero-inertia points lifted, :func:`_lift_isolated_stops`),
   ``|q' x'/2 + q'' x| <= a``, the rows ``lo <= a x'/2 + b x <= hi`` of any
-  more constraint objects (:mod:`path_constraints`: the joint torque
+  more constraint objects (:mod:`constraints`: the joint torque
   ``M q' u + (M q'' + C q') x + g``, linear in ``x`` and ``x'`` like the
   acceleration) and the jerk below.  They are applied at
   :data:`DENSE` points per grid step, :data:`END_DENSE` per step in the end
@@ -107,7 +107,7 @@ except (ImportError, AttributeError):   # e.g. an apt ROS install: scipy's linpr
 
 from .path_velocity import PathLimits
 from .residual_vibration import content_weights, static_scale
-from ..constraints.path_constraints import GriddedPath, JointAcceleration, JointVelocity
+from ..constraints import GriddedPath, JointAcceleration, JointVelocity
 from ..validation import positive_array
 
 # The passes' profile counts as stopped below this share of its largest x (a
@@ -413,7 +413,7 @@ class SmoothProfile:
     increasing grid from ``path.x[0]`` to ``path.x[-1]`` (e.g. 24 steps a
     segment); ``velocity``, ``acceleration``, ``jerk`` the joint limits
     (n,) or scalars (a jerk of inf: no jerk rows for that joint);
-    ``constraints`` more :mod:`path_constraints` objects,
+    ``constraints`` more :mod:`constraints` objects,
     first order (``x`` at most their squared speed) or second order (rows
     ``lo <= a u + b x <= hi`` with ``u = x'/2``: the joint torque, the tool
     acceleration), applied at the same row points; ``ends`` the squared
@@ -424,7 +424,7 @@ class SmoothProfile:
     also cancels the ringing of a lightly damped mode at it after the stop
     (:mod:`residual_vibration`; :meth:`_cancel_residual`).  Solved on
     construction; raises ValueError on bad input (a constraint's own, such
-    as :class:`path_constraints.GravityOverload`) and RuntimeError when the
+    as :class:`constraints.GravityOverload`) and RuntimeError when the
     first LP fails.
 
     Attributes: ``knots``, ``coefficients`` (the B-spline's),
@@ -466,7 +466,7 @@ class SmoothProfile:
                              f'{vibration_frequency}')
         self.residual = None
         if any(c.order not in (1, 2) for c in self.constraints):
-            raise ValueError('constraints must be first or second order (path_constraints)')
+            raise ValueError('constraints must be first or second order (planning.constraints)')
         self.start, self.end = grid[0], grid[-1]
         steps = np.diff(grid)
         self.end_lengths = (grid[END_STEPS] - grid[0], grid[-1] - grid[-1 - END_STEPS])

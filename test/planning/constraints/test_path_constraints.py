@@ -14,9 +14,8 @@ from hypothesis import assume, given, settings, strategies as st
 import numpy as np
 import pytest
 from splines445_ros.planning import plan
-from splines445_ros.planning.constraints.path_constraints import (GravityOverload, GriddedPath,
-                                                                  JointAcceleration, JointTorque,
-                                                                  JointVelocity, ToolSpeed)
+from splines445_ros.planning.constraints import (GravityOverload, GriddedPath, JointAcceleration,
+                                                 JointTorque, JointVelocity, ToolSpeed)
 from splines445_ros.planning.path_following.path_timing import _RoundedTiming
 from splines445_ros.planning.speed_profile.path_velocity import PathLimits, traversal_times
 

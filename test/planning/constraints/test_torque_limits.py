@@ -15,7 +15,7 @@ from hypothesis import given, settings, strategies as st
 import numpy as np
 import pytest
 from splines445_ros.planning import plan
-from splines445_ros.planning.constraints.path_constraints import GriddedPath, JointTorque
+from splines445_ros.planning.constraints import GriddedPath, JointTorque
 from splines445_ros.planning.constraints.torque import GravityOverload, TorqueLimit
 from test_path_constraints import two_link_torques
 

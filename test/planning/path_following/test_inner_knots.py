@@ -17,8 +17,7 @@ import pytest
 from reference_spline import exact_peaks
 from scipy.interpolate import make_interp_spline
 from splines445_ros.planning import plan
-from splines445_ros.planning.constraints.path_constraints import (GriddedPath, JointAcceleration,
-                                                                  JointVelocity)
+from splines445_ros.planning.constraints import GriddedPath, JointAcceleration, JointVelocity
 from splines445_ros.planning.path_following.inner_knots import plan_with_inner_knots
 from splines445_ros.planning.plan_options import DEFAULT_INNER_KNOTS
 from splines445_ros.planning.planner import SMALL_REQUEST

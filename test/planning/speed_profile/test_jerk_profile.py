@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from scipy.interpolate import CubicSpline
 from splines445_ros.planning import plan
-from splines445_ros.planning.constraints.path_constraints import (GriddedPath, JointAcceleration,
-                                                                  JointJerk, JointVelocity)
+from splines445_ros.planning.constraints import (GriddedPath, JointAcceleration, JointJerk,
+                                                 JointVelocity)
 from splines445_ros.planning.path_following.inner_knots import plan_with_inner_knots
 from splines445_ros.planning.speed_profile.jerk_profile import ThirdOrderProfile
 from splines445_ros.planning.speed_profile.path_velocity import PathLimits

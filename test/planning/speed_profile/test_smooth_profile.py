@@ -13,8 +13,7 @@ takes velocity, acceleration and jerk by finite differences.
 import numpy as np
 import pytest
 from scipy.interpolate import CubicHermiteSpline
-from splines445_ros.planning.constraints.path_constraints import (GriddedPath, JointAcceleration,
-                                                                  JointVelocity)
+from splines445_ros.planning.constraints import GriddedPath, JointAcceleration, JointVelocity
 from splines445_ros.planning.durations.timing import rest_to_rest_durations
 from splines445_ros.planning.speed_profile import smooth_profile
 from splines445_ros.planning.speed_profile.path_velocity import PathLimits, traversal_times

@@ -1,0 +1,90 @@
+"""Joint torques of the rigid-body dynamics along a path: a second-order constraint."""
+
+import numpy as np
+
+from .canonical_forms import AccelerationConstraint
+
+
+class JointTorque(AccelerationConstraint):
+    """
+    Joint torques of the rigid-body dynamics within ``|tau_j| <= max_torque_j``.
+
+    ``inverse_dynamics(q, qd, qdd)`` (each (N, n), returning (N, n)) is
+    ``M(q) qdd + c(q, qd) + g(q)``.  Along the path ``qd = q' sdot`` and
+    ``qdd = q' u + q'' x``, so (Pham & Pham's canonical form)::
+
+        tau = a u + b x + g,  a = ID(q, 0, q') - g,  b = ID(q, q', q'') - g,  g = ID(q, 0, 0)
+
+    (``c`` is quadratic in ``qd``, so ``c(q, q') = c(q, q' sdot) / x``).
+    Only the torques of the planned joints are limited.  ``interpolated``:
+    the rows also hold at the end of every grid step
+    (:attr:`AccelerationConstraint.interpolated`).  ``gravity(q)``, when
+    given (else ``inverse_dynamics.gravity`` if it is callable), is ``g``:
+    ``ID(q, 0, 0)`` by a cheaper route.
+    """
+
+    def __init__(self, max_torque, inverse_dynamics, interpolated=False, gravity=None):
+        """Take the torque limit per joint (n,), the vectorised inverse dynamics and g(q)."""
+        self.max_torque = np.asarray(max_torque, float)
+        self.inverse_dynamics = inverse_dynamics
+        self.interpolated = bool(interpolated)
+        if gravity is None:
+            gravity = getattr(inverse_dynamics, 'gravity', None)
+        self.gravity = gravity if callable(gravity) else None
+
+    def rows(self, path):
+        """Return ``(a, b, -tau_max - g, tau_max - g)``; refuse a pose gravity alone overloads."""
+        q, first, second = path.positions, path.first, path.second
+        zero = np.zeros_like(q)
+        if self.gravity is None:
+            gravity = self.inverse_dynamics(q, zero, zero)
+        else:
+            gravity = self.gravity(q)
+        a = self.inverse_dynamics(q, zero, first) - gravity
+        b = self.inverse_dynamics(q, first, second) - gravity
+        if self.gravity is not None:
+            # Where the path stops (q' = 0) a is 0 (b too where q'' = 0 as well), not
+            # the round-off between g(q) and ID(q, 0, 0).
+            still = ~np.any(first, axis=1)
+            a[still] = 0.0
+            b[still & ~np.any(second, axis=1)] = 0.0
+        limit = np.broadcast_to(self.max_torque, gravity.shape)
+        refuse_gravity_overload(q, gravity, limit)
+        return a, b, -limit - gravity, limit - gravity
+
+
+# Gravity is refused only beyond its limit by more than this (relative): a
+# waypoint where it is exactly at the limit came back 4e-16 over it from the
+# path's spline.
+GRAVITY_RTOL = 1e-12
+
+
+class GravityOverload(ValueError):
+    """Gravity alone needs more torque than a joint's limit at some point of the path."""
+
+    def __init__(self, index, joint, pose, torque, limit):
+        """Record grid point ``index``, joint column ``joint``, the ``pose`` and the torque."""
+        self.index, self.joint, self.pose = index, joint, np.array(pose)
+        self.torque, self.limit = torque, limit
+        # Enough digits to tell the two apart (a torque a hair over its limit).
+        digits = 4
+        while digits < 17 and f'{abs(torque):.{digits}g}' == f'{limit:.{digits}g}':
+            digits += 1
+        super().__init__(f'joint {joint}: gravity alone needs {torque:.{digits}g} N m at the '
+                         f'pose {np.array2string(self.pose, precision=4)}, beyond its limit '
+                         f'of {limit:.{digits}g} N m: no speed along this path holds it')
+
+
+def refuse_gravity_overload(q, gravity, limit):
+    """
+    Raise :class:`GravityOverload` for the worst pose where gravity alone exceeds a limit.
+
+    ``q``, ``gravity`` and ``limit`` (N, n): the poses, their gravity
+    torques and the limits.  The worst is the largest ``|gravity| / limit``
+    (the first of equal ones, in sample then joint order).
+    """
+    over = np.abs(gravity) > limit * (1.0 + GRAVITY_RTOL)
+    if np.any(over):
+        ratio = np.where(over, np.abs(gravity) / limit, 0.0)
+        i, j = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
+        raise GravityOverload(int(i), int(j), q[i], float(gravity[i, j]), float(limit[i, j]))
