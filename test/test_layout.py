@@ -217,25 +217,28 @@ def test_checker_flags_bad_imports(tmp_path):
     root = str(tmp_path / 'pkg')
     for layer in MAY_IMPORT:
         write_file(root, f'{layer}/__init__.py', '"""Layer."""\n')
-    write_file(root, '__init__.py', '')
-    write_file(root, 'planning/core.py', 'import numpy\nfrom rclpy.node import Node\n')
-    write_file(root, 'planning/sneaky.py', 'def f():\n    from ..robot import kinematics\n')
-    write_file(root, 'robot/sim.py',
-               'from .. import planning\nfrom geometry_msgs.msg import Pose\n')
-    write_file(root, 'robot/up.py', 'import pkg.nodes.node\nimport tf2_ros\n')
-    write_file(root, 'nodes/node.py',
-               'import rclpy\nfrom ..robot import sim\nfrom pkg.tools import demo\n')
-    write_file(root, 'tools/demo.py', 'from ..nodes import node\nfrom ..planning import core\n')
-    write_file(root, 'nodes/old.py', 'from ..arm import kinematics\n')
-    write_file(root, 'service/up.py', 'from ..nodes import node\n')
-    write_file(root, 'stray.py', 'import os\n')
-    write_file(root, 'planning/spline/__init__.py', '"""Room."""\n')
-    write_file(root, 'planning/spline/up.py',
-               'from ..validation import checked\nfrom ..durations import timing\n')
-    write_file(root, 'planning/durations/__init__.py', '"""Room."""\n')
-    write_file(root, 'planning/durations/timing.py', 'from ..spline import up\n')
-    write_file(root, 'planning/durations/lazy.py', 'def f():\n    from ..planner import plan\n')
-    write_file(root, 'planning/attic/old.py', 'import os\n')
+    # Each file's path and text, with one broken rule of each kind.
+    files = {
+        '__init__.py': '',
+        'planning/core.py': 'import numpy\nfrom rclpy.node import Node\n',
+        'planning/sneaky.py': 'def f():\n    from ..robot import kinematics\n',
+        'robot/sim.py': 'from .. import planning\nfrom geometry_msgs.msg import Pose\n',
+        'robot/up.py': 'import pkg.nodes.node\nimport tf2_ros\n',
+        'nodes/node.py': 'import rclpy\nfrom ..robot import sim\nfrom pkg.tools import demo\n',
+        'tools/demo.py': 'from ..nodes import node\nfrom ..planning import core\n',
+        'nodes/old.py': 'from ..arm import kinematics\n',
+        'service/up.py': 'from ..nodes import node\n',
+        'stray.py': 'import os\n',
+        'planning/spline/__init__.py': '"""Room."""\n',
+        'planning/spline/up.py': ('from ..validation import checked\n'
+                                  'from ..durations import timing\n'),
+        'planning/durations/__init__.py': '"""Room."""\n',
+        'planning/durations/timing.py': 'from ..spline import up\n',
+        'planning/durations/lazy.py': 'def f():\n    from ..planner import plan\n',
+        'planning/attic/old.py': 'import os\n',
+    }
+    for path, text in files.items():
+        write_file(root, path, text)
     found = violations(root)
     expected = [
         'pkg.stray: outside the layer folders',
