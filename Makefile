@@ -57,7 +57,11 @@ $(VENV)/.installed: requirements.txt
 	$(VENV)/bin/pip install --disable-pip-version-check -q -r requirements.txt
 	touch $@
 
+# setuptools copies modules into build/ and install/ but never removes one: a module
+# moved or deleted since the last build would stay importable (old code) beside the new.
+# So the Python package is copied afresh each time (a second or two); the interfaces stay.
 build: env
+	rm -rf build/splines445_ros/build install/splines445_ros/lib/python*/site-packages/splines445_ros
 	$(COLCON) build $(COLCON_PATHS) --event-handlers console_cohesion- summary+
 
 test: build

@@ -41,7 +41,7 @@ pose, its last edge turning the tool), for the tool speed limits v = none,
 
 And ``speed_profile='time_optimal'`` (issue 38): the same call with it, timed in
 turn with the others: the lines' path timed again by the third-order
-profile (``planning/time_optimal.retime_path``); its figures in a table of
+profile (``planning/path_following/time_optimal.retime_path``); its figures in a table of
 their own (along its own path too), with its deviation at 1 kHz, tool
 speed and share, and whether it held every limit, one line per row.
 

@@ -12,6 +12,11 @@ The rules (also in each folder's ``__init__`` docstring)::
     tools      may import everything but the deprecated arm
     arm        deprecated re-exports of robot, sim and cartesian; no ROS
 
+Inside ``planning`` each room imports only the rooms before it (and the
+three top modules as :data:`PLANNING_MAY_IMPORT` says)::
+
+    spline, durations, constraints, speed_profile, path_following; then planner
+
 They are checked by reading every module's imports with :mod:`ast` (imports
 inside functions included), so nothing is executed and a lazy import cannot
 hide.  ``test_checker_flags_bad_imports`` runs the same checker on a small
@@ -117,14 +122,26 @@ def room_of(module):
     return parts[2] if len(parts) > 2 and parts[1] == 'planning' else ''
 
 
-def planning_violations(module, where, name):
-    """Broken room rules of one import inside ``planning``, as readable strings."""
-    room, target = room_of(module), room_of(name)
-    if not target or target == room or layer_of(name) != 'planning':
-        return []
-    if target in PLANNING_MAY_IMPORT.get(room, set()):
-        return []
-    return [f'{where}: planning.{room} imports {name}']
+def planning_violations(module, path, root):
+    """Broken room rules of the imports of one module inside ``planning``, as readable strings."""
+    package = os.path.basename(root)
+    room, found = room_of(module), []
+    names = imported_names(module, path)
+    whole = f'{package}.planning'
+    # "from .. import x" names the package too, as the base of its x: not on its own.
+    bases = {line for line, name in names if name.startswith(whole + '.')}
+    for line, name in names:
+        where = f'{os.path.relpath(path, os.path.dirname(root))}:{line}'
+        if name.split('.')[0] != package:
+            continue
+        if name == whole and line not in bases:
+            # The package itself is planner's API (plan(), PlanOptions): a room above all.
+            found.append(f'{where}: planning.{room} imports the planning package itself')
+            continue
+        target = room_of(name)
+        if target and target != room and target not in PLANNING_MAY_IMPORT.get(room, set()):
+            found.append(f'{where}: planning.{room} imports {name}')
+    return found
 
 
 def violations(root):
@@ -141,10 +158,10 @@ def violations(root):
         if (layer == 'planning' and module.count('.') > 1
                 and room_of(module) not in PLANNING_MAY_IMPORT):
             found.append(f'{module}: outside the rooms of planning {sorted(PLANNING_MAY_IMPORT)}')
+        if layer == 'planning' and room_of(module):
+            found += planning_violations(module, path, root)
         for line, name in imported_names(module, path):
             where = f'{os.path.relpath(path, os.path.dirname(root))}:{line}'
-            if layer == 'planning' and room_of(module):
-                found += planning_violations(module, where, name)
             if name.split('.')[0] == package:
                 target = layer_of(name)
                 if target in MAY_IMPORT and target not in MAY_IMPORT[layer]:
@@ -211,6 +228,12 @@ def test_every_folder_states_its_rules():
         with open(os.path.join(ROOT, layer, '__init__.py'), encoding='utf-8') as handle:
             doc = ast.get_docstring(ast.parse(handle.read()))
         assert doc and 'May import' in doc, f'{layer}/__init__.py must say what it may import'
+        if layer.startswith('planning/'):
+            # ... and names every room or top module of planning it may import.
+            rule = ' '.join(doc[doc.index('May import'):].split())
+            for allowed in PLANNING_MAY_IMPORT[layer.split('/')[1]]:
+                named = f'``{allowed}``' in rule or f'``planning.{allowed}``' in rule
+                assert named, f'{layer}/__init__.py: may it import {allowed}? Say so.'
 
 
 def test_checker_flags_bad_imports(tmp_path):
@@ -236,6 +259,9 @@ def test_checker_flags_bad_imports(tmp_path):
         'planning/durations/timing.py': 'from ..spline import up\n',
         'planning/durations/lazy.py': 'def f():\n    from ..planner import plan\n',
         'planning/attic/old.py': 'import os\n',
+        'planning/validation.py': 'from .spline import up\n',
+        'planning/durations/whole.py': 'import pkg.planning\nfrom pkg import planning\n',
+        'planning/durations/fine.py': 'import foo.planning.bar\nfrom .. import validation\n',
     }
     for path, text in files.items():
         write_file(root, path, text)
@@ -253,12 +279,15 @@ def test_checker_flags_bad_imports(tmp_path):
         'pkg/planning/spline/up.py:2: planning.spline imports pkg.planning.durations',
         'pkg/planning/durations/lazy.py:2: planning.durations imports pkg.planning.planner',
         'pkg.planning.attic.old: outside the rooms of planning',
+        'pkg/planning/validation.py:1: planning.validation imports pkg.planning.spline',
+        'pkg/planning/durations/whole.py:1: planning.durations imports the planning package',
+        'pkg/planning/durations/whole.py:2: planning.durations imports the planning package',
     ]
     for text in expected:
         assert any(v.startswith(text) for v in found), (text, found)
     # Allowed imports (tools -> nodes/planning, nodes -> robot, robot -> planning) are not flagged.
     assert not any('tools/demo.py' in v or 'robot/sim.py:1' in v or 'node.py:2' in v
-                   or 'spline/up.py:1' in v or 'durations/timing.py' in v
+                   or 'spline/up.py:1' in v or 'durations/timing.py' in v or 'fine.py' in v
                    for v in found), found
 
 

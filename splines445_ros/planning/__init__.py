@@ -17,11 +17,14 @@ this list (its ``__init__`` says which; ``test/test_layout.py`` checks)::
     speed_profile   speed profiles s(t) along a path that hold the constraints
     path_following  C4 splines with inner knots that follow a speed profile
 
-and three modules at the top: ``validation`` (array checks, imported by
-every room), ``plan_options`` (the validated request) and ``planner``
-(``plan()``: which timing, and the other plans where one fails).
+and three modules at the top: ``validation`` (array checks, which every
+room may import), ``plan_options`` (the validated request: it imports
+``spline`` and ``constraints``, and ``path_following`` imports it) and
+``planner`` (``plan()``: which timing, and the other plans where one
+fails; it imports them all).
 
-May import: numpy and scipy only.  Never rclpy or ROS message packages, and
+May import: numpy and scipy only (and highspy where it is installed:
+``speed_profile.smooth_profile`` calls it directly, else scipy's HiGHS).  Never rclpy or ROS message packages, and
 nothing from the rest of the package (``robot``, ``cartesian``, ``sim``,
 ``service``, ``nodes``, ``tools``): it is the bottom layer (``test/test_layout.py``
 checks this).

@@ -5,8 +5,8 @@ C4 555 splines with free inner knots that follow a speed profile along a path.
 steps that place, fit and scale the inner knots), ``knot_pieces`` (where the
 knots go and what each piece needs), ``path_timing`` (the same construction
 along a given path: tool lines, torque) and ``time_optimal`` (the spline
-that follows ``speed_profile.smooth_profile``: ``speed_profile:
-time_optimal``).
+that follows ``speed_profile.smooth_profile``: plan()'s
+``speed_profile='time_optimal'``).
 
 May import: numpy, scipy, the ``speed_profile``, ``constraints``,
 ``durations`` and ``spline`` rooms, ``planning.plan_options`` (the request

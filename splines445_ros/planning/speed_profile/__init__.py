@@ -8,6 +8,6 @@ default's smoothing), ``jerk_profile`` (third order, by sequential LPs),
 ``residual_vibration`` (the ringing of a lightly damped mode after a stop,
 which ``vibration_frequency`` keeps down).
 
-May import: numpy, scipy, the ``constraints`` and ``spline`` rooms and
-``planning.validation``.
+May import: numpy, scipy (highspy where installed), the ``constraints``
+and ``spline`` rooms and ``planning.validation``.
 """
