@@ -24,10 +24,10 @@ room may import), ``plan_options`` (the validated request: it imports
 fails; it imports them all).
 
 May import: numpy and scipy only (and highspy where it is installed:
-``speed_profile.smooth_profile`` calls it directly, else scipy's HiGHS).  Never rclpy or ROS message packages, and
-nothing from the rest of the package (``robot``, ``cartesian``, ``sim``,
-``service``, ``nodes``, ``tools``): it is the bottom layer (``test/test_layout.py``
-checks this).
+``speed_profile.smooth_profile`` calls it directly, else scipy's HiGHS).
+Never rclpy or ROS message packages, and nothing from the rest of the
+package (``robot``, ``cartesian``, ``sim``, ``service``, ``nodes``,
+``tools``): it is the bottom layer (``test/test_layout.py`` checks this).
 """
 
 from .durations.timing import chord_durations
