@@ -9,8 +9,9 @@ spline used to start some joint a hair the wrong way on more than half of
 them (its jerk at a rest end was whatever the fit gave); step 4 of
 ``planning/path_following/inner_knots.py`` now sets such a jerk to 0
 (``END_JERK_SIGN``; both are run, on the same requests).  Where a plan
-still leaves the limits, plan() gives the knots-only optimum's plan, or the
-time-optimal profile's (``planner._other_profile_within``).
+still leaves the limits, plan() gives the knots-only optimum's plan, the
+time-optimal profile's, or the chord-length durations' of timing "uniform"
+(``planner._other_profile_within``).
 
 Printed: how far the smoothed plan leaves the range (a creep: under 1e-3
 rad; more: a swing of its path), how many requests plan() plans within
@@ -49,9 +50,11 @@ CASES_STREAM = 61
 CREEP = 1e-3
 # The vibration_frequency [Hz] of the switch's other rows.
 SHAPED = (4.0, 1.5)
-# The two other plans, by what their speed_profile_reason says.
+# The three other plans, by what their speed_profile_reason says.
 KNOTS_ONLY = 'knots at the waypoints only'
 TIME_OPTIMAL = 'time_optimal'
+CHORDS = 'timing "uniform"'
+OTHER_PLANS = (KNOTS_ONLY, TIME_OPTIMAL, CHORDS)
 
 
 def one_way_request(rng):
@@ -80,13 +83,13 @@ def run(requests):
     """
     Plan every request with and without its limits; return the counts and the figures.
 
-    ``{'creeps', 'swings', 'planned', 'excess', 'planning', KNOTS_ONLY,
-    TIME_OPTIMAL}``: the last two hold, per request planned that way, its
+    ``{'creeps', 'swings', 'planned', 'excess', 'planning'}`` and the
+    :data:`OTHER_PLANS`, which hold, per request planned that way, its
     figures over the smoothed plan without limits, over TOPP-RA, and the
     smoothed plan's over TOPP-RA.
     """
-    out = {'creeps': 0, 'swings': 0, 'planned': 0, 'excess': [], 'planning': [],
-           KNOTS_ONLY: [], TIME_OPTIMAL: []}
+    out = {'creeps': 0, 'swings': 0, 'planned': 0, 'excess': [], 'planning': []}
+    out.update({kind: [] for kind in OTHER_PLANS})
     for points, limits in requests:
         low, high = points.min(axis=0), points.max(axis=0)
         t_free, free = timed(lambda: plan(points, '555', 'optimal', **limits))
@@ -110,7 +113,7 @@ def run(requests):
         ours = figures_of(of_trajectory(limited), limited.duration, amax)
         smoothed = figures_of(of_trajectory(free), free.duration, amax)
         theirs = figures_of(of_toppra(top), top.duration, amax)
-        kind = KNOTS_ONLY if KNOTS_ONLY in reason else TIME_OPTIMAL
+        kind = next(kind for kind in OTHER_PLANS if kind in reason)
         out[kind].append((ours / smoothed, ours / theirs, smoothed / theirs))
         out['planning'].append([t_limited / t_free, 1e3 * (t_limited - t_free)])
     return out
@@ -171,13 +174,13 @@ def main():
           'the rest ends (END_JERK_SIGN False) and along the path (True, the default):')
     print('| END_JERK_SIGN | smoothed plan leaves the range: creep (< 1e-3 rad) | swing '
           '| its excess [rad]: median / largest | planned within the limits | with knots at '
-          'the waypoints only | with time_optimal |')
-    print('|---|---|---|---|---|---|---|')
+          'the waypoints only | with time_optimal | with timing "uniform" |')
+    print('|---|---|---|---|---|---|---|---|')
     for flag, out in runs.items():
         excess = out['excess']
         spread = (f'{np.median(excess):.2g} / {np.max(excess):.2g}' if excess else '-')
         print(f"| {flag} | {out['creeps']} | {out['swings']} | {spread} | {out['planned']} of "
-              f'{n_cases} | {len(out[KNOTS_ONLY])} | {len(out[TIME_OPTIMAL])} |')
+              f'{n_cases} | ' + ' | '.join(str(len(out[kind])) for kind in OTHER_PLANS) + ' |')
     names = ['duration'] + [f'{f:g} Hz {kind}' for f in FREQUENCIES
                             for kind in ('peak', 'residual')]
     print()
@@ -198,7 +201,7 @@ def main():
         print(f'END_JERK_SIGN {flag}: the requests planned another way (median, range):')
         print('| plan / reference | requests | ' + ' | '.join(names) + ' |')
         print('|' + '---|' * (len(names) + 2))
-        for kind in (KNOTS_ONLY, TIME_OPTIMAL):
+        for kind in OTHER_PLANS:
             if not out[kind]:
                 continue
             rows = np.array(out[kind])

@@ -180,7 +180,7 @@ class PlannerConfig(ValidatedConfig):
         (), 'Per-joint lower position limit [rad or m], checked exactly on every plan, which '
         'is rejected with the joint, time and excess when it leaves them (joint requests with '
         '555 optimal and at most 30 waypoints: after other plans were tried, the knots-only '
-        'optimum and the other `speed_profile`, as doc/methods.md says; see '
+        'optimum, the other `speed_profile` and timing `uniform`, as doc/methods.md says; see '
         '`speed_profile_reason` and `speed_profile_skipped`); empty (the '
         'default) = none; `-.inf` for a joint without one; integers as typed are fine.')
     max_position: Tuple[float, ...] = parameter(
@@ -234,9 +234,10 @@ class PlannerConfig(ValidatedConfig):
         'plans joint-space `waypoints` requests (replanning from a moving state too) with at '
         'most '
         f'{MAX_TIME_OPTIMAL_WAYPOINTS} waypoints; where it finds no spline (a moving state it '
-        'cannot keep, a joint reversing alone) or its plan leaves `min_position` / '
-        "`max_position` and `smoothed`'s does not (at most 30 waypoints, not where a moving "
-        "end heads past a limit it sits on), the plan is `smoothed`'s, with a warning. "
+        "cannot keep, a joint reversing alone) the plan is `smoothed`'s; where its plan "
+        'leaves `min_position` / `max_position` (at most 30 waypoints, not where a moving end '
+        "heads past a limit it sits on), `smoothed`'s or else timing `uniform`'s, whichever "
+        'stays within them first; each with a warning. '
         '`smoothing` and `inner_knots` are refused with it (it would ignore them); '
         '`vibration_frequency` cancels the ringing of a mode at it after the stop. On '
         'tool_waypoints requests '
