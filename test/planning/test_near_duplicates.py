@@ -7,7 +7,7 @@ make the spline swing far out and stretch the whole path by the common factor
 points; optimal timing starts from well-scaled rest-to-rest durations.
 """
 
-from hypothesis import given, strategies as st
+from hypothesis import assume, given, strategies as st
 import numpy as np
 import pytest
 from splines445_ros.planning import DEFAULT_WAYPOINT_TOLERANCE, merge_duplicates, plan
@@ -99,6 +99,12 @@ def path_with_near_duplicate(draw, low, high, places=('start', 'middle', 'end'))
 def test_a_near_duplicate_within_the_tolerance_changes_a_duration_by_at_most_1_percent(
         case, method, timing):
     points, doubled, limits = case
+    # Merged, one of the pair is kept (at an end, the end itself), so a chord changes by up
+    # to the copy's offset: by 1 % where the chord is 100 times it.
+    # Chord-length timing scales with it (the long profile found 1.5 % on a chord of 6.4 mm
+    # with an offset of 0.1 mm, 445 uniform), so the bound is for chords above that.
+    shift = np.min(np.linalg.norm(doubled[:, None, :] - points[None], axis=2), axis=1).max()
+    assume(np.linalg.norm(np.diff(points, axis=0), axis=1).min() >= 100.0 * shift)
     clean = plan(points, method, timing, **limits)
     traj = plan(doubled, method, timing, **limits)
     # (The random path may hold a near-duplicate of its own.)

@@ -6,7 +6,9 @@ from example_counts import examples
 from hypothesis import given, strategies as st
 import numpy as np
 import pytest
-from splines445_ros.planning import check_position_limits, plan, planner
+from scipy.interpolate import CubicSpline
+from splines445_ros.planning import check_position_limits, JointLimits, plan, planner
+from splines445_ros.planning.durations.timing import rest_to_rest_durations
 from splines445_ros.planning.path_following import inner_knots
 
 
@@ -139,12 +141,13 @@ def expected_instead(points, limits, low, high, **more):
     Return the plan the fallback order gives when the smoothed plan leaves [low, high].
 
     Written out here from the order plan() documents: the knots-only
-    optimum (not with a vibration_frequency), then time_optimal; None when
-    both leave.
+    optimum (not with a vibration_frequency), then time_optimal, then the
+    chord-length durations of timing "uniform"; None when all leave.
     """
     tries = [] if more.get('vibration_frequency') else [{'inner_knots': 0}]
-    for extra in tries + [{'speed_profile': 'time_optimal'}]:
-        other = plan(points, '555', 'optimal', **limits, **more, **extra)
+    for extra in tries + [{'speed_profile': 'time_optimal'}, {'timing': 'uniform'}]:
+        timing = extra.pop('timing', 'optimal')
+        other = plan(points, '555', timing, **limits, **more, **extra)
         if not leaves(other, low, high):
             return other
     return None
@@ -159,9 +162,10 @@ def test_a_move_from_limit_to_limit_is_planned_within_them(seed):
     way, past a start on its limit; its plan without limits shows whether it
     does.  Where it does not, the limits change nothing; where it does, the
     knots-only optimum's or the time-optimal profile's plan is returned,
-    within them, and says why.  Where all three swing out (every path
-    through such uneven steps can: 4 of 480 seeds from 1000 on, by
-    0.001-0.017 rad), the request is refused, naming the joint and the limit.
+    within them, and says why.  Where both profiles' paths swing out (uneven
+    steps one way: 4 of 480 seeds from 1000 on, by 0.001-0.017 rad), the
+    chord-length durations of timing "uniform" are the last try; only where
+    they swing out too is the request refused, naming the joint and the limit.
     """
     points, limits = one_way_request(np.random.default_rng(seed))
     low, high = points.min(axis=0), points.max(axis=0)
@@ -186,11 +190,43 @@ def test_a_move_from_limit_to_limit_is_planned_within_them(seed):
         assert 'speed_profile_reason' not in traj.optimizer
 
 
+@pytest.mark.parametrize('seed', [1098, 1182, 1239, 1292])
+def test_a_move_every_profile_swings_out_of_gets_the_chord_length_durations(seed):
+    """
+    Found by the long hypothesis run: uneven steps one way, where both profiles' paths swing out.
+
+    The smoothed plan, the knots-only optimum and time_optimal all leave the
+    range (checked here); the chord-length spline of timing "uniform" stays
+    within it, and plan() returns that, saying so.  With a mode to cancel,
+    or ``inner_knots`` given (which uniform timing would ignore), it refuses.
+    """
+    points, limits = one_way_request(np.random.default_rng(seed))
+    low, high = points.min(axis=0), points.max(axis=0)
+    for extra in ({}, {'inner_knots': 0}, {'speed_profile': 'time_optimal'}):
+        assert leaves(plan(points, '555', 'optimal', **limits, **extra), low, high), extra
+    chords = plan(points, '555', 'uniform', **limits)
+    assert not leaves(chords, low, high)
+    for asked in ('smoothed', 'time_optimal'):
+        traj = plan(points, '555', 'optimal', min_position=low, max_position=high,
+                    speed_profile=asked, **limits)
+        np.testing.assert_array_equal(traj.ppoly.c, chords.ppoly.c)
+        assert traj.timing == 'uniform' and traj.within_limits(rtol=1e-9)
+        key = 'speed_profile_skipped' if asked == 'time_optimal' else 'speed_profile_reason'
+        assert f'"{asked}" left the position limits' in traj.optimizer[key]
+        assert 'timing "uniform"' in traj.optimizer[key]
+        s_low, s_high = sampled_range(traj)
+        assert np.all(s_low >= low - 1e-12) and np.all(s_high <= high + 1e-12)
+    for more in ({'vibration_frequency': 4.0}, {'inner_knots': 4}):
+        with pytest.raises(ValueError, match=r'joint \d+ goes to .* (above max|below min)'):
+            plan(points, '555', 'optimal', min_position=low, max_position=high, **limits,
+                 **more)
+
+
 @pytest.mark.parametrize('vibration_frequency', [None, 1.5, 4.0])
 @pytest.mark.parametrize('seed', range(2000, 2000 + examples(12)))
 def test_no_smoothed_plan_starts_or_stops_against_its_path(seed, vibration_frequency):
     """
-    A one-way move's smoothed plan stays within its waypoints' range.
+    A one-way move's smoothed plan leaves its start and arrives at its goal along its path.
 
     Before, the inner-knot spline's jerk at a rest end was whatever the fit
     gave, and more than half of these plans started or ended some joint
@@ -198,21 +234,32 @@ def test_no_smoothed_plan_starts_or_stops_against_its_path(seed, vibration_frequ
     vibration_frequency the construction's knots-only candidate, which has
     no inner knot to correct, won and swung back up to 0.15 rad.  Checked
     by samples near both ends, apart from plan()'s exact extrema, and by
-    the sign of the jerk there: that of the joint's move.
+    the sign of the jerk there: that of the joint's move.  Not where the
+    path the construction follows (step 1: the natural cubic through the
+    waypoints at their rest-to-rest times, written here with scipy) itself
+    leaves that end against the move: uneven steps one way can turn a
+    natural cubic's free end slope round (3 of the 480 seeds from 2000 on,
+    by 5e-4-2.5e-3 rad).  That is a swing of the path, which plan() meets
+    with its other plans where it crosses a limit (the tests above).
     """
     points, limits = one_way_request(np.random.default_rng(seed))
     traj = plan(points, '555', 'optimal', vibration_frequency=vibration_frequency, **limits)
     if vibration_frequency is None and not traj.optimizer.get('inner_knots'):
         return      # plan()'s knots-only rival won: no inner knots (the fallback's case)
-    low, high = points.min(axis=0), points.max(axis=0)
-    slack = 1e-12 * np.maximum(1.0, np.abs(np.stack([low, high])))
-    for t in (np.linspace(0.0, 0.3, 3001), traj.duration - np.linspace(0.0, 0.3, 3001)):
-        q = traj.evaluate(np.clip(t, 0.0, traj.duration))
-        assert np.all(q >= low - slack[0]) and np.all(q <= high + slack[1])
     direction = np.sign(points[-1] - points[0])
+    knots = np.concatenate([[0.0], np.cumsum(rest_to_rest_durations(points, JointLimits(
+        limits['max_velocity'], limits['max_acceleration'], limits['max_jerk'])))])
+    path = CubicSpline(knots, points, bc_type='natural')
     jerk = traj.evaluate(np.array([0.0, traj.duration]), 3) * direction
-    assert np.all(jerk >= -1e-9 * limits['max_jerk'])
-    assert not leaves(traj, low, high)
+    for k, (end, t, sign) in enumerate((
+            (points[0], np.linspace(0.0, 0.3, 3001), 1.0),
+            (points[-1], traj.duration - np.linspace(0.0, 0.3, 3001), -1.0))):
+        along = path(knots[-k], 1) * direction > 0.0     # the path leaves / reaches it so
+        # Away from the end, along the move (from the goal: back along it).
+        away = (traj.evaluate(np.clip(t, 0.0, traj.duration)) - end) * direction * sign
+        slack = 1e-12 * np.maximum(1.0, np.abs(end))
+        assert np.all(away[:, along] >= -slack[along]), k
+        assert np.all(jerk[k, along] >= -1e-9 * limits['max_jerk'][along]), k
 
 
 def test_an_end_segment_without_inner_knots_leaves_the_other_end_corrected():
