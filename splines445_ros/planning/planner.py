@@ -810,9 +810,11 @@ def optimal_start(request, uniform):
 
     Uniform timing gives a near-duplicate waypoint (above the tolerance) a
     tiny chord duration and then stretches the whole path; the optimiser
-    bounds every duration relative to its start (``MIN_FRACTION``), so it
-    cannot recover from such a start.  Each segment's rest-to-rest time
-    under every joint's v/a/j limits (:func:`rest_to_rest_durations`) is
+    bounds every duration relative to its start (``MIN_FRACTION``; or to
+    its rest-to-rest time, whichever allows more: ``optimal._box``), and a
+    local optimiser need not recover from such a start.  Each segment's
+    rest-to-rest time under every joint's v/a/j limits
+    (:func:`rest_to_rest_durations`) is
     well scaled whatever the chords; scaled by its own smallest feasible
     common factor, it is used when its total is below uniform's by more
     than :data:`ABSURD_UNIFORM` (a local optimiser need not end better from

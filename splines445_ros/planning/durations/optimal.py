@@ -67,6 +67,12 @@ from ..spline.trajectory import Trajectory
 # Bounds of every duration relative to its starting (uniform) value.
 MIN_FRACTION = 1e-2
 MAX_FRACTION = 10.0
+# An iterate that ends on that box gets a new one around it, at most this many
+# times: a caller's start 12 times too short in one segment (555, the long
+# hypothesis run of issue 38) ended 2.9 times as long as from plan()'s start.
+BOX_MOVES = 4
+# ... "on the box": within this of a bound, in log-duration.
+BOX_EDGE = 1e-9
 MAX_ITERATIONS = 200
 # Stop when the predicted decrease of the total time is below this fraction of it.
 RELATIVE_TOLERANCE = 1e-7
@@ -342,15 +348,15 @@ def minimise_total_time(method, points, start, boundary, limits,
                                'message': 'gave up: cannot beat the given total',
                                'worst_log_ratio': float(np.max(state['log_ratios']))}
         x, state = _at_the_limits(ratios, x, state)
-    x, state, iterations, message, radius = _iterate(ratios, x, state, bounds, penalty, None,
-                                                     INITIAL_RADIUS, stall_tolerance, give_up)
+    x, state, iterations, message, radius, bounds = _iterate_in_box(
+        ratios, x, state, bounds, penalty, None, INITIAL_RADIUS, stall_tolerance, give_up)
     if any(np.any(b) for b in boundary):
         merit = penalty
         for _ in range(PENALTY_ROUNDS):
             if np.max(state['log_ratios']) <= EXACT_MERIT_EXCESS:
                 break
-            x, state, more, message, radius = _iterate(ratios, x, state, bounds, merit, merit,
-                                                       radius)
+            x, state, more, message, radius, bounds = _iterate_in_box(
+                ratios, x, state, bounds, merit, merit, radius)
             iterations += more
             merit *= PENALTY_GROWTH
         x, state, repairs = _repair(ratios, x, state, bounds[1], penalty)
@@ -358,6 +364,31 @@ def minimise_total_time(method, points, start, boundary, limits,
     return np.exp(x), {'iterations': iterations, 'evaluations': ratios.evaluations,
                        'message': message,
                        'worst_log_ratio': float(np.max(state['log_ratios']))}
+
+
+def _iterate_in_box(ratios, x, state, bounds, penalty, merit, radius,
+                    stall_tolerance=STALL_TOLERANCE, give_up=None):
+    """
+    Run :func:`_iterate`; where it ends on the box ``bounds``, widen it around that end and go on.
+
+    The box is the start's (:data:`MIN_FRACTION`, :data:`MAX_FRACTION`), not
+    the request's: a caller's start can be far off.  At most
+    :data:`BOX_MOVES` times; returns what :func:`_iterate` does, the LPs of
+    every run summed, and the last box.
+    """
+    x, state, iterations, message, radius = _iterate(ratios, x, state, bounds, penalty, merit,
+                                                     radius, stall_tolerance, give_up)
+    for _ in range(BOX_MOVES):
+        lower, upper = bounds
+        on_the_box = np.any(x <= lower + BOX_EDGE) or np.any(x >= upper - BOX_EDGE)
+        if message.startswith('gave up') or not on_the_box:
+            break
+        bounds = (np.minimum(lower, x + np.log(MIN_FRACTION)),
+                  np.maximum(upper, x + np.log(MAX_FRACTION)))
+        x, state, more, message, radius = _iterate(ratios, x, state, bounds, penalty, merit,
+                                                   INITIAL_RADIUS, stall_tolerance, give_up)
+        iterations += more
+    return x, state, iterations, message, radius, bounds
 
 
 def _iterate(ratios, x, state, bounds, penalty, merit, radius,
