@@ -340,8 +340,11 @@ def test_the_coarse_torque_factor_is_a_lower_bound_of_the_dense_one(seed):
     room = np.where(dynamic >= 0.0, limit - gravity, -limit - gravity)
     dense = np.sqrt(np.max(np.where(dynamic == 0.0, 0.0, dynamic / room)))
     torque = TorqueLimit(limit, two_link_torques, 2)
-    assert torque.factor_at_least(traj) <= dense * (1.0 + 1e-9)
-    assert torque.factor_at_least(traj) <= torque.time_factor(traj)[0] * (1.0 + 1e-9)
+    # Both references are sampled too: 10 kHz samples miss a peak by about (h / 2)**2 / 2
+    # of its curvature, and the 1 kHz check's excess h**2 / 8 |tau''| is a second
+    # difference's.  The long hypothesis run found 3e-9 and 1.2e-7 (relative).
+    assert torque.factor_at_least(traj) <= dense * (1.0 + 1e-6)
+    assert torque.factor_at_least(traj) <= torque.time_factor(traj)[0] * (1.0 + 1e-6)
     # Not a vacuous bound: within 5 % of the dense factor on these smooth splines.
     assert torque.factor_at_least(traj) >= 0.95 * dense
 

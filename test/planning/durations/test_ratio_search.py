@@ -27,7 +27,9 @@ def request(seed):
     n = int(rng.integers(1, 5))
     points = np.cumsum(rng.uniform(-1.0, 1.0, (3, n)), axis=0)
     if rng.random() < 0.2:
-        points[2] = points[1] + rng.uniform(-1.0, 1.0, n) * 10.0 ** rng.uniform(-2.0, -1.0)
+        # Near, but 10-100 times the merging tolerance away (a nearer one is merged).
+        step = rng.uniform(-1.0, 1.0, n)
+        points[2] = points[1] + step / np.max(np.abs(step)) * 10.0 ** rng.uniform(-2.0, -1.0)
     vmax, amax = rng.uniform(0.5, 3.0, n), rng.uniform(1.0, 20.0, n)
     jmax = rng.uniform(5.0, 100.0, n) * amax if rng.random() < 0.7 else None
     return points, vmax, amax, jmax
