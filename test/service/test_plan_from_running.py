@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from reference_spline import random_limits
 from splines445_ros.nodes.ros_conversions import WaypointRequest
-from splines445_ros.planning import plan
+from splines445_ros.planning import DEFAULT_WAYPOINT_TOLERANCE, plan
 from splines445_ros.robot import paper_example as pe
 from splines445_ros.service.planner_config import PlannerConfig
 from splines445_ros.service.request_planning import (plan_from_running, REPLAN_MAX_DELAY,
@@ -43,7 +43,15 @@ def assert_continues(running, t, traj, waypoints, vmax, amax, jmax=None):
     for d in (0, 1, 2):
         np.testing.assert_allclose(traj.evaluate([0.0], d)[0], running.evaluate([t], d)[0],
                                    rtol=1e-9, atol=1e-9 * 10 ** d)
-    np.testing.assert_allclose(traj.waypoints[-len(waypoints):], waypoints, atol=1e-12)
+    # Every waypoint is passed; one within the merging tolerance of its neighbour (or of
+    # the start state) is merged with it (the long hypothesis run drew pairs 4e-4 apart).
+    kept = traj.waypoints
+    for point in waypoints:
+        assert np.min(np.max(np.abs(kept - point), axis=1)) <= DEFAULT_WAYPOINT_TOLERANCE
+    far = np.all(np.max(np.abs(np.diff(np.vstack([kept[:1], waypoints]), axis=0)), axis=1)
+                 > DEFAULT_WAYPOINT_TOLERANCE)
+    if far:
+        np.testing.assert_allclose(kept[-len(waypoints):], waypoints, atol=1e-12)
     np.testing.assert_allclose(traj.evaluate([traj.duration])[0], waypoints[-1], atol=1e-9)
     t_dense = np.linspace(0.0, traj.duration, 4001)
     assert np.all(np.abs(traj.evaluate(t_dense, 1)) <= np.asarray(vmax) * (1 + 1e-6))
