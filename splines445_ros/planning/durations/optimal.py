@@ -44,7 +44,8 @@ solution is kept if it is not longer.
 Every segment of the result either binds a limit, or cannot be shortened on
 its own without another segment exceeding a limit (the splines couple the
 segments: a 445 spline carries a disturbance undamped to its end), or sits
-at the lower bound ``MIN_FRACTION`` times its uniform duration.  This is what
+at the lower bound ``MIN_FRACTION`` times its start (a bound that moves
+with the iterate: :func:`_iterate_in_box`).  This is what
 the method aims at, not a guarantee; it held on 1375 random small requests
 (3-7 waypoints, 1-3 joints, half with boundary values).
 """
@@ -372,9 +373,10 @@ def _iterate_in_box(ratios, x, state, bounds, penalty, merit, radius,
     Run :func:`_iterate`; where it ends on the box ``bounds``, widen it around that end and go on.
 
     The box is the start's (:data:`MIN_FRACTION`, :data:`MAX_FRACTION`), not
-    the request's: a caller's start can be far off.  At most
-    :data:`BOX_MOVES` times; returns what :func:`_iterate` does, the LPs of
-    every run summed, and the last box.
+    the request's: a caller's start can be far off.  So is the LP's price
+    of a violation (``penalty``, with the restored-total merit), which moves
+    with the box.  At most :data:`BOX_MOVES` times; returns what
+    :func:`_iterate` does, the LPs of every run summed, and the last box.
     """
     x, state, iterations, message, radius = _iterate(ratios, x, state, bounds, penalty, merit,
                                                      radius, stall_tolerance, give_up)
@@ -385,6 +387,10 @@ def _iterate_in_box(ratios, x, state, bounds, penalty, merit, radius,
             break
         bounds = (np.minimum(lower, x + np.log(MIN_FRACTION)),
                   np.maximum(upper, x + np.log(MAX_FRACTION)))
+        if merit is None:
+            # The LP's price of a violation was the start's too (PENALTY times its
+            # longest duration): a start far too short left it 10-100 times too low.
+            penalty = max(penalty, PENALTY * float(np.max(np.exp(x))))
         x, state, more, message, radius = _iterate(ratios, x, state, bounds, penalty, merit,
                                                    INITIAL_RADIUS, stall_tolerance, give_up)
         iterations += more
@@ -438,13 +444,13 @@ def _iterate(ratios, x, state, bounds, penalty, merit, radius,
             break
         trial = ratios.evaluate(x + step, _rejected_above(state, merit, predicted))
         rho = (_merit(state, merit) - _merit(trial, merit)) / predicted
-        if rho <= ACCEPT:
+        if not rho > ACCEPT:    # (a NaN, from an infinite prediction, is no gain either)
             # Before a new LP, try half the step (an evaluation only).
             step = 0.5 * step
             predicted = _predicted(state, jac, step, merit)
             trial = ratios.evaluate(x + step, _rejected_above(state, merit, predicted))
             rho = (_merit(state, merit) - _merit(trial, merit)) / predicted
-            if rho <= ACCEPT:
+            if not rho > ACCEPT:
                 radius = SHRINK * np.max(np.abs(step))
                 if radius < MIN_RADIUS:
                     message = 'trust region collapsed'

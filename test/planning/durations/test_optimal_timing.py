@@ -103,6 +103,33 @@ WARM_REGRESSIONS = {
 }
 
 
+def test_a_warm_start_whose_model_predicts_an_infinite_gain_is_no_crash():
+    """
+    helper-30's review: a trial step whose predicted gain was infinite gave a NaN ratio.
+
+    The trust region took NaN for a gain, kept a step it could not evaluate,
+    and plan() died with a TypeError; now the step is rejected like any
+    other that does not gain, and the request is planned within the limits.
+    """
+    points = np.array([
+        [-0.5397291924446415, 0.41187674216839376, -0.6506588429321865],
+        [-1.2558813159187918, 0.41941914773909494, -1.3058849835024937],
+        [-2.000992548785656, 0.6037824475590994, -0.3549009145274351],
+        [-2.8899049130831296, 0.4922773079425691, -1.174241055954216],
+        [-2.8124060730175726, 0.6415482608456948, -1.1931349139147103],
+        [-3.734229678189076, 1.0431663093572197, -1.1773679395103887],
+        [-3.5876549881744477, 1.3794738783722276, -0.3653082226659081]])
+    vmax = np.array([1.5864057949241017, 2.782430799195714, 0.9394616191615133])
+    amax = np.array([9.621434010258902, 4.360964168059924, 8.074777162973454])
+    boundary = [np.array([0.7537181090237738, -0.07668923721407842, -0.20989995023105948]),
+                np.array([-1.7057653242458255, 1.7516067138408358, -0.49638375620169245]),
+                np.array([-0.47834338265791276, 0.9320967793780114, 0.00939405252408466]),
+                np.array([-0.7004271921088105, 1.7589108977511576, 1.987558222604059])]
+    start = np.array([0.08555474915547197, 12.593626219584594, 0.9676094619483303,
+                      0.03415629379753069, 7.819875423463868, 0.5959921129656087])
+    check_optimal('445', (points, vmax, amax, None, boundary), start)
+
+
 @pytest.mark.parametrize('name', sorted(WARM_REGRESSIONS))
 @pytest.mark.parametrize('method', ['445', '434', '555'])
 def test_a_far_warm_start_ends_where_plan_s_own_start_does(name, method):
