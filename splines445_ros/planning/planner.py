@@ -13,7 +13,7 @@ from .path_following.path_timing import rescaled
 from .path_following.time_optimal import (NAME as TIME_OPTIMAL, NO_TIME_OPTIMAL_SPLINE, NoSpline,
                                           plan_time_optimal)
 from .plan_options import (check_time_optimal_waypoints, DEFAULT_SMOOTHING,
-                           DEFAULT_WAYPOINT_TOLERANCE, PlanOptions, speed_profile_value)
+                           DEFAULT_WAYPOINT_TOLERANCE, PlanOptions)
 from .speed_profile.residual_vibration import remeasure_residual
 from .spline.trajectory import Trajectory
 from .validation import duration_array, position_limit_vector, waypoint_array
@@ -45,7 +45,8 @@ MOVING_END_GAIN = 0.05
 # found no spline within the limits (the plan has knots at the waypoints only).
 NO_INNER_KNOT_SPLINE = 'no spline with inner knots found'
 # The start of optimizer['speed_profile_skipped'] or ['speed_profile_reason'] when
-# the profile asked for left the position limits and the other one did not.
+# the profile asked for left the position limits and another plan did not
+# (planner._other_profile_within; the text ends with what was planned instead).
 LEAVES_POSITION_LIMITS = 'speed_profile "{}" left the position limits'
 
 
@@ -312,8 +313,9 @@ def _other_profile_within(points, durations, options, traj, leaves):
        path's direction: faster, but it shakes about as much as TOPP-RA;
        not with ``inner_knots`` or ``smoothing`` given;
     3. timing "uniform": knots at the waypoints with the paper's
-       chord-length durations (eq. 11) and one common scale; not with
-       ``inner_knots`` or ``smoothing`` given.  Where every
+       chord-length durations (eq. 11) and one common scale (not from the
+       caller's ``durations``); not with ``inner_knots``, ``smoothing`` or
+       a ``vibration_frequency`` given.  Where every
        profile's path swings out (uneven steps one way: 4 of 480 of the
        tests' limit-to-limit moves, by 0.001-0.017 rad), the chord-length
        spline stayed within on each, 1.4-1.8 times as long;
@@ -321,35 +323,54 @@ def _other_profile_within(points, durations, options, traj, leaves):
     and for "time_optimal" asked for, "smoothed", then 3.  The first plan within
     the limits is returned, saying so (``speed_profile_reason``, or
     ``speed_profile_skipped`` when time_optimal was asked for, each
-    starting with :data:`LEAVES_POSITION_LIMITS`); ``leaves`` is raised
+    starting with :data:`LEAVES_POSITION_LIMITS` and ending with what was
+    planned instead; a time_optimal that had given way before, finding no
+    spline, keeps its ``speed_profile_skipped``); ``leaves`` is raised
     when none is.
     """
     used = (traj.optimizer or {}).get('speed_profile', 'smoothed')
     why = f'{LEAVES_POSITION_LIMITS.format(used)} ({leaves})'
+    # time_optimal asked for and given way already (no spline): that says why too.
+    earlier = (traj.optimizer or {}).get('speed_profile_skipped')
     for again, said in _instead(options, traj, used, points):
         try:
-            found = _profiled(points, durations, again)
+            # A caller's durations start optimal timing; uniform timing has none.
+            start = None if again.timing == 'uniform' else durations
+            found = _profiled(points, start, again)
             within_position_limits(found, again.min_position, again.max_position)
         except ValueError:
             continue
         key = 'speed_profile_skipped' if used == TIME_OPTIMAL else 'speed_profile_reason'
         found.optimizer = dict(found.optimizer or {}, **{key: f'{why}{said}'})
+        if earlier and key != 'speed_profile_skipped':
+            found.optimizer['speed_profile_skipped'] = earlier
         return found
     raise leaves
 
 
 def _instead(options, traj, used, points):
     """
-    Return the (options, what the plan says) to try when ``traj`` leaves the position limits.
+    Return the (options, what the plan says) to try, in order, when ``traj`` leaves the limits.
 
-    None for requests of more than :data:`SMALL_REQUEST` waypoints (the
-    other plans cost up to seconds there, for a refusal more often than
-    not), nor where a moving end heads past a limit it sits on
-    (:func:`_heads_past_a_limit`: no plan stays within).  With a
-    ``vibration_frequency``, "smoothed" is not traded: the knots-only plan
-    and the chord-length one have no zero at the mode, and time_optimal's
-    cancellation is narrow (a mode 10 % off rings 0.4-0.8 of TOPP-RA's,
-    against 0.1 with the windows).
+    ``used`` is the speed profile ``traj`` was planned with.  The list
+    (see :func:`_other_profile_within`):
+
+    * empty for requests of more than :data:`SMALL_REQUEST` waypoints (the
+      other plans cost up to seconds there, for a refusal more often than
+      not), where a moving end heads past a limit it sits on
+      (:func:`_heads_past_a_limit`: no plan stays within), and for a
+      "smoothed" plan with ``inner_knots`` or ``smoothing`` given (the
+      others would silently ignore them) or with a ``vibration_frequency``
+      ("smoothed" is not traded: the knots-only and the chord-length plans
+      have no zero at the mode, and time_optimal's cancellation is narrow:
+      a mode 10 % off rings 0.4-0.8 of TOPP-RA's, against 0.1 with the
+      windows);
+    * time_optimal's plan left them: "smoothed", then the chord-length
+      durations (not with a ``vibration_frequency``);
+    * time_optimal was asked for and gave way to "smoothed" already (it
+      found no spline): the chord-length durations only;
+    * otherwise the knots-only optimum (where ``traj`` has inner knots),
+      time_optimal, then the chord-length durations, last.
     """
     if (options.timing != 'optimal' or options.method != '555'
             or points.shape[0] > SMALL_REQUEST or _heads_past_a_limit(points, options)):
@@ -360,7 +381,9 @@ def _instead(options, traj, used, points):
                 inner_knots_auto=False),
         ': planned with timing "uniform" (chord-length durations) instead, slower')]
     if used == TIME_OPTIMAL:
-        return [(replace(options, speed_profile='smoothed'), '')] + chords
+        return [(replace(options, speed_profile='smoothed'),
+                 ': planned with speed_profile "smoothed" instead (within every limit, but '
+                 'slower)')] + chords
     if options.speed_profile == TIME_OPTIMAL:
         return chords       # time_optimal fell back to "smoothed" already
     if options.vibration_frequency:
@@ -371,11 +394,6 @@ def _instead(options, traj, used, points):
     if (traj.optimizer or {}).get('inner_knots', 0) > 0:
         tries.append((replace(options, inner_knots=0, inner_knots_auto=False),
                       ': planned with knots at the waypoints only instead'))
-    try:
-        speed_profile_value(TIME_OPTIMAL, options.method, options.timing,
-                            not options.inner_knots_auto, options.smoothing)
-    except ValueError:
-        return tries + chords
     return tries + [(replace(options, speed_profile=TIME_OPTIMAL),
                      f': planned with speed_profile "{TIME_OPTIMAL}" instead')] + chords
 
@@ -810,8 +828,8 @@ def optimal_start(request, uniform):
 
     Uniform timing gives a near-duplicate waypoint (above the tolerance) a
     tiny chord duration and then stretches the whole path; the optimiser
-    bounds every duration relative to its start (``MIN_FRACTION``; or to
-    its rest-to-rest time, whichever allows more: ``optimal._box``), and a
+    keeps every duration within a box around its start (``MIN_FRACTION``,
+    moved where the iterate ends on it: ``optimal._iterate_in_box``), and a
     local optimiser need not recover from such a start.  Each segment's
     rest-to-rest time under every joint's v/a/j limits
     (:func:`rest_to_rest_durations`) is

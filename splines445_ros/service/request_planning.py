@@ -429,10 +429,18 @@ def inner_knots_warning(traj):
 
 
 def speed_profile_warning(traj):
-    """Return a warning when speed_profile "time_optimal" was asked for and not used, else None."""
+    """
+    Return a warning when speed_profile "time_optimal" was asked for and not used, else None.
+
+    It found no spline (the plan is "smoothed"'s), or its plan left the
+    position limits, and ``speed_profile_skipped`` already ends with what
+    was planned instead ("smoothed", or the chord-length durations).
+    """
     skipped = (traj.optimizer or {}).get('speed_profile_skipped')
     if not skipped:
         return None
+    if skipped.startswith(LEAVES_POSITION_LIMITS.format('time_optimal')):
+        return skipped
     return (f'{skipped}: planned with speed_profile "smoothed" instead (within every limit, '
             'but slower)')
 
@@ -441,8 +449,9 @@ def position_limits_warning(traj):
     """
     Return a warning when the smoothed plan left the position limits and another was given.
 
-    The knots-only optimum (slower) or speed_profile "time_optimal" (it
-    shakes more): ``speed_profile_reason`` says which and why, else None.
+    The knots-only optimum (slower), speed_profile "time_optimal" (it shakes
+    more) or the chord-length durations of timing "uniform" (slower):
+    ``speed_profile_reason`` says which and why, else None.
     """
     reason = (traj.optimizer or {}).get('speed_profile_reason') or ''
     return reason if reason.startswith(LEAVES_POSITION_LIMITS.format('smoothed')) else None

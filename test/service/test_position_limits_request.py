@@ -20,17 +20,19 @@ from splines445_ros.service.request_planning import (plan_request, plan_warnings
                                                      WaypointRequest)
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), '..', 'planning'))
-from test_position_limits import creeping_construction, creeping_request  # noqa: E402, F401, I100
+from test_position_limits import (  # noqa: E402, F401, I100
+    creeping_construction, creeping_request, one_way_request)
 
 
-def config_of(limits, low, high):
+def config_of(limits, low, high, speed_profile='smoothed'):
     n = low.size
     config = PlannerConfig(
         joint_names=tuple(f'j{i}' for i in range(n)),
         max_velocity=tuple(limits['max_velocity']),
         max_acceleration=tuple(limits['max_acceleration']),
         max_jerk=tuple(limits['max_jerk']), method='555', timing='optimal',
-        min_position=tuple(low), max_position=tuple(high)).with_defaults()
+        min_position=tuple(low), max_position=tuple(high),
+        speed_profile=speed_profile).with_defaults()
     config.validate()
     return config
 
@@ -65,3 +67,27 @@ def test_a_request_past_the_limits_names_the_joint():
     with pytest.raises(ValueError, match=rf'joint {j} \(j{j}\) goes to .* above '
                                          rf'max_position\[{j}\]'):
         plan_request(config_of(limits, low, tight), request_of(points))
+
+
+@pytest.mark.parametrize('speed_profile', ['smoothed', 'time_optimal'])
+def test_a_move_every_profile_swings_out_of_warns_of_the_chord_length_plan(speed_profile):
+    """
+    The WARN says what the node publishes: the chord-length plan, not "smoothed".
+
+    Seed 1098 of the planning tests' one-way moves: both profiles' paths
+    leave the limits there, and timing "uniform" is what stays within.
+    """
+    points, limits = one_way_request(np.random.default_rng(1098))
+    low, high = points.min(axis=0), points.max(axis=0)
+    traj = plan_request(config_of(limits, low, high, speed_profile), request_of(points))
+    assert traj.timing == 'uniform'
+    np.testing.assert_array_equal(traj.ppoly.c, plan(points, '555', 'uniform', **limits).ppoly.c)
+    warning = plan_warnings(traj)
+    assert f'speed_profile "{speed_profile}" left the position limits' in warning
+    assert warning.endswith('planned with timing "uniform" (chord-length durations) instead, '
+                            'slower')
+    assert 'planned with speed_profile "smoothed" instead' not in warning
+    # A caller's durations start optimal timing; the chord-length plan has its own.
+    warm = plan(points, '555', 'optimal', durations=np.ones(len(points) - 1),
+                min_position=low, max_position=high, speed_profile=speed_profile, **limits)
+    np.testing.assert_array_equal(warm.ppoly.c, traj.ppoly.c)
