@@ -141,11 +141,14 @@ def expected_instead(points, limits, low, high, **more):
     Return the plan the fallback order gives when the smoothed plan leaves [low, high].
 
     Written out here from the order plan() documents: the knots-only
-    optimum (not with a vibration_frequency), then time_optimal, then the
-    chord-length durations of timing "uniform"; None when all leave.
+    optimum, then time_optimal, then the chord-length durations of timing
+    "uniform"; None when all leave, and with a vibration_frequency (nothing
+    else is tried).
     """
-    tries = [] if more.get('vibration_frequency') else [{'inner_knots': 0}]
-    for extra in tries + [{'speed_profile': 'time_optimal'}, {'timing': 'uniform'}]:
+    if more.get('vibration_frequency'):
+        return None     # a mode to cancel: nothing else is tried
+    for extra in ({'inner_knots': 0}, {'speed_profile': 'time_optimal'}, {'timing': 'uniform'}):
+        extra = dict(extra)
         timing = extra.pop('timing', 'optimal')
         other = plan(points, '555', timing, **limits, **more, **extra)
         if not leaves(other, low, high):

@@ -87,14 +87,14 @@ def test_optimal_regressions(name):
 # Warm starts on which the warm-start property below failed (the long hypothesis run
 # of issue 38): the optimiser's box around the start (10 times it at most) held
 # segments that needed 12-19 times their start, and the plans came out 1.6-2.9
-# times as long as from plan()'s own start.  (method, request, the start's seed.)
+# times as long as from plan()'s own start.  (The request, the start's seed.)
 WARM_REGRESSIONS = {
-    '555 rest to rest': ('555', (
+    '555 rest to rest': ((
         np.array([[-0.24271961], [0.70630572], [-0.05532161], [-0.8688147], [-0.6689319],
                   [-1.40850825], [-1.47011083]]),
         np.array([1.86027832]), np.array([1.70448413]), None,
         [np.array([-0.0]), np.array([0.0]), np.array([-0.0]), np.array([-0.0])]), 454272),
-    '445 boundary values': ('445', (
+    '445 boundary values': ((
         np.array([[-0.83490278], [-0.41946205], [0.37073878], [0.63915775], [-0.33559821],
                   [-0.4167545], [-0.35336866]]),
         np.array([2.41709526]), np.array([1.53051683]), None,
@@ -133,7 +133,7 @@ def test_a_warm_start_whose_model_predicts_an_infinite_gain_is_no_crash():
 @pytest.mark.parametrize('name', sorted(WARM_REGRESSIONS))
 @pytest.mark.parametrize('method', ['445', '434', '555'])
 def test_a_far_warm_start_ends_where_plan_s_own_start_does(name, method):
-    _, req, seed = WARM_REGRESSIONS[name]
+    req, seed = WARM_REGRESSIONS[name]
     chords = np.linalg.norm(np.diff(req[0], axis=0), axis=1)
     start = chords * np.exp(np.random.default_rng(seed).uniform(-1.0, 1.0, chords.size))
     check_optimal(method, req, start)
