@@ -122,16 +122,19 @@ def room_of(module):
     return parts[2] if len(parts) > 2 and parts[1] == 'planning' else ''
 
 
-def planning_violations(module, path, root):
-    """Broken room rules of the imports of one module inside ``planning``, as readable strings."""
-    package = os.path.basename(root)
+def planning_violations(module, names, package, place):
+    """
+    Broken room rules of one module inside ``planning``, as readable strings.
+
+    ``names`` are its (line, imported name) pairs (:func:`imported_names`),
+    ``place`` its path as the errors give it.
+    """
     room, found = room_of(module), []
-    names = imported_names(module, path)
     whole = f'{package}.planning'
     # "from .. import x" names the package too, as the base of its x: not on its own.
     bases = {line for line, name in names if name.startswith(whole + '.')}
     for line, name in names:
-        where = f'{os.path.relpath(path, os.path.dirname(root))}:{line}'
+        where = f'{place}:{line}'
         if name.split('.')[0] != package:
             continue
         if name == whole and line not in bases:
@@ -158,10 +161,12 @@ def violations(root):
         if (layer == 'planning' and module.count('.') > 1
                 and room_of(module) not in PLANNING_MAY_IMPORT):
             found.append(f'{module}: outside the rooms of planning {sorted(PLANNING_MAY_IMPORT)}')
+        names = imported_names(module, path)
+        place = os.path.relpath(path, os.path.dirname(root))
         if layer == 'planning' and room_of(module):
-            found += planning_violations(module, path, root)
-        for line, name in imported_names(module, path):
-            where = f'{os.path.relpath(path, os.path.dirname(root))}:{line}'
+            found += planning_violations(module, names, package, place)
+        for line, name in names:
+            where = f'{place}:{line}'
             if name.split('.')[0] == package:
                 target = layer_of(name)
                 if target in MAY_IMPORT and target not in MAY_IMPORT[layer]:
