@@ -158,13 +158,15 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         joint, the time and the excess.  For 555 optimal where such a plan
         leaves them (a knots-only optimum that starts a joint a hair the
         wrong way from a start on its limit, a path that swings out),
-        the knots-only optimum, then "time_optimal", is returned instead
-        when it stays within them (not with ``inner_knots``, ``smoothing``
-        or a ``vibration_frequency`` given), and "time_optimal" asked for
-        gives way to "smoothed" likewise; neither above
-        :data:`SMALL_REQUEST` waypoints, or where a moving end heads past a
-        limit it sits on.  The
-        plan says so (``optimizer['speed_profile_reason']``, or
+        the knots-only optimum, then "time_optimal", then timing "uniform"
+        (chord-length durations) is returned instead when it stays within
+        them (not with ``inner_knots``, ``smoothing`` or a
+        ``vibration_frequency`` given), and "time_optimal" asked for gives
+        way to "smoothed", then "uniform", likewise ("smoothed" only with a
+        ``vibration_frequency``); none above :data:`SMALL_REQUEST`
+        waypoints, or where a moving end heads past a limit it sits on
+        (:func:`_other_profile_within`).  The plan says so
+        (``optimizer['speed_profile_reason']``, or
         ``['speed_profile_skipped']`` when time_optimal was asked for).
     inner_knots : int, 0 to 8, or None
         Most free inner knots per segment for method "555" with timing
