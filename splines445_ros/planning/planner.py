@@ -10,6 +10,7 @@ from .durations.timing import (chord_durations, rest_to_rest_durations, rest_to_
                                rest_to_rest_scale, scaled_spline, ScaledSpline, uniform_scale)
 from .path_following.inner_knots import plan_with_inner_knots
 from .path_following.path_timing import rescaled
+from .path_following.rest_ends import along_chords
 from .path_following.time_optimal import (NAME as TIME_OPTIMAL, NO_TIME_OPTIMAL_SPLINE, NoSpline,
                                           plan_time_optimal)
 from .plan_options import (check_time_optimal_waypoints, DEFAULT_SMOOTHING,
@@ -44,6 +45,9 @@ MOVING_END_GAIN = 0.05
 # Trajectory.optimizer['inner_knots_skipped'] when the inner-knot construction
 # found no spline within the limits (the plan has knots at the waypoints only).
 NO_INNER_KNOT_SPLINE = 'no spline with inner knots found'
+# Trajectory.optimizer['end_knots'] of a knots-only optimum that left the
+# position limits at a rest end and got a knot next to each end (rest_ends).
+END_KNOTS_REASON = 'a knot next to each rest end turns the end jerks along the chords'
 # The start of optimizer['speed_profile_skipped'] or ['speed_profile_reason'] when
 # the profile asked for left the position limits and another plan did not
 # (planner._other_profile_within; the text ends with what was planned instead).
@@ -155,9 +159,12 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
     min_position, max_position : (n,) or None
         Joint position limits (-inf / +inf entries: none), checked exactly
         on the polynomials; a plan that leaves them is rejected with the
-        joint, the time and the excess.  For 555 optimal where such a plan
-        leaves them (a knots-only optimum that starts a joint a hair the
-        wrong way from a start on its limit, a path that swings out),
+        joint, the time and the excess.  A knots-only optimum of 555
+        optimal with inner knots left to plan() that starts or stops a
+        joint the wrong way at a rest end on a limit gets a knot next to
+        each end, moved to turn that jerk along the chord
+        (:mod:`rest_ends`; ``optimizer['end_knots']`` says so).  For 555
+        optimal where a plan still leaves them (a path that swings out),
         the knots-only optimum, then "time_optimal", then timing "uniform"
         (chord-length durations) is returned instead when it stays within
         them (not with ``inner_knots``, ``smoothing`` or a
@@ -300,12 +307,12 @@ def _other_profile_within(points, durations, options, traj, leaves):
 
     ``traj``, planned with ``options``, left them (``leaves``, the error
     naming the joint).  Two plans of one request leave them differently:
-    the knots-only optimum (when it beats the inner-knot plan) can start a
-    joint a hair the wrong way from a rest start on a limit, and each
-    profile's path swings out its own way between waypoints
+    each profile's path swings out its own way between waypoints
     (``benchmarks/bench_position_limits.py``: 3-6 of 80 moves from limit
-    to limit; the inner-knot construction itself no longer creeps, step 4
-    of :mod:`inner_knots`).  Tried in turn, for 555 optimal where
+    to limit).  The inner-knot construction no longer starts or stops a
+    joint the wrong way (step 4 of :mod:`inner_knots`), and a knots-only
+    optimum of plan()'s own that does was turned at its ends first
+    (:func:`_within_at_rest_ends`).  Tried in turn, for 555 optimal where
     :func:`_instead` allows it:
 
     1. the knots-only optimum (knots at the waypoints only, still
@@ -595,7 +602,7 @@ def _plan_limited(points, durations, options):
         if refined is not None:
             return _with_knots_only_rival(
                 refined, MergedRequest(method, points, boundary, limits, dropped), start,
-                torque, search)
+                torque, search, options)
     knots_only = _plan_knots_only(MergedRequest(method, points, boundary, limits, dropped),
                                   timing, start, search)
     if timing == 'optimal':
@@ -604,15 +611,45 @@ def _plan_limited(points, durations, options):
             knots_only.optimizer['inner_knots_skipped'] = (
                 NO_INNER_KNOT_SPLINE if give_up is None else
                 'no spline with inner knots shorter than the knots-only optimum')
+            if options.rest:
+                knots_only = _within_at_rest_ends(knots_only, options)
     return knots_only
 
 
-def _with_knots_only_rival(refined, request, start, torque=None, search=None):
+def _within_at_rest_ends(traj, options, to_beat=np.inf):
+    """
+    Return the knots-only ``traj``, or where it leaves the position limits, it turned at its ends.
+
+    555 optimal with inner knots left to plan() (or asked for), rest to
+    rest: a knots-only optimum has no inner knot to pull a joint back that
+    starts or stops the wrong way, past a limit it sits on (step 4 of
+    :mod:`inner_knots` does that for the inner-knot plan).  It gets a knot
+    next to each end (:func:`rest_ends.along_chords`), kept when it stays
+    within the limits and is shorter than ``to_beat``, with
+    ``optimizer['end_knots']`` saying so; ``traj`` otherwise, which plan()
+    then replaces by another plan within them
+    (:func:`_other_profile_within`).
+    """
+    low, high = options.min_position, options.max_position
+    if _within(traj, low, high):
+        return traj
+    turned = along_chords(traj, lambda t: t.duration < to_beat and _within(t, low, high))
+    if turned is None:
+        return traj
+    turned.optimizer['end_knots'] = END_KNOTS_REASON
+    return turned
+
+
+def _with_knots_only_rival(refined, request, start, torque=None, search=None,
+                           plan_options=None):
     """
     Return ``refined`` (inner knots), or a knots-only plan of ``request`` when it is shorter.
 
     ``request`` is the :class:`MergedRequest`, ``start`` the caller's
-    durations (or None).
+    durations (or None), ``plan_options`` the request's
+    :class:`PlanOptions` (None: no position limits).  A rival that leaves
+    the position limits, rest to rest, is turned at its rest ends
+    (:func:`_within_at_rest_ends`) and returned only if it is still shorter.
 
     The rival is the knots-only optimum for requests of at most
     :data:`SMALL_REQUEST` waypoints and of one joint (:func:`_optimum_rival`),
@@ -692,10 +729,26 @@ def _with_knots_only_rival(refined, request, start, torque=None, search=None):
     premium = 1.0 if rest or timing != 'optimal' else 1.0 + MOVING_END_GAIN
     if refined.duration * premium <= rival.duration:
         return refined
-    if timing == 'uniform':
-        rival = _as_optimal(rival, request)
-    rival.optimizer.update(inner_knots=0, inner_knots_duration=refined.duration)
-    return rival
+    turned = rival
+    if rest and plan_options is not None:
+        turned = _within_at_rest_ends(rival, plan_options, refined.duration)
+        if turned is not rival and torque is not None:
+            # Slowed down for the torque it keeps its path: still within.
+            turned = _torque_limited(turned, torque, to_beat=refined.duration)
+            turned = rival if turned is None else turned
+    if turned is rival and timing == 'uniform':
+        turned = _as_optimal(rival, request)
+    turned.optimizer.update(inner_knots=0, inner_knots_duration=refined.duration)
+    return turned
+
+
+def _within(traj, low, high):
+    """Whether ``traj`` stays within the validated limits [low, high] (both None: no limits)."""
+    try:
+        within_position_limits(traj, low, high)
+    except ValueError:
+        return False
+    return True
 
 
 def _as_optimal(traj, request):

@@ -181,7 +181,9 @@ class PlannerConfig(ValidatedConfig):
         'is rejected with the joint, time and excess when it leaves them (joint requests with '
         '555 optimal and at most 30 waypoints: after other plans were tried, the knots-only '
         'optimum, the other `speed_profile` and timing `uniform`, as doc/methods.md says; see '
-        '`speed_profile_reason` and `speed_profile_skipped`); empty (the '
+        '`speed_profile_reason` and `speed_profile_skipped`; a knots-only optimum that starts '
+        'or stops a joint the wrong way past a limit first gets a knot next to each rest end, '
+        'see `end_knots`); empty (the '
         'default) = none; `-.inf` for a joint without one; integers as typed are fine.')
     max_position: Tuple[float, ...] = parameter(
         (), 'Per-joint upper position limit [rad or m], as `min_position`; `.inf` for a joint '

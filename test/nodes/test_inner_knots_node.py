@@ -6,6 +6,8 @@ optimal waypoint requests only, and the status reports waypoints and knots
 separately.
 """
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from rclpy.parameter import Parameter
@@ -179,3 +181,36 @@ def test_no_inner_knot_spline_is_a_warning_and_the_plan_still_holds_every_limit(
     assert knotted.breakpoints.size > len(longer)
     assert plan_warnings(knotted) is None
     assert 'inner_knots_skipped' not in summary_values(knotted, names)
+
+
+def test_a_knots_only_plan_turned_at_its_ends_says_so_without_a_warning():
+    # A move from limit to limit (seed 1000 of test_position_limits' one-way
+    # requests, the joints' limits at its waypoints' range) whose knots-only
+    # optimum, shorter than the inner-knot plan, starts a joint past its limit.
+    rng = np.random.default_rng(1000)
+    n, count = int(rng.integers(2, 7)), int(rng.integers(2, 6))
+    start = rng.uniform(-1.0, 1.0, n)
+    way = rng.uniform(0.5, 3.0, n) * np.where(rng.random(n) < 0.5, -1.0, 1.0)
+    fractions = np.cumsum(rng.uniform(1.0, 3.0, (count, n)), axis=0)
+    fractions = (fractions - fractions[0]) / (fractions[-1] - fractions[0])
+    amax = rng.uniform(5.0, 15.0, n)
+    vmax = rng.uniform(1.0, 3.0, n)
+    points = start + fractions * way
+    names = tuple(f'j{k}' for k in range(n))
+    cfg = PlannerConfig(joint_names=names, max_velocity=tuple(vmax),
+                        max_acceleration=tuple(amax), max_jerk=tuple(20.0 * amax),
+                        method='555', timing='optimal', min_position=tuple(points.min(axis=0)),
+                        max_position=tuple(points.max(axis=0)))
+    traj = plan_request(cfg, request(points))
+    values = summary_values(traj, names)
+    assert 'next to each rest end' in values['end_knots']
+    assert plan_warnings(traj) is None
+    assert traj.breakpoints.size == len(points) + 2
+    samples = traj.evaluate(np.linspace(0.0, traj.duration, 20001))
+    assert np.all(samples >= points.min(axis=0) - 1e-12)
+    assert np.all(samples <= points.max(axis=0) + 1e-12)
+    # Without the limits the same request is the knots-only optimum, past them.
+    free = plan_request(replace(cfg, min_position=(), max_position=()), request(points))
+    assert free.breakpoints.size == len(points)
+    q = free.evaluate(np.linspace(0.0, free.duration, 20001))
+    assert np.any(q < points.min(axis=0) - 1e-9) or np.any(q > points.max(axis=0) + 1e-9)

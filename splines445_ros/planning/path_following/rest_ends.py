@@ -1,0 +1,152 @@
+"""
+A knots-only plan whose joints leave and reach their rest ends the way their chords go.
+
+A 555 spline's jerk at a rest end (velocity and acceleration 0 there, the
+boundary conditions of eq. 7) is not prescribed: it follows from the whole
+spline.  Where its sign is against the joint's first (last) chord, the
+joint starts (stops) the wrong way, ``q0 + j t**3 / 6``, past a start on a
+position limit: 1e-7-1e-3 rad for the inner-knot plan, up to 0.1 rad for a
+knots-only optimum, whose whole first segment can swing back
+(``benchmarks/bench_position_limits.py``).  An
+inner-knot plan moves its knot next to the end (step 4 of
+:mod:`inner_knots`); a knots-only plan has none to move.  Here it gets one:
+a knot in its first and in its last segment, placed on the spline itself
+(the C4 quintic spline through the same positions with those two more
+knots is the same spline), then moved per joint, as step 4 does, to set
+each wrong end jerk to 0.  The spline is linear in its knot positions, so
+one solve with unit positions gives the moves.  The result is scaled to
+its limits like any rest-to-rest spline (uniform time scaling).
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .inner_knots import kept_trajectory
+from ..spline.continuity_system import spline_coefficients
+from ..spline.limits import limit_ratios
+from ..spline.trajectory import representable_durations
+
+# Where the new knot goes, as a share of its end segment from the rest end.
+END_KNOT_SHARE = 0.5
+# The end jerks tried, as shares of each joint's peak jerk: 0 first (only the
+# joints against their chord are moved), then pushed further along it.
+END_JERK_FLOORS = (0.0, 1.0 / 16.0, 0.25, 1.0)
+
+
+@dataclass(frozen=True)
+class _Request:
+    """What :func:`inner_knots.kept_trajectory` reads of its problem."""
+
+    points: np.ndarray
+    boundary: tuple
+    limits: object
+    rest: bool = True
+
+
+@dataclass(frozen=True)
+class _Spline:
+    """What :func:`inner_knots.kept_trajectory` reads of its candidate."""
+
+    pieces: np.ndarray
+    positions: np.ndarray
+    waypoint_knots: np.ndarray
+    coeffs: np.ndarray
+    ratios: np.ndarray
+    scale: float = 1.0
+
+
+def end_jerks(coeffs, last_width):
+    """Return (2, n): the jerk at the start of the first piece and at the end of the last."""
+    h = last_width
+    return np.stack([6.0 * coeffs[0, 3], 6.0 * coeffs[-1, 3] + 24.0 * coeffs[-1, 4] * h
+                     + 60.0 * coeffs[-1, 5] * h * h])
+
+
+def along_chords(traj, accept):
+    """
+    Return the knots-only rest-to-rest 555 ``traj`` turned along its chords at its rest ends.
+
+    A knot goes into its first and last segment, at :data:`END_KNOT_SHARE`
+    of each from its rest end, and is moved per joint so that the joint's
+    jerk at that end has its chord's direction: 0 where it was against it,
+    then, while the spline is not accepted, at least each share of
+    :data:`END_JERK_FLOORS` of the joint's peak jerk in ``traj`` (a jerk of 0
+    can still leave the end the wrong way through the snap).  Each move is
+    one linear solve (the spline is linear in its knot positions).  Returns
+    the first spline that ``accept`` (a function of a Trajectory) accepts,
+    scaled to the v/a/j limits of ``traj``
+    (:func:`inner_knots.kept_trajectory`), or None.  The result passes every
+    waypoint at its (scaled) time; its ``optimizer`` is a copy of ``traj``'s.
+    """
+    points = traj.waypoints
+    sign = np.sign(np.stack([points[1] - points[0], points[-1] - points[-2]]))   # (2, n)
+    if not np.any(sign):
+        return None
+    widths, waypoint_knots, inserted = _with_end_knots(traj)
+    if widths is None:
+        return None
+    knots = np.array([1, widths.size - 1])
+    positions = np.empty((widths.size + 1, traj.n_joints))
+    positions[waypoint_knots] = points
+    positions[knots] = traj.evaluate(inserted)
+    rest = (np.zeros(traj.n_joints),) * 4
+    coeffs = spline_coefficients('555', positions, widths, rest)
+    unit = np.zeros((positions.shape[0], 2))
+    unit[knots, [0, 1]] = 1.0
+    units = spline_coefficients('555', unit, widths, (np.zeros(2),) * 4)
+    sensitivity = end_jerks(units, widths[-1])                      # (2 ends, 2 knots)
+    jerks = end_jerks(coeffs, widths[-1])                           # (2 ends, n)
+    scale = traj.peaks()['jerk']
+    request = _Request(points, rest, traj.limits)
+    for floor in END_JERK_FLOORS:
+        # Along the chord: at least floor * scale in its direction (where it has one).
+        along = jerks * sign
+        target = np.where(sign != 0.0, sign * np.maximum(along, floor * scale), jerks)
+        if floor == 0.0:
+            target = np.where(along < 0.0, 0.0, jerks)
+        try:
+            moves = np.linalg.solve(sensitivity, target - jerks)
+        except np.linalg.LinAlgError:
+            return None
+        moved = positions.copy()
+        moved[knots] += moves
+        turned = coeffs + np.einsum('skm,mn->skn', units, moves)
+        spline = _Spline(widths, moved, waypoint_knots, turned,
+                         limit_ratios(turned, widths, traj.limits))
+        found = kept_trajectory(request, spline, traj.dropped_waypoints,
+                                dict(traj.optimizer or {}))
+        if found is not None and accept(found):
+            return found
+    return None
+
+
+def _with_end_knots(traj):
+    """
+    Return the pieces' widths, the waypoints' knot indices and the new knots' times.
+
+    The pieces of ``traj``'s segments with a knot at :data:`END_KNOT_SHARE`
+    of the first and the last from its rest end (of one segment, at its
+    thirds); widths None when a piece is below the resolution of the time
+    axis.
+    """
+    durations = traj.durations
+    share = END_KNOT_SHARE
+    if durations.size == 1:
+        # Both knots in the one segment, at thirds (its quintic, eq. 7 at
+        # rest, never starts the wrong way; a caller may still ask).
+        cuts = np.array([1.0, 2.0]) / 3.0 * durations[0]
+        pieces = np.array([cuts[0], cuts[1] - cuts[0], durations[0] - cuts[1]])
+        waypoint_knots = np.array([0, 3])
+        inserted = cuts
+    else:
+        pieces = np.concatenate([[share * durations[0], (1.0 - share) * durations[0]],
+                                 durations[1:-1],
+                                 [(1.0 - share) * durations[-1], share * durations[-1]]])
+        last = durations.size + 1
+        waypoint_knots = np.concatenate([[0], np.arange(2, last), [last + 1]])
+        inserted = np.array([share * durations[0], traj.duration - share * durations[-1]])
+    widths = representable_durations(pieces)
+    if not np.all(widths > 0.0):
+        return None, None, None
+    return widths, waypoint_knots, inserted
