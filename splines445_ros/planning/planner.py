@@ -677,7 +677,12 @@ def _with_knots_only_rival(refined, request, start, torque=None, search=None,
       without :func:`optimal_start`'s uniform and rest-to-rest solutions.
       Not with one joint: from there it often ended in another local
       optimum, so a single joint's rival is plan(inner_knots=0)'s,
-      cold-started and run to the end (its LPs are small);
+      cold-started and run to the end (its LPs are small).  Nor with
+      torque limits (smoothing windows given): the warm start ended in a
+      v/a/j optimum that the torque's slow-down left up to 1.5 % longer
+      than plan(inner_knots=0)'s (7 of 300 two-link requests by more than
+      0.5 %); cold it is that plan, for 12-20 % more planning on the
+      vendor arms (at most 0.1 % shorter there);
     * it stops at a gain of :data:`RIVAL_STALL_TOLERANCE` over two steps
       (a knob: coarser is faster, and longer where the rival wins);
     * it gives up once its restored total is above ``refined``'s duration
@@ -700,7 +705,10 @@ def _with_knots_only_rival(refined, request, start, torque=None, search=None,
     small = _optimum_rival(points)
     timing = 'optimal' if small else 'uniform'
     options = {}
-    warm = small and rest and points.shape[1] > 1
+    # Not with torque limits: the v/a/j inner-knot plan's durations lead to a
+    # knots-only optimum that the torque's slow-down can make 1.5 % longer
+    # than the cold one's (below).
+    warm = small and rest and points.shape[1] > 1 and torque is None
     if warm and start is None:
         start = _unsmoothed_durations(refined)
     if torque is not None:
