@@ -236,7 +236,8 @@ class PlannerConfig(ValidatedConfig):
         'plans joint-space `waypoints` requests (replanning from a moving state too) with at '
         'most '
         f'{MAX_TIME_OPTIMAL_WAYPOINTS} waypoints; where it finds no spline (a moving state it '
-        "cannot keep, a joint reversing alone) the plan is `smoothed`'s; where its plan "
+        'cannot keep, a joint reversing alone, a path nearly turning back) the plan is '
+        "`smoothed`'s; where its plan "
         'leaves `min_position` / `max_position` (at most 30 waypoints, not where a moving end '
         "heads past a limit it sits on), `smoothed`'s or else timing `uniform`'s (not with a "
         '`vibration_frequency`), whichever stays within them first; each with a warning. '

@@ -304,8 +304,11 @@ def _follow(problem, path, grid, knots, limits, constraints, ends=(0.0, 0.0), ma
     acceleration's, its cube :data:`JERK_MARGIN` times the jerk's; ``floors``:
     :func:`_boundary_floors` under the first two).  Raises :class:`NoSpline`
     when it has none: its first LP failed, or ``x`` reached 0 between its
-    row points (a joint reversing alone: the profile stops there, and a
-    stop takes its C2 ``x(s)`` forever).  ``vibration_frequency``: the
+    row points (a joint reversing alone, or a path that nearly turns back
+    at a waypoint, its chords there at a cosine of -0.99: the profile stops
+    there, and a stop takes its C2 ``x(s)`` forever.  Rows where ``x``
+    dipped were tried: the spline through such a profile took twice the
+    default's time).  ``vibration_frequency``: the
     profile's (0: none).  The candidate is :func:`_followed_spline`'s.
     A rest-to-rest spline is the profile's time law stretched by its exact
     factor ``k``, so the ringing at ``f`` it leaves is the profile's at
@@ -355,8 +358,9 @@ def _followed_profile(path, grid, knots, limits, constraints, ends, margin,
         raise NoSpline(str(error)) from error
     followed = FollowedProfile(profile, knots, grid.size)
     if not np.all(np.isfinite(followed.passed)):
-        raise NoSpline('the profile stops inside the path (a joint reversing alone, where '
-                       'every joint is at rest at once)')
+        raise NoSpline('the profile stops inside the path (a joint reversing alone, or a '
+                       'path that nearly turns back at a waypoint: every joint at rest at '
+                       'once, or nearly)')
     return followed
 
 

@@ -9,7 +9,7 @@ default plan of the same request.
 """
 
 from example_counts import examples
-from hypothesis import given, settings, strategies as st
+from hypothesis import example, given, settings, strategies as st
 import numpy as np
 import pytest
 from reference_spline import exact_peaks
@@ -47,13 +47,35 @@ def time_optimal_plan(points, limits):
     return plan(points, '555', 'optimal', speed_profile='time_optimal', **limits)
 
 
+def followed(traj, points):
+    """
+    Whether ``traj`` is time_optimal's; where it gave way, that it did so as documented.
+
+    The profile stops inside the path where every joint is at rest at once,
+    or nearly: a joint reversing alone, or a path that nearly turns back at
+    a waypoint (a long hypothesis run's seed 222274349: chords at a cosine
+    of -0.99, and the profile's ``x(s)`` dips to 0 between its row points).
+    There the default's plan is returned, flagged, within every limit.
+    """
+    if traj.optimizer.get('speed_profile') == 'time_optimal':
+        return True
+    assert 'stops inside the path' in traj.optimizer['speed_profile_skipped']
+    chords = np.diff(points, axis=0)
+    lengths = np.linalg.norm(chords, axis=1)
+    cosines = np.sum(chords[:-1] * chords[1:], axis=1) / (lengths[:-1] * lengths[1:])
+    assert cosines.size and np.min(cosines) < -0.95
+    assert traj.within_limits(rtol=1e-9)
+    return False
+
+
 @settings(max_examples=examples(12), deadline=None)
 @given(st.integers(0, 2**32 - 1))
 def test_through_every_waypoint_c4_and_within_every_limit(seed):
     """Waypoints at their knots, the C4 quintic through its knots, exact peaks at the limits."""
     points, limits = random_request(seed)
     traj = time_optimal_plan(points, limits)
-    assert traj.optimizer['speed_profile'] == 'time_optimal'
+    if not followed(traj, points):
+        return
     # Every waypoint is a knot, passed exactly, at rest at both ends.
     assert np.all(np.isin(traj.waypoint_times, traj.breakpoints))
     scale = max(1.0, float(np.max(np.abs(points))))
@@ -79,6 +101,7 @@ def test_through_every_waypoint_c4_and_within_every_limit(seed):
 
 @settings(max_examples=examples(8), deadline=None)
 @given(st.integers(0, 2**32 - 1))
+@example(222274349)     # a path that nearly turns back: the default's plan (followed)
 def test_joints_without_a_jerk_limit_hold_velocity_and_acceleration(seed):
     """No jerk limit on some joints (on all, at times): the others' jerk and every v/a held."""
     points, limits = random_request(seed)
@@ -86,7 +109,8 @@ def test_joints_without_a_jerk_limit_hold_velocity_and_acceleration(seed):
     free = rng.random(points.shape[1]) < 0.5
     limits['max_jerk'] = np.where(free, np.inf, limits['max_jerk'])
     traj = time_optimal_plan(points, limits)
-    assert traj.optimizer['speed_profile'] == 'time_optimal'
+    if not followed(traj, points):
+        return
     scale = max(1.0, float(np.max(np.abs(points))))
     assert np.max(np.abs(traj.ppoly(traj.waypoint_times) - points)) <= 1e-9 * scale
     ratios = [exact_peaks(traj.ppoly, k).max(axis=0) / limits[name] for k, name in
