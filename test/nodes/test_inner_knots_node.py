@@ -17,6 +17,7 @@ from splines445_ros.service.planner_config import PlannerConfig
 from splines445_ros.service.request_planning import (plan_request, plan_warnings, start_from_state,
                                                      summary_values)
 from splines445_ros.tools.in_process import LocalRos
+from test_position_limits import one_way_request
 
 WAYPOINTS = np.array([[0.0, 0.0, 0.0], [1.0, -0.5, 0.3], [1.5, 0.5, -0.2], [0.5, 1.0, 0.4],
                       [-0.5, 0.2, 0.0], [-1.0, -0.6, 0.5], [-0.2, -1.2, 1.0],
@@ -187,18 +188,9 @@ def test_a_knots_only_plan_turned_at_its_ends_says_so_without_a_warning():
     # A move from limit to limit (seed 1000 of test_position_limits' one-way
     # requests, the joints' limits at its waypoints' range) whose knots-only
     # optimum, shorter than the inner-knot plan, starts a joint past its limit.
-    rng = np.random.default_rng(1000)
-    n, count = int(rng.integers(2, 7)), int(rng.integers(2, 6))
-    start = rng.uniform(-1.0, 1.0, n)
-    way = rng.uniform(0.5, 3.0, n) * np.where(rng.random(n) < 0.5, -1.0, 1.0)
-    fractions = np.cumsum(rng.uniform(1.0, 3.0, (count, n)), axis=0)
-    fractions = (fractions - fractions[0]) / (fractions[-1] - fractions[0])
-    amax = rng.uniform(5.0, 15.0, n)
-    vmax = rng.uniform(1.0, 3.0, n)
-    points = start + fractions * way
-    names = tuple(f'j{k}' for k in range(n))
-    cfg = PlannerConfig(joint_names=names, max_velocity=tuple(vmax),
-                        max_acceleration=tuple(amax), max_jerk=tuple(20.0 * amax),
+    points, limits = one_way_request(np.random.default_rng(1000))
+    names = tuple(f'j{k}' for k in range(points.shape[1]))
+    cfg = PlannerConfig(joint_names=names, **{k: tuple(v) for k, v in limits.items()},
                         method='555', timing='optimal', min_position=tuple(points.min(axis=0)),
                         max_position=tuple(points.max(axis=0)))
     traj = plan_request(cfg, request(points))
