@@ -48,6 +48,10 @@ NO_INNER_KNOT_SPLINE = 'no spline with inner knots found'
 # Trajectory.optimizer['end_knots'] of a knots-only optimum that left the
 # position limits at a rest end and got a knot next to each end (rest_ends).
 END_KNOTS_REASON = 'a knot next to each rest end turns the end jerks along the chords'
+# Trajectory.optimizer['knots_only_skipped'] when the knots-only optimum was
+# shorter but left the position limits, turned or not, and the inner-knot plan
+# stayed within them (the text ends with the optimum's duration).
+KNOTS_ONLY_LEAVES = 'the knots-only optimum left the position limits'
 # The start of optimizer['speed_profile_skipped'] or ['speed_profile_reason'] when
 # the profile asked for left the position limits and another plan did not
 # (planner._other_profile_within; the text ends with what was planned instead).
@@ -160,10 +164,12 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         Joint position limits (-inf / +inf entries: none), checked exactly
         on the polynomials; a plan that leaves them is rejected with the
         joint, the time and the excess.  A knots-only optimum of 555
-        optimal with inner knots left to plan() that starts or stops a
-        joint the wrong way at a rest end on a limit gets a knot next to
-        each end, moved to turn that jerk along the chord
-        (:mod:`rest_ends`; ``optimizer['end_knots']`` says so).  For 555
+        optimal with inner knots (left to plan() or asked for) that starts
+        or stops a joint the wrong way at a rest end on a limit gets a knot
+        next to each end, moved to turn that jerk along the chord
+        (:mod:`rest_ends`; ``optimizer['end_knots']`` says so); where no
+        such turn is shorter than the inner-knot plan and that plan stays
+        within the limits, it is returned (``['knots_only_skipped']``).  For 555
         optimal where a plan still leaves them (a path that swings out),
         the knots-only optimum, then "time_optimal", then timing "uniform"
         (chord-length durations) is returned instead when it stays within
@@ -626,9 +632,10 @@ def _within_at_rest_ends(traj, options, to_beat=np.inf):
     :mod:`inner_knots` does that for the inner-knot plan).  It gets a knot
     next to each end (:func:`rest_ends.along_chords`), kept when it stays
     within the limits and is shorter than ``to_beat``, with
-    ``optimizer['end_knots']`` saying so; ``traj`` otherwise, which plan()
-    then replaces by another plan within them
-    (:func:`_other_profile_within`).
+    ``optimizer['end_knots']`` saying so; ``traj`` otherwise (the caller
+    decides: the inner-knot plan, or plan()'s other plans,
+    :func:`_other_profile_within`, which refuses the request with
+    ``inner_knots`` or ``smoothing`` given).
     """
     low, high = options.min_position, options.max_position
     if _within(traj, low, high):
@@ -649,7 +656,8 @@ def _with_knots_only_rival(refined, request, start, torque=None, search=None,
     durations (or None), ``plan_options`` the request's
     :class:`PlanOptions` (None: no position limits).  A rival that leaves
     the position limits, rest to rest, is turned at its rest ends
-    (:func:`_within_at_rest_ends`) and returned only if it is still shorter.
+    (:func:`_within_at_rest_ends`) and returned only if it is still shorter;
+    otherwise ``refined`` is, where it stays within them.
 
     The rival is the knots-only optimum for requests of at most
     :data:`SMALL_REQUEST` waypoints and of one joint (:func:`_optimum_rival`),
@@ -680,17 +688,18 @@ def _with_knots_only_rival(refined, request, start, torque=None, search=None,
       cold-started and run to the end (its LPs are small).  Nor with
       torque limits (smoothing windows given): the warm start ended in a
       v/a/j optimum that the torque's slow-down left up to 1.5 % longer
-      than plan(inner_knots=0)'s (7 of 300 two-link requests by more than
-      0.5 %); cold it is that plan, for 12-20 % more planning on the
+      than plan(inner_knots=0)'s (145 of 301 two-link requests longer, 7
+      by more than 0.5 %); cold it is that plan, for 12-20 % more planning on the
       vendor arms (at most 0.1 % shorter there);
     * it stops at a gain of :data:`RIVAL_STALL_TOLERANCE` over two steps
       (a knob: coarser is faster, and longer where the rival wins);
     * it gives up once its restored total is above ``refined``'s duration
       by more than a margin that halves at every step
-      (:data:`optimal.GIVE_UP_MARGIN`): it is not going to win.  With
-      torque limits ``refined`` is slowed down for them first, and the
-      rival, which a slow-down only lengthens, is not checked (1 kHz of
-      inverse dynamics) when it is already longer;
+      (:data:`optimal.GIVE_UP_MARGIN`): it is not going to win (not with
+      torque limits, whose rival is not warm-started);
+    * with torque limits ``refined`` is slowed down for them first, and
+      the rival, which a slow-down only lengthens, is not checked (1 kHz
+      of inverse dynamics) when it is already longer;
     * a rival that cannot win any more is neither restored nor built, and
       its uniform timing only bounded from below unless it could win
       (:func:`optimal.optimal_durations` returns None; with
@@ -739,11 +748,17 @@ def _with_knots_only_rival(refined, request, start, torque=None, search=None,
         return refined
     turned = rival
     if rest and plan_options is not None:
+        low, high = plan_options.min_position, plan_options.max_position
         turned = _within_at_rest_ends(rival, plan_options, refined.duration)
         if turned is not rival and torque is not None:
             # Slowed down for the torque it keeps its path: still within.
             turned = _torque_limited(turned, torque, to_beat=refined.duration)
             turned = rival if turned is None else turned
+        if turned is rival and not _within(rival, low, high) and _within(refined, low, high):
+            # No turn shorter than refined: refined, within the limits, as smooth.
+            refined.optimizer['knots_only_skipped'] = (
+                f'{KNOTS_ONLY_LEAVES} ({rival.duration:.6g} s)')
+            return refined
     if turned is rival and timing == 'uniform':
         turned = _as_optimal(rival, request)
     turned.optimizer.update(inner_knots=0, inner_knots_duration=refined.duration)

@@ -186,6 +186,42 @@ def assert_turned_at_its_ends(traj, free, points):
     assert np.all(jerks * np.sign(chords) >= -1e-9 * np.max(np.abs(jerks)))
 
 
+def assert_the_inner_knot_plan_instead(traj, free):
+    """``traj`` has inner knots and is longer than the knots-only ``free`` it replaced."""
+    assert free.breakpoints.size == free.waypoint_times.size
+    assert traj.breakpoints.size > traj.waypoint_times.size + 2
+    assert traj.duration > free.duration
+    assert f'({free.duration:.6g} s)' in traj.optimizer['knots_only_skipped']
+
+
+@pytest.mark.parametrize('seed, kind', [(1000, 'end_knots'), (3073, 'knots_only_skipped')])
+def test_a_knots_only_optimum_past_a_limit_gives_way_to_a_smoothed_plan_within(seed, kind):
+    """
+    The two ways a knots-only optimum that starts a joint the wrong way is replaced.
+
+    Seed 1000: turned at its rest ends, still shorter than the inner-knot
+    plan.  Seed 3073 (helper-32's review): every turn was longer than the
+    inner-knot plan, which is within the limits and returned; with
+    ``inner_knots`` or ``smoothing`` given it used to be refused.
+    """
+    points, limits = one_way_request(np.random.default_rng(seed))
+    low, high = points.min(axis=0), points.max(axis=0)
+    free = plan(points, '555', 'optimal', **limits)
+    assert leaves(free, low, high)
+    for more in ({}, {'inner_knots': 4}, {'smoothing': 'windows'}):
+        traj = plan(points, '555', 'optimal', min_position=low, max_position=high, **limits,
+                    **more)
+        assert kind in traj.optimizer and 'speed_profile_reason' not in traj.optimizer
+        s_low, s_high = sampled_range(traj)
+        assert np.all(s_low >= low - 1e-12) and np.all(s_high <= high + 1e-12)
+        assert traj.within_limits(rtol=1e-9)
+        if kind == 'end_knots':
+            assert_turned_at_its_ends(traj, free, points)
+            assert traj.duration < traj.optimizer['inner_knots_duration']
+        else:
+            assert_the_inner_knot_plan_instead(traj, free)
+
+
 @pytest.mark.parametrize('seed', range(1000, 1000 + examples(16)))
 def test_a_move_from_limit_to_limit_is_planned_within_them(seed):
     """
@@ -216,6 +252,9 @@ def test_a_move_from_limit_to_limit_is_planned_within_them(seed):
     np.testing.assert_allclose(traj.evaluate(traj.waypoint_times), points, atol=1e-9)
     if leaves(free, low, high) and 'end_knots' in traj.optimizer:
         assert_turned_at_its_ends(traj, free, points)
+        assert traj.duration < traj.optimizer['inner_knots_duration']
+    elif leaves(free, low, high) and 'knots_only_skipped' in traj.optimizer:
+        assert_the_inner_knot_plan_instead(traj, free)
     elif leaves(free, low, high):
         assert 'left the position limits' in traj.optimizer['speed_profile_reason']
         np.testing.assert_array_equal(

@@ -5,7 +5,7 @@ A 555 spline's jerk at a rest end (velocity and acceleration 0 there, the
 boundary conditions of eq. 7) is not prescribed: it follows from the whole
 spline.  Where its sign is against the joint's first (last) chord, the
 joint starts (stops) the wrong way, ``q0 + j t**3 / 6``, past a start on a
-position limit: 1e-7-1e-3 rad for the inner-knot plan, up to 0.1 rad for a
+position limit: 1e-7-1e-3 rad for the inner-knot plan, up to 0.13 rad for a
 knots-only optimum, whose whole first segment can swing back
 (``benchmarks/bench_position_limits.py``).  An
 inner-knot plan moves its knot next to the end (step 4 of
@@ -14,8 +14,9 @@ a knot in its first and in its last segment, placed on the spline itself
 (the C4 quintic spline through the same positions with those two more
 knots is the same spline), then moved per joint, as step 4 does, to set
 each wrong end jerk to 0.  The spline is linear in its knot positions, so
-one solve with unit positions gives the moves.  The result is scaled to
-its limits like any rest-to-rest spline (uniform time scaling).
+one solve with unit positions gives the moves.  The result is stretched
+in time, uniformly, until it holds the v/a/j limits again (never sped
+up: a plan slowed down for the torque stays as slow).
 """
 
 from dataclasses import dataclass
@@ -75,8 +76,8 @@ def along_chords(traj, accept):
     can still leave the end the wrong way through the snap).  Each move is
     one linear solve (the spline is linear in its knot positions).  Returns
     the first spline that ``accept`` (a function of a Trajectory) accepts,
-    scaled to the v/a/j limits of ``traj``
-    (:func:`inner_knots.kept_trajectory`), or None.  The result passes every
+    stretched until it holds the v/a/j limits of ``traj`` (never sped up,
+    :func:`inner_knots.kept_trajectory`), or None.  The result passes every
     waypoint at its (scaled) time; its ``optimizer`` is a copy of ``traj``'s.
     """
     points = traj.waypoints
