@@ -10,7 +10,8 @@ them (its jerk at a rest end was whatever the fit gave); step 4 of
 ``planning/path_following/inner_knots.py`` now sets such a jerk to 0
 (``END_JERK_SIGN``; both are run, on the same requests).  A knots-only
 optimum that wins and does so gets a knot next to each rest end, moved to
-turn that jerk along the joint's chord (``path_following/rest_ends.py``).
+turn that jerk along the joint's chord (``path_following/rest_ends.py``),
+or, where no turn is shorter, plan() returns the inner-knot plan.
 Where a plan still leaves the limits, plan() gives the knots-only
 optimum's plan, the time-optimal profile's, or the chord-length
 durations' of timing "uniform" (``planner._other_profile_within``).
@@ -53,12 +54,14 @@ CREEP = 1e-3
 # The vibration_frequency [Hz] of the switch's other rows.
 SHAPED = (4.0, 1.5)
 # The other plans: the knots-only optimum turned at its rest ends (optimizer
-# 'end_knots'), then three by what their speed_profile_reason says.
+# 'end_knots'), the inner-knot plan where no turn was shorter
+# ('knots_only_skipped'), then three by what their speed_profile_reason says.
 END_KNOTS = 'end knots'
+INNER_KNOTS = 'inner-knot plan'
 KNOTS_ONLY = 'knots at the waypoints only'
 TIME_OPTIMAL = 'time_optimal'
 CHORDS = 'timing "uniform"'
-OTHER_PLANS = (END_KNOTS, KNOTS_ONLY, TIME_OPTIMAL, CHORDS)
+OTHER_PLANS = (END_KNOTS, INNER_KNOTS, KNOTS_ONLY, TIME_OPTIMAL, CHORDS)
 
 
 def one_way_request(rng):
@@ -111,14 +114,16 @@ def run(requests):
         out['planned'] += 1
         reason = limited.optimizer.get('speed_profile_reason')
         turned = 'end_knots' in limited.optimizer
-        if not (reason or turned):
+        inner = 'knots_only_skipped' in limited.optimizer
+        if not (reason or turned or inner):
             continue
         amax = limits['max_acceleration']
         top = toppra_trajectory(points, limits['max_velocity'], amax)
         ours = figures_of(of_trajectory(limited), limited.duration, amax)
         smoothed = figures_of(of_trajectory(free), free.duration, amax)
         theirs = figures_of(of_toppra(top), top.duration, amax)
-        kind = END_KNOTS if turned else next(kind for kind in OTHER_PLANS if kind in reason)
+        kind = (END_KNOTS if turned else INNER_KNOTS if inner else
+                next(kind for kind in OTHER_PLANS if kind in reason))
         out[kind].append((ours / smoothed, ours / theirs, smoothed / theirs))
         out['planning'].append([t_limited / t_free, 1e3 * (t_limited - t_free)])
     return out
@@ -179,9 +184,9 @@ def main():
           'the rest ends (END_JERK_SIGN False) and along the path (True, the default):')
     print('| END_JERK_SIGN | smoothed plan leaves the range: creep (< 1e-3 rad) | swing '
           '| its excess [rad]: median / largest | planned within the limits | knots-only optimum '
-          'with a knot next to each rest end | with knots at the waypoints only | with '
-          'time_optimal | with timing "uniform" |')
-    print('|---|---|---|---|---|---|---|---|---|')
+          'with a knot next to each rest end | the inner-knot plan (no turn shorter) | with knots '
+          'at the waypoints only | with time_optimal | with timing "uniform" |')
+    print('|---|---|---|---|---|---|---|---|---|---|')
     for flag, out in runs.items():
         excess = out['excess']
         spread = (f'{np.median(excess):.2g} / {np.max(excess):.2g}' if excess else '-')
