@@ -48,10 +48,11 @@ NO_INNER_KNOT_SPLINE = 'no spline with inner knots found'
 # Trajectory.optimizer['end_knots'] of a knots-only optimum that left the
 # position limits at a rest end and got a knot next to each end (rest_ends).
 END_KNOTS_REASON = 'a knot next to each rest end turns the end jerks along the chords'
-# Trajectory.optimizer['knots_only_skipped'] when the knots-only optimum was
-# shorter but left the position limits, turned or not, and the inner-knot plan
-# stayed within them (the text ends with the optimum's duration).
-KNOTS_ONLY_LEAVES = 'the knots-only optimum left the position limits'
+# Trajectory.optimizer['knots_only_skipped'] when the knots-only rival (the
+# optimum; the uniform plan above SMALL_REQUEST waypoints) won but left the
+# position limits, and no turn at its rest ends stayed within them shorter than
+# the inner-knot plan, which did (the text ends with the rival's duration).
+KNOTS_ONLY_LEAVES = 'the knots-only plan left the position limits'
 # The start of optimizer['speed_profile_skipped'] or ['speed_profile_reason'] when
 # the profile asked for left the position limits and another plan did not
 # (planner._other_profile_within; the text ends with what was planned instead).
@@ -168,8 +169,9 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         or stops a joint the wrong way at a rest end on a limit gets a knot
         next to each end, moved to turn that jerk along the chord
         (:mod:`rest_ends`; ``optimizer['end_knots']`` says so); where no
-        such turn is shorter than the inner-knot plan and that plan stays
-        within the limits, it is returned (``['knots_only_skipped']``).  For 555
+        such turn stays within them shorter than the inner-knot plan (or
+        an end moves) and that plan stays within them, it is returned
+        (``['knots_only_skipped']``).  For 555
         optimal where a plan still leaves them (a path that swings out),
         the knots-only optimum, then "time_optimal", then timing "uniform"
         (chord-length durations) is returned instead when it stays within
@@ -655,9 +657,10 @@ def _with_knots_only_rival(refined, request, start, torque=None, search=None,
     ``request`` is the :class:`MergedRequest`, ``start`` the caller's
     durations (or None), ``plan_options`` the request's
     :class:`PlanOptions` (None: no position limits).  A rival that leaves
-    the position limits, rest to rest, is turned at its rest ends
-    (:func:`_within_at_rest_ends`) and returned only if it is still shorter;
-    otherwise ``refined`` is, where it stays within them.
+    the position limits is turned at its rest ends, rest to rest
+    (:func:`_within_at_rest_ends`), and returned only if it is still
+    shorter; otherwise (or with a moving end) ``refined`` is, where it
+    stays within them.
 
     The rival is the knots-only optimum for requests of at most
     :data:`SMALL_REQUEST` waypoints and of one joint (:func:`_optimum_rival`),
@@ -747,15 +750,17 @@ def _with_knots_only_rival(refined, request, start, torque=None, search=None,
     if refined.duration * premium <= rival.duration:
         return refined
     turned = rival
-    if rest and plan_options is not None:
+    if plan_options is not None:
         low, high = plan_options.min_position, plan_options.max_position
-        turned = _within_at_rest_ends(rival, plan_options, refined.duration)
+        if rest:
+            turned = _within_at_rest_ends(rival, plan_options, refined.duration)
         if turned is not rival and torque is not None:
             # Slowed down for the torque it keeps its path: still within.
             turned = _torque_limited(turned, torque, to_beat=refined.duration)
             turned = rival if turned is None else turned
         if turned is rival and not _within(rival, low, high) and _within(refined, low, high):
-            # No turn shorter than refined: refined, within the limits, as smooth.
+            # Not turned (a moving end, or no turn within the limits and
+            # shorter than refined): refined, within them, as smooth.
             refined.optimizer['knots_only_skipped'] = (
                 f'{KNOTS_ONLY_LEAVES} ({rival.duration:.6g} s)')
             return refined

@@ -305,7 +305,7 @@ def _follow(problem, path, grid, knots, limits, constraints, ends=(0.0, 0.0), ma
     :func:`_boundary_floors` under the first two).  Raises :class:`NoSpline`
     when it has none: its first LP failed, or ``x`` reached 0 between its
     row points (a joint reversing alone, or a path that nearly turns back
-    at a waypoint, its chords there at a cosine of -0.99: the profile stops
+    at a waypoint, such as chords at a cosine of -0.99: the profile stops
     there, and a stop takes its C2 ``x(s)`` forever.  Rows where ``x``
     dipped were tried: the spline through such a profile took twice the
     default's time).  ``vibration_frequency``: the
