@@ -693,7 +693,7 @@ def _with_knots_only_rival(refined, request, start, torque=None, search=None,
       v/a/j optimum that the torque's slow-down left up to 1.5 % longer
       than plan(inner_knots=0)'s (145 of 301 two-link requests longer, 7
       by more than 0.5 %); cold it is that plan, for 12-20 % more planning on the
-      vendor arms (at most 0.1 % shorter there);
+      vendor arms (the Kinova 81 %; at most 0.1 % shorter there);
     * it stops at a gain of :data:`RIVAL_STALL_TOLERANCE` over two steps
       (a knob: coarser is faster, and longer where the rival wins);
     * it gives up once its restored total is above ``refined``'s duration
