@@ -261,7 +261,12 @@ def test_a_move_from_limit_to_limit_is_planned_within_them(seed):
     np.testing.assert_allclose(traj.evaluate(traj.waypoint_times), points, atol=1e-9)
     if leaves(free, low, high) and 'end_knots' in traj.optimizer:
         assert_turned_at_its_ends(traj, free, points)
-        assert traj.duration < traj.optimizer['inner_knots_duration']
+        # The rival turned, shorter than the inner-knot plan; or the knots-only
+        # plan the construction gave way to (a long run's seeds 1224, 1229, 1344).
+        if 'inner_knots_duration' in traj.optimizer:
+            assert traj.duration < traj.optimizer['inner_knots_duration']
+        else:
+            assert traj.optimizer['inner_knots_skipped']
     elif leaves(free, low, high) and 'knots_only_skipped' in traj.optimizer:
         assert_the_inner_knot_plan_instead(traj, free)
     elif leaves(free, low, high):
