@@ -284,6 +284,27 @@ class _Path:
         return AveragedTiming(times, x, self.s, self.windows if rest else ())
 
 
+def end_jerks(coeffs, last_width):
+    """Return (2, n): the jerk of quintic pieces ``coeffs`` at the start and at the end."""
+    h = last_width
+    return np.stack([6.0 * coeffs[0, 3], 6.0 * coeffs[-1, 3] + 24.0 * coeffs[-1, 4] * h
+                     + 60.0 * coeffs[-1, 5] * h * h])
+
+
+def unit_end_jerks(count, knots, pieces):
+    """
+    Return how a move of the ``knots`` moves the 555 spline and its end jerks (step 4).
+
+    The spline through ``count`` knots on ``pieces``, at rest, is linear in
+    its knot positions: the splines through a unit position at each of
+    ``knots`` (S, 6, len(knots)) and their end jerks (2, len(knots)).
+    """
+    unit = np.zeros((count, len(knots)))
+    unit[knots, np.arange(len(knots))] = 1.0
+    units = spline_coefficients('555', unit, pieces, (np.zeros(len(knots)),) * 4)
+    return units, end_jerks(units, pieces[-1])
+
+
 def first_path(points, durations, boundary, steps=GRID_STEPS):
     """
     Return step 1's path ``q(s)`` (a PPoly) through ``points`` at ``durations``, and its grid.
@@ -462,13 +483,7 @@ class KnotCandidate:
         ``against_path`` says whether a joint still starts or stops the wrong
         way (no inner knot to move).
         """
-        h = pieces[-1]
-
-        def end_jerks(c):
-            return np.stack([6.0 * c[0, 3], 6.0 * c[-1, 3] + 24.0 * c[-1, 4] * h
-                             + 60.0 * c[-1, 5] * h * h])
-
-        jerks = end_jerks(coeffs)                                   # (2 ends, n)
+        jerks = end_jerks(coeffs, pieces[-1])                       # (2 ends, n)
         sign = np.sign(np.stack([path.ppoly(path.s[0], 1), path.ppoly(path.s[-1], 1)]))
         wrong = jerks * sign < 0.0
         if not np.any(wrong):
@@ -480,10 +495,7 @@ class KnotCandidate:
         if not knots:
             self.against_path = True
             return coeffs
-        unit = np.zeros((self.positions.shape[0], len(knots)))
-        unit[knots, np.arange(len(knots))] = 1.0
-        units = spline_coefficients('555', unit, pieces, (np.zeros(len(knots)),) * 4)
-        sensitivity = end_jerks(units)                              # (2 ends, knots)
+        units, sensitivity = unit_end_jerks(self.positions.shape[0], knots, pieces)
         if len(knots) == 2:
             moves = np.linalg.solve(sensitivity, -np.where(wrong, jerks, 0.0))
             wrong[:] = False

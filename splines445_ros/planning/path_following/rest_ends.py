@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .inner_knots import kept_trajectory
+from .inner_knots import end_jerks, kept_trajectory, unit_end_jerks
 from ..spline.continuity_system import spline_coefficients
 from ..spline.limits import limit_ratios
 from ..spline.trajectory import representable_durations
@@ -57,13 +57,6 @@ class _Spline:
     scale: float = 1.0
 
 
-def end_jerks(coeffs, last_width):
-    """Return (2, n): the jerk at the start of the first piece and at the end of the last."""
-    h = last_width
-    return np.stack([6.0 * coeffs[0, 3], 6.0 * coeffs[-1, 3] + 24.0 * coeffs[-1, 4] * h
-                     + 60.0 * coeffs[-1, 5] * h * h])
-
-
 def along_chords(traj, accept):
     """
     Return the knots-only rest-to-rest 555 ``traj`` turned along its chords at its rest ends.
@@ -93,19 +86,17 @@ def along_chords(traj, accept):
     positions[knots] = traj.evaluate(inserted)
     rest = (np.zeros(traj.n_joints),) * 4
     coeffs = spline_coefficients('555', positions, widths, rest)
-    unit = np.zeros((positions.shape[0], 2))
-    unit[knots, [0, 1]] = 1.0
-    units = spline_coefficients('555', unit, widths, (np.zeros(2),) * 4)
-    sensitivity = end_jerks(units, widths[-1])                      # (2 ends, 2 knots)
+    units, sensitivity = unit_end_jerks(positions.shape[0], knots, widths)   # (2 ends, 2)
     jerks = end_jerks(coeffs, widths[-1])                           # (2 ends, n)
     scale = traj.peaks()['jerk']
     request = _Request(points, rest, traj.limits)
     for floor in END_JERK_FLOORS:
-        # Along the chord: at least floor * scale in its direction (where it has one).
         along = jerks * sign
-        target = np.where(sign != 0.0, sign * np.maximum(along, floor * scale), jerks)
         if floor == 0.0:
-            target = np.where(along < 0.0, 0.0, jerks)
+            target = np.where(along < 0.0, 0.0, jerks)      # only those against the chord
+        else:
+            # Along the chord: at least floor * scale in its direction (where it has one).
+            target = np.where(sign != 0.0, sign * np.maximum(along, floor * scale), jerks)
         try:
             moves = np.linalg.solve(sensitivity, target - jerks)
         except np.linalg.LinAlgError:
