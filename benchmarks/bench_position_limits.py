@@ -12,7 +12,9 @@ them (its jerk at a rest end was whatever the fit gave); step 4 of
 optimum that wins and does so gets a knot next to each rest end, moved to
 turn that jerk along the joint's chord (``path_following/rest_ends.py``),
 or, where no turn is shorter, plan() returns the inner-knot plan.
-Where a plan still leaves the limits, plan() gives the knots-only
+Where a plan still leaves the limits, its knots are moved to pull it back
+within them (``path_following/position_limit_knots.py``); where no move
+does, plan() gives the knots-only
 optimum's plan, the time-optimal profile's, or the chord-length
 durations' of timing "uniform" (``planner._other_profile_within``).
 
@@ -26,6 +28,14 @@ and planning time (one call each, in turn).  Printed second, before those
 tables: what the switch does to the same requests' plans without limits
 (the default and ``vibration_frequency`` 4 and 1.5 Hz), the ratios of the
 plans it changes.
+
+Printed last: random walks (a joint turning at a waypoint overshoots it)
+with one joint's limit cut into its widest swing past the waypoints (at a
+share drawn from 0.1-0.9 of the swing), where the smoothed plan leaves the
+limit in the middle of a move: how plan() plans them with the knots moved
+within the limits and without (``planner._pulled_within`` switched off:
+the other plans, or a refusal), and the pulled plans over the plan without
+limits and over the plan before.
 
 Run: ``python benchmarks/bench_position_limits.py`` (part of ``make bench``;
 ``SPLINES445_BENCH_SEED`` repeats a run, ``SPLINES445_BENCH_CASES`` sets the
@@ -43,25 +53,28 @@ from bench_planning import toppra_trajectory  # noqa: E402
 import bench_seeds  # noqa: E402, I100
 import numpy as np  # noqa: E402, I100
 from shaking import FREQUENCIES, of_toppra, of_trajectory, shaking_figures  # noqa: E402
-from splines445_ros.planning import plan  # noqa: E402
+from splines445_ros.planning import plan, planner  # noqa: E402
 from splines445_ros.planning.path_following import inner_knots  # noqa: E402
 from splines445_ros.planning.planner import position_limit_slack  # noqa: E402
 
 N_CASES = 80
 CASES_STREAM = 61
+WALKS_STREAM = 62
 # A smoothed plan past its range by less than this [rad] creeps; more is a swing.
 CREEP = 1e-3
 # The vibration_frequency [Hz] of the switch's other rows.
 SHAPED = (4.0, 1.5)
 # The other plans: the knots-only optimum turned at its rest ends (optimizer
 # 'end_knots'), the inner-knot plan where no turn was shorter
-# ('knots_only_skipped'), then three by what their speed_profile_reason says.
+# ('knots_only_skipped'), the plan with its knots moved within the limits
+# ('position_limit_knots'), then three by what their speed_profile_reason says.
 END_KNOTS = 'end knots'
 INNER_KNOTS = 'inner-knot plan'
+PULLED = 'knots moved within'
 KNOTS_ONLY = 'knots at the waypoints only'
 TIME_OPTIMAL = 'time_optimal'
 CHORDS = 'timing "uniform"'
-OTHER_PLANS = (END_KNOTS, INNER_KNOTS, KNOTS_ONLY, TIME_OPTIMAL, CHORDS)
+OTHER_PLANS = (END_KNOTS, INNER_KNOTS, PULLED, KNOTS_ONLY, TIME_OPTIMAL, CHORDS)
 
 
 def one_way_request(rng):
@@ -71,6 +84,111 @@ def one_way_request(rng):
     amax = rng.uniform(5.0, 15.0, n)
     return np.cumsum(steps, axis=0), {'max_velocity': rng.uniform(1.0, 3.0, n),
                                       'max_acceleration': amax, 'max_jerk': 20.0 * amax}
+
+
+def walk_request(rng):
+    """Return a random walk (3-6 waypoints, 2-4 joints, steps of up to 1 rad) and v/a/j limits."""
+    n = int(rng.integers(2, 5))
+    points = np.cumsum(rng.uniform(-1.0, 1.0, (int(rng.integers(3, 7)), n)), axis=0)
+    amax = rng.uniform(5.0, 15.0, n)
+    return points, {'max_velocity': rng.uniform(1.0, 3.0, n), 'max_acceleration': amax,
+                    'max_jerk': 20.0 * amax}
+
+
+def cut_swing(free, points, share):
+    """Return (low, high): one joint's limit ``share`` into the widest swing past the waypoints."""
+    f_low, f_high = free.position_extrema()[:2]
+    above, below = f_high - points.max(axis=0), points.min(axis=0) - f_low
+    low, high = np.full(points.shape[1], -np.inf), np.full(points.shape[1], np.inf)
+    if above.max() >= below.max():
+        j = int(np.argmax(above))
+        high[j] = points[:, j].max() + (1.0 - share) * above[j]
+    else:
+        j = int(np.argmax(below))
+        low[j] = points[:, j].min() - (1.0 - share) * below[j]
+    return low, high
+
+
+def kind_of(traj):
+    """Return how plan() planned ``traj`` within its limits, in a few words."""
+    optimizer = traj.optimizer or {}
+    for key, kind in (('position_limit_knots', PULLED), ('end_knots', END_KNOTS),
+                      ('knots_only_skipped', INNER_KNOTS)):
+        if key in optimizer:
+            return kind
+    reason = optimizer.get('speed_profile_reason')
+    return next((kind for kind in OTHER_PLANS if reason and kind in reason), 'as without limits')
+
+
+def cut_swings(requests):
+    """
+    Plan each walk with its cut limit, with and without the pull; return counts and ratios.
+
+    ``({kind: count} now, {kind: count} before, rows)``; a row per pulled
+    plan: its duration, 4 Hz peak and 4 Hz residual over the plan without
+    limits, then the plan before's over the same (NaN where refused).
+    """
+    now, before, rows = {}, {}, []
+    saved = planner._pulled_within
+    for points, limits, share in requests:
+        free = plan(points, '555', 'optimal', **limits)
+        low, high = cut_swing(free, points, share)
+        f_low, f_high = free.position_extrema()[:2]
+        if np.all(f_low >= low) and np.all(f_high <= high):
+            continue    # no swing past the waypoints
+        plans = []
+        for pull in (True, False):
+            if not pull:
+                planner._pulled_within = lambda traj, options: None
+            try:
+                plans.append(plan(points, '555', 'optimal', min_position=low,
+                                  max_position=high, **limits))
+            except ValueError:
+                plans.append(None)
+            finally:
+                planner._pulled_within = saved
+        for counts, traj in zip((now, before), plans):
+            kind = 'refused' if traj is None else kind_of(traj)
+            counts[kind] = counts.get(kind, 0) + 1
+        if plans[0] is None or kind_of(plans[0]) != PULLED:
+            continue
+        amax = limits['max_acceleration']
+        reference = figures_of(of_trajectory(free), free.duration, amax)[:3]
+        ratios = [figures_of(of_trajectory(t), t.duration, amax)[:3] / reference
+                  if t is not None else np.full(3, np.nan) for t in plans]
+        rows.append(np.concatenate(ratios))
+    return now, before, np.array(rows)
+
+
+def print_cut_swings(requests):
+    """Print :func:`cut_swings`' table."""
+    now, before, rows = cut_swings(requests)
+    total = sum(now.values())
+    print()
+    print(f'{len(requests)} random walks (stream {WALKS_STREAM}), one limit cut into the widest '
+          f'swing (0.1-0.9 of it); {total} swing past their waypoints.  Planned with the knots '
+          'moved within the limits (now) and without (before):')
+    kinds = sorted(set(now) | set(before))
+    print('| | ' + ' | '.join(kinds) + ' |')
+    print('|' + '---|' * (len(kinds) + 1))
+    for label, counts in (('now', now), ('before', before)):
+        print(f'| {label} | ' + ' | '.join(str(counts.get(k, 0)) for k in kinds) + ' |')
+    if not len(rows):
+        return
+    print()
+    print('The pulled plans over the plan without limits, and the plan before on the same '
+          'requests over it (median, range; before: where planned):')
+    print('| plan | requests | duration | 4 Hz peak | 4 Hz residual |')
+    print('|---|---|---|---|---|')
+    for label, block in (('knots moved within', rows[:, :3]), ('before', rows[:, 3:])):
+        block = block[np.all(np.isfinite(block), axis=1)]
+        if not len(block):
+            continue
+        print(f'| {label} | {len(block)} | ' + ' | '.join(
+            f'{np.median(c):.3g} ({c.min():.3g}-{c.max():.3g})' for c in block.T) + ' |')
+    both = np.all(np.isfinite(rows), axis=1)
+    longer = np.sum(rows[both, 0] > rows[both, 3] * (1.0 + 1e-9))
+    print(f'Pulled plans longer than the plan before: {longer} of {int(both.sum())}')
 
 
 def timed(func):
@@ -115,14 +233,15 @@ def run(requests):
         reason = limited.optimizer.get('speed_profile_reason')
         turned = 'end_knots' in limited.optimizer
         inner = 'knots_only_skipped' in limited.optimizer
-        if not (reason or turned or inner):
+        pulled = 'position_limit_knots' in limited.optimizer
+        if not (reason or turned or inner or pulled):
             continue
         amax = limits['max_acceleration']
         top = toppra_trajectory(points, limits['max_velocity'], amax)
         ours = figures_of(of_trajectory(limited), limited.duration, amax)
         smoothed = figures_of(of_trajectory(free), free.duration, amax)
         theirs = figures_of(of_toppra(top), top.duration, amax)
-        kind = (END_KNOTS if turned else INNER_KNOTS if inner else
+        kind = (PULLED if pulled else END_KNOTS if turned else INNER_KNOTS if inner else
                 next(kind for kind in OTHER_PLANS if kind in reason))
         out[kind].append((ours / smoothed, ours / theirs, smoothed / theirs))
         out['planning'].append([t_limited / t_free, 1e3 * (t_limited - t_free)])
@@ -184,9 +303,10 @@ def main():
           'the rest ends (END_JERK_SIGN False) and along the path (True, the default):')
     print('| END_JERK_SIGN | smoothed plan leaves the range: creep (< 1e-3 rad) | swing '
           '| its excess [rad]: median / largest | planned within the limits | knots-only optimum '
-          'with a knot next to each rest end | the inner-knot plan (no turn shorter) | with knots '
-          'at the waypoints only | with time_optimal | with timing "uniform" |')
-    print('|---|---|---|---|---|---|---|---|---|---|')
+          'with a knot next to each rest end | the inner-knot plan (no turn shorter) | its knots '
+          'moved within the limits | with knots at the waypoints only | with time_optimal | with '
+          'timing "uniform" |')
+    print('|---|---|---|---|---|---|---|---|---|---|---|')
     for flag, out in runs.items():
         excess = out['excess']
         spread = (f'{np.median(excess):.2g} / {np.max(excess):.2g}' if excess else '-')
@@ -226,6 +346,9 @@ def main():
               f'({planning[:, 0].min():.2f}-{planning[:, 0].max():.2f}), '
               f'{np.median(planning[:, 1]):.0f} ms more ({planning[:, 1].min():.0f}-'
               f'{planning[:, 1].max():.0f})')
+    walks = bench_seeds.generator(WALKS_STREAM)
+    print_cut_swings([walk_request(walks) + (float(walks.uniform(0.1, 0.9)),)
+                      for _ in range(n_cases)])
     return 0
 
 

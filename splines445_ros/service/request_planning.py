@@ -498,8 +498,8 @@ def summary_values(traj, joint_names):
         if torque_binds(traj):
             j = int(np.argmax(ratios))
             values['binding'] = f'{joint_names[j]} torque ratio {ratios[j]:.6g}'
-    for key in ('inner_knots_skipped', 'end_knots', 'knots_only_skipped', 'speed_profile',
-                'speed_profile_skipped', 'speed_profile_reason'):
+    for key in ('inner_knots_skipped', 'end_knots', 'knots_only_skipped', 'position_limit_knots',
+                'speed_profile', 'speed_profile_skipped', 'speed_profile_reason'):
         if (traj.optimizer or {}).get(key):
             values[key] = traj.optimizer[key]
     residual = (traj.optimizer or {}).get('vibration_residual')

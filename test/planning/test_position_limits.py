@@ -239,11 +239,13 @@ def test_a_move_from_limit_to_limit_is_planned_within_them(seed):
     The smoothed construction can start (or end) a joint a hair the wrong
     way, past a start on its limit; its plan without limits shows whether it
     does.  Where it does not, the limits change nothing; where it does, the
-    knots-only optimum's or the time-optimal profile's plan is returned,
-    within them, and says why.  Where both profiles' paths swing out (uneven
-    steps one way: 4 of 480 seeds from 1000 on, by 0.001-0.017 rad), the
-    chord-length durations of timing "uniform" are the last try; only where
-    they swing out too is the request refused, naming the joint and the limit.
+    plan is pulled within them by moving its knots, or the knots-only
+    optimum's or the time-optimal profile's plan is returned, within them,
+    and says why.  Where both profiles' paths swing out (uneven steps one
+    way: 4 of 480 seeds from 1000 on, by 0.001-0.017 rad), the pull keeps
+    the plan (those seeds: the test below); the chord-length durations of
+    timing "uniform" are the last try; only where they swing out too is the
+    request refused, naming the joint and the limit.
     """
     points, limits = one_way_request(np.random.default_rng(seed))
     low, high = points.min(axis=0), points.max(axis=0)
@@ -269,6 +271,8 @@ def test_a_move_from_limit_to_limit_is_planned_within_them(seed):
             assert traj.optimizer['inner_knots_skipped']
     elif leaves(free, low, high) and 'knots_only_skipped' in traj.optimizer:
         assert_the_inner_knot_plan_instead(traj, free)
+    elif leaves(free, low, high) and 'position_limit_knots' in traj.optimizer:
+        assert_pulled_within(traj, free, points, low, high)
     elif leaves(free, low, high):
         assert 'left the position limits' in traj.optimizer['speed_profile_reason']
         np.testing.assert_array_equal(
@@ -278,20 +282,83 @@ def test_a_move_from_limit_to_limit_is_planned_within_them(seed):
         assert 'speed_profile_reason' not in traj.optimizer
 
 
-@pytest.mark.parametrize('seed', [1098, 1182, 1239, 1292])
-def test_a_move_every_profile_swings_out_of_gets_the_chord_length_durations(seed):
+@pytest.fixture
+def no_pull(monkeypatch):
+    """Plan without moving the knots of a plan that leaves the limits (the other plans' order)."""
+    monkeypatch.setattr(planner, '_pulled_within', lambda traj, options: None)
+
+
+def assert_pulled_within(traj, free, points, low, high):
     """
-    Found by the long hypothesis run: uneven steps one way, where both profiles' paths swing out.
+    ``traj`` is ``free`` with knots moved (and inserted) to stay within [low, high].
+
+    Checked on the trajectories alone, by sampling: ``traj`` stays within,
+    passes the waypoints at ``free``'s times stretched by one factor >= 1,
+    rests at both ends, and the joints that ``free`` kept within are
+    ``free``'s own, stretched in time.
+    """
+    s_low, s_high = sampled_range(traj)
+    assert np.all(s_low >= low - 1e-12) and np.all(s_high <= high + 1e-12)
+    factor = traj.duration / free.duration
+    assert factor >= 1.0 - 1e-12
+    np.testing.assert_allclose(traj.waypoint_times, free.waypoint_times * factor,
+                               rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(traj.evaluate(traj.waypoint_times), points, atol=1e-9)
+    np.testing.assert_allclose(traj.evaluate([0.0, traj.duration], 1), 0.0, atol=1e-9)
+    f_low, f_high = sampled_range(free)
+    kept = (f_low >= low - 1e-9) & (f_high <= high + 1e-9)
+    t = np.linspace(0.0, free.duration, 2001)
+    np.testing.assert_allclose(traj.evaluate(t * factor)[:, kept], free.evaluate(t)[:, kept],
+                               atol=1e-9)
+    assert traj.within_limits(rtol=1e-9)
+
+
+@pytest.mark.parametrize('seed', [1098, 1182, 1239, 1292])
+def test_a_move_every_profile_swings_out_of_is_pulled_within_by_its_knots(seed):
+    """
+    Found by the long hypothesis run: uneven steps one way, where every profile's path swings out.
 
     The smoothed plan, the knots-only optimum and time_optimal all leave the
-    range (checked here); the chord-length spline of timing "uniform" stays
-    within it, and plan() returns that, saying so.  With a mode to cancel,
-    or ``inner_knots`` given (which uniform timing would ignore), it refuses.
+    range (checked here).  plan() moves the smoothed plan's knots until it
+    stays within, and says so; it is no longer than the chord-length
+    plan it used to give way to (1.4-1.8 times the duration).  The same with
+    ``inner_knots`` given; with a mode to cancel it refuses.
     """
     points, limits = one_way_request(np.random.default_rng(seed))
     low, high = points.min(axis=0), points.max(axis=0)
     for extra in ({}, {'inner_knots': 0}, {'speed_profile': 'time_optimal'}):
         assert leaves(plan(points, '555', 'optimal', **limits, **extra), low, high), extra
+    chords = plan(points, '555', 'uniform', **limits)
+    for more in ({}, {'inner_knots': 4}):
+        free = plan(points, '555', 'optimal', **limits, **more)
+        traj = plan(points, '555', 'optimal', min_position=low, max_position=high, **limits,
+                    **more)
+        assert traj.timing == 'optimal' and 'speed_profile_reason' not in traj.optimizer
+        assert re.fullmatch(r'knots moved to keep joint \d+(, joint \d+)* within the '
+                            r'position limits( \(\d+ knots inserted\))?',
+                            traj.optimizer['position_limit_knots'])
+        assert traj.optimizer['inner_knots'] == free.optimizer['inner_knots']
+        assert_pulled_within(traj, free, points, low, high)
+        assert traj.duration < chords.duration
+    with pytest.raises(ValueError, match=r'joint \d+ goes to .* (above max|below min)'):
+        plan(points, '555', 'optimal', min_position=low, max_position=high, **limits,
+             vibration_frequency=4.0)
+
+
+@pytest.mark.usefixtures('no_pull')
+@pytest.mark.parametrize('seed', [1098, 1182, 1239, 1292])
+def test_without_the_pull_every_profile_swinging_out_gets_the_chord_length_durations(seed):
+    """
+    The other plans' order, last: the chord-length spline of timing "uniform".
+
+    With the knots left where they are (the pull switched off: the order
+    plan() falls back on where the pull finds no move), the chord-length
+    spline stays within the range of these moves, and plan() returns
+    that, saying so.  With a mode to cancel, or ``inner_knots`` given
+    (which uniform timing would ignore), it refuses.
+    """
+    points, limits = one_way_request(np.random.default_rng(seed))
+    low, high = points.min(axis=0), points.max(axis=0)
     chords = plan(points, '555', 'uniform', **limits)
     assert not leaves(chords, low, high)
     for asked in ('smoothed', 'time_optimal'):
@@ -403,6 +470,7 @@ def creeping_request(knots_only_leaves=None):
 
 @pytest.mark.parametrize('knots_only_leaves', [False, True])
 @pytest.mark.usefixtures('creeping_construction')
+@pytest.mark.usefixtures('no_pull')
 def test_a_smoothed_plan_that_creeps_past_a_start_on_a_limit(knots_only_leaves):
     """
     Found on issue 38: 1e-7-1e-3 rad past a start, on more than half of such requests.
@@ -467,6 +535,7 @@ def counted_plans(monkeypatch):
 
 
 @pytest.mark.usefixtures('creeping_construction')
+@pytest.mark.usefixtures('no_pull')
 def test_no_other_plan_is_tried_on_long_requests(monkeypatch):
     """Above SMALL_REQUEST waypoints the other plans cost up to seconds: refused at once."""
     for seed in range(20):
@@ -514,6 +583,7 @@ def test_a_moving_end_heading_past_its_limit_tries_nothing_else(monkeypatch, sid
     assert tried == ['smoothed']
 
 
+@pytest.mark.usefixtures('no_pull')
 def test_time_optimal_past_a_limit_the_smoothed_plan_keeps_falls_back():
     """
     A limit between the two profiles' extremes: asked for, time_optimal gives way to smoothed.

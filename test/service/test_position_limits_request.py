@@ -10,6 +10,7 @@ joint.
 """
 
 import os
+import re
 import sys
 
 import numpy as np
@@ -21,7 +22,7 @@ from splines445_ros.service.request_planning import (plan_request, plan_warnings
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), '..', 'planning'))
 from test_position_limits import (  # noqa: E402, F401, I100
-    creeping_construction, creeping_request, one_way_request)
+    creeping_construction, creeping_request, no_pull, one_way_request)
 
 
 def config_of(limits, low, high, speed_profile='smoothed'):
@@ -44,6 +45,21 @@ def request_of(points):
 
 @pytest.mark.usefixtures('creeping_construction')
 def test_a_request_on_the_limits_is_planned_like_plan_plans_it():
+    """The plan asked for, its knots moved within the limits: on the status, without a WARN."""
+    points, limits, low, high = creeping_request()
+    traj = plan_request(config_of(limits, low, high), request_of(points))
+    ours = plan(points, '555', 'optimal', min_position=low, max_position=high, **limits)
+    np.testing.assert_array_equal(traj.ppoly.c, ours.ppoly.c)
+    status = summary_values(traj, [f'j{i}' for i in range(low.size)])
+    assert re.fullmatch(r'knots moved to keep joint \d+ \(j\d+\)(, joint \d+ \(j\d+\))* '
+                        r'within the position limits( \(\d+ knots inserted\))?',
+                        status['position_limit_knots']), status['position_limit_knots']
+    assert 'speed_profile_reason' not in status
+    assert plan_warnings(traj) is None
+
+
+@pytest.mark.usefixtures('creeping_construction', 'no_pull')
+def test_without_the_pull_a_request_on_the_limits_warns_of_the_other_plan():
     points, limits, low, high = creeping_request()
     traj = plan_request(config_of(limits, low, high), request_of(points))
     ours = plan(points, '555', 'optimal', min_position=low, max_position=high, **limits)
@@ -69,13 +85,15 @@ def test_a_request_past_the_limits_names_the_joint():
         plan_request(config_of(limits, low, tight), request_of(points))
 
 
+@pytest.mark.usefixtures('no_pull')
 @pytest.mark.parametrize('speed_profile', ['smoothed', 'time_optimal'])
 def test_a_move_every_profile_swings_out_of_warns_of_the_chord_length_plan(speed_profile):
     """
     The WARN says what the node publishes: the chord-length plan, not "smoothed".
 
     Seed 1098 of the planning tests' one-way moves: both profiles' paths
-    leave the limits there, and timing "uniform" is what stays within.
+    leave the limits there, and (with the pull switched off, which would
+    keep the plan asked for) timing "uniform" is what stays within.
     """
     points, limits = one_way_request(np.random.default_rng(1098))
     low, high = points.min(axis=0), points.max(axis=0)

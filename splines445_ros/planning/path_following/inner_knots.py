@@ -747,6 +747,28 @@ def _with_margin(problem, best):
     return found
 
 
+@dataclass(frozen=True)
+class KeptRequest:
+    """What :func:`kept_trajectory` reads of its problem (a spline built elsewhere)."""
+
+    points: np.ndarray
+    boundary: tuple
+    limits: object
+    rest: bool = True
+
+
+@dataclass(frozen=True)
+class KeptSpline:
+    """What :func:`kept_trajectory` reads of its candidate (a spline built elsewhere)."""
+
+    pieces: np.ndarray
+    positions: np.ndarray
+    waypoint_knots: np.ndarray
+    coeffs: np.ndarray
+    ratios: np.ndarray
+    scale: float = 1.0
+
+
 def kept_trajectory(problem, best, dropped, optimizer):
     """
     Return the Trajectory of the kept spline ``best`` of ``problem``, on the PPoly's widths.

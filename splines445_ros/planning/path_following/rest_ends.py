@@ -19,11 +19,9 @@ in time, uniformly, until it holds the v/a/j limits again (never sped
 up: a plan slowed down for the torque stays as slow).
 """
 
-from dataclasses import dataclass
-
 import numpy as np
 
-from .inner_knots import end_jerks, kept_trajectory, unit_end_jerks
+from .inner_knots import end_jerks, kept_trajectory, KeptRequest, KeptSpline, unit_end_jerks
 from ..spline.continuity_system import spline_coefficients
 from ..spline.limits import limit_ratios
 from ..spline.trajectory import representable_durations
@@ -33,28 +31,6 @@ END_KNOT_SHARE = 0.5
 # The end jerks tried, as shares of each joint's peak jerk: 0 first (only the
 # joints against their chord are moved), then pushed further along it.
 END_JERK_FLOORS = (0.0, 1.0 / 16.0, 0.25, 1.0)
-
-
-@dataclass(frozen=True)
-class _Request:
-    """What :func:`inner_knots.kept_trajectory` reads of its problem."""
-
-    points: np.ndarray
-    boundary: tuple
-    limits: object
-    rest: bool = True
-
-
-@dataclass(frozen=True)
-class _Spline:
-    """What :func:`inner_knots.kept_trajectory` reads of its candidate."""
-
-    pieces: np.ndarray
-    positions: np.ndarray
-    waypoint_knots: np.ndarray
-    coeffs: np.ndarray
-    ratios: np.ndarray
-    scale: float = 1.0
 
 
 def along_chords(traj, accept):
@@ -89,7 +65,7 @@ def along_chords(traj, accept):
     units, sensitivity = unit_end_jerks(positions.shape[0], knots, widths)   # (2 ends, 2)
     jerks = end_jerks(coeffs, widths[-1])                           # (2 ends, n)
     scale = traj.peaks()['jerk']
-    request = _Request(points, rest, traj.limits)
+    request = KeptRequest(points, rest, traj.limits)
     for floor in END_JERK_FLOORS:
         along = jerks * sign
         if floor == 0.0:
@@ -104,8 +80,8 @@ def along_chords(traj, accept):
         moved = positions.copy()
         moved[knots] += moves
         turned = coeffs + np.einsum('skm,mn->skn', units, moves)
-        spline = _Spline(widths, moved, waypoint_knots, turned,
-                         limit_ratios(turned, widths, traj.limits))
+        spline = KeptSpline(widths, moved, waypoint_knots, turned,
+                            limit_ratios(turned, widths, traj.limits))
         found = kept_trajectory(request, spline, traj.dropped_waypoints,
                                 dict(traj.optimizer or {}))
         if found is not None and accept(found):
