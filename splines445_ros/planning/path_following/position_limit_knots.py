@@ -54,7 +54,8 @@ ROUNDS = 8
 # How far inside its limit each row aims [rad]: above HiGHS's primal
 # feasibility tolerance (1e-7), so that its solutions are within the limit.
 # Next to a rest end a row is scaled by (piece / s)**3, so it aims
-# MARGIN * (s / piece)**3 inside there.
+# MARGIN * (s / piece)**3 inside there; with an inner waypoint closer to the
+# limit than 4 * MARGIN, a quarter of that distance (the waypoint is fixed).
 MARGIN = 1e-6
 
 
@@ -96,7 +97,10 @@ def pulled_within(traj, low, high, slack, insert=True):
     rows = _Rows(coeffs, units, widths, traj.waypoints[-1])
     moves = np.zeros((free.size, traj.n_joints))
     for j in leaving:
-        move = _joint_move(rows, j, low[j], high[j], slack[:, j], traj.waypoints[-1, j])
+        inner = traj.waypoints[1:-1, j]
+        room = np.min(np.concatenate([inner - low[j], high[j] - inner]), initial=np.inf)
+        margin = min(MARGIN, 0.25 * room)
+        move = _joint_move(rows, j, low[j], high[j], slack[:, j], traj.waypoints[-1, j], margin)
         if move is None:
             return None
         moves[:, j] = move
@@ -180,8 +184,12 @@ class _Rows:
         return p @ self.units[piece], p @ self.coeffs[piece, :, j], low, high
 
 
-def _joint_move(rows, j, low, high, slack, last_point):
-    """Return the least total move (m,) of joint ``j``'s free knots into [low, high], or None."""
+def _joint_move(rows, j, low, high, slack, last_point, margin):
+    """
+    Return the least total move (m,) of joint ``j``'s free knots into [low, high], or None.
+
+    Each row aims ``margin`` inside its limit (:data:`MARGIN`).
+    """
     table = [rows.row(s, t, j, low, high) for s, t in rows.samples()]
     m = rows.units.shape[2]
     for _ in range(ROUNDS):
@@ -194,7 +202,7 @@ def _joint_move(rows, j, low, high, slack, last_point):
         above = np.isfinite(upper) & (upper - value < 1e9)
         below = np.isfinite(lower) & (value - lower < 1e9)
         a_ub = np.concatenate([a[above], -a[below]])
-        b_ub = np.concatenate([upper[above] - value[above], value[below] - lower[below]]) - MARGIN
+        b_ub = np.concatenate([upper[above] - value[above], value[below] - lower[below]]) - margin
         # |d| = d+ + d-, both >= 0.
         result = linprog(np.ones(2 * m), A_ub=np.hstack([a_ub, -a_ub]), b_ub=b_ub,
                          bounds=(0.0, None), method='highs')
