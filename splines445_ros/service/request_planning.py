@@ -421,11 +421,17 @@ def inner_knots_warning(traj):
     keep, for one): the plan returned is the knots-only optimum, within
     every limit but slower and without the smoothing windows.  A knots-only
     plan that was simply shorter (the rival) is no failure and says nothing.
+    Where that plan then got knots of its own at the position limits
+    (``end_knots``, ``position_limit_knots``), the warning names them.
     """
-    if (traj.optimizer or {}).get('inner_knots_skipped') != NO_INNER_KNOT_SPLINE:
+    optimizer = traj.optimizer or {}
+    if optimizer.get('inner_knots_skipped') != NO_INNER_KNOT_SPLINE:
         return None
-    return (f'{NO_INNER_KNOT_SPLINE}: planned with knots at the waypoints only (within every '
-            'limit, but slower, and not smoothed)')
+    more = [key for key in ('end_knots', 'position_limit_knots') if optimizer.get(key)]
+    knots = ('knots at the waypoints only' if not more else
+             'knots at the waypoints and those of ' + ' and '.join(f'`{k}`' for k in more))
+    return (f'{NO_INNER_KNOT_SPLINE}: planned with {knots} (within every limit, but slower, '
+            'and not smoothed)')
 
 
 def speed_profile_warning(traj):

@@ -206,3 +206,27 @@ def test_a_knots_only_plan_turned_at_its_ends_says_so_without_a_warning():
     assert free.breakpoints.size == len(points)
     q = free.evaluate(np.linspace(0.0, free.duration, 20001))
     assert np.any(q < points.min(axis=0) - 1e-9) or np.any(q > points.max(axis=0) + 1e-9)
+
+
+def test_the_warning_names_the_knots_a_knots_only_plan_got_at_the_position_limits():
+    """
+    A knots-only plan turned at its rest ends or pulled within its limits has more knots.
+
+    The warning of a construction that found no spline then names them
+    (``end_knots``, ``position_limit_knots``) instead of "the waypoints only".
+    """
+    points, start_velocity, start_acceleration = HARD_START
+    cfg = PlannerConfig(joint_names=('a', 'b'), max_velocity=(2.0, 2.0),
+                        max_acceleration=(10.0, 10.0), method='555', timing='optimal')
+    zero = np.zeros(2)
+    traj = plan_request(cfg, WaypointRequest(points, start_velocity, start_acceleration,
+                                             zero, zero, None))
+    record = dict(traj.optimizer)
+    for keys in (('end_knots',), ('position_limit_knots',), ('end_knots', 'position_limit_knots')):
+        traj.optimizer = dict(record, **dict.fromkeys(keys, 'said'))
+        warning = plan_warnings(traj)
+        assert 'no spline with inner knots found' in warning
+        assert 'waypoints only' not in warning
+        assert all(f'`{key}`' in warning for key in keys)
+    traj.optimizer = record
+    assert 'knots at the waypoints only' in plan_warnings(traj)
