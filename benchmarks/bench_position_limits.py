@@ -126,20 +126,22 @@ def cut_swings(requests):
 
     ``({kind: count} now, {kind: count} before, rows)``; a row per pulled
     plan: its duration, 4 Hz peak and 4 Hz residual over the plan without
-    limits, then the plan before's over the same (NaN where refused).
+    limits, then the plan before's over the same (NaN where refused), then
+    the planning time with the limits less without [ms] (one call each).
     """
     now, before, rows = {}, {}, []
     saved = planner._pulled_within
     for points, limits, share in requests:
-        free = plan(points, '555', 'optimal', **limits)
+        t_free, free = timed(lambda: plan(points, '555', 'optimal', **limits))
         low, high = cut_swing(free, points, share)
         f_low, f_high = free.position_extrema()[:2]
         if np.all(f_low >= low) and np.all(f_high <= high):
             continue    # no swing past the waypoints
-        plans = []
+        plans, times = [], []
         for pull in (True, False):
             if not pull:
                 planner._pulled_within = lambda traj, options: None
+            start = time.perf_counter()
             try:
                 plans.append(plan(points, '555', 'optimal', min_position=low,
                                   max_position=high, **limits))
@@ -147,6 +149,7 @@ def cut_swings(requests):
                 plans.append(None)
             finally:
                 planner._pulled_within = saved
+            times.append(time.perf_counter() - start)
         for counts, traj in zip((now, before), plans):
             kind = 'refused' if traj is None else kind_of(traj)
             counts[kind] = counts.get(kind, 0) + 1
@@ -156,7 +159,7 @@ def cut_swings(requests):
         reference = figures_of(of_trajectory(free), free.duration, amax)[:3]
         ratios = [figures_of(of_trajectory(t), t.duration, amax)[:3] / reference
                   if t is not None else np.full(3, np.nan) for t in plans]
-        rows.append(np.concatenate(ratios))
+        rows.append(np.concatenate(ratios + [[1e3 * (times[0] - t_free)]]))
     return now, before, np.array(rows)
 
 
@@ -180,15 +183,18 @@ def print_cut_swings(requests):
           'requests over it (median, range; before: where planned):')
     print('| plan | requests | duration | 4 Hz peak | 4 Hz residual |')
     print('|---|---|---|---|---|')
-    for label, block in (('knots moved within', rows[:, :3]), ('before', rows[:, 3:])):
+    for label, block in (('knots moved within', rows[:, :3]), ('before', rows[:, 3:6])):
         block = block[np.all(np.isfinite(block), axis=1)]
         if not len(block):
             continue
         print(f'| {label} | {len(block)} | ' + ' | '.join(
             f'{np.median(c):.3g} ({c.min():.3g}-{c.max():.3g})' for c in block.T) + ' |')
-    both = np.all(np.isfinite(rows), axis=1)
+    both = np.all(np.isfinite(rows[:, :6]), axis=1)
     longer = np.sum(rows[both, 0] > rows[both, 3] * (1.0 + 1e-9))
     print(f'Pulled plans longer than the plan before: {longer} of {int(both.sum())}')
+    more = rows[:, 6]
+    print(f'Planning of the pulled plans, more than without limits: {np.median(more):.0f} ms '
+          f'(median; {more.min():.0f}-{more.max():.0f})')
 
 
 def timed(func):

@@ -61,6 +61,8 @@ POSITION_LIMIT_KNOTS = 'knots moved to keep {} within the position limits'
 # returned at once; a longer one (stretched for v/a/j) is compared with the
 # other plans first (_pulled_or_other).
 STRETCH_RTOL = 1e-9
+# ... and its text names a stretch from this share on (4 digits show it).
+STRETCH_SAID = 1e-4
 # The start of optimizer['speed_profile_skipped'] or ['speed_profile_reason'] when
 # the profile asked for left the position limits and another plan did not
 # (planner._other_profile_within; the text ends with what was planned instead).
@@ -339,18 +341,28 @@ def _pulled_within(traj, options):
     Return ``traj``, which left the position limits, pulled back within them, or None.
 
     Its knots are moved (:func:`position_limit_knots.pulled_within`), where
-    it is 555 optimal rest to rest: the same plan, with its inner knots and
-    smoothing windows, rather than another plan (a uniform stretch where a
-    move raised a v/a/j peak).  A segment without a knot of its own gets
-    one, unless ``inner_knots`` was given as 0.  Not with a
-    ``vibration_frequency``: the moves lose the plan's zero at the mode (its
-    residual there rose 1.11 times at the median, up to 16 times), and a
-    mode to cancel is not traded (:func:`_instead`).  With torque limits
-    the result is slowed down for them again, which keeps its positions.
-    The plan says so in ``optimizer['position_limit_knots']``.
+    it is a "smoothed" 555 optimal plan, rest to rest, of at most
+    :data:`SMALL_REQUEST` waypoints (like the other plans: an LP a round and
+    joint over every knot, 0.7 s at 30 waypoints and 10 s at 100 on six
+    joints): the same plan, with its inner knots and smoothing windows,
+    rather than another plan (a uniform stretch where a move raised a v/a/j
+    peak).  A segment without a knot of its own gets one, unless
+    ``inner_knots`` was given as 0.  Not with a ``vibration_frequency``: the
+    moves lose the plan's zero at the mode (its residual there rose 1.11
+    times at the median, up to 16 times), and a mode to cancel is not
+    traded (:func:`_instead`).  Not a time_optimal plan: it is at its
+    limits everywhere, so any move stretched it 1.7-3 times, with a knot
+    every ~15 ms to move (its "smoothed" fallback is pulled instead,
+    :func:`_other_profile_within`).  With torque limits the result is
+    slowed down for them again, which keeps its positions.  The plan says
+    so in ``optimizer['position_limit_knots']`` (the joints, the knots
+    inserted, the stretch); its ``knots``, ``inner_knots`` and
+    ``inner_knots_per_segment`` count the inserted knots.
     """
     if (options.method != '555' or options.timing != 'optimal' or options.limits is None
-            or options.vibration_frequency or any(np.any(b) for b in options.boundary)):
+            or options.vibration_frequency or any(np.any(b) for b in options.boundary)
+            or traj.waypoints.shape[0] > SMALL_REQUEST
+            or (traj.optimizer or {}).get('speed_profile', 'smoothed') == TIME_OPTIMAL):
         return None
     low, high = options.min_position, options.max_position
     insert = options.inner_knots_auto or options.inner_knots > 0
@@ -359,8 +371,22 @@ def _pulled_within(traj, options):
         return None
     pulled, joints, inserted = found
     names = ', '.join(joint_label(int(j), options.joint_names) for j in joints)
-    pulled.optimizer['position_limit_knots'] = POSITION_LIMIT_KNOTS.format(names) + (
-        f' ({inserted} knots inserted)' if inserted else '')
+    said = [f'{inserted.size} knot{"s" * (inserted.size != 1)} inserted'] if inserted.size else []
+    stretch = pulled.duration / traj.duration
+    if stretch >= 1.0 + STRETCH_SAID:
+        said.append(f'{stretch:.4g} times as long')
+    record = pulled.optimizer
+    record['position_limit_knots'] = POSITION_LIMIT_KNOTS.format(names) + (
+        f' ({"; ".join(said)})' if said else '')
+    if inserted.size:
+        record['knots'] = int(pulled.breakpoints.size)
+        counts = np.asarray(record.get('inner_knots_per_segment',
+                                       np.zeros(traj.waypoints.shape[0] - 1, int)))
+        counts = counts.copy()
+        counts[inserted] += 1
+        if 'inner_knots_per_segment' in record:
+            record['inner_knots_per_segment'] = counts.tolist()
+        record['inner_knots'] = int(counts.max())
     remeasure_residual(pulled)
     try:
         if options.torque is not None:
@@ -428,7 +454,14 @@ def _other_profile_within(points, durations, options, traj, leaves, rough=True):
             # A caller's durations start optimal timing; uniform timing has none.
             start = None if again.timing == 'uniform' else durations
             found = _profiled(points, start, again)
-            within_position_limits(found, again.min_position, again.max_position)
+            try:
+                within_position_limits(found, again.min_position, again.max_position)
+            except ValueError:
+                # time_optimal asked for: its "smoothed" fallback is pulled within.
+                pulled = _pulled_within(found, again) if used == TIME_OPTIMAL else None
+                if pulled is None:
+                    raise
+                found = pulled
         except ValueError:
             continue
         key = 'speed_profile_skipped' if used == TIME_OPTIMAL else 'speed_profile_reason'

@@ -184,9 +184,9 @@ class PlannerConfig(ValidatedConfig):
         '`speed_profile_reason` and `speed_profile_skipped`; a knots-only optimum that starts '
         'or stops a joint the wrong way past a limit first gets a knot next to each rest end, '
         'see `end_knots`, or gives way to the inner-knot plan, see `knots_only_skipped`; and '
-        'a rest-to-rest 555 optimal plan that leaves them first has its knots moved within '
-        'them, see `position_limit_knots`); empty (the default) = none; `-.inf` for a joint '
-        'without one; integers as typed are fine.')
+        'a smoothed rest-to-rest 555 optimal plan that leaves them first has its knots moved '
+        'within them, see `position_limit_knots`); empty (the default) = none; `-.inf` for a '
+        'joint without one; integers as typed are fine.')
     max_position: Tuple[float, ...] = parameter(
         (), 'Per-joint upper position limit [rad or m], as `min_position`; `.inf` for a joint '
         'without one.')

@@ -335,7 +335,8 @@ def test_a_move_every_profile_swings_out_of_is_pulled_within_by_its_knots(seed):
                     **more)
         assert traj.timing == 'optimal' and 'speed_profile_reason' not in traj.optimizer
         assert re.fullmatch(r'knots moved to keep joint \d+(, joint \d+)* within the '
-                            r'position limits( \(\d+ knots inserted\))?',
+                            r'position limits( \((\d+ knots? inserted)?(; )?([\d.]+ times as '
+                            r'long)?\))?',
                             traj.optimizer['position_limit_knots'])
         assert traj.optimizer['inner_knots'] == free.optimizer['inner_knots']
         assert_pulled_within(traj, free, points, low, high)
@@ -562,6 +563,68 @@ def test_no_other_plan_is_tried_on_long_requests(monkeypatch):
     except ValueError:
         pass
     assert len(tried) > 1
+
+
+@pytest.mark.usefixtures('creeping_construction')
+def test_no_pull_is_tried_on_long_requests(monkeypatch):
+    """Above SMALL_REQUEST waypoints the pull is not tried either (10 s at 100 on six joints)."""
+    for seed in range(20):
+        rng = np.random.default_rng(seed)
+        n = 3
+        points = np.cumsum(rng.uniform(0.3, 1.0, (planner.SMALL_REQUEST + 1, n))
+                           * rng.choice([-1.0, 1.0], n), axis=0)
+        limits = {'max_velocity': np.full(n, 2.0), 'max_acceleration': np.full(n, 10.0),
+                  'max_jerk': np.full(n, 200.0)}
+        low, high = points.min(axis=0), points.max(axis=0)
+        if leaves(plan(points, '555', 'optimal', **limits), low, high):
+            break
+    else:
+        raise AssertionError('no long request in 20 whose smoothed plan leaves its range')
+    pulls, pull = [], planner.pulled_within
+    monkeypatch.setattr(planner, 'pulled_within', lambda *args: pulls.append(1) or pull(*args))
+    with pytest.raises(ValueError, match='goes to'):
+        plan(points, '555', 'optimal', min_position=low, max_position=high, **limits)
+    assert not pulls
+    # The size is what stopped it: with a larger bound it is tried, and pulls it within.
+    monkeypatch.setattr(planner, 'SMALL_REQUEST', planner.SMALL_REQUEST + 1)
+    traj = plan(points, '555', 'optimal', min_position=low, max_position=high, **limits)
+    assert pulls and 'position_limit_knots' in traj.optimizer
+
+
+def test_time_optimal_asked_for_gives_way_to_a_smoothed_plan_pulled_within():
+    """
+    A time_optimal plan past a limit cut into its swing is not pulled: its smoothed plan is.
+
+    time_optimal is at its limits everywhere (a knot every ~15 ms): a pull
+    stretched it 1.7-3 times (helper-34's review).  Its fallback, the
+    smoothed plan, is pulled where it leaves the limit too, and says both.
+    """
+    pulled = 0
+    for seed in range(12):
+        rng = np.random.default_rng(seed)
+        n = int(rng.integers(2, 5))
+        points = np.cumsum(rng.uniform(-1.0, 1.0, (int(rng.integers(3, 7)), n)), axis=0)
+        amax = rng.uniform(5.0, 15.0, n)
+        limits = {'max_velocity': rng.uniform(1.0, 3.0, n), 'max_acceleration': amax,
+                  'max_jerk': 20.0 * amax}
+        fast = plan(points, '555', 'optimal', speed_profile='time_optimal', **limits)
+        over = fast.position_extrema()[1] - points.max(axis=0)
+        j = int(np.argmax(over))
+        if over[j] < 1e-3:
+            continue
+        high = np.full(n, np.inf)
+        high[j] = points[:, j].max() + 0.5 * over[j]
+        traj = plan(points, '555', 'optimal', speed_profile='time_optimal', max_position=high,
+                    **limits)
+        assert traj.optimizer.get('speed_profile') != 'time_optimal'
+        assert '"time_optimal" left the position limits' in traj.optimizer['speed_profile_skipped']
+        assert np.all(sampled_range(traj)[1] <= high + 1e-12)
+        assert traj.within_limits(rtol=1e-9)
+        if 'position_limit_knots' in traj.optimizer:
+            pulled += 1
+            smoothed = plan(points, '555', 'optimal', **limits)
+            assert_pulled_within(traj, smoothed, points, np.full(n, -np.inf), high)
+    assert pulled >= 4
 
 
 @pytest.mark.parametrize('side', ['start', 'end'])

@@ -52,7 +52,7 @@ def test_a_request_on_the_limits_is_planned_like_plan_plans_it():
     np.testing.assert_array_equal(traj.ppoly.c, ours.ppoly.c)
     status = summary_values(traj, [f'j{i}' for i in range(low.size)])
     assert re.fullmatch(r'knots moved to keep joint \d+ \(j\d+\)(, joint \d+ \(j\d+\))* '
-                        r'within the position limits( \(\d+ knots inserted\))?',
+                        r'within the position limits( \(.+\))?',
                         status['position_limit_knots']), status['position_limit_knots']
     assert 'speed_profile_reason' not in status
     assert plan_warnings(traj) is None

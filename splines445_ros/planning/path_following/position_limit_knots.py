@@ -20,7 +20,10 @@ and solved again with a row at each exact extremum that is still out.
 Next to a rest end the position leaves as ``q_end + c3 s**3 + ...`` in the
 time ``s`` from the end, so those rows are written in ``(q - q_end) / s**3``,
 which keeps them well scaled down to ``s -> 0``: the end jerk's own
-direction, the condition of step 4 of :mod:`inner_knots`.  A segment with
+direction, the condition of step 4 of :mod:`inner_knots`.  Next to an inner
+waypoint (fixed) they are written in ``(q - q_w) / s**2``: on a limit, a
+joint must turn there (velocity 0, acceleration away from the limit), which
+the unscaled rows, held to HiGHS's tolerance, cannot make it do.  A segment with
 no knot of its own between two waypoints (a knots-only plan) gets one at
 its middle, placed on the spline itself: the C4 quintic spline through the
 same positions with that knot is the same spline, so only the moves change
@@ -53,10 +56,14 @@ END_SAMPLES = 0.5 ** np.arange(1, 21)
 ROUNDS = 8
 # How far inside its limit each row aims [rad]: above HiGHS's primal
 # feasibility tolerance (1e-7), so that its solutions are within the limit.
-# Next to a rest end a row is scaled by (piece / s)**3, so it aims
-# MARGIN * (s / piece)**3 inside there; with an inner waypoint closer to the
-# limit than 4 * MARGIN, a quarter of that distance (the waypoint is fixed).
+# Next to a rest end a row is scaled by (half piece / s)**3, next to an inner
+# waypoint by (half piece / s)**2, so it aims less far inside there, down to
+# 0 at the waypoint itself.
 MARGIN = 1e-6
+# An inner waypoint this close to a limit [rad] gets the END_SAMPLES on both
+# sides too (a joint turning on its limit); further in, the pieces' own
+# samples and the exact extrema hold it.
+NEAR_LIMIT = 4.0 * MARGIN
 
 
 def pulled_within(traj, low, high, slack, insert=True):
@@ -70,9 +77,13 @@ def pulled_within(traj, low, high, slack, insert=True):
     None when the LP or its rounds find no move, or the moved spline
     cannot be stretched within the v/a/j limits; else ``(trajectory,
     joints, inserted)``: the trajectory keeps a copy of ``traj.optimizer``,
-    ``joints`` (k,) are the joints moved and ``inserted`` the knots added
-    (segments that had none).
+    ``joints`` (k,) are the joints moved and ``inserted`` the segments
+    that got a knot (they had none).  A waypoint past a limit (no move
+    helps) is None at once.
     """
+    points = traj.waypoints
+    if np.any(points < low - slack[0]) or np.any(points > high + slack[1]):
+        return None
     built = _knots(traj, insert)
     if built is None:
         return None
@@ -94,13 +105,10 @@ def pulled_within(traj, low, high, slack, insert=True):
     leaving = np.flatnonzero((q_low < low - slack[0]) | (q_high > high + slack[1]))
     if leaving.size == 0:
         return None
-    rows = _Rows(coeffs, units, widths, traj.waypoints[-1])
+    rows = _Rows(coeffs, units, widths, waypoint_knots, points[-1])
     moves = np.zeros((free.size, traj.n_joints))
     for j in leaving:
-        inner = traj.waypoints[1:-1, j]
-        room = np.min(np.concatenate([inner - low[j], high[j] - inner]), initial=np.inf)
-        margin = min(MARGIN, 0.25 * room)
-        move = _joint_move(rows, j, low[j], high[j], slack[:, j], traj.waypoints[-1, j], margin)
+        move = _joint_move(rows, j, low[j], high[j], slack[:, j])
         if move is None:
             return None
         moves[:, j] = move
@@ -113,7 +121,9 @@ def pulled_within(traj, low, high, slack, insert=True):
                             traj.dropped_waypoints, dict(traj.optimizer or {}))
     if found is None:
         return None
-    return found, leaving, free.size - (traj.breakpoints.size - traj.waypoint_times.size)
+    inserted = np.flatnonzero(np.diff(np.searchsorted(traj.breakpoints,
+                                                      traj.waypoint_times)) == 1) if insert else []
+    return found, leaving, np.asarray(inserted, dtype=int)
 
 
 def _knots(traj, insert):
@@ -141,56 +151,81 @@ def _knots(traj, insert):
 
 
 class _Rows:
-    """The LP rows of one joint: its position at a piece's local time, linear in the moves."""
+    """
+    The LP rows of one joint: its position at a piece's local time, linear in the moves.
 
-    def __init__(self, coeffs, units, widths, last_point):
+    A row in the half of a piece next to a rest end, or next to an inner
+    waypoint, is written relative to that fixed position and scaled
+    (module docstring): ``(q - q_a) (h / s)**k`` with ``s`` the time from
+    the anchor ``a``, ``h`` half the piece, ``k`` 3 at a rest end (the terms
+    in s and s**2 are 0 there) and 2 at a waypoint (from its term in s).
+    """
+
+    def __init__(self, coeffs, units, widths, waypoint_knots, last_point):
         self.coeffs, self.units, self.widths = coeffs, units, widths
         self.last = widths.size - 1
-        # The last piece's terms in the time s back from the end: q(w - s).
-        w = widths[-1]
-        shift = np.array([[comb(i, k) * w ** (i - k) * (-1.0) ** k if i >= k else 0.0
-                           for i in range(6)] for k in range(6)])
-        self.end_coeffs = shift @ coeffs[-1]
-        self.end_units = shift @ units[-1]
+        self.waypoint = np.zeros(widths.size + 1, dtype=bool)
+        self.waypoint[waypoint_knots] = True
         self.last_point = last_point
+        self._from_end = {}
 
-    def samples(self):
-        """Return the (piece, local time) pairs of the first LP."""
+    def from_end(self, piece):
+        """Return the piece's terms (6, n) and units' (6, m) in the time back from its end."""
+        if piece not in self._from_end:
+            w = self.widths[piece]
+            shift = np.array([[comb(i, k) * w ** (i - k) * (-1.0) ** k if i >= k else 0.0
+                               for i in range(6)] for k in range(6)])
+            self._from_end[piece] = (shift @ self.coeffs[piece], shift @ self.units[piece])
+        return self._from_end[piece]
+
+    def samples(self, near):
+        """
+        Return the (piece, local time) pairs of the first LP.
+
+        :data:`SAMPLES_PER_PIECE` a piece, and :data:`END_SAMPLES` next to
+        both rest ends and on both sides of the waypoint knots ``near``.
+        """
         share = np.arange(1, SAMPLES_PER_PIECE + 1) / (SAMPLES_PER_PIECE + 1.0)
         pairs = [(s, t) for s, w in enumerate(self.widths) for t in w * share]
-        pairs += [(0, t) for t in self.widths[0] * END_SAMPLES]
-        pairs += [(self.last, self.widths[-1] * (1.0 - x)) for x in END_SAMPLES]
+        for knot in sorted({0, self.last + 1} | {int(k) for k in near}):
+            if knot <= self.last:
+                pairs += [(knot, t) for t in self.widths[knot] * 0.5 * END_SAMPLES]
+            if knot >= 1:
+                w = self.widths[knot - 1]
+                pairs += [(knot - 1, t) for t in w * (1.0 - 0.5 * END_SAMPLES)]
         return pairs
 
     def row(self, piece, tau, j, low, high):
-        """
-        Return (a (m,), value, lower, upper): ``lower <= value + a @ d <= upper``.
+        """Return (a (m,), value, lower, upper): ``lower <= value + a @ d <= upper``, or None."""
+        w = self.widths[piece]
+        at_start = tau <= 0.5 * w
+        knot = piece if at_start else piece + 1
+        if not self.waypoint[knot]:
+            p = tau ** np.arange(6)
+            return p @ self.units[piece], p @ self.coeffs[piece, :, j], low, high
+        if at_start:
+            s, c, u = tau, self.coeffs[piece, :, j], self.units[piece]
+            anchor = self.coeffs[piece, 0, j]
+        else:
+            c, u = self.from_end(piece)
+            s, c = w - tau, c[:, j]
+            anchor = self.last_point[j] if knot == self.last + 1 else self.coeffs[knot, 0, j]
+        if not s > 0.0:
+            return None
+        # At a rest end q - q_a starts with s**3 (velocity and acceleration 0).
+        k, first = (3, 3) if knot in (0, self.last + 1) else (2, 1)
+        scale = (0.5 * w / s) ** k
+        p = scale * s ** np.arange(first, 6)
+        return (p @ u[first:], p @ c[first:], (low - anchor) * scale,
+                (high - anchor) * scale)
 
-        In the end pieces, ``(q - q_end) (w / s)**3`` with ``s`` the time from
-        the rest end and ``w`` the piece (rest: the terms in s and s**2 are 0).
-        """
-        if piece in (0, self.last):
-            w = self.widths[piece]
-            if piece == 0:
-                s, c, u, q_end = tau, self.coeffs[0, :, j], self.units[0], self.coeffs[0, 0, j]
-            else:
-                s, c, u, q_end = w - tau, self.end_coeffs[:, j], self.end_units, self.last_point[j]
-            if not s > 0.0:
-                return None
-            p = np.array([1.0, s, s * s]) * w ** 3
-            scale = (w / s) ** 3
-            return p @ u[3:], p @ c[3:], (low - q_end) * scale, (high - q_end) * scale
-        p = tau ** np.arange(6)
-        return p @ self.units[piece], p @ self.coeffs[piece, :, j], low, high
 
-
-def _joint_move(rows, j, low, high, slack, last_point, margin):
-    """
-    Return the least total move (m,) of joint ``j``'s free knots into [low, high], or None.
-
-    Each row aims ``margin`` inside its limit (:data:`MARGIN`).
-    """
-    table = [rows.row(s, t, j, low, high) for s, t in rows.samples()]
+def _joint_move(rows, j, low, high, slack):
+    """Return the least total move (m,) of joint ``j``'s free knots into [low, high], or None."""
+    position = np.append(rows.coeffs[:, 0, j], rows.last_point[j])
+    near = np.flatnonzero(rows.waypoint & ((position - low < NEAR_LIMIT)
+                                           | (high - position < NEAR_LIMIT)))
+    table = [rows.row(s, t, j, low, high) for s, t in rows.samples(near)]
     m = rows.units.shape[2]
     for _ in range(ROUNDS):
         kept = [r for r in table if r is not None]
@@ -202,7 +237,7 @@ def _joint_move(rows, j, low, high, slack, last_point, margin):
         above = np.isfinite(upper) & (upper - value < 1e9)
         below = np.isfinite(lower) & (value - lower < 1e9)
         a_ub = np.concatenate([a[above], -a[below]])
-        b_ub = np.concatenate([upper[above] - value[above], value[below] - lower[below]]) - margin
+        b_ub = np.concatenate([upper[above] - value[above], value[below] - lower[below]]) - MARGIN
         # |d| = d+ + d-, both >= 0.
         result = linprog(np.ones(2 * m), A_ub=np.hstack([a_ub, -a_ub]), b_ub=b_ub,
                          bounds=(0.0, None), method='highs')
@@ -210,7 +245,7 @@ def _joint_move(rows, j, low, high, slack, last_point, margin):
             return None
         move = result.x[:m] - result.x[m:]
         c = rows.coeffs[:, :, j] + rows.units @ move
-        ends = np.concatenate([c[1:, 0], [last_point]])
+        ends = np.concatenate([c[1:, 0], [rows.last_point[j]]])
         q_low, q_high, t_low, t_high = (x[:, 0] for x in position_extrema(
             c[:, :, None], rows.widths, ends[:, None]))
         out = np.flatnonzero((q_low < low - slack[0]) | (q_high > high + slack[1]))

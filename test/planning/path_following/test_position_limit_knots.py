@@ -97,8 +97,15 @@ def test_a_swing_cut_by_a_limit_is_pulled_within_it(seed, share):
         return      # counted by the test below
     traj, joints, inserted = found
     assert list(joints) == [j]
-    assert inserted == np.sum(np.diff(np.searchsorted(free.breakpoints,
-                                                      free.waypoint_times)) == 1)
+    # A knot was inserted into each segment that had none, and only there.
+    for segment, (start, end) in enumerate(zip(free.waypoint_times[:-1],
+                                               free.waypoint_times[1:])):
+        had = np.sum((free.breakpoints > start) & (free.breakpoints < end))
+        factor = traj.duration / free.duration
+        has = np.sum((traj.breakpoints > start * factor * (1 + 1e-12))
+                     & (traj.breakpoints < end * factor * (1 - 1e-12)))
+        assert has == had + (had == 0), segment
+        assert (segment in inserted) == (had == 0)
     check_pulled(traj, free, points, low, high)
 
 
@@ -108,15 +115,16 @@ def test_a_move_from_limit_to_limit_is_pulled_within_them(seed):
     """One-way moves, the limits at the waypoints' range: each plan that leaves is pulled back."""
     points, limits = one_way_request(np.random.default_rng(seed))
     low, high = points.min(axis=0), points.max(axis=0)
+    slack = position_limit_slack(low, high)
     for more in ({}, {'inner_knots': 0}):
         free = plan(points, '555', 'optimal', **limits, **more)
-        found = pulled_within(free, low, high, position_limit_slack(low, high))
+        found = pulled_within(free, low, high, slack)
         f_low, f_high = free.position_extrema()[:2]
-        if np.all(f_low >= low) and np.all(f_high <= high):
-            assert found is None    # nothing to pull
+        if np.all(f_low >= low - slack[0]) and np.all(f_high <= high + slack[1]):
+            assert found is None    # nothing to pull (or round-off)
             continue
-        if found is not None:
-            check_pulled(found[0], free, points, low, high)
+        assert found is not None
+        check_pulled(found[0], free, points, low, high)
 
 
 @pytest.mark.parametrize('share', [0.1, 0.5, 0.9])
@@ -141,6 +149,41 @@ def test_most_swings_cut_by_a_limit_are_pulled_within(share):
         tried += 1
         found += pulled_within(free, low, high, position_limit_slack(low, high)) is not None
     assert tried >= 50 and found >= 0.9 * tried, (found, tried)
+
+
+@pytest.mark.parametrize('room', [0.0, 1e-7])
+def test_a_joint_turning_at_a_waypoint_on_its_limit_is_pulled_within_it(room):
+    """
+    A taught pose on a joint's limit, where the joint turns: it must stop there.
+
+    The limit sits ``room`` above an inner waypoint that is the joint's
+    highest; the spline overshoots it.  Held to HiGHS's tolerance the plain
+    rows left an excess of 1e-7 and no move was found (0 of 30); the rows
+    next to the waypoint, scaled by its distance squared, make the joint
+    turn there (46 of 46 on seeds 3000-3059, 1.06 times as long at the
+    median: the joint must stop).
+    """
+    found = tried = 0
+    for seed in range(3000, 3000 + examples(30)):
+        rng = np.random.default_rng(seed)
+        points, limits = walk_request(rng)
+        turning = [j for j in range(points.shape[1])
+                   if 0 < np.argmax(points[:, j]) < len(points) - 1]
+        if not turning:
+            continue
+        j = turning[0]
+        free = plan(points, '555', 'optimal', **limits)
+        low = np.full(points.shape[1], -np.inf)
+        high = np.full(points.shape[1], np.inf)
+        high[j] = points[:, j].max() + room
+        if not free.position_extrema()[1][j] > high[j]:
+            continue
+        tried += 1
+        pulled = pulled_within(free, low, high, position_limit_slack(low, high))
+        if pulled is not None:
+            found += 1
+            check_pulled(pulled[0], free, points, low, high)
+    assert tried >= examples(30) // 2 and found >= 0.9 * tried, (found, tried)
 
 
 def test_a_plan_within_its_limits_or_with_a_waypoint_past_them_is_not_pulled():
