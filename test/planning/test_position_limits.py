@@ -121,6 +121,16 @@ def one_way_request(rng):
     return start + fractions * way, limits
 
 
+def walk_request(rng):
+    """Return a random walk of 3-6 waypoints on 2-4 joints, and v/a/j limits (j = 20 a)."""
+    n = int(rng.integers(2, 5))
+    points = np.cumsum(rng.uniform(-1.0, 1.0, (int(rng.integers(3, 7)), n)), axis=0)
+    amax = rng.uniform(5.0, 15.0, n)
+    limits = {'max_velocity': rng.uniform(1.0, 3.0, n), 'max_acceleration': amax,
+              'max_jerk': 20.0 * amax}
+    return points, limits
+
+
 def sampled_range(traj, count=20001):
     """Return the lowest and highest sampled positions: a check apart from the exact extrema."""
     q = traj.evaluate(np.linspace(0.0, traj.duration, count))
@@ -535,10 +545,8 @@ def counted_plans(monkeypatch):
     return tried
 
 
-@pytest.mark.usefixtures('creeping_construction')
-@pytest.mark.usefixtures('no_pull')
-def test_no_other_plan_is_tried_on_long_requests(monkeypatch):
-    """Above SMALL_REQUEST waypoints the other plans cost up to seconds: refused at once."""
+def long_request_that_leaves():
+    """Return a one-way request of SMALL_REQUEST + 1 waypoints whose smoothed plan leaves it."""
     for seed in range(20):
         rng = np.random.default_rng(seed)
         n = 3
@@ -548,9 +556,15 @@ def test_no_other_plan_is_tried_on_long_requests(monkeypatch):
                   'max_jerk': np.full(n, 200.0)}
         low, high = points.min(axis=0), points.max(axis=0)
         if leaves(plan(points, '555', 'optimal', **limits), low, high):
-            break
-    else:
-        raise AssertionError('no long request in 20 whose smoothed plan leaves its range')
+            return points, limits, low, high
+    raise AssertionError('no long request in 20 whose smoothed plan leaves its range')
+
+
+@pytest.mark.usefixtures('creeping_construction')
+@pytest.mark.usefixtures('no_pull')
+def test_no_other_plan_is_tried_on_long_requests(monkeypatch):
+    """Above SMALL_REQUEST waypoints the other plans cost up to seconds: refused at once."""
+    points, limits, low, high = long_request_that_leaves()
     tried = counted_plans(monkeypatch)
     with pytest.raises(ValueError, match='goes to'):
         plan(points, '555', 'optimal', min_position=low, max_position=high, **limits)
@@ -568,18 +582,7 @@ def test_no_other_plan_is_tried_on_long_requests(monkeypatch):
 @pytest.mark.usefixtures('creeping_construction')
 def test_no_pull_is_tried_on_long_requests(monkeypatch):
     """Above SMALL_REQUEST waypoints the pull is not tried either (10 s at 100 on six joints)."""
-    for seed in range(20):
-        rng = np.random.default_rng(seed)
-        n = 3
-        points = np.cumsum(rng.uniform(0.3, 1.0, (planner.SMALL_REQUEST + 1, n))
-                           * rng.choice([-1.0, 1.0], n), axis=0)
-        limits = {'max_velocity': np.full(n, 2.0), 'max_acceleration': np.full(n, 10.0),
-                  'max_jerk': np.full(n, 200.0)}
-        low, high = points.min(axis=0), points.max(axis=0)
-        if leaves(plan(points, '555', 'optimal', **limits), low, high):
-            break
-    else:
-        raise AssertionError('no long request in 20 whose smoothed plan leaves its range')
+    points, limits, low, high = long_request_that_leaves()
     pulls, pull = [], planner.pulled_within
     monkeypatch.setattr(planner, 'pulled_within', lambda *args: pulls.append(1) or pull(*args))
     with pytest.raises(ValueError, match='goes to'):
@@ -602,11 +605,8 @@ def test_time_optimal_asked_for_gives_way_to_a_smoothed_plan_pulled_within():
     pulled = 0
     for seed in range(12):
         rng = np.random.default_rng(seed)
-        n = int(rng.integers(2, 5))
-        points = np.cumsum(rng.uniform(-1.0, 1.0, (int(rng.integers(3, 7)), n)), axis=0)
-        amax = rng.uniform(5.0, 15.0, n)
-        limits = {'max_velocity': rng.uniform(1.0, 3.0, n), 'max_acceleration': amax,
-                  'max_jerk': 20.0 * amax}
+        points, limits = walk_request(rng)
+        n = points.shape[1]
         fast = plan(points, '555', 'optimal', speed_profile='time_optimal', **limits)
         over = fast.position_extrema()[1] - points.max(axis=0)
         j = int(np.argmax(over))
@@ -657,11 +657,8 @@ def test_time_optimal_past_a_limit_the_smoothed_plan_keeps_falls_back():
     """
     for seed in range(40):
         rng = np.random.default_rng(seed)
-        n = int(rng.integers(2, 5))
-        points = np.cumsum(rng.uniform(-1.0, 1.0, (int(rng.integers(3, 7)), n)), axis=0)
-        amax = rng.uniform(5.0, 15.0, n)
-        limits = {'max_velocity': rng.uniform(1.0, 3.0, n), 'max_acceleration': amax,
-                  'max_jerk': 20.0 * amax}
+        points, limits = walk_request(rng)
+        n = points.shape[1]
         smoothed = plan(points, '555', 'optimal', **limits)
         optimal = plan(points, '555', 'optimal', speed_profile='time_optimal', **limits)
         gap = optimal.position_extrema()[1] - smoothed.position_extrema()[1]

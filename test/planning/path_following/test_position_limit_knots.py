@@ -18,17 +18,7 @@ from scipy.interpolate import PPoly
 from splines445_ros.planning import plan
 from splines445_ros.planning.path_following.position_limit_knots import pulled_within
 from splines445_ros.planning.planner import position_limit_slack
-from test_position_limits import one_way_request
-
-
-def walk_request(rng):
-    """Return a random walk of 3-6 waypoints on 2-4 joints, and v/a/j limits (j = 20 a)."""
-    n = int(rng.integers(2, 5))
-    points = np.cumsum(rng.uniform(-1.0, 1.0, (int(rng.integers(3, 7)), n)), axis=0)
-    amax = rng.uniform(5.0, 15.0, n)
-    limits = {'max_velocity': rng.uniform(1.0, 3.0, n), 'max_acceleration': amax,
-              'max_jerk': 20.0 * amax}
-    return points, limits
+from test_position_limits import one_way_request, walk_request
 
 
 def cut_limits(free, points, share, rng):
