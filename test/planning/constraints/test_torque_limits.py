@@ -9,6 +9,7 @@ written in ``test_dynamics``).
 
 import math
 import os
+import re
 
 from example_counts import examples
 from hypothesis import given, settings, strategies as st
@@ -540,8 +541,8 @@ def test_a_plan_pulled_within_its_position_limits_holds_its_torque_limits():
     The moved spline is slowed down for the torque limits afterwards (a
     uniform slow-down keeps the positions): within the limit and the
     torques at 10 kHz.  Where that made it longer than the knots-only
-    optimum, that plan is returned instead (seed 3: 0.868 s against 0.813 s
-    without the limit), within both too.
+    optimum or the chord-length plan, that plan is returned instead (0.868 s
+    against 0.813 s without the limit on one), within both too.
     """
     rng = np.random.default_rng(5)
     pulled = 0
@@ -560,8 +561,9 @@ def test_a_plan_pulled_within_its_position_limits_holds_its_torque_limits():
         if 'position_limit_knots' in traj.optimizer:
             pulled += 1
         else:
-            assert 'planned with knots at the waypoints only' in traj.optimizer[
-                'speed_profile_reason']
+            # A smooth other plan, shorter than the stretched pull.
+            assert re.search('planned with (knots at the waypoints only|timing "uniform")',
+                             traj.optimizer['speed_profile_reason'])
         t = np.linspace(0.0, traj.duration, 20001)
         q = traj.evaluate(t)
         assert np.all(q >= low - 1e-12) and np.all(q <= high + 1e-12)
