@@ -323,7 +323,7 @@ def _pulled_or_other(points, durations, options, traj, leaves):
     the knots-only optimum was shorter than a stretched pull on 7 of 63
     (by 0.4-13 %), and shook less.
     """
-    pulled = _pulled_within(traj, options)
+    pulled = _pulled_within(traj, options, points)
     if pulled is not None and pulled.duration <= traj.duration * (1.0 + STRETCH_RTOL):
         return pulled
     try:
@@ -336,15 +336,16 @@ def _pulled_or_other(points, durations, options, traj, leaves):
     return pulled if pulled is not None and pulled.duration <= other.duration else other
 
 
-def _pulled_within(traj, options):
+def _pulled_within(traj, options, points):
     """
     Return ``traj``, which left the position limits, pulled back within them, or None.
 
     Its knots are moved (:func:`position_limit_knots.pulled_within`), where
     it is a "smoothed" 555 optimal plan, rest to rest, of at most
-    :data:`SMALL_REQUEST` waypoints (like the other plans: an LP a round and
-    joint over every knot, 0.7 s at 30 waypoints and 10 s at 100 on six
-    joints): the same plan, with its inner knots and smoothing windows,
+    :data:`SMALL_REQUEST` requested ``points``, like the other plans (an LP
+    a round and joint; over every knot it took 10 s at 100 waypoints on six
+    joints, over a window of segments 0.14 s at 30): the same plan, with
+    its inner knots and smoothing windows,
     rather than another plan (a uniform stretch where a move raised a v/a/j
     peak).  A segment without a knot of its own gets one, unless
     ``inner_knots`` was given as 0.  Not with a ``vibration_frequency``: the
@@ -361,12 +362,15 @@ def _pulled_within(traj, options):
     """
     if (options.method != '555' or options.timing != 'optimal' or options.limits is None
             or options.vibration_frequency or any(np.any(b) for b in options.boundary)
-            or traj.waypoints.shape[0] > SMALL_REQUEST
+            or points.shape[0] > SMALL_REQUEST
             or (traj.optimizer or {}).get('speed_profile', 'smoothed') == TIME_OPTIMAL):
         return None
     low, high = options.min_position, options.max_position
     insert = options.inner_knots_auto or options.inner_knots > 0
-    found = pulled_within(traj, low, high, position_limit_slack(low, high), insert)
+    try:
+        found = pulled_within(traj, low, high, position_limit_slack(low, high), insert)
+    except ValueError:      # a singular solve, or HiGHS refusing its input: no pull
+        return None
     if found is None:
         return None
     pulled, joints, inserted = found
@@ -434,7 +438,9 @@ def _other_profile_within(points, durations, options, traj, leaves, rough=True):
        tests' limit-to-limit moves, by 0.001-0.017 rad), the chord-length
        spline stayed within on each, 1.4-1.8 times as long;
 
-    and for "time_optimal" asked for, "smoothed", then 3.  The first plan within
+    and for "time_optimal" asked for, "smoothed" (pulled within by its knots
+    where it leaves them, :func:`_pulled_within`; stretched, it is compared
+    with 3 and the shorter returned), then 3.  The first plan within
     the limits is returned, saying so (``speed_profile_reason``, or
     ``speed_profile_skipped`` when time_optimal was asked for, each
     starting with :data:`LEAVES_POSITION_LIMITS` and ending with what was
@@ -447,6 +453,7 @@ def _other_profile_within(points, durations, options, traj, leaves, rough=True):
     why = f'{LEAVES_POSITION_LIMITS.format(used)} ({leaves})'
     # time_optimal asked for and given way already (no spline): that says why too.
     earlier = (traj.optimizer or {}).get('speed_profile_skipped')
+    stretched = None    # a pulled "smoothed" fallback that needed a stretch, and its text
     for again, said in _instead(options, traj, used, points):
         if not rough and used != TIME_OPTIMAL and again.speed_profile == TIME_OPTIMAL:
             continue
@@ -457,19 +464,33 @@ def _other_profile_within(points, durations, options, traj, leaves, rough=True):
             try:
                 within_position_limits(found, again.min_position, again.max_position)
             except ValueError:
-                # time_optimal asked for: its "smoothed" fallback is pulled within.
-                pulled = _pulled_within(found, again) if used == TIME_OPTIMAL else None
+                # time_optimal asked for: its "smoothed" fallback is pulled within;
+                # stretched, it is compared with the next plan (_pulled_or_other).
+                pulled = (_pulled_within(found, again, points) if used == TIME_OPTIMAL
+                          else None)
                 if pulled is None:
                     raise
+                if pulled.duration > found.duration * (1.0 + STRETCH_RTOL):
+                    stretched = (pulled, said)
+                    continue
                 found = pulled
         except ValueError:
             continue
-        key = 'speed_profile_skipped' if used == TIME_OPTIMAL else 'speed_profile_reason'
-        found.optimizer = dict(found.optimizer or {}, **{key: f'{why}{said}'})
-        if earlier and key != 'speed_profile_skipped':
-            found.optimizer['speed_profile_skipped'] = earlier
-        return found
+        if stretched is not None and stretched[0].duration <= found.duration:
+            found, said = stretched
+        return _said_instead(found, used, f'{why}{said}', earlier)
+    if stretched is not None:
+        return _said_instead(stretched[0], used, f'{why}{stretched[1]}', earlier)
     raise leaves
+
+
+def _said_instead(found, used, why, earlier):
+    """Return ``found``, planned instead of the ``used`` profile's plan, saying so and why."""
+    key = 'speed_profile_skipped' if used == TIME_OPTIMAL else 'speed_profile_reason'
+    found.optimizer = dict(found.optimizer or {}, **{key: why})
+    if earlier and key != 'speed_profile_skipped':
+        found.optimizer['speed_profile_skipped'] = earlier
+    return found
 
 
 def _instead(options, traj, used, points):

@@ -627,6 +627,42 @@ def test_time_optimal_asked_for_gives_way_to_a_smoothed_plan_pulled_within():
     assert pulled >= 4
 
 
+def test_time_optimal_asked_for_gets_the_shorter_of_a_stretched_pull_and_the_chord_length_plan():
+    """
+    helper-35's review: a stretched pulled fallback was returned before the chord-length plan.
+
+    Where time_optimal leaves a limit cut into a swing, its smoothed
+    fallback is pulled within; where that needed a stretch, the
+    chord-length plan is tried too and the shorter returned (walks 3008 and
+    3047 get the chord-length plan).
+    """
+    from test_position_limit_knots import cut_limits
+    chords_won = 0
+    for seed in range(3000, 3000 + examples(60)):
+        rng = np.random.default_rng(seed)
+        points, limits = walk_request(rng)
+        fast = plan(points, '555', 'optimal', speed_profile='time_optimal', **limits)
+        low, high, _ = cut_limits(fast, points, float(rng.uniform(0.1, 0.9)), rng)
+        try:
+            traj = plan(points, '555', 'optimal', speed_profile='time_optimal',
+                        min_position=low, max_position=high, **limits)
+        except ValueError:
+            continue
+        if 'speed_profile_skipped' not in traj.optimizer:
+            continue
+        assert not leaves(traj, low, high)
+        chords = plan(points, '555', 'uniform', **limits)
+        if 'position_limit_knots' in traj.optimizer and not leaves(chords, low, high):
+            assert traj.duration <= chords.duration
+        if traj.timing == 'uniform':
+            chords_won += 1
+            smoothed = plan(points, '555', 'optimal', **limits)
+            pulled = planner.pulled_within(smoothed, low, high,
+                                           planner.position_limit_slack(low, high))
+            assert pulled is None or pulled[0].duration > traj.duration
+    assert chords_won >= 1
+
+
 @pytest.mark.parametrize('side', ['start', 'end'])
 def test_a_moving_end_heading_past_its_limit_tries_nothing_else(monkeypatch, side):
     """No plan stays within a limit that a moving end sits on and heads past: refused at once."""

@@ -14,9 +14,11 @@ The fix moves the spline, not its timing.  With the knot times fixed the
 that leaves its range is ``q(t) = q0(t) + U(t) d``, ``U`` the splines
 through a unit position at each free knot (every knot but the waypoints),
 and staying within ``[low, high]`` is linear in ``d``.  The smallest move
-(least total ``|d|``, so few knots move, near the excursion) is one LP per
-joint on sampled times, checked exactly (:func:`peaks.position_extrema`)
-and solved again with a row at each exact extremum that is still out.
+(least total ``|d|``, so few knots move) of the knots around the excursion
+(its segments and one on either side, a window that grows where a round
+leaves elsewhere) is one LP per joint on sampled times, checked exactly
+(:func:`peaks.position_extrema`) and solved again with a row at each
+exact extremum that is still out.
 Next to a rest end the position leaves as ``q_end + c3 s**3 + ...`` in the
 time ``s`` from the end, so those rows are written in ``(q - q_end) / s**3``,
 which keeps them well scaled down to ``s -> 0``: the end jerk's own
@@ -268,10 +270,16 @@ def _joint_move(rows, j, low, high, slack):
         a_ub = np.concatenate([a[above], -a[below]])
         b_ub = np.concatenate([upper[above] - value[above], value[below] - lower[below]]) - MARGIN
         # |d| = d+ + d-, both >= 0.
-        result = linprog(np.ones(2 * cols.size), A_ub=np.hstack([a_ub, -a_ub]), b_ub=b_ub,
-                         bounds=(0.0, None), method='highs')
-        if result.status != 0:
-            return None
+        result = None
+        if cols.size:
+            result = linprog(np.ones(2 * cols.size), A_ub=np.hstack([a_ub, -a_ub]),
+                             b_ub=b_ub, bounds=(0.0, None), method='highs')
+        if result is None or result.status != 0:
+            if len(window) > last_segment:
+                return None
+            # No move within the window: every segment's knots, once more.
+            window = set(range(last_segment + 1))
+            continue
         move = np.zeros(rows.units.shape[2])
         move[cols] = result.x[:cols.size] - result.x[cols.size:]
         out, times = _leaving_pieces(rows, j, move, low, high, slack)
