@@ -140,7 +140,7 @@ def cut_swings(requests):
         plans, times = [], []
         for pull in (True, False):
             if not pull:
-                planner._pulled_within = lambda traj, options: None
+                planner._pulled_within = lambda traj, options, points: None
             start = time.perf_counter()
             try:
                 plans.append(plan(points, '555', 'optimal', min_position=low,

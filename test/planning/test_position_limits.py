@@ -295,7 +295,7 @@ def test_a_move_from_limit_to_limit_is_planned_within_them(seed):
 @pytest.fixture
 def no_pull(monkeypatch):
     """Plan without moving the knots of a plan that leaves the limits (the other plans' order)."""
-    monkeypatch.setattr(planner, '_pulled_within', lambda traj, options: None)
+    monkeypatch.setattr(planner, '_pulled_within', lambda traj, options, points: None)
 
 
 def assert_pulled_within(traj, free, points, low, high):
