@@ -320,8 +320,8 @@ def _pulled_or_other(points, durations, options, traj, leaves):
     first other plan within them (:func:`_other_profile_within`; not
     time_optimal for a smoothed plan that was pulled, which it would
     trade for its shaking): on random walks with a limit cut into a swing
-    the knots-only optimum was shorter than a stretched pull on 7 of 63
-    (by 0.4-13 %), and shook less.
+    the knots-only optimum (6) or the chord-length plan (1) was shorter
+    than a stretched pull on 7 of 63 (by 0.4-14 %), and shook less.
     """
     pulled = _pulled_within(traj, options, points)
     if pulled is not None and pulled.duration <= traj.duration * (1.0 + STRETCH_RTOL):
