@@ -348,9 +348,11 @@ def _pulled_within(traj, options, points):
     its inner knots and smoothing windows,
     rather than another plan (a uniform stretch where a move raised a v/a/j
     peak).  A segment without a knot of its own gets one, unless
-    ``inner_knots`` was given as 0.  Not with a ``vibration_frequency``: the
-    moves lose the plan's zero at the mode (its residual there rose 1.11
-    times at the median, up to 16 times), and a mode to cancel is not
+    ``inner_knots`` was given as 0.  With a ``vibration_frequency`` the
+    moves keep the mode's content in the acceleration (two equality rows a
+    joint; without them the residual at the mode rose 1.11 times at the
+    median, up to 16 times), and a pull that needed a stretch is not taken:
+    it would move the plan's cancellation off the mode, which is not
     traded (:func:`_instead`).  Not a time_optimal plan: it is at its
     limits everywhere, so any move stretched it 1.7-3 times, with a knot
     every ~15 ms to move (its "smoothed" fallback is pulled instead,
@@ -361,19 +363,21 @@ def _pulled_within(traj, options, points):
     ``inner_knots_per_segment`` count the inserted knots.
     """
     if (options.method != '555' or options.timing != 'optimal' or options.limits is None
-            or options.vibration_frequency or any(np.any(b) for b in options.boundary)
-            or points.shape[0] > SMALL_REQUEST
+            or any(np.any(b) for b in options.boundary) or points.shape[0] > SMALL_REQUEST
             or (traj.optimizer or {}).get('speed_profile', 'smoothed') == TIME_OPTIMAL):
         return None
     low, high = options.min_position, options.max_position
     insert = options.inner_knots_auto or options.inner_knots > 0
     try:
-        found = pulled_within(traj, low, high, position_limit_slack(low, high), insert)
+        found = pulled_within(traj, low, high, position_limit_slack(low, high), insert,
+                              options.vibration_frequency or None)
     except ValueError:      # a singular solve, or HiGHS refusing its input: no pull
         return None
     if found is None:
         return None
     pulled, joints, inserted = found
+    if options.vibration_frequency and pulled.duration > traj.duration * (1.0 + STRETCH_RTOL):
+        return None     # a stretch moves the plan's cancellation off the mode
     names = ', '.join(joint_label(int(j), options.joint_names) for j in joints)
     said = [f'{inserted.size} knot{"s" * (inserted.size != 1)} inserted'] if inserted.size else []
     stretch = pulled.duration / traj.duration

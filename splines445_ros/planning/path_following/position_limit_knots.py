@@ -41,6 +41,7 @@ from scipy.optimize import linprog
 
 from .inner_knots import kept_trajectory
 from .rest_ends import KeptRequest, KeptSpline
+from ..speed_profile.residual_vibration import content_weights
 from ..spline.continuity_system import spline_coefficients
 from ..spline.limits import limit_ratios
 from ..spline.peaks import position_extrema
@@ -56,6 +57,9 @@ SAMPLES_PER_PIECE = 8
 END_SAMPLES = 0.5 ** np.arange(1, 21)
 # The segments on either side of one where a joint leaves whose knots move too.
 WINDOW = 1
+# Samples per period of a mode to keep (vibration_frequency): the trapezoid
+# rule of its content, as residual_vibration measures it (1 ms at most).
+MODE_SAMPLES_PER_PERIOD = 40
 # LPs per joint: the first, then one for each round of exact extrema still out.
 ROUNDS = 8
 # How far inside its limit each row aims [rad]: above HiGHS's primal
@@ -70,14 +74,18 @@ MARGIN = 1e-6
 NEAR_LIMIT = 4.0 * MARGIN
 
 
-def pulled_within(traj, low, high, slack, insert=True):
+def pulled_within(traj, low, high, slack, insert=True, mode=None):
     """
     Return the rest-to-rest 555 ``traj`` with its knots moved to keep it within [low, high].
 
     ``low``, ``high`` (n,) (+-inf where unbounded); ``slack`` (2, n), how far
     past each a position still counts as within (round-off).  Only the
     joints that leave are moved.  ``insert``: a segment without a knot of
-    its own gets one (False: only the knots ``traj`` has move).  Returns
+    its own gets one (False: only the knots ``traj`` has move).  ``mode``
+    [Hz]: the moves keep the content of that mode in the acceleration
+    (:mod:`residual_vibration`'s ``Z``, two equality rows a joint), so
+    the ringing after the stop is the plan's own as long as it is not
+    stretched.  Returns
     None when the LP or its rounds find no move, or the moved spline
     cannot be stretched within the v/a/j limits; else ``(trajectory,
     joints, inserted)``: the trajectory keeps a copy of ``traj.optimizer``,
@@ -110,6 +118,8 @@ def pulled_within(traj, low, high, slack, insert=True):
     if leaving.size == 0:
         return None
     rows = _Rows(coeffs, units, widths, waypoint_knots, free, points[-1])
+    if mode:
+        rows.content = _mode_content(units, times, mode)
     moves = np.zeros((free.size, traj.n_joints))
     for j in leaving:
         move = _joint_move(rows, j, low[j], high[j], slack[:, j])
@@ -154,6 +164,29 @@ def _knots(traj, insert):
     return widths, np.array(waypoint_knots)
 
 
+def _mode_content(units, times, frequency):
+    """
+    Return (2, m): Re and Im of each free knot's unit spline's content of the mode.
+
+    ``Z = int qdd(t) exp(lambda (T - t)) dt`` (:mod:`residual_vibration`)
+    of the splines through a unit position at each free knot, by the
+    trapezoid rule on :data:`MODE_SAMPLES_PER_PERIOD` samples a period
+    (1 ms apart at most); the pieces' ends are samples.
+    """
+    period = min(1e-3, 1.0 / (MODE_SAMPLES_PER_PERIOD * frequency))
+    t, accelerations = [], []
+    for piece, (start, end) in enumerate(zip(times[:-1], times[1:])):
+        count = max(2, int(np.ceil((end - start) / period)))
+        tau = np.linspace(0.0, end - start, count + 1)[:-1 if piece < times.size - 2 else None]
+        powers = tau[:, None] ** np.arange(4)
+        second = units[piece, 2:] * np.array([2.0, 6.0, 12.0, 20.0])[:, None]   # (4, m)
+        t.append(start + tau)
+        accelerations.append(powers @ second)
+    t = np.concatenate(t)
+    content = content_weights(np.diff(t), frequency) @ np.concatenate(accelerations)
+    return np.stack([content.real, content.imag])
+
+
 class _Rows:
     """
     The LP rows of one joint: its position at a piece's local time, linear in the moves.
@@ -175,6 +208,7 @@ class _Rows:
         self.segment_of_piece = before[:-1]
         self.segment_of_free = before[free]
         self.last_point = last_point
+        self.content = None     # (2, m) rows of a mode's content to keep, or None
         self._from_end = {}
 
     def from_end(self, piece):
@@ -271,9 +305,13 @@ def _joint_move(rows, j, low, high, slack):
         b_ub = np.concatenate([upper[above] - value[above], value[below] - lower[below]]) - MARGIN
         # |d| = d+ + d-, both >= 0.
         result = None
+        equal = {}
+        if rows.content is not None:
+            keep = rows.content[:, cols]
+            equal = {'A_eq': np.hstack([keep, -keep]), 'b_eq': np.zeros(2)}
         if cols.size:
             result = linprog(np.ones(2 * cols.size), A_ub=np.hstack([a_ub, -a_ub]),
-                             b_ub=b_ub, bounds=(0.0, None), method='highs')
+                             b_ub=b_ub, bounds=(0.0, None), method='highs', **equal)
         if result is None or result.status != 0:
             if len(window) > last_segment:
                 return None

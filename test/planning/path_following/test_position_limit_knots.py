@@ -18,7 +18,7 @@ from scipy.interpolate import PPoly
 from splines445_ros.planning import plan
 from splines445_ros.planning.path_following.position_limit_knots import pulled_within
 from splines445_ros.planning.planner import position_limit_slack
-from test_position_limits import one_way_request, walk_request
+from test_position_limits import assert_keeps_its_ringing, one_way_request, walk_request
 
 
 def cut_limits(free, points, share, rng):
@@ -177,6 +177,27 @@ def test_a_joint_turning_at_a_waypoint_on_its_limit_is_pulled_within_it(room):
             found += 1
             check_pulled(pulled[0], free, points, low, high)
     assert tried >= examples(30) // 2 and found >= 0.9 * tried, (found, tried)
+
+
+@settings(deadline=None, max_examples=examples(15))
+@given(st.integers(0, 2**32 - 1), st.floats(0.1, 0.9), st.sampled_from([1.5, 4.0]))
+def test_a_pull_keeps_the_ringing_of_the_mode_it_is_given(seed, share, frequency):
+    """
+    With a mode (``vibration_frequency``) the moves keep its content in the acceleration.
+
+    Two equality rows a joint: the pulled plan, where plan() takes it (not
+    stretched), leaves the mode ringing as the plan did (the tests' own
+    oscillator), where without them the ringing rose up to 16 times.
+    """
+    rng = np.random.default_rng(seed)
+    points, limits = walk_request(rng)
+    shaped = plan(points, '555', 'optimal', vibration_frequency=frequency, **limits)
+    low, high, _ = cut_limits(shaped, points, share, rng)
+    found = pulled_within(shaped, low, high, position_limit_slack(low, high), mode=frequency)
+    if found is None or found[0].duration > shaped.duration:
+        return      # plan() refuses these (a stretch moves the cancellation)
+    check_pulled(found[0], shaped, points, low, high)
+    assert_keeps_its_ringing(found[0], shaped, frequency)
 
 
 def test_a_plan_within_its_limits_or_with_a_waypoint_past_them_is_not_pulled():
