@@ -376,8 +376,6 @@ def _pulled_within(traj, options, points):
     if found is None:
         return None
     pulled, joints, inserted = found
-    if options.vibration_frequency and pulled.duration > traj.duration * (1.0 + STRETCH_RTOL):
-        return None     # a stretch moves the plan's cancellation off the mode
     names = ', '.join(joint_label(int(j), options.joint_names) for j in joints)
     said = [f'{inserted.size} knot{"s" * (inserted.size != 1)} inserted'] if inserted.size else []
     stretch = pulled.duration / traj.duration
@@ -402,6 +400,8 @@ def _pulled_within(traj, options, points):
         within_position_limits(pulled, low, high)
     except ValueError:
         return None
+    if options.vibration_frequency and pulled.duration > traj.duration * (1.0 + STRETCH_RTOL):
+        return None     # a stretch (for v/a/j or the torque) moves the cancellation off the mode
     return pulled
 
 

@@ -85,12 +85,11 @@ def pulled_within(traj, low, high, slack, insert=True, mode=None):
     [Hz]: the moves keep the content of that mode in the acceleration
     (:mod:`residual_vibration`'s ``Z``, two equality rows a joint), so
     the ringing after the stop is the plan's own as long as it is not
-    stretched.  Returns
-    None when the LP or its rounds find no move, or the moved spline
-    cannot be stretched within the v/a/j limits; else ``(trajectory,
-    joints, inserted)``: the trajectory keeps a copy of ``traj.optimizer``,
-    ``joints`` (k,) are the joints moved and ``inserted`` the segments
-    that got a knot (they had none).  A waypoint past a limit (no move
+    stretched.  Returns None when the LP or its rounds find no move, or
+    the moved spline cannot be stretched within the v/a/j limits; else
+    ``(trajectory, joints, inserted)``: the trajectory keeps a copy of
+    ``traj.optimizer``, ``joints`` (k,) are the joints moved and
+    ``inserted`` the segments that got a knot (they had none).  A waypoint past a limit (no move
     helps) is None at once.
     """
     points = traj.waypoints
@@ -145,8 +144,8 @@ def _knots(traj, insert):
     Return the pieces' widths and the waypoints' knot indices, a knot in every segment.
 
     ``traj``'s knots, with (``insert``) one more at the middle of each
-    segment between two waypoints that has none; widths None when a piece is below the
-    resolution of the time axis.
+    segment between two waypoints that has none; widths None when a piece
+    is below the resolution of the time axis.
     """
     breakpoints = traj.breakpoints
     at = np.searchsorted(breakpoints, traj.waypoint_times)
