@@ -291,17 +291,22 @@ def end_jerks(coeffs, last_width):
                      + 60.0 * coeffs[-1, 5] * h * h])
 
 
-def unit_end_jerks(count, knots, pieces):
+def unit_splines(count, knots, pieces):
     """
-    Return how a move of the ``knots`` moves the 555 spline and its end jerks (step 4).
+    Return (S, 6, len(knots)): how a move of the ``knots`` moves the 555 spline at rest.
 
     The spline through ``count`` knots on ``pieces``, at rest, is linear in
-    its knot positions: the splines through a unit position at each of
-    ``knots`` (S, 6, len(knots)) and their end jerks (2, len(knots)).
+    its knot positions: these are the splines through a unit position at
+    each of ``knots`` (0 at every other knot).
     """
     unit = np.zeros((count, len(knots)))
     unit[knots, np.arange(len(knots))] = 1.0
-    units = spline_coefficients('555', unit, pieces, (np.zeros(len(knots)),) * 4)
+    return spline_coefficients('555', unit, pieces, (np.zeros(len(knots)),) * 4)
+
+
+def unit_end_jerks(count, knots, pieces):
+    """Return :func:`unit_splines` and their end jerks (2, len(knots)) (step 4)."""
+    units = unit_splines(count, knots, pieces)
     return units, end_jerks(units, pieces[-1])
 
 
@@ -748,8 +753,8 @@ def _with_margin(problem, best):
 
 
 @dataclass(frozen=True)
-class KeptRequest:
-    """What :func:`kept_trajectory` reads of its problem (a spline built elsewhere)."""
+class _KeptRequest:
+    """What :func:`kept_trajectory` reads of its problem (for :func:`moved_trajectory`)."""
 
     points: np.ndarray
     boundary: tuple
@@ -758,8 +763,8 @@ class KeptRequest:
 
 
 @dataclass(frozen=True)
-class KeptSpline:
-    """What :func:`kept_trajectory` reads of its candidate (a spline built elsewhere)."""
+class _KeptSpline:
+    """What :func:`kept_trajectory` reads of its candidate (for :func:`moved_trajectory`)."""
 
     pieces: np.ndarray
     positions: np.ndarray
@@ -767,6 +772,29 @@ class KeptSpline:
     coeffs: np.ndarray
     ratios: np.ndarray
     scale: float = 1.0
+
+
+def moved_trajectory(traj, pieces, positions, waypoint_knots, coeffs, units, knots, moves):
+    """
+    Return the rest-to-rest 555 ``traj`` with its ``knots`` moved by ``moves``, or None.
+
+    ``positions`` (K, n) are the spline's knot positions on ``pieces``,
+    ``waypoint_knots`` the waypoints' indices among them, ``coeffs`` the
+    spline through them and ``units`` the :func:`unit_splines` of
+    ``knots``: the spline is linear in its knot positions, so the moved
+    one is ``coeffs + units @ moves`` (``moves`` (len(knots), n)), without
+    a solve.  It is stretched until it holds the v/a/j limits of ``traj``
+    (never sped up, :func:`kept_trajectory`; None where it cannot be); its
+    ``optimizer`` is a copy of ``traj``'s (:mod:`rest_ends`,
+    :mod:`position_limit_knots`).
+    """
+    moved = positions.copy()
+    moved[knots] += moves
+    turned = coeffs + np.einsum('skm,mn->skn', units, moves)
+    spline = _KeptSpline(pieces, moved, waypoint_knots, turned,
+                         limit_ratios(turned, pieces, traj.limits))
+    request = _KeptRequest(traj.waypoints, (np.zeros(traj.n_joints),) * 4, traj.limits)
+    return kept_trajectory(request, spline, traj.dropped_waypoints, dict(traj.optimizer or {}))
 
 
 def kept_trajectory(problem, best, dropped, optimizer):

@@ -39,11 +39,9 @@ from math import comb
 import numpy as np
 from scipy.optimize import linprog
 
-from .inner_knots import kept_trajectory
-from .rest_ends import KeptRequest, KeptSpline
+from .inner_knots import moved_trajectory, unit_splines
 from ..speed_profile.residual_vibration import content_weights
 from ..spline.continuity_system import spline_coefficients
-from ..spline.limits import limit_ratios
 from ..spline.peaks import position_extrema
 from ..spline.trajectory import representable_durations
 
@@ -105,15 +103,12 @@ def pulled_within(traj, low, high, slack, insert=True, mode=None):
         return None
     positions = traj.evaluate(times)
     positions[waypoint_knots] = traj.waypoints
-    rest = (np.zeros(traj.n_joints),) * 4
-    coeffs = spline_coefficients('555', positions, widths, rest)
-    unit = np.zeros((times.size, free.size))
-    unit[free, np.arange(free.size)] = 1.0
-    units = spline_coefficients('555', unit, widths, (np.zeros(free.size),) * 4)  # (S, 6, m)
+    coeffs = spline_coefficients('555', positions, widths, (np.zeros(traj.n_joints),) * 4)
+    units = unit_splines(times.size, free, widths)                  # (S, 6, m)
     ends = np.concatenate([coeffs[1:, 0, :], traj.waypoints[-1:]])
-    q_low, q_high = (x.min(axis=0) if k == 0 else x.max(axis=0)
-                     for k, x in enumerate(position_extrema(coeffs, widths, ends)[:2]))
-    leaving = np.flatnonzero((q_low < low - slack[0]) | (q_high > high + slack[1]))
+    q_low, q_high = position_extrema(coeffs, widths, ends)[:2]     # (S, n) a piece
+    out = (q_low < low - slack[0]) | (q_high > high + slack[1])
+    leaving = np.flatnonzero(out.any(axis=0))
     if leaving.size == 0:
         return None
     rows = _Rows(coeffs, units, widths, waypoint_knots, free, points[-1])
@@ -121,17 +116,11 @@ def pulled_within(traj, low, high, slack, insert=True, mode=None):
         rows.content = _mode_content(units, times, mode)
     moves = np.zeros((free.size, traj.n_joints))
     for j in leaving:
-        move = _joint_move(rows, j, low[j], high[j], slack[:, j])
+        move = _joint_move(rows, j, low[j], high[j], slack[:, j], np.flatnonzero(out[:, j]))
         if move is None:
             return None
         moves[:, j] = move
-    moved = positions.copy()
-    moved[free] += moves
-    turned = coeffs + np.einsum('skm,mn->skn', units, moves)
-    spline = KeptSpline(widths, moved, waypoint_knots, turned,
-                        limit_ratios(turned, widths, traj.limits))
-    found = kept_trajectory(KeptRequest(traj.waypoints, rest, traj.limits), spline,
-                            traj.dropped_waypoints, dict(traj.optimizer or {}))
+    found = moved_trajectory(traj, widths, positions, waypoint_knots, coeffs, units, free, moves)
     if found is None:
         return None
     inserted = np.flatnonzero(np.diff(np.searchsorted(traj.breakpoints,
@@ -261,11 +250,12 @@ class _Rows:
                 (high - anchor) * scale)
 
 
-def _joint_move(rows, j, low, high, slack):
+def _joint_move(rows, j, low, high, slack, out):
     """
     Return the least total move (m,) of joint ``j``'s free knots into [low, high], or None.
 
-    Only the knots of the segments where the joint leaves, and of
+    ``out``: the pieces where the joint leaves them before any move.  Only
+    the knots of the segments where the joint leaves, and of
     :data:`WINDOW` segments on either side, move, held by the rows of one
     segment more; a round whose exact extrema leave elsewhere widens the
     window there.  A knot's unit response decays by about 2.3 a knot (on
@@ -278,9 +268,7 @@ def _joint_move(rows, j, low, high, slack):
                                            | (high - position < NEAR_LIMIT)))
     pairs = rows.samples(near)
     cache = {}
-    move = np.zeros(rows.units.shape[2])
-    leaving = _leaving_pieces(rows, j, move, low, high, slack)
-    window = set(rows.segment_of_piece[leaving[0]].tolist())
+    window = set(rows.segment_of_piece[out].tolist())
     last_segment = int(rows.segment_of_piece[-1])
     for _ in range(ROUNDS):
         cols = np.flatnonzero(np.isin(rows.segment_of_free, list(_widened(window, WINDOW,

@@ -21,9 +21,8 @@ up: a plan slowed down for the torque stays as slow).
 
 import numpy as np
 
-from .inner_knots import end_jerks, kept_trajectory, KeptRequest, KeptSpline, unit_end_jerks
+from .inner_knots import end_jerks, moved_trajectory, unit_end_jerks
 from ..spline.continuity_system import spline_coefficients
-from ..spline.limits import limit_ratios
 from ..spline.trajectory import representable_durations
 
 # Where the new knot goes, as a share of its end segment from the rest end.
@@ -65,7 +64,6 @@ def along_chords(traj, accept):
     units, sensitivity = unit_end_jerks(positions.shape[0], knots, widths)   # (2 ends, 2)
     jerks = end_jerks(coeffs, widths[-1])                           # (2 ends, n)
     scale = traj.peaks()['jerk']
-    request = KeptRequest(points, rest, traj.limits)
     for floor in END_JERK_FLOORS:
         along = jerks * sign
         if floor == 0.0:
@@ -77,13 +75,8 @@ def along_chords(traj, accept):
             moves = np.linalg.solve(sensitivity, target - jerks)
         except np.linalg.LinAlgError:
             return None
-        moved = positions.copy()
-        moved[knots] += moves
-        turned = coeffs + np.einsum('skm,mn->skn', units, moves)
-        spline = KeptSpline(widths, moved, waypoint_knots, turned,
-                            limit_ratios(turned, widths, traj.limits))
-        found = kept_trajectory(request, spline, traj.dropped_waypoints,
-                                dict(traj.optimizer or {}))
+        found = moved_trajectory(traj, widths, positions, waypoint_knots, coeffs, units, knots,
+                                 moves)
         if found is not None and accept(found):
             return found
     return None
