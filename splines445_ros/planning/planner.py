@@ -386,9 +386,8 @@ def _pulled_within(traj, options, points):
         f' ({"; ".join(said)})' if said else '')
     if inserted.size:
         record['knots'] = int(pulled.breakpoints.size)
-        counts = np.asarray(record.get('inner_knots_per_segment',
-                                       np.zeros(traj.waypoints.shape[0] - 1, int)))
-        counts = counts.copy()
+        counts = np.array(record.get('inner_knots_per_segment',
+                                     np.zeros(traj.waypoints.shape[0] - 1, int)))
         counts[inserted] += 1
         if 'inner_knots_per_segment' in record:
             record['inner_knots_per_segment'] = counts.tolist()
