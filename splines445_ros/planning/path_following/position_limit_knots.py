@@ -40,7 +40,7 @@ import numpy as np
 from scipy.optimize import linprog
 
 from .inner_knots import moved_trajectory, unit_splines
-from ..speed_profile.residual_vibration import content_weights
+from ..speed_profile.residual_vibration import spline_content
 from ..spline.continuity_system import spline_coefficients
 from ..spline.peaks import position_extrema
 from ..spline.trajectory import representable_durations
@@ -55,9 +55,6 @@ SAMPLES_PER_PIECE = 8
 END_SAMPLES = 0.5 ** np.arange(1, 21)
 # The segments on either side of one where a joint leaves whose knots move too.
 WINDOW = 1
-# Samples per period of a mode to keep (vibration_frequency): the trapezoid
-# rule of its content, as residual_vibration measures it (1 ms at most).
-MODE_SAMPLES_PER_PERIOD = 40
 # LPs per joint: the first, then one for each round of exact extrema still out.
 ROUNDS = 8
 # How far inside its limit each row aims [rad]: above HiGHS's primal
@@ -93,7 +90,7 @@ def pulled_within(traj, low, high, slack, insert=True, mode=None):
     points = traj.waypoints
     if np.any(points < low - slack[0]) or np.any(points > high + slack[1]):
         return None
-    built = _knots(traj, insert)
+    built = knot_layout(traj, insert)
     if built is None:
         return None
     widths, waypoint_knots = built
@@ -113,7 +110,7 @@ def pulled_within(traj, low, high, slack, insert=True, mode=None):
         return None
     rows = _Rows(coeffs, units, widths, waypoint_knots, free, points[-1])
     if mode:
-        rows.content = _mode_content(units, times, mode)
+        rows.content = spline_content(units, times, (mode,))
     moves = np.zeros((free.size, traj.n_joints))
     for j in leaving:
         move = _joint_move(rows, j, low[j], high[j], slack[:, j], np.flatnonzero(out[:, j]))
@@ -128,7 +125,7 @@ def pulled_within(traj, low, high, slack, insert=True, mode=None):
     return found, leaving, np.asarray(inserted, dtype=int)
 
 
-def _knots(traj, insert):
+def knot_layout(traj, insert):
     """
     Return the pieces' widths and the waypoints' knot indices, a knot in every segment.
 
@@ -150,29 +147,6 @@ def _knots(traj, insert):
     if not np.all(widths > 0.0):
         return None
     return widths, np.array(waypoint_knots)
-
-
-def _mode_content(units, times, frequency):
-    """
-    Return (2, m): Re and Im of each free knot's unit spline's content of the mode.
-
-    ``Z = int qdd(t) exp(lambda (T - t)) dt`` (:mod:`residual_vibration`)
-    of the splines through a unit position at each free knot, by the
-    trapezoid rule on :data:`MODE_SAMPLES_PER_PERIOD` samples a period
-    (1 ms apart at most); the pieces' ends are samples.
-    """
-    period = min(1e-3, 1.0 / (MODE_SAMPLES_PER_PERIOD * frequency))
-    t, accelerations = [], []
-    for piece, (start, end) in enumerate(zip(times[:-1], times[1:])):
-        count = max(2, int(np.ceil((end - start) / period)))
-        tau = np.linspace(0.0, end - start, count + 1)[:-1 if piece < times.size - 2 else None]
-        powers = tau[:, None] ** np.arange(4)
-        second = units[piece, 2:] * np.array([2.0, 6.0, 12.0, 20.0])[:, None]   # (4, m)
-        t.append(start + tau)
-        accelerations.append(powers @ second)
-    t = np.concatenate(t)
-    content = content_weights(np.diff(t), frequency) @ np.concatenate(accelerations)
-    return np.stack([content.real, content.imag])
 
 
 class _Rows:

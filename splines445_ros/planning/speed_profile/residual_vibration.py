@@ -38,6 +38,15 @@ import numpy as np
 # its frequency): a lightly damped structural mode, 1-5 % in arms' links
 # and gearboxes; the benchmarks' oscillator uses the same.
 DAMPING = 0.02
+# Samples a period of the mode in spline_content: its trapezoid rule (1 ms apart at most),
+# as the moves of position_limit_knots and residual_knots see the content.
+SPLINE_SAMPLES_PER_PERIOD = 40
+# ... and at most this many values (samples times splines): 32 MB.  A plan of
+# 1e5 s with a mode at 1000 Hz asked for 7.6 GiB (helper-37).
+MAX_SPLINE_SAMPLE_VALUES = 4e6
+# Time constants 1 / (zeta w) of the mode per block of content_envelope's sums:
+# exp(30) keeps them within floating point with room to spare.
+ENVELOPE_DECAYS = 30.0
 
 
 def mode_exponent(frequency, damping=DAMPING):
@@ -68,6 +77,97 @@ def content_weights(steps, frequency, damping=DAMPING):
     weight[:-1] += 0.5 * steps
     weight[1:] += 0.5 * steps
     return weight * np.exp(exponent * (t[-1] - t))
+
+
+def spline_samples(coefficients, knots, step):
+    """
+    Return (steps (T - 1,), accelerations (T, m)) of ``m`` quintic splines, sampled for a mode.
+
+    ``coefficients`` (S, 6, m) are the pieces' power-basis terms in local
+    time on the ``knots`` (S + 1,) from 0 to the stop; each piece is cut in
+    equal steps of at most ``step`` [s] (at least 2), and the pieces' ends
+    are samples.  Linear in the terms: samples of unit splines give them
+    as a function of knot moves (:mod:`position_limit_knots`,
+    :mod:`residual_knots`).
+    """
+    counts = np.maximum(2, np.ceil(np.diff(knots) / step)).astype(int)
+    if (counts.sum() + 1.0) * coefficients.shape[2] > MAX_SPLINE_SAMPLE_VALUES:
+        raise ValueError(f'{counts.sum() + 1} samples of {coefficients.shape[2]} splines '
+                         f'for a mode: more than {MAX_SPLINE_SAMPLE_VALUES:.0e} values')
+    t, accelerations = [], []
+    last = knots.size - 2
+    for piece, (start, end) in enumerate(zip(knots[:-1], knots[1:])):
+        count = counts[piece]
+        tau = np.linspace(0.0, end - start, count + 1)[:-1 if piece < last else None]
+        powers = tau[:, None] ** np.arange(4)
+        second = coefficients[piece, 2:] * np.array([2.0, 6.0, 12.0, 20.0])[:, None]  # (4, m)
+        t.append(start + tau)
+        accelerations.append(powers @ second)
+    return np.diff(np.concatenate(t)), np.concatenate(accelerations)
+
+
+def spline_content(coefficients, knots, frequencies, damping=DAMPING):
+    """
+    Return (2 k, m): Re and Im of each mode's content ``Z`` in each of ``m`` quintic splines.
+
+    ``Z = int qdd(t) exp(lambda (T - t)) dt`` (module docstring) of the
+    modes at ``frequencies`` (k; rows 2 i and 2 i + 1 are mode i's), by
+    the trapezoid rule (:func:`content_weights`) on the samples of
+    :func:`spline_samples`, :data:`SPLINE_SAMPLES_PER_PERIOD` a period of
+    the fastest mode and 1 ms apart at most.
+    """
+    step = min(1e-3, 1.0 / (SPLINE_SAMPLES_PER_PERIOD * max(frequencies)))
+    steps, accelerations = spline_samples(coefficients, knots, step)
+    rows = []
+    for frequency in frequencies:
+        content = content_weights(steps, frequency, damping) @ accelerations
+        rows += [content.real, content.imag]
+    return np.stack(rows)
+
+
+def content_envelope(steps, accelerations, frequency, damping=DAMPING):
+    """
+    Return (T, m): ``|Z(t)|`` at every sample, the mode's content up to each time ``t``.
+
+    ``steps`` and ``accelerations`` from :func:`spline_samples`.  ``|Z(t)|
+    / wd`` is the amplitude the mode would ring with were the motion to stop
+    at ``t``: an envelope of its deflection during the motion (the last is
+    the ringing after the stop).  Trapezoid rule, as :func:`content_weights`:
+    ``Z(t_k) = exp(lambda t_k) sum_i w_i exp(-lambda t_i) qdd_i``, summed in
+    blocks of :data:`ENVELOPE_DECAYS` time constants, so that the factors
+    stay within floating point.
+    """
+    exponent, _ = mode_exponent(frequency, damping)
+    t = np.concatenate([[0.0], np.cumsum(steps)])
+    half = 0.5 * np.concatenate([[0.0], steps])          # the step before each sample
+    after = 0.5 * np.append(steps, 0.0)                  # and after it
+    span = ENVELOPE_DECAYS / max(-exponent.real, 1e-300)
+    envelope = np.empty(accelerations.shape)
+    carried = np.zeros(accelerations.shape[1], dtype=complex)
+    start = 0
+    while start < t.size:
+        stop = int(np.searchsorted(t, t[start] + span, side='right'))
+        stop = max(stop, start + 1)
+        local = t[start:stop] - t[start]
+        phase = np.exp(-exponent * local)[:, None]
+        a = accelerations[start:stop]
+        # Z(t_k) = e^{lambda (t_k - t_s)} (Z(t_s) + sum_{s < i <= k} (h_i a_{i-1} e^{-lambda
+        # (t_{i-1} - t_s)} + h_i a_i e^{-lambda (t_i - t_s)})), h_i half the step before t_i.
+        terms = half[start:stop, None] * a * phase
+        terms[1:] += half[start + 1:stop, None] * a[:-1] * phase[:-1]
+        terms[0] = 0.0
+        if start > 0:
+            # The step into the block, from the last sample of the one before.
+            terms[0] = after[start - 1] * (accelerations[start - 1] * np.exp(
+                exponent * (t[start] - t[start - 1])) + accelerations[start])
+        inner = carried + np.cumsum(terms, axis=0)
+        values = np.exp(exponent * local)[:, None] * inner
+        envelope[start:stop] = np.abs(values)
+        start = stop
+        if start < t.size:
+            # The next block starts from this one's last value, carried over the step.
+            carried = values[-1] * np.exp(exponent * (t[start] - t[start - 1]))
+    return envelope
 
 
 def residual_shares(times, accelerations, frequency, max_acceleration, damping=DAMPING):
