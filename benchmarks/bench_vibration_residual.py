@@ -6,10 +6,13 @@ every run, the seed printed first; j = 20 a), at mode frequencies
 :data:`FREQUENCIES`.  For each: TOPP-RA (v/a, its own spline); time_optimal
 without and with ``vibration_frequency=f`` (its profile cancels the mode's
 ringing, ``planning/speed_profile/residual_vibration.py``); the default construction
-with ``vibration_frequency=f`` (its two windows of ``1 / f``).  Columns,
-median / worst over the requests, each over TOPP-RA's on the same request:
+with ``vibration_frequency=f`` (its two windows of ``1 / f``, and its knots
+moved to cancel the ringing, ``planning/path_following/residual_knots.py``),
+and the same without that move (the plan before it).  Columns, median /
+worst over the requests, each over TOPP-RA's on the same request:
 
 * duration;
+* the peak at ``f`` (the largest deflection during the motion);
 * the residual at ``f`` (``shaking.py``: a damped oscillator at ``f``,
   damping 0.02 as the cancellation assumes, the largest ringing over two
   periods after the stop);
@@ -33,21 +36,33 @@ from bench_planning import toppra_trajectory  # noqa: E402
 import bench_seeds  # noqa: E402, I100
 import numpy as np  # noqa: E402, I100
 from shaking import of_toppra, of_trajectory, shaking  # noqa: E402
-from splines445_ros.planning import plan  # noqa: E402
+from splines445_ros.planning import plan, planner  # noqa: E402
 
 N_CASES = 12
 FREQUENCIES = (1.5, 4.0, 8.0)
 JERK_RATIO = 20.0
 # The mode as the plan assumes it, and as it may really be: (frequency share, damping).
 MODES = ((1.0, 0.02), (0.9, 0.02), (1.1, 0.02), (1.0, 0.01), (1.0, 0.05), (2.0, 0.02))
-PLANS = ('time_optimal', 'time_optimal, vibration_frequency=f', 'default, vibration_frequency=f')
+PLANS = ('time_optimal', 'time_optimal, vibration_frequency=f', 'default, vibration_frequency=f',
+         'the same, knots not moved')
 CASES_STREAM = 3
 
 
 def residuals(acceleration_of, duration, amax, frequency):
-    """``shaking.shaking``'s residual for every mode of :data:`MODES`."""
-    return np.array([shaking(acceleration_of, duration, amax, share * frequency, zeta=damping)[1]
-                     for share, damping in MODES])
+    """``shaking.shaking``'s peak at ``frequency``, and its residual for each of :data:`MODES`."""
+    peak = shaking(acceleration_of, duration, amax, frequency)[0]
+    return np.array([peak] + [shaking(acceleration_of, duration, amax, share * frequency,
+                                      zeta=damping)[1] for share, damping in MODES])
+
+
+def unmoved(waypoints, frequency, limits):
+    """Return the default's plan with ``vibration_frequency``, its knots not moved."""
+    keep = planner._with_ringing_cancelled
+    planner._with_ringing_cancelled = lambda refined, options: refined
+    try:
+        return plan(waypoints, '555', 'optimal', vibration_frequency=frequency, **limits)
+    finally:
+        planner._with_ringing_cancelled = keep
 
 
 def main():
@@ -60,9 +75,9 @@ def main():
         print()
         print(f'Mode at f = {frequency:g} Hz')
         names = ['at f', 'at 0.9 f', 'at 1.1 f', 'damping 0.01', 'damping 0.05', 'at 2 f']
-        print('| plan | duration | ' + ' | '.join(f'residual {n}' for n in names)
+        print('| plan | duration | peak at f | ' + ' | '.join(f'residual {n}' for n in names)
               + ' | planning | time_optimal |')
-        print('|' + '---|' * (len(names) + 4))
+        print('|' + '---|' * (len(names) + 5))
         rows = {name: [] for name in PLANS}
         followed = dict.fromkeys(PLANS, 0)
         for waypoints, vmax, amax in cases:
@@ -76,7 +91,8 @@ def main():
                 timed(lambda: plan(waypoints, '555', 'optimal', speed_profile='time_optimal',
                                    vibration_frequency=frequency, **limits)),
                 timed(lambda: plan(waypoints, '555', 'optimal', vibration_frequency=frequency,
-                                   **limits)))
+                                   **limits)),
+                timed(lambda: unmoved(waypoints, frequency, limits)))
             for name, (elapsed, traj) in zip(PLANS, plans):
                 ours = residuals(of_trajectory(traj), traj.duration, amax, frequency)
                 rows[name].append([traj.duration / top.duration] + list(ours / reference)

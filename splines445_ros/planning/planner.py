@@ -11,12 +11,13 @@ from .durations.timing import (chord_durations, rest_to_rest_durations, rest_to_
 from .path_following.inner_knots import plan_with_inner_knots
 from .path_following.path_timing import rescaled
 from .path_following.position_limit_knots import pulled_within
+from .path_following.residual_knots import cancelled_residual
 from .path_following.rest_ends import along_chords
 from .path_following.time_optimal import (NAME as TIME_OPTIMAL, NO_TIME_OPTIMAL_SPLINE, NoSpline,
                                           plan_time_optimal)
 from .plan_options import (check_time_optimal_waypoints, DEFAULT_SMOOTHING,
                            DEFAULT_WAYPOINT_TOLERANCE, PlanOptions)
-from .speed_profile.residual_vibration import remeasure_residual
+from .speed_profile.residual_vibration import remeasure_residual, report_residual
 from .spline.trajectory import Trajectory
 from .validation import duration_array, position_limit_vector, waypoint_array
 
@@ -57,6 +58,10 @@ KNOTS_ONLY_LEAVES = 'the knots-only plan left the position limits'
 # Trajectory.optimizer['position_limit_knots'] of a plan that left the position
 # limits and was pulled back within them by moving its knots (position_limit_knots).
 POSITION_LIMIT_KNOTS = 'knots moved to keep {} within the position limits'
+# Trajectory.optimizer['residual_knots'] of a vibration_frequency's plan whose
+# knots were moved to cancel the mode's ringing after the stop (residual_knots).
+RESIDUAL_KNOTS = ('knots of {} moved to cancel the ringing at {:g} Hz after the stop '
+                  '(residual share {:.3g} -> {:.3g})')
 # A pulled plan no longer than the plan it was by more than round-off is
 # returned at once; a longer one (stretched for v/a/j) is compared with the
 # other plans first (_pulled_or_other).
@@ -735,7 +740,7 @@ def _plan_limited(points, durations, options):
             # A vibration_frequency asks for a profile without content at it,
             # which only the inner-knot plan has: no rival then.  With moving
             # ends the profile is not averaged, so the rival stays.
-            return refined
+            return _with_ringing_cancelled(refined, options)
         if refined is not None and torque_only:
             return _torque_limited(refined, torque)
         if refined is not None:
@@ -753,6 +758,41 @@ def _plan_limited(points, durations, options):
             if options.rest:
                 knots_only = _within_at_rest_ends(knots_only, options)
     return knots_only
+
+
+def _with_ringing_cancelled(refined, options):
+    """
+    Return the inner-knot plan ``refined`` of a ``vibration_frequency``, its ringing cancelled.
+
+    The windows of 1/f put spectral zeros at f in the path's acceleration,
+    but a curved path modulates it: on the vendor arms the ringing after
+    the stop stayed at up to 0.6 of TOPP-RA's (the Panda).  Its knots are
+    moved (:func:`residual_knots.cancelled_residual`), each joint as far
+    as its v/a/j and position limits, its ends and the ringing during the
+    motion allow without a stretch; the plan says so in
+    ``optimizer['residual_knots']`` (the joints, the largest residual
+    share before and after) and reports its ``vibration_residual``.
+    ``refined`` as it was where nothing moved, and with torque limits (a
+    move changes the torques, and the slow-down for them would move the
+    cancellation off the mode).
+    """
+    if options.torque is not None:
+        return refined
+    low, high = options.min_position, options.max_position
+    if low is None:
+        low, high = np.full((2, refined.n_joints), np.inf) * [[-1.0], [1.0]]
+    try:
+        found = cancelled_residual(refined, options.vibration_frequency, low, high)
+    except ValueError:      # a singular solve: nothing moved
+        found = None
+    if found is None:
+        return refined
+    cancelled, joints, before, after = found
+    names = ', '.join(joint_label(int(j), options.joint_names) for j in joints)
+    cancelled.optimizer['residual_knots'] = RESIDUAL_KNOTS.format(
+        names, options.vibration_frequency, before, after)
+    report_residual(cancelled, options.vibration_frequency)
+    return cancelled
 
 
 def _within_at_rest_ends(traj, options, to_beat=np.inf):

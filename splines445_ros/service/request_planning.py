@@ -505,12 +505,14 @@ def summary_values(traj, joint_names):
             j = int(np.argmax(ratios))
             values['binding'] = f'{joint_names[j]} torque ratio {ratios[j]:.6g}'
     for key in ('inner_knots_skipped', 'end_knots', 'knots_only_skipped', 'position_limit_knots',
-                'speed_profile', 'speed_profile_skipped', 'speed_profile_reason'):
+                'residual_knots', 'speed_profile', 'speed_profile_skipped',
+                'speed_profile_reason'):
         if (traj.optimizer or {}).get(key):
             values[key] = traj.optimizer[key]
     residual = (traj.optimizer or {}).get('vibration_residual')
     if residual is not None:
-        # time_optimal's vibration_frequency: the mode's ringing after the stop.
+        # A vibration_frequency's ringing after the stop (time_optimal's, or smoothed's
+        # with its knots moved to cancel it: residual_knots).
         values['vibration_residual'] = f'{residual:.3g}'
     return values
 
