@@ -115,7 +115,8 @@ def arm_trajectories(draw):
     with_acc = with_vel and draw(st.booleans())
     kind = draw(st.sampled_from(('good', 'good', 'good', 'nan', 'repeat_time', 'backwards',
                                  'unknown_name', 'missing_name', 'duplicate_name', 'empty',
-                                 'some_velocities', 'short_positions')))
+                                 'some_velocities', 'short_positions', 'huge', 'huge_velocity',
+                                 'negative_stamp')))
     msg = JointTrajectory()
     msg.joint_names = order
     for k in range(n_points):
@@ -164,4 +165,16 @@ def arm_trajectories(draw):
             msg.points[0].velocities = [] if with_vel else [0.0, 0.0, 0.0]
     elif kind == 'short_positions':
         msg.points[k].positions = [0.0]
+    elif kind == 'huge':
+        # Finite, but its interpolation overflowed and the arm crashed (helper-36).
+        values = list(msg.points[k].positions)
+        values[0] = draw(st.sampled_from([1e308, -1e308, 1e7]))
+        msg.points[k].positions = values
+    elif kind == 'huge_velocity':
+        msg.points[k].velocities = [draw(st.sampled_from([1e308, 2e6])), 0.0, 0.0]
+        if not with_vel:
+            for p in msg.points:
+                p.velocities = list(p.velocities) or [0.0, 0.0, 0.0]
+    elif kind == 'negative_stamp':
+        msg.header.stamp.sec = -draw(st.integers(1, 2**31 - 1))
     return msg, kind == 'good'

@@ -153,12 +153,13 @@ class ArmSimNode(Node):
         config = self.effective
         try:
             trajectory = sampled_trajectory_from_msg(msg, config.joint_names)
+            # A negative stamp is refused by rclpy's Time (ValueError) as well.
+            stamp = Time.from_msg(msg.header.stamp).nanoseconds
         except ValueError as exc:
             message = f'trajectory rejected: {exc}'
             self.get_logger().error(message)
             self.status_publisher.publish(status_message(self._status_name, False, message))
             return
-        stamp = Time.from_msg(msg.header.stamp).nanoseconds
         start = stamp if stamp > 0 else self._now_ns()
         self._pending = (trajectory, start)
         message = (f'trajectory accepted: {len(msg.points)} points, '

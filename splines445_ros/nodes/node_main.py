@@ -9,13 +9,15 @@ def run_node(node_class, args=None):
     rclpy.init(args=args)
     node = None
     try:
-        node = node_class()
+        try:
+            node = node_class()
+        except ValueError as exc:
+            # Only the start-up parameters: an error while spinning is not theirs.
+            print(f'{node_class.__name__}: invalid parameters: {exc}')
+            raise SystemExit(2)
         rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
-    except ValueError as exc:
-        print(f'{node_class.__name__}: invalid parameters: {exc}')
-        raise SystemExit(2)
     finally:
         if node is not None:
             node.destroy_node()

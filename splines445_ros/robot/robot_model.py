@@ -43,8 +43,11 @@ description is counted with ElementTree and refused, with the count and the
 cap, when it has more than :data:`MAX_LINKS` links (MJCF bodies, including
 ``<replicate>`` copies), :data:`MAX_JOINTS` joints, or a link more than
 :data:`MAX_DEPTH` links from the root (MJCF: bodies nested that deep).  Real
-robots stay far below (a humanoid has about 100 links).  The count does not
-follow an MJCF's ``<include>`` elements.
+robots stay far below (a humanoid has about 100 links).  An MJCF's
+``<include>`` files are checked and counted too, and its asset files
+(meshes, textures, height fields, skins) must be regular files of at most
+:data:`MAX_ASSET_BYTES` (:func:`check_mjcf_files`): MuJoCo opens them
+itself.
 """
 
 from dataclasses import dataclass
@@ -64,6 +67,8 @@ MAX_DESCRIPTION_CHARS = 20_000_000
 MAX_LINKS = 1000    # URDF links, MJCF bodies
 MAX_JOINTS = 1000   # URDF joints (fixed ones too), MJCF joints
 MAX_DEPTH = 200     # links from the root to the deepest one (MJCF: nested bodies)
+MAX_INCLUDE_DEPTH = 10          # MJCF <include> levels
+MAX_ASSET_BYTES = 100_000_000   # one mesh, texture, height field or skin file (MJCF)
 MESH_FORMATS = ('.stl', '.obj', '.msh')
 _LOG = logging.getLogger('splines445_ros.robot_model')
 
@@ -211,9 +216,9 @@ class _UrdfDescription:
         self.notes = []
         if dropped:
             self.notes.append(
-                f'{where}: {len(dropped)} collision mesh(es) not found or not readable by '
-                f'MuJoCo were dropped (kinematics does not need them), e.g. '
-                f'{show(dropped[0])}; visuals are never loaded')
+                f'{where}: {len(dropped)} collision mesh(es) not found, not readable by '
+                f'MuJoCo or above {MAX_ASSET_BYTES} bytes were dropped (kinematics does '
+                f'not need them), e.g. {show(dropped[0])}; visuals are never loaded')
         if self.held:
             held = ', '.join(f'{show(n)} at {v:g}' for n, v in list(self.held.items())[:5])
             self.notes.append(
@@ -254,7 +259,7 @@ def _resolve_mesh(uri, base_dir):
     elif base_dir:
         candidates.append(os.path.join(base_dir, uri))
     for path in candidates:
-        if os.path.isfile(path):
+        if os.path.isfile(path) and os.path.getsize(path) <= MAX_ASSET_BYTES:
             return os.path.abspath(path)
     return None
 
@@ -408,6 +413,7 @@ def load_robot_model(model_file='', urdf_string=None, where=None):
         return _from_urdf(mujoco, text, where, os.path.dirname(os.path.abspath(model_file)),
                           model_file)
     check_mjcf_size(text, where)
+    check_mjcf_files(model_file, text, where)
     return _from_mjcf(mujoco, model_file, where)
 
 
@@ -448,8 +454,23 @@ def check_mjcf_size(text, where):
     times the ``count`` of every ``<replicate>`` around it; a
     ``<composite>`` or ``<flexcomp>`` as the product of its ``count``),
     ``<joint>`` and ``<freejoint>`` elements in bodies, and the nesting
-    depth of bodies.  Files named by ``<include>`` are not read.  Text that
-    ElementTree cannot parse is left to MuJoCo's own error.
+    depth of bodies (:func:`check_mjcf_files` reads the ``<include>``
+    files).  Text that ElementTree cannot parse is left to MuJoCo's own
+    error.
+    """
+    bodies, joints = mjcf_counts(text, where)
+    if bodies > MAX_LINKS:
+        raise ValueError(f'{where} has {bodies} bodies, more than the {MAX_LINKS} accepted')
+    if joints > MAX_JOINTS:
+        raise ValueError(f'{where} has {joints} joints, more than the {MAX_JOINTS} accepted')
+
+
+def mjcf_counts(text, where):
+    """
+    Return (bodies, joints) of an MJCF text, as :func:`check_mjcf_size` counts them.
+
+    A ValueError where bodies nest deeper than :data:`MAX_DEPTH`; (0, 0)
+    for text that ElementTree cannot parse (MuJoCo's own error follows).
     """
     bodies = joints = 0
     stack = []  # per open element: (tag, copies, body depth)
@@ -477,11 +498,87 @@ def check_mjcf_size(text, where):
                 joints += copies
             stack.append((tag, copies, depth))
     except ET.ParseError:
-        return
-    if bodies > MAX_LINKS:
-        raise ValueError(f'{where} has {bodies} bodies, more than the {MAX_LINKS} accepted')
-    if joints > MAX_JOINTS:
-        raise ValueError(f'{where} has {joints} joints, more than the {MAX_JOINTS} accepted')
+        return 0, 0
+    return bodies, joints
+
+
+def check_mjcf_files(path, text, where):
+    """
+    Refuse an MJCF whose included files or assets MuJoCo should not open (ValueError).
+
+    MuJoCo follows ``<include file>`` and opens every asset's ``file``
+    (mesh, texture, height field, skin) itself, unchecked: a named pipe
+    there blocked the node for good, a sparse 1.5 GB mesh was read whole
+    (helper-36).  Each included file, relative to the main file's folder as
+    MuJoCo resolves it, must be a regular file within
+    :data:`MAX_DESCRIPTION_CHARS` (:func:`~.user_text.check_text_file`);
+    its text is read and checked as the main one (:func:`check_mjcf_size`,
+    the bodies and joints of all files counted together), down to
+    :data:`MAX_INCLUDE_DEPTH` levels.  Each asset file that exists must be
+    a regular file of at most :data:`MAX_ASSET_BYTES` (a missing one is
+    left to MuJoCo's own error).
+    """
+    folder = os.path.dirname(os.path.abspath(path))
+    seen = {os.path.abspath(path)}
+    pending = [(text, where, 0)]
+    combined = [text]
+    while pending:
+        text, source, depth = pending.pop()
+        includes, assets, dirs = _mjcf_files(text)
+        for name in includes:
+            included = name if os.path.isabs(name) else os.path.join(folder, name)
+            here = f'{source}: <include file={show_path(name)}>'
+            if os.path.abspath(included) in seen:
+                raise ValueError(f'{here} includes a file twice (or itself)')
+            if depth + 1 > MAX_INCLUDE_DEPTH:
+                raise ValueError(f'{here} is more than {MAX_INCLUDE_DEPTH} includes deep')
+            seen.add(os.path.abspath(included))
+            body = read_text_file(included, here, MAX_DESCRIPTION_CHARS)
+            combined.append(body)
+            pending.append((body, here, depth + 1))
+        for tag, name in assets:
+            base = dirs.get(tag) or dirs.get('asset') or ''
+            asset = name if os.path.isabs(name) else os.path.join(folder, base, name)
+            if os.path.lexists(asset):
+                check_text_file(asset, f'{source}: <{tag} file={show_path(name)}>',
+                                MAX_ASSET_BYTES)
+    if len(combined) > 1:
+        bodies = joints = 0
+        for body in combined:
+            counted = mjcf_counts(body, where)
+            bodies, joints = bodies + counted[0], joints + counted[1]
+        if bodies > MAX_LINKS:
+            raise ValueError(f'{where} has {bodies} bodies with its included files, more '
+                             f'than the {MAX_LINKS} accepted')
+        if joints > MAX_JOINTS:
+            raise ValueError(f'{where} has {joints} joints with its included files, more '
+                             f'than the {MAX_JOINTS} accepted')
+
+
+# MJCF elements whose ``file`` MuJoCo opens, and the <compiler> folder each is in.
+_ASSET_DIRS = {'mesh': 'meshdir', 'skin': 'meshdir', 'texture': 'texturedir',
+               'hfield': 'assetdir'}
+
+
+def _mjcf_files(text):
+    """Return (included files, [(asset tag, file)], {tag: compiler folder}) of an MJCF text."""
+    includes, assets, dirs = [], [], {}
+    try:
+        for _, element in ET.iterparse(_Lines(text), events=('start',)):
+            name = element.get('file')
+            if element.tag == 'include' and name:
+                includes.append(name)
+            elif element.tag in _ASSET_DIRS and name:
+                assets.append((element.tag, name))
+            elif element.tag == 'compiler':
+                for tag, attribute in _ASSET_DIRS.items():
+                    if element.get(attribute):
+                        dirs[tag] = element.get(attribute)
+                if element.get('assetdir'):
+                    dirs['asset'] = element.get('assetdir')
+    except ET.ParseError:
+        pass    # left to MuJoCo's own error
+    return includes, assets, dirs
 
 
 def _count(text):

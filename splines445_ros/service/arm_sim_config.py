@@ -17,6 +17,7 @@ from .validated_config import ValidatedConfig
 from ..robot.user_text import show
 from ..sim.model_drives import DEFAULT_BANDWIDTH, DEFAULT_DAMPING_RATIO
 from ..sim.mujoco_model import PlanarArmModel
+from ..sim.playback import MAX_MAGNITUDE
 
 MIN_PUBLISH_RATE = 0.001
 # The dynamic arm steps its physics in the publishing timer: at least this rate.
@@ -213,9 +214,10 @@ class ArmSimConfig(ValidatedConfig):
         if self.model_file:
             self._validate_model_file(n)
             return
-        if len(self.initial_positions) != n or not _finite(self.initial_positions):
-            raise ValueError(f'initial_positions must be {n} finite angles, got '
-                             f'{show(self.initial_positions)}')
+        if len(self.initial_positions) != n or not _finite(
+                self.initial_positions, -MAX_MAGNITUDE, MAX_MAGNITUDE):
+            raise ValueError(f'initial_positions must be {n} finite angles of magnitude at '
+                             f'most {MAX_MAGNITUDE:g}, got {show(self.initial_positions)}')
         self._validate_common()
         self._validate_built_in()
         per_joint = (('torque_limits', 0.0, math.inf, True, 'positive'),
@@ -267,10 +269,11 @@ class ArmSimConfig(ValidatedConfig):
             raise ValueError(f'joint_names has duplicates: {show(self.joint_names)}')
         self._validate_common()
         if not self.from_model('initial_positions'):
-            if not _finite(self.initial_positions) or (
+            if not _finite(self.initial_positions, -MAX_MAGNITUDE, MAX_MAGNITUDE) or (
                     n is not None and len(self.initial_positions) != n):
                 raise ValueError(f'initial_positions must be {n or "one per joint"} finite '
-                                 f'angles, got {show(self.initial_positions)}')
+                                 f'angles of magnitude at most {MAX_MAGNITUDE:g}, got '
+                                 f'{show(self.initial_positions)}')
         per_joint = (('torque_limits', MAX_KP * MAX_KD, 'in [0, inf) (0 = from the model)'),
                      ('kp', MAX_KP, f'in [0, {MAX_KP:g}] (0 = from the model)'),
                      ('kd', MAX_KD, f'in [0, {MAX_KD:g}] (0 = from the model)'))

@@ -9,6 +9,11 @@ positions and velocities, linear with positions only.
 
 import numpy as np
 
+# The largest |position|, |velocity| or |acceleration| a trajectory may carry
+# (rad, m, per s, per s^2): far beyond any arm, and far below where the
+# interpolation and the arm's kinematics overflow (1e308 did, helper-36).
+MAX_MAGNITUDE = 1e6
+
 
 class SampledTrajectory:
     """Samples (K,) times and (K, n) positions / velocities / accelerations."""
@@ -35,6 +40,10 @@ class SampledTrajectory:
             if value is not None and not np.all(np.isfinite(value)):
                 bad = np.argwhere(~np.isfinite(value))[0]
                 raise ValueError(f'{name} has a non-finite value at {tuple(int(i) for i in bad)}')
+            if value is not None and name != 'times' and np.any(np.abs(value) > MAX_MAGNITUDE):
+                bad = np.argwhere(np.abs(value) > MAX_MAGNITUDE)[0]
+                raise ValueError(f'{name} has a value of magnitude above {MAX_MAGNITUDE:g} at '
+                                 f'{tuple(int(i) for i in bad)}: {value[tuple(bad)]:g}')
         if np.any(self.times < 0.0):
             raise ValueError('time_from_start must not be negative')
         steps = np.diff(self.times)

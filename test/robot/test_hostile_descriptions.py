@@ -283,3 +283,63 @@ def test_model_messages_show_user_names_bounded(ur5, tmp_path):
         with pytest.raises(ValueError, match='xxx') as error:
             call()
         assert len(str(error.value)) < 2000, str(error.value)[:3000]
+
+
+# -------------------------------------- 8b. files an MJCF names (MuJoCo opens them itself)
+
+ARM_BODY = '<body><joint name="j" type="hinge"/><geom size="0.1" mass="1"/></body>'
+
+
+@pytest.mark.parametrize('kind', ['fifo', 'device', 'directory'])
+def test_an_mjcf_including_a_file_that_is_not_a_regular_file_is_refused_unopened(
+        tmp_path, kind):
+    """A named pipe in an <include> blocked MuJoCo, and the node with it, for good."""
+    target = not_a_file(tmp_path, kind)
+    path = write(tmp_path, f'<mujoco><include file="{target}"/><worldbody>{ARM_BODY}'
+                 '</worldbody></mujoco>', 'arm.xml')
+    match = 'is a directory' if kind == 'directory' else 'is not a regular file'
+    with pytest.raises(ValueError, match=f'<include file=.*{match}'):
+        rm.load_robot_model(path)
+    with pytest.raises(ValueError, match=f'<include file=.*{match}'):
+        load_arm_model(('j',), [1.0], 0.0, model_file=path)
+
+
+def test_bodies_in_included_files_count_towards_the_cap(tmp_path):
+    """The cap held for one file only: 5001 bodies loaded through an <include>."""
+    write(tmp_path, '<mujoco><worldbody>' + BODY * 700 + '</worldbody></mujoco>', 'a.xml')
+    write(tmp_path, '<mujoco><include file="a.xml"/><worldbody>' + BODY * 400
+          + '</worldbody></mujoco>', 'b.xml')
+    path = write(tmp_path, '<mujoco><include file="b.xml"/></mujoco>', 'main.xml')
+    with pytest.raises(ValueError, match=caps('1100 bodies with its included files, more '
+                                              'than the {links} accepted')):
+        rm.load_robot_model(path)
+
+
+def test_an_include_cycle_is_refused(tmp_path):
+    write(tmp_path, '<mujoco><include file="b.xml"/></mujoco>', 'a.xml')
+    write(tmp_path, '<mujoco><include file="a.xml"/></mujoco>', 'b.xml')
+    with pytest.raises(ValueError, match='includes a file twice'):
+        rm.load_robot_model(str(tmp_path / 'a.xml'))
+
+
+@pytest.mark.parametrize('kind', ['fifo', 'device', 'large'])
+def test_an_mjcf_asset_that_is_not_a_small_regular_file_is_refused_unopened(
+        tmp_path, kind, monkeypatch):
+    """A 1.5 GB sparse mesh was read whole (5.5 s, 1.6 GB); a pipe blocked."""
+    monkeypatch.setattr(rm, 'MAX_ASSET_BYTES', 1000)
+    if kind == 'large':
+        target = write(tmp_path, 'solid x\n' + ' ' * 2000 + '\nendsolid x\n', 'big.stl')
+    else:
+        target = not_a_file(tmp_path, kind)
+    path = write(tmp_path, f'<mujoco><asset><mesh name="m" file="{target}"/></asset>'
+                 f'<worldbody>{ARM_BODY}</worldbody></mujoco>', 'arm.xml')
+    match = 'more than the 1000 bytes' if kind == 'large' else 'is not a regular file'
+    with pytest.raises(ValueError, match=f'<mesh file=.*{match}'):
+        rm.load_robot_model(path)
+
+
+def test_an_mjcf_with_a_small_included_file_still_loads(tmp_path):
+    write(tmp_path, f'<mujoco><worldbody>{ARM_BODY}</worldbody></mujoco>', 'arm_body.xml')
+    path = write(tmp_path, '<mujoco><include file="arm_body.xml"/></mujoco>', 'arm.xml')
+    robot = rm.load_robot_model(path)
+    assert [j.name for j in robot.joints] == ['j']
