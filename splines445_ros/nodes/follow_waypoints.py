@@ -11,10 +11,13 @@ has settled there (``goal_position_tolerance``, ``goal_velocity_tolerance``);
 it is aborted when it has not settled ``goal_time_tolerance`` after the end.
 
 * **Preemption.**  A new goal preempts the running one, as
-  joint_trajectory_controller's ``FollowJointTrajectory`` does: the old goal
-  is aborted ("preempted"), and the new plan starts from the running
-  trajectory's state at now + ``replan_lead_time``, so the arm does not jump.
-  A tool-pose goal plans from rest and is rejected while a goal runs.
+  joint_trajectory_controller's ``FollowJointTrajectory`` does: the new plan
+  starts from the running trajectory's state at now + ``replan_lead_time``,
+  so the arm does not jump, and once it is on the arm the old goal is
+  aborted ("preempted").  A new goal whose plan fails is aborted, and the
+  running one goes on (it can still be cancelled).
+  A tool-pose goal plans from rest and is rejected while a trajectory runs
+  (a goal's, or one sent on the ``waypoints`` topic).
 * **Cancel** stops the arm: a stop planned from the commanded state (the
   worker's ``plan_stop``, within the velocity, acceleration and jerk limits)
   takes over at now + ``replan_lead_time``; the goal ends canceled once the
@@ -48,9 +51,12 @@ INTERFACE = 'follow_waypoints'
 class _Run:
     """The state of one accepted goal."""
 
-    def __init__(self, handle):
+    def __init__(self, handle, previous=None):
         self.handle = handle
         self.preempted = False
+        # The goal this one preempts once its plan is on the arm, and the one that
+        # will preempt this one (accepted, still planning).
+        self.previous, self.successor = previous, None
 
 
 class FollowWaypointsServer:
@@ -79,9 +85,11 @@ class FollowWaypointsServer:
             override_values(goal.overrides)
             if msg is goal.waypoints:
                 joint_order(msg.joint_names, self._node.planned_joint_names())
-            elif self._run is not None:
-                raise ValueError('a tool_waypoints goal plans from rest, and a goal is '
-                                 'running: cancel it first, or send joint waypoints')
+                _check_finite(msg)
+            elif self._run is not None or self._node.trajectory_running():
+                raise ValueError('a tool_waypoints goal plans from rest, and a trajectory is '
+                                 'running: cancel it (or wait for its end) first, or send '
+                                 'joint waypoints')
         except ValueError as exc:
             self._node.report(False, f'{INTERFACE} goal rejected: {exc}',
                               {'interface': INTERFACE})
@@ -89,9 +97,12 @@ class FollowWaypointsServer:
         return GoalResponse.ACCEPT
 
     def _on_accepted(self, handle):
+        # The running goal is preempted once this one's plan is on the arm: if it
+        # fails to plan, the running one goes on (and can still be cancelled).
+        run = _Run(handle, self._run)
         if self._run is not None:
-            self._run.preempted = True
-        self._run = self._runs[id(handle)] = _Run(handle)
+            self._run.successor = run
+        self._run = self._runs[id(handle)] = run
         handle.execute()
 
     def _on_cancel(self, _handle):
@@ -116,13 +127,28 @@ class FollowWaypointsServer:
                                       from_running=True, interface=INTERFACE)
             outcome = await self._node.submit(job)
             if not outcome.ok:
+                self._failed(run)
                 return self._end(run, handle.abort, outcome.message)
+            earlier = run.previous
+            while earlier is not None:      # on the arm now: the goals before it end
+                earlier.preempted = True
+                earlier = earlier.previous
+            run.previous = None
             if run.preempted:
                 return self._end(run, handle.abort, 'preempted by a newer goal')
             return await self._follow(run, outcome)
         finally:
             if self._run is run:
                 self._run = None
+
+    def _failed(self, run):
+        """Let the goal that ``run`` (no plan found) was to preempt run on, as the latest."""
+        previous = run.previous
+        if previous is not None and previous.successor is run:
+            previous.successor = None
+        if self._run is run:
+            self._run = previous
+        run.previous = None
 
     async def _follow(self, run, outcome):
         """Publish feedback until the arm settles at the end; return the result."""
@@ -133,10 +159,12 @@ class FollowWaypointsServer:
         final = traj.evaluate([traj.duration], 0)[0]
         while True:
             await self._tick()
-            if run.preempted:
+            replaced = node.active_trajectory() is not traj
+            if run.preempted or (replaced and run.successor is not None):
+                # (A successor's plan can reach the arm a tick before it says so.)
                 return self._end(run, handle.abort, 'preempted by a newer goal', names,
                                  final)
-            if node.active_trajectory() is not traj:
+            if replaced:
                 return self._end(run, handle.abort, 'the trajectory on the arm was replaced '
                                  '(a request on the waypoints topic)', names, final)
             if handle.is_cancel_requested:
@@ -195,6 +223,17 @@ class FollowWaypointsServer:
         self._node.report(mark != run.handle.abort, f'{INTERFACE} goal: {message}',
                           {'interface': INTERFACE})
         return result
+
+
+def _check_finite(msg):
+    """Refuse a goal's joint waypoints with a value that is not finite (ValueError)."""
+    for k, point in enumerate(msg.points):
+        for field in ('positions', 'velocities', 'accelerations'):
+            values = np.asarray(getattr(point, field), dtype=float)
+            if not np.all(np.isfinite(values)):
+                j = int(np.flatnonzero(~np.isfinite(values))[0])
+                raise ValueError(f'waypoint {k}: {field}[{j}] is {values[j]}: values must be '
+                                 'finite')
 
 
 def _feedback(t, end, names, measured, planned):

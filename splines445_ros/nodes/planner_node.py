@@ -153,6 +153,7 @@ class PlannerNode(Node):
                                  topics.LATCHED)
         self._latest_joint_state = None
         self._active = None  # (planned Trajectory, start time [ns]) of the last publication
+        self._active_names = ()     # its joint names, as published
         self._worker = threading.Thread(target=self._work, name='planner', daemon=True)
         self._worker.start()
         self.planned_path_publisher = self.create_publisher(
@@ -205,6 +206,10 @@ class PlannerNode(Node):
         if config.kinematics == 'model' and robot is not None:
             return robot.config.joint_names
         return config.joint_names
+
+    def trajectory_running(self):
+        """Return True while the last published trajectory runs (a goal's or a topic's)."""
+        return self._running_at(self.get_clock().now().nanoseconds)
 
     def active_trajectory(self):
         """Return the Trajectory last published to the arm (None when stopped or none)."""
@@ -488,6 +493,7 @@ class PlannerNode(Node):
         if job.publish:
             self.trajectory_publisher.publish(out)
             self._active = (traj, start_ns)
+            self._active_names = tuple(config.joint_names)
         published = time.perf_counter()
         values.update({'points': len(out.points),
                        'planning_time_ms': f'{1e3 * (planned - started):.3f}',
@@ -561,6 +567,8 @@ class PlannerNode(Node):
         if not self._running_at(now_ns):
             return PlanOutcome(True, 'nothing to stop: the trajectory has ended', {})
         running, start_ns = self._active
+        # The running trajectory's joints, as published: joint_names may have changed since.
+        names = list(self._active_names)
         switch_ns = now_ns + int(config.replan_lead_time * 1e9)
         t = 1e-9 * (switch_ns - start_ns)
 
@@ -576,11 +584,10 @@ class PlannerNode(Node):
             switch = start_ns + int(round(used * 1e9))
             stamp = Time(nanoseconds=switch).to_msg()
             if traj is None:
-                out = hold_message(running.evaluate([used], 0)[0], config.joint_names,
+                out = hold_message(running.evaluate([used], 0)[0], names,
                                    config.sample_period, stamp)
             else:
-                out = trajectory_to_msg(output_samples(config, traj), config.joint_names,
-                                        stamp)
+                out = trajectory_to_msg(output_samples(config, traj), names, stamp)
         except ValueError as exc:
             return self._rejected(f'stop rejected: {exc}; the running trajectory continues',
                                   {})
@@ -597,7 +604,7 @@ class PlannerNode(Node):
             self._active = None
             message = 'stopping: holding the commanded position'
         self._report(True, message, {'switch_time_ns': switch})
-        return PlanOutcome(True, message, {}, traj, out, config.joint_names, switch)
+        return PlanOutcome(True, message, {}, traj, out, names, switch)
 
     def _replan(self, config, request, switch_ns, torque=None):
         """
@@ -611,7 +618,7 @@ class PlannerNode(Node):
         if self._active is not None:
             running, start_ns = self._active
             t = (switch_ns - start_ns) * 1e-9
-            if t < running.duration and running.n_joints == len(config.joint_names):
+            if t < running.duration and self._active_names == tuple(config.joint_names):
                 def clock():
                     return (self.get_clock().now().nanoseconds - start_ns) * 1e-9
                 used, traj = plan_from_running(config, request, running, t, clock, torque)

@@ -12,11 +12,13 @@ import math
 import os
 
 from action_msgs.msg import GoalStatus
+from action_msgs.srv import CancelGoal
 from geometry_msgs.msg import Pose
 import numpy as np
 import pytest
 from rclpy.action import ActionClient
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from splines445_interfaces.action import FollowWaypoints
 from splines445_interfaces.srv import Plan
 from splines445_ros.nodes import topics
@@ -32,6 +34,7 @@ V, A, J = 2.0, 10.0, 200.0  # config/planar_arm.yaml
 LINKS = (1.1, 0.9)
 W = np.array([[0.0, 0.0, 0.0], [0.5, 1.0, -0.5], [1.0, 0.5, 0.0]])
 LONG = np.array([[0.0, 0.0, 0.0], [1.5, 2.0, -1.5], [3.0, 0.0, 1.5], [0.0, -1.0, 0.0]])
+HUGE = np.array([[0.0, 0.0, 0.0], [1e300, 0.0, 0.0]])   # finite, but no plan: it overflows
 
 
 @pytest.fixture
@@ -245,6 +248,23 @@ def test_cancel_stops_the_arm_within_its_limits(system):
     assert moving > 0.5  # it was moving when cancelled
 
 
+def test_cancel_stops_the_arm_after_joint_names_changed_mid_goal(system):
+    """The stop names the running trajectory's joints, not the new ones (helper-36)."""
+    handle = send_goal(system, LONG)
+    assert handle.accepted
+    system.spin_for(1.0)
+    result = system.planner.set_parameters([Parameter('joint_names', value=['a', 'b', 'c'])])
+    assert result[0].successful, result[0].reason
+    cancel_ns = system.client.get_clock().now().nanoseconds
+    cancel = handle.cancel_goal_async()
+    assert system.spin_until(cancel.done, 5.0)
+    assert result_of(system, handle).status == GoalStatus.STATUS_CANCELED
+    system.spin_for(1.0)
+    times, _, velocities = states_between(system, cancel_ns)
+    assert np.all(velocities[times > 1e-9 * cancel_ns + 1.0] == 0.0)
+    assert not any('unknown joints' in s.message for s in system.arm_status)
+
+
 def test_a_new_goal_preempts_the_running_one_without_a_jump(system):
     first = send_goal(system, LONG)
     assert first.accepted
@@ -261,6 +281,41 @@ def test_a_new_goal_preempts_the_running_one_without_a_jump(system):
     np.testing.assert_allclose(system.joint_states[-1].position, [-0.5, 0.5, 0.2], atol=1e-6)
     times, positions, velocities = states_between(system, switch_ns - int(0.2e9))
     assert_no_jump(times, positions, velocities)
+
+
+def test_a_new_goal_that_fails_to_plan_leaves_the_running_one_running(system):
+    """It is aborted; the running goal is not preempted, and a cancel still stops it."""
+    first = send_goal(system, LONG)
+    assert first.accepted
+    system.spin_for(1.0)
+    second = send_goal(system, HUGE)
+    assert second.accepted
+    failed = result_of(system, second)
+    assert failed.status == GoalStatus.STATUS_ABORTED
+    assert failed.result.message.startswith('request ')
+    running = system.planner.active_trajectory()
+    assert running is not None
+    cancel = first.cancel_goal_async()
+    assert system.spin_until(cancel.done, 5.0)
+    assert cancel.result().return_code == CancelGoal.Response.ERROR_NONE
+    result = result_of(system, first)
+    assert result.status == GoalStatus.STATUS_CANCELED, result.result.message
+
+
+def test_a_tool_goal_is_refused_while_a_topic_trajectory_runs(system):
+    """It plans from rest: accepted while the arm moved, it jumped 42 rad/s (helper-36)."""
+    n = len(system.arm_status)
+    system.waypoint_publisher.publish(waypoint_message(NAMES, LONG))
+    assert system.spin_until(lambda: len(system.arm_status) > n, 10.0)
+    goal = FollowWaypoints.Goal()
+    goal.tool_waypoints.poses = [Pose(), Pose()]
+    goal.tool_waypoints.poses[1].position.x = 0.5
+    n_status = len(system.planner_status)
+    sent = system.action_client.send_goal_async(goal)
+    assert system.spin_until(sent.done, 10.0) and not sent.result().accepted
+    system.spin_for(0.2)
+    assert any('a trajectory is running' in s.message
+               for s in system.planner_status[n_status:])
 
 
 def test_a_time_optimal_goal_preempts_from_the_moving_state_without_a_jump(system):
@@ -301,10 +356,15 @@ def test_malformed_goals_are_rejected_with_the_reason(system):
     messages = [s.message for s in system.planner_status[n_status:]]
     assert any('both are empty' in m for m in messages)
     assert any("unknown joints ['elbow']" in m for m in messages)
-    # A goal whose plan fails is accepted, then aborted with the planner's error.
+    # A value that is not finite is refused with the goal, naming the waypoint.
     nan = W.copy()
     nan[2, 0] = math.nan
-    handle = send_goal(system, nan)
+    assert not send_goal(system, nan).accepted
+    system.spin_for(0.2)
+    assert any('waypoint 2: positions[0] is nan' in s.message
+               for s in system.planner_status[n_status:])
+    # A goal whose plan fails is accepted, then aborted with the planner's error.
+    handle = send_goal(system, HUGE)
     assert handle.accepted
     result = result_of(system, handle)
     assert result.status == GoalStatus.STATUS_ABORTED and not result.result.success
