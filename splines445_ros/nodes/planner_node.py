@@ -27,6 +27,7 @@ other callbacks (parameter services, state subscriptions).  A bad request is
 reported and logged; the node keeps serving.
 """
 
+import collections
 from dataclasses import dataclass, field
 import queue
 import threading
@@ -73,6 +74,7 @@ PLAN_INTERFACE = 'plan service'
 GOAL_START_DELAY = 0.05
 
 _STOP = object()
+_WAKE = object()    # wakes the worker for a stop job (PlannerNode._stops)
 
 
 @dataclass
@@ -132,6 +134,7 @@ class PlannerNode(Node):
         self._description = None  # the latest robot_description string
         self._robot_lock = threading.Lock()
         self._requests = queue.Queue()
+        self._stops = collections.deque()   # stop jobs, served before the queued requests
         self.parameters = ConfigParameters(self, PlannerConfig,
                                            on_change=self._on_config_change,
                                            on_reject=self._on_parameters_rejected)
@@ -196,7 +199,12 @@ class PlannerNode(Node):
             if executor is not None:
                 executor.wake()  # the awaiting coroutine resumes when the executor wakes
         job.done = done
-        self._requests.put(job)
+        if job.kind == 'stop':
+            # A stop goes before the queued plans: the arm is moving.
+            self._stops.append(job)
+            self._requests.put(_WAKE)
+        else:
+            self._requests.put(job)
         return await future
 
     def planned_joint_names(self):
@@ -364,9 +372,14 @@ class PlannerNode(Node):
 
     def _work(self):
         while True:
-            job = self._requests.get()
+            try:
+                job = self._stops.popleft()
+            except IndexError:
+                job = self._requests.get()
             if job is _STOP:
                 return
+            if job is _WAKE:
+                continue
             if isinstance(job, (String, _Compile)):
                 try:
                     if isinstance(job, String):

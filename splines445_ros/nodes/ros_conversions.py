@@ -23,6 +23,7 @@ from diagnostic_msgs.msg import KeyValue
 import numpy as np
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
+from ..service.interface_requests import check_request_size
 from ..service.request_planning import WaypointRequest
 from ..sim.playback import SampledTrajectory
 
@@ -70,6 +71,7 @@ def _column(point, field, k, n, order, required):
 
 def parse_waypoint_request(msg, joint_names):
     """Turn a waypoint ``JointTrajectory`` into a :class:`WaypointRequest` (ValueError)."""
+    check_request_size(len(msg.points))
     order = joint_order(msg.joint_names, joint_names)
     n = len(order)
     if len(msg.points) < 2:
@@ -91,6 +93,7 @@ def parse_waypoint_request(msg, joint_names):
 
 def parse_tool_request(msg):
     """Turn a ``PoseArray`` of tool waypoints into an (N, 3) array of (x, y, yaw) (ValueError)."""
+    check_request_size(len(msg.poses), 'tool_waypoints')
     if len(msg.poses) < 2:
         raise ValueError(f'need at least 2 tool waypoints, got {len(msg.poses)}')
     poses = np.empty((len(msg.poses), 3))

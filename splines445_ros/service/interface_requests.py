@@ -17,6 +17,18 @@ ARRAY_FIELDS = ('max_velocity', 'max_acceleration', 'max_jerk')
 SCALAR_FIELDS = ('max_tool_speed', 'max_tool_angular_speed', 'max_tool_acceleration',
                  'max_path_deviation')
 OVERRIDE_FIELDS = STRING_FIELDS + ARRAY_FIELDS + SCALAR_FIELDS
+# The most waypoints (or tool poses) a request may carry, checked before it is
+# parsed or queued: ten times the largest request the benchmarks plan (1000).
+# 100,000 were parsed and planned before max_trajectory_points refused the
+# output, and a cancel queued behind them waited 4.4 s (helper-36).
+MAX_REQUEST_WAYPOINTS = 10_000
+
+
+def check_request_size(count, what='waypoints'):
+    """Raise ValueError when a request carries more than :data:`MAX_REQUEST_WAYPOINTS`."""
+    if count > MAX_REQUEST_WAYPOINTS:
+        raise ValueError(f'{count} {what}: more than the {MAX_REQUEST_WAYPOINTS} a request '
+                         'may carry')
 
 
 def override_values(overrides):
@@ -56,6 +68,8 @@ def request_message(waypoints, tool_waypoints):
     silently be ignored.
     """
     has_joints, has_tool = len(waypoints.points) > 0, len(tool_waypoints.poses) > 0
+    check_request_size(len(waypoints.points))
+    check_request_size(len(tool_waypoints.poses), 'tool_waypoints')
     if has_joints and has_tool:
         raise ValueError('give waypoints (joint positions) or tool_waypoints (tool poses), '
                          'not both')

@@ -29,6 +29,7 @@ from typing import Optional, Tuple
 
 import numpy as np
 
+from .interface_requests import check_request_size
 from .planner_config import TORQUE_STAND_IN_ACCELERATION
 from .request_planning import plan_tool_poses, TorqueOptions
 from ..robot.chain_tip import chain_tips
@@ -309,6 +310,7 @@ def tool_poses_from_message(msg, base_frame):
     if frame and frame != expected:
         raise ValueError(f'tool_waypoints are in frame {frame!r}, but base_frame is '
                          f'{expected!r} (no tf lookup: send them in base_frame)')
+    check_request_size(len(msg.poses), 'tool_waypoints')
     if len(msg.poses) < 2:
         raise ValueError(f'need at least 2 tool waypoints, got {len(msg.poses)}')
     rows = np.empty((len(msg.poses), 7))

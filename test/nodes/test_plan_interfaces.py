@@ -25,6 +25,7 @@ from splines445_ros.nodes import topics
 from splines445_ros.nodes.diagnostics import status_values
 from splines445_ros.nodes.ros_conversions import duration_to_seconds
 from splines445_ros.planning import plan
+from splines445_ros.service.interface_requests import MAX_REQUEST_WAYPOINTS
 from splines445_ros.tools.in_process import InProcessSystem, stamp_ns, waypoint_message
 from visualization_msgs.msg import Marker, MarkerArray
 
@@ -186,6 +187,16 @@ def test_bad_service_requests_get_an_error_response(system):
     nan[1, 1] = math.nan
     response = call(system, plan_request(nan))
     assert not response.success and response.message
+    # Too many waypoints: refused before they are planned, and the topic likewise.
+    many = np.cumsum(np.full((MAX_REQUEST_WAYPOINTS + 1, 3), 1e-3), axis=0)
+    response = call(system, plan_request(many))
+    assert not response.success
+    assert f'more than the {MAX_REQUEST_WAYPOINTS} a request may carry' in response.message
+    n = len(system.planner_status)
+    system.waypoint_publisher.publish(waypoint_message(NAMES, many))
+    assert system.spin_until(lambda: len(system.planner_status) > n, 10.0)
+    assert any('a request may carry' in s.message for s in system.planner_status[n:])
+    assert call(system, plan_request()).success
 
 
 def test_a_hundred_concurrent_calls_are_all_answered(system):
