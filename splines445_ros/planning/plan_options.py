@@ -112,7 +112,7 @@ def vibration_frequency_value(value, inner_knots):
                          f'{MAX_VIBRATION_FREQUENCY:g} Hz, got {value:.6g}')
     if value and not inner_knots:
         raise ValueError('vibration_frequency needs method "555" with timing "optimal" and '
-                         'inner_knots > 0: the other timings have no speed profile to shape')
+                         'inner_knots not 0: the other timings have no speed profile to shape')
     return value
 
 
@@ -132,7 +132,7 @@ def smoothing_value(value, vibration_frequency, inner_knots):
         raise ValueError(f'smoothing must be one of {list(SMOOTHINGS)}, got {shown}')
     if value != 'auto' and not inner_knots:
         raise ValueError(f'smoothing {value!r} needs method "555" with timing "optimal" and '
-                         'inner_knots > 0: the other timings have no speed profile to average')
+                         'inner_knots not 0: the other timings have no speed profile to average')
     if value != 'auto' and vibration_frequency:
         raise ValueError(f'smoothing {value!r} with vibration_frequency '
                          f'{vibration_frequency:g} Hz: the frequency sets the windows itself '

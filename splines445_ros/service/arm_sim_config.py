@@ -127,8 +127,9 @@ class ArmSimConfig(ValidatedConfig):
         + _from_model('from the joint inertia and `control_bandwidth`'))
     # model_file: the drives from the model (see nodes/arm_sim_model.py).
     tool_frame: str = parameter(
-        '', '`model_file`: link, body or site whose pose is published on `tool_pose` '
-        '(overrides `tool_site`).')
+        '', '`model_file`, dynamic: link, body or site whose pose is published on `tool_pose` '
+        '(overrides `tool_site`). A `model_file` played with `simulation: kinematic` publishes '
+        'no `tool_pose`.')
     control_bandwidth: float = parameter(
         DEFAULT_BANDWIDTH, '`model_file`, dynamic: natural frequency [Hz] of the PD loop that '
         'sets `kp` and `kd` from the joint inertia at the initial pose when they are not '

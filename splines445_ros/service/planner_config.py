@@ -143,8 +143,10 @@ class PlannerConfig(ValidatedConfig):
         'waypoints; knots are inserted until it holds (with both deviations 0: no '
         'refinement).', low=0.0, special=(0.0, 'not checked'))
     max_orientation_deviation: float = parameter(
-        0.0, 'Largest deviation [rad] of the tool yaw from its linear interpolation between '
-        'tool waypoints.', low=0.0, special=(0.0, 'not checked'))
+        0.0, 'Largest deviation [rad] of the tool orientation between tool waypoints: '
+        '`planar_3dof`, of the tool yaw from its linear interpolation; `kinematics: model`, '
+        'the rotation angle between the tool orientation and the slerp of the two '
+        "waypoints' orientations.", low=0.0, special=(0.0, 'not checked'))
     max_tool_speed: float = parameter(
         0.0, "Largest linear speed [m/s] of the tool frame's origin on `tool_waypoints` "
         'requests; 0 (the default) = no limit. Held within 0.1 % at a 1 kHz check by timing '
@@ -152,8 +154,8 @@ class PlannerConfig(ValidatedConfig):
         'although the joints could get there (and no `vibration_frequency` is set), the lines '
         "are timed again by `speed_profile: time_optimal`'s profile, kept when shorter and at "
         'the speed, and the status says so (`speed_profile_reason`). '
-        'Needs `method: 555`, `timing: optimal`, `inner_knots` '
-        '> 0 and a `kinematics` (`planar_3dof` or `model`): a non-zero value is refused '
+        'Needs `method: 555`, `timing: optimal`, `inner_knots` not 0 (auto or > 0) and a '
+        '`kinematics` (`planar_3dof` or `model`): a non-zero value is refused '
         'otherwise, with the reason. Joint-space `waypoints` requests have no tool path and '
         'are planned without it.', low=0.0, unit='m/s', special=(0.0, 'no limit'))
     max_tool_angular_speed: float = parameter(
@@ -205,27 +207,33 @@ class PlannerConfig(ValidatedConfig):
         low=0, high=MAX_INNER_KNOTS, special=(AUTO_INNER_KNOTS, 'auto'))
     vibration_frequency: float = parameter(
         0.0, "The arm's lowest structural mode [Hz], for `method: 555` with `timing: optimal` "
-        'and `inner_knots` > 0 (refused otherwise): the speed profile is averaged over two '
-        'windows of 1/f instead of the default 0.3 s and 0.15 s, so that the plan leaves '
-        'little vibration at f (2/f longer; the default windows: 0.45 s). 0 (the default) = '
-        'not used: as `smoothing` says. With `speed_profile: smoothed`, rest-to-rest requests '
-        'only: with a moving start or end (replanning) the profile is not averaged and the '
-        'parameter changes nothing. With `speed_profile: time_optimal` there are no windows: '
-        'before a rest end (replanning too) the profile cancels the ringing of a mode at f '
-        "(damping 0.02) after the stop, to about 0.05 of TOPP-RA's at 4-8 Hz for 0.2-2 % of "
-        'the duration (7-9 % of 1-2 s moves with a very high jerk limit). Narrow, as '
-        "every cancellation: a mode 10 % off in frequency is left 0.4-0.8 of TOPP-RA's "
-        'ringing (about what time_optimal leaves without it), where the windows of '
-        '`smoothed` leave about 0.1 of it.',
+        'and `inner_knots` not 0 (auto or > 0; refused otherwise): the speed profile is '
+        'averaged over two windows of 1/f instead of the default 0.3 s and 0.15 s, so that '
+        'the plan leaves little vibration at f (2/f longer; the default windows: 0.45 s). 0 '
+        '(the default) = not used: as `smoothing` says. With `speed_profile: smoothed`, '
+        'rest-to-rest requests only: with a moving start or end (replanning) the profile is '
+        'not averaged and the parameter changes nothing. A rest-to-rest `smoothed` plan then '
+        'has its knots moved to cancel the ringing of a mode at f (damping 0.02) after the '
+        'stop, each joint as far as its limits allow without a stretch and without ringing '
+        "more during the motion (`residual_knots` on `~/status`): 0.02 of TOPP-RA's ringing "
+        'at 4 Hz (median; 0.07-0.09 before), for 2-6 times the planning time; not with '
+        '`limit_torque`. With `speed_profile: time_optimal` '
+        'there are no windows: before a rest end (replanning too) the profile cancels the '
+        "ringing of a mode at f (damping 0.02) after the stop, to about 0.05 of TOPP-RA's at "
+        '4-8 Hz for 0.2-2 % of the duration (7-9 % of 1-2 s moves with a very high jerk '
+        'limit). Narrow, as every cancellation: a mode 10 % off in frequency is left 0.4-0.8 '
+        "of TOPP-RA's ringing (about what time_optimal leaves without it), where `smoothed` "
+        'leaves about 0.1 of it.',
         low=0.0, high=MAX_VIBRATION_FREQUENCY, unit='Hz')
     smoothing: str = parameter(
         'auto', '`auto` (the default), `windows` or `none`, for `method: 555` with `timing: '
-        'optimal`, `inner_knots` > 0 and no `vibration_frequency` (refused otherwise, where it '
-        'would change nothing). `windows` averages the speed profile over 0.3 s and 0.15 s: '
-        "0.45 s longer, and the arm's low modes (4-8 Hz) shake about half as much as with "
-        "TOPP-RA; `none` does not (about TOPP-RA's duration and shaking). `auto` = `windows`, "
-        'or `none` with `limit_torque: true`. Rest-to-rest requests; the tool lines of tool '
-        "requests are never averaged (a refined tool path's inner-knot plan follows it).")
+        'optimal`, `inner_knots` not 0 (auto or > 0) and no `vibration_frequency` (refused '
+        'otherwise, where it would change nothing). `windows` averages the speed profile over '
+        "0.3 s and 0.15 s: 0.45 s longer, and the arm's low modes (4-8 Hz) shake about half "
+        "as much as with TOPP-RA; `none` does not (about TOPP-RA's duration and shaking). "
+        '`auto` = `windows`, or `none` with `limit_torque: true`. Rest-to-rest requests; the '
+        "tool lines of tool requests are never averaged (a refined tool path's inner-knot plan "
+        'follows it).')
     speed_profile: str = parameter(
         'smoothed', '`smoothed` (the default) or `time_optimal`, for `method: 555` with '
         '`timing: optimal`. `smoothed`: the speed profile shaped by `inner_knots`, '
@@ -266,9 +274,10 @@ class PlannerConfig(ValidatedConfig):
     limit_torque: bool = parameter(
         False, '`kinematics: model` (refused without it): keep the rigid-body torque of every '
         'planned joint, the payload included, within `max_effort`, checked every 1 ms (within '
-        '0.5 %); rest to rest only; tool requests (555 optimal) are refined (not timed along '
-        'the tool lines) and hold it together with `max_tool_speed` / '
-        '`max_tool_angular_speed`. A joint '
+        '0.5 %); rest to rest only. Tool requests hold it too: 555 optimal times the tool '
+        'lines with the torque as one more constraint (with `max_tool_speed` / '
+        '`max_tool_angular_speed` when set), the other methods and timings are refined, every '
+        'plan slowed down as the torque needs. A joint '
         f'without an acceleration limit then gets {TORQUE_STAND_IN_ACCELERATION:g} rad/s²: the '
         'torque limits it.')
     max_effort: Tuple[float, ...] = parameter(
@@ -382,7 +391,7 @@ class PlannerConfig(ValidatedConfig):
         self.check_table()
         if self.vibration_frequency and not self.has_inner_knots():
             raise ValueError(f'vibration_frequency = {self.vibration_frequency:g} Hz needs '
-                             'method "555" with timing "optimal" and inner_knots > 0 (got '
+                             'method "555" with timing "optimal" and inner_knots not 0 (got '
                              f'method {show(self.method)}, timing {show(self.timing)}, '
                              f'inner_knots {self.inner_knots}); 0 = not used')
         # The library's own check: one of auto, windows, none; not with a
@@ -444,7 +453,7 @@ class PlannerConfig(ValidatedConfig):
                 continue
             if not self.has_inner_knots():
                 raise ValueError(f'{name} = {value:g} {unit} needs method "555" with timing '
-                                 '"optimal" and inner_knots > 0 (got method '
+                                 '"optimal" and inner_knots not 0 (got method '
                                  f'{show(self.method)}, timing {show(self.timing)}, '
                                  f'inner_knots {self.inner_knots}); 0 = no limit')
             if not self.kinematics:
