@@ -478,6 +478,8 @@ class PlannerNode(Node):
                     switch_ns, traj = self._replan(config, request, requested_ns, torque)
                     switch_delay = 1e-9 * (switch_ns - requested_ns)
                 else:
+                    if job.from_running and job.publish:
+                        self._check_goal_start(config, request)
                     traj = plan_request(config, request, torque)
             planned = time.perf_counter()
             samples = output_samples(config, traj)
@@ -645,6 +647,27 @@ class PlannerNode(Node):
             return self._joint_state_start(config)[0]
         except ValueError:
             return None
+
+    def _check_goal_start(self, config, request):
+        """
+        Refuse a goal that starts away from the arm at rest (ValueError), as MoveIt does.
+
+        Nothing runs, so the goal's trajectory starts at its first waypoint:
+        one further than ``goal_position_tolerance`` from the latest
+        ``joint_states`` would make the arm jump there.  Without
+        ``joint_states`` of the planned joints there is nothing to check.
+        """
+        measured = self.measured_state(config.joint_names)
+        if measured is None:
+            return
+        gap = np.abs(request.waypoints[0] - measured[0])
+        j = int(np.argmax(gap))
+        if gap[j] > config.goal_position_tolerance:
+            raise ValueError(f"the first waypoint is {gap[j]:.4g} from the arm's position on "
+                             f'joint_states ({config.joint_names[j]}), more than '
+                             f'goal_position_tolerance ({config.goal_position_tolerance:g}): '
+                             'the arm would jump; start the waypoints where the arm is, or set '
+                             'start_from_current_state')
 
     def _joint_state_start(self, config):
         """Position, velocity and zero acceleration from the latest joint_states."""

@@ -103,7 +103,12 @@ def non_negative(name, value):
 
 
 def position_limit_vector(name, value, n, default):
-    """Return (n,) position limits, ``default`` (+-inf) where None; NaN is rejected."""
+    """
+    Return (n,) position limits, ``default`` (+-inf) where None (ValueError).
+
+    NaN is refused, and so is the infinity opposite to ``default`` (a lower
+    limit of +inf): no position would be within it.
+    """
     if value is None:
         return np.full(n, default)
     arr = real_array(name, value)
@@ -112,4 +117,11 @@ def position_limit_vector(name, value, n, default):
     bad = np.isnan(arr)
     if np.any(bad):
         raise ValueError(f'{name}[{int(np.flatnonzero(bad)[0])}] is nan')
+    # Infinite on the side it bounds (a lower limit of +inf, an upper one of -inf):
+    # no position is within it, and every request would be refused.
+    bad = arr == -default
+    if np.any(bad):
+        j = int(np.flatnonzero(bad)[0])
+        raise ValueError(f'{name}[{j}] = {arr[j]:g} leaves no position: use {default:g} for a '
+                         'joint without a limit')
     return arr

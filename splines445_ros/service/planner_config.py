@@ -402,8 +402,12 @@ class PlannerConfig(ValidatedConfig):
         self._validate_torque(names)
 
     def validate_position_limits(self, n):
-        """Raise ValueError unless the position limits have 0 or ``n`` values, low <= high."""
-        for name in ('min_position', 'max_position'):
+        """
+        Raise ValueError unless the position limits have 0 or ``n`` values, low <= high.
+
+        A lower limit of +inf (or an upper one of -inf) leaves no position: refused.
+        """
+        for name, unbounded in (('min_position', -math.inf), ('max_position', math.inf)):
             values = getattr(self, name)
             if len(values) not in (0, n):
                 raise ValueError(f'{name} needs one value per joint ({n}) or none, '
@@ -411,6 +415,9 @@ class PlannerConfig(ValidatedConfig):
             for i, v in enumerate(values):
                 if math.isnan(v):
                     raise ValueError(f'{name}[{i}] is nan')
+                if v == -unbounded:
+                    raise ValueError(f'{name}[{i}] = {v:g} leaves no position: use '
+                                     f'{unbounded:g} for a joint without a limit')
         if self.min_position and self.max_position:
             for i, (low, high) in enumerate(zip(self.min_position, self.max_position)):
                 if low > high:

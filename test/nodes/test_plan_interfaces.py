@@ -383,6 +383,18 @@ def test_malformed_goals_are_rejected_with_the_reason(system):
     assert any(s.message == result.result.message for s in system.planner_status)
 
 
+def test_a_goal_that_starts_away_from_the_arm_at_rest_is_aborted(system):
+    """It would jump there (helper-36): MoveIt refuses such a start state too."""
+    assert system.spin_until(lambda: len(system.joint_states) > 2, 5.0)
+    handle = send_goal(system, W + 1.0)
+    assert handle.accepted
+    result = result_of(system, handle)
+    assert result.status == GoalStatus.STATUS_ABORTED
+    assert 'the first waypoint is 1 from' in result.result.message
+    assert system.planner.active_trajectory() is None
+    assert result_of(system, send_goal(system, W)).status == GoalStatus.STATUS_SUCCEEDED
+
+
 def test_a_client_that_goes_away_leaves_the_node_serving(system):
     other = system.add(Node('vanishing_client', context=system.context))
     client = ActionClient(other, FollowWaypoints, '/planner_node/follow_waypoints')

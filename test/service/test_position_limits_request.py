@@ -109,3 +109,18 @@ def test_a_move_every_profile_swings_out_of_warns_of_the_chord_length_plan(speed
     warm = plan(points, '555', 'optimal', durations=np.ones(len(points) - 1),
                 min_position=low, max_position=high, speed_profile=speed_profile, **limits)
     np.testing.assert_array_equal(warm.ppoly.c, traj.ppoly.c)
+
+
+@pytest.mark.parametrize('low, high, match', [
+    ([np.inf, -1.0], None, r'min_position\[0\] = inf leaves no position: use -inf'),
+    (None, [1.0, -np.inf], r'max_position\[1\] = -inf leaves no position: use inf'),
+])
+def test_a_limit_infinite_on_the_side_it_bounds_is_refused(low, high, match):
+    """Every request would be refused under it (helper-36): the limit is, naming the fix."""
+    with pytest.raises(ValueError, match=match):
+        plan(np.array([[0.0, 0.0], [0.5, 0.5]]), '555', 'optimal', max_velocity=[1.0, 1.0],
+             max_acceleration=[2.0, 2.0], min_position=low, max_position=high)
+    config = PlannerConfig(joint_names=('a', 'b'), min_position=tuple(low or ()),
+                           max_position=tuple(high or ()))
+    with pytest.raises(ValueError, match=match):
+        config.validate_position_limits(2)
