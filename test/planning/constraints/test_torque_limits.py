@@ -79,6 +79,32 @@ def test_torque_held_at_dense_samples_and_something_binds(seed, route):
     assert max(peak.max(), vaj) >= 0.98
 
 
+@pytest.mark.parametrize('points, timing, limits, limit', [
+    # The torque peaked at a knot, 0.78 % over its limit, reported at 1.0 (helper-37).
+    ([[0.2545308251862506, 0.6827233510361046], [1.0146447711011617, 0.64173246416802],
+      [0.6645234755702696, 0.5874201306232414]], 'uniform',
+     {'max_velocity': [17.411794626001193] * 2, 'max_acceleration': [1452.688135899128] * 2},
+     [33.529843843939176, 5.819234915390972]),
+    # Slowed down 9 times, 0.67 % over between the check's rescaled samples.
+    ([[2.9131226674704447, 1.2712139062355705], [3.4495207258760825, 1.9279430183484896],
+      [3.7354054460392545, 2.3781641551832817], [4.303362392360823, 2.95421926713308],
+      [4.999323994894189, 3.1600079071996032], [5.448165853422575, 3.487498076881947],
+      [6.162738335674174, 3.720812796218737], [6.663294831801214, 3.8429031936156224]],
+     'optimal', {'max_velocity': [711.8134680567863, 1774.17807426649],
+                 'max_acceleration': [1211.252298787869, 1802.5700052921238],
+                 'max_jerk': [11877189.69769385, 5212402.017236341]},
+     [25.650537508817287, 6.8964883554266105]),
+])
+def test_a_434_plan_holds_its_torque_at_its_knots(points, timing, limits, limit):
+    """434's jerk jumps at its knots: the torque has a kink there, sampled since (100 kHz here)."""
+    limit = np.array(limit)
+    traj = plan(np.array(points), '434', timing, max_torque=limit,
+                inverse_dynamics=two_link_torques, **limits)
+    peak = np.max(np.abs(dense_torques(traj, two_link_torques, rate=1e5)), axis=0) / limit
+    assert np.all(peak <= 1.0), peak
+    assert np.all(traj.torque_ratios >= peak - 1e-9)     # reported at least as high
+
+
 def test_torque_binds_where_the_acceleration_limit_does_not():
     """High acceleration limits: the torque sets the time, and it is shorter than its uniform."""
     rng = np.random.default_rng(4)
