@@ -122,10 +122,14 @@ def one_way_request(rng):
     return start + fractions * way, limits
 
 
-def walk_request(rng):
-    """Return a random walk of 3-6 waypoints on 2-4 joints, and v/a/j limits (j = 20 a)."""
-    n = int(rng.integers(2, 5))
-    points = np.cumsum(rng.uniform(-1.0, 1.0, (int(rng.integers(3, 7)), n)), axis=0)
+def walk_request(rng, waypoints=(3, 7), joints=(2, 5)):
+    """
+    Return a random walk of 3-6 waypoints on 2-4 joints, and v/a/j limits (j = 20 a).
+
+    ``waypoints`` and ``joints``: other ranges (``rng.integers``' bounds).
+    """
+    n = int(rng.integers(*joints))
+    points = np.cumsum(rng.uniform(-1.0, 1.0, (int(rng.integers(*waypoints)), n)), axis=0)
     amax = rng.uniform(5.0, 15.0, n)
     limits = {'max_velocity': rng.uniform(1.0, 3.0, n), 'max_acceleration': amax,
               'max_jerk': 20.0 * amax}

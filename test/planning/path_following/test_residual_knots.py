@@ -108,11 +108,7 @@ def test_the_ringing_after_the_stop_falls_and_the_motion_rings_no_more(seed, fre
 
 def long_walk(rng):
     """Return a random walk of 6-12 waypoints on 2-6 joints and v/a/j limits (j = 20 a)."""
-    n = int(rng.integers(2, 7))
-    points = np.cumsum(rng.uniform(-1.0, 1.0, (int(rng.integers(6, 13)), n)), axis=0)
-    amax = rng.uniform(5.0, 15.0, n)
-    return points, {'max_velocity': rng.uniform(1.0, 3.0, n), 'max_acceleration': amax,
-                    'max_jerk': 20.0 * amax}
+    return walk_request(rng, waypoints=(6, 13), joints=(2, 7))
 
 
 def test_the_ringing_after_the_stop_falls_by_half_at_the_median():
