@@ -38,7 +38,9 @@ times, the other joints are untouched and C4 holds at every knot.
 
 A segment with no knot of its own between two waypoints gets one at its
 middle, placed on the spline (:func:`position_limit_knots.knot_layout`);
-a request with fewer free knots than rows is left as it is.
+a request with fewer free knots than rows is left as it is, and so is one
+whose samples times splines exceed ``MAX_SPLINE_SAMPLE_VALUES`` (checked
+before anything is allocated).
 """
 
 import numpy as np
@@ -47,7 +49,8 @@ from scipy.special import factorial
 from .inner_knots import end_jerks, moved_trajectory, unit_splines
 from .position_limit_knots import knot_layout
 from ..speed_profile.residual_vibration import (
-    content_envelope, content_weights, spline_samples, SPLINE_SAMPLES_PER_PERIOD, static_scale)
+    content_envelope, content_weights, MAX_SPLINE_SAMPLE_VALUES, spline_sample_count,
+    spline_samples, SPLINE_SAMPLES_PER_PERIOD, static_scale)
 from ..spline.continuity_system import spline_coefficients
 from ..spline.limits import limit_ratios
 from ..spline.peaks import position_extrema, segment_peak_times
@@ -64,6 +67,10 @@ ROUNDS = 6
 ROOM_PIECES = 2
 # The least room (weight) of a knot next to a binding peak: it moves, a little.
 ROOM_FLOOR = 1e-6
+# Samples of each piece at least, whatever the mode: a piece's acceleration is a
+# cubic, and 2-3 samples of a 35 ms piece (a 0.8 Hz mode) misjudged the ringing
+# during the motion by 4 % (helper-40).
+PIECE_SAMPLES = 8
 # How far above the plan's own largest content a moved joint's may go: round-off.
 ENVELOPE_RTOL = 1e-9
 # How closely a move must meet its rows (unit rows), relative to the largest target.
@@ -105,13 +112,14 @@ def cancelled_residual(traj, frequency, low, high):
     positions[waypoint_knots] = traj.waypoints
     coeffs = spline_coefficients('555', positions, widths, (np.zeros(n),) * 4)
     step = 1.0 / (SPLINE_SAMPLES_PER_PERIOD * 2.0 * frequency)
+    columns = n + free.size
+    if (spline_sample_count(times, step, PIECE_SAMPLES) * columns > MAX_SPLINE_SAMPLE_VALUES
+            or 6 * widths.size * free.size > MAX_SPLINE_SAMPLE_VALUES):
+        return None     # a long plan, or a high mode: left as it is, before allocating
     units = unit_splines(times.size, free, widths)                     # (S, 6, m)
     # The windows' second zero (2 f) stays where it is: the moves add no content there.
-    try:
-        steps, accelerations = spline_samples(np.concatenate([coeffs, units], axis=2), times,
-                                              step)                      # (T, n + m)
-    except ValueError:
-        return None     # a long plan with a high mode: left as it is
+    steps, accelerations = spline_samples(np.concatenate([coeffs, units], axis=2), times,
+                                          step, PIECE_SAMPLES)           # (T, n + m)
     contents = []
     for f in (frequency, 2.0 * frequency):
         z = content_weights(steps, f) @ accelerations
@@ -285,7 +293,8 @@ class _ShareSearch:
 
     The limits are the v/a/j peaks the plan itself reaches (at least the
     limits: a plan at round-off above one is not pushed further), and the
-    position limits, or for a joint already past them its own excess.
+    position bounds (:func:`_position_bounds`), or, on a piece and side
+    where the joint is already past one, its own excess there.
     """
 
     def __init__(self, traj, coeffs, widths, units, bounds, waypoint_knots):
@@ -297,19 +306,28 @@ class _ShareSearch:
                                                bounds)                   # (S, n) each
         self.pieces = np.flatnonzero(np.any(np.isfinite(self.low) | np.isfinite(self.high),
                                             axis=1))
-        self.excess = self._excess(coeffs, self.ends, np.arange(coeffs.shape[2]))
+        joints = np.arange(coeffs.shape[2])
+        self.below, self.above = self._excess(coeffs, self.ends, joints)[:2]
 
     def _excess(self, c, ends, joints):
-        """Return (k,): how far ``joints`` (k,) of ``c`` (S, 6, k) go past their bounds."""
+        """
+        Return (below, above, t_low, t_high): how far ``joints`` go past each bound, and when.
+
+        ``c`` (S, 6, k) are the pieces of ``joints`` (k,); each is (P, k)
+        over :attr:`pieces` (the ones with a bound), 0 within the bound:
+        each piece's own excess on each side, so that a joint past one
+        bound somewhere may not go past another instead (helper-40).
+        """
         if self.pieces.size == 0:
-            return np.zeros(joints.size)
-        q_low, q_high = position_extrema(c[self.pieces], self.widths[self.pieces],
-                                         ends[self.pieces])[:2]
+            empty = np.zeros((0, joints.size))
+            return empty, empty, empty, empty
+        q_low, q_high, t_low, t_high = position_extrema(
+            c[self.pieces], self.widths[self.pieces], ends[self.pieces])
         low, high = self.low[np.ix_(self.pieces, joints)], self.high[np.ix_(self.pieces, joints)]
         with np.errstate(invalid='ignore'):
-            return np.nan_to_num(np.maximum(np.max(low - q_low, axis=0),
-                                            np.max(q_high - high, axis=0)),
-                                 nan=0.0, neginf=0.0).clip(0.0)
+            below = np.nan_to_num(low - q_low, nan=0.0, neginf=0.0).clip(0.0)
+            above = np.nan_to_num(q_high - high, nan=0.0, neginf=0.0).clip(0.0)
+        return below, above, t_low, t_high
 
     def _within(self, shifts, shift_ends, alpha, joints):
         """Whether each of ``joints`` moved by ``alpha`` (its share) is within its limits."""
@@ -317,8 +335,9 @@ class _ShareSearch:
         ok = limit_ratios(c, self.widths, self.limits_of(joints)).max(axis=(0, 2)) \
             <= self.peak[joints]
         ok &= self.mode.held(alpha, joints)
-        ok &= self._excess(c, self.ends[:, joints] + shift_ends * alpha, joints) \
-            <= self.excess[joints]
+        below, above = self._excess(c, self.ends[:, joints] + shift_ends * alpha, joints)[:2]
+        ok &= np.all(below <= self.below[:, joints], axis=0)
+        ok &= np.all(above <= self.above[:, joints], axis=0)
         return ok
 
     def limits_of(self, joints):
@@ -372,18 +391,15 @@ class _ShareSearch:
         """Return the rows (unit splines' positions) where joint ``j``'s ``c`` passes a bound."""
         if self.pieces.size == 0:
             return []
-        pieces = self.pieces
-        ends = (self.ends[:, j] + shift_ends)[pieces]
-        q_low, q_high, t_low, t_high = (x[:, 0] for x in position_extrema(
-            c[pieces, :, None], self.widths[pieces], ends[:, None]))
-        with np.errstate(invalid='ignore'):
-            below = self.low[pieces, j] - q_low
-            above = q_high - self.high[pieces, j]
+        ends = (self.ends[:, j] + shift_ends)[:, None]
+        below, above, t_low, t_high = (x[:, 0] for x in self._excess(
+            c[:, :, None], ends, np.array([j])))
         rows = []
-        for past, times in ((below, t_low), (above, t_high)):
-            past = np.nan_to_num(past, nan=-np.inf)
-            worst = int(np.argmax(past))
-            if past[worst] > self.excess[j]:
+        for past, was, times in ((below, self.below[:, j], t_low),
+                                 (above, self.above[:, j], t_high)):
+            further = past - was
+            worst = int(np.argmax(further))
+            if further[worst] > 0.0:
                 powers = times[worst] ** np.arange(6)
-                rows.append(powers @ self.units[pieces[worst]])
+                rows.append(powers @ self.units[self.pieces[worst]])
         return rows

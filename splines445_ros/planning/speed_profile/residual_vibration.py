@@ -79,18 +79,23 @@ def content_weights(steps, frequency, damping=DAMPING):
     return weight * np.exp(exponent * (t[-1] - t))
 
 
-def spline_samples(coefficients, knots, step):
+def spline_sample_count(knots, step, least=2):
+    """Return how many samples :func:`spline_samples` takes on ``knots`` (S + 1,)."""
+    return int(np.maximum(least, np.ceil(np.diff(knots) / step)).sum()) + 1
+
+
+def spline_samples(coefficients, knots, step, least=2):
     """
     Return (steps (T - 1,), accelerations (T, m)) of ``m`` quintic splines, sampled for a mode.
 
     ``coefficients`` (S, 6, m) are the pieces' power-basis terms in local
     time on the ``knots`` (S + 1,) from 0 to the stop; each piece is cut in
-    equal steps of at most ``step`` [s] (at least 2), and the pieces' ends
-    are samples.  Linear in the terms: samples of unit splines give them
+    equal steps of at most ``step`` [s] (at least ``least``), and the
+    pieces' ends are samples.  Linear in the terms: samples of unit splines give them
     as a function of knot moves (:mod:`position_limit_knots`,
     :mod:`residual_knots`).
     """
-    counts = np.maximum(2, np.ceil(np.diff(knots) / step)).astype(int)
+    counts = np.maximum(least, np.ceil(np.diff(knots) / step)).astype(int)
     if (counts.sum() + 1.0) * coefficients.shape[2] > MAX_SPLINE_SAMPLE_VALUES:
         raise ValueError(f'{counts.sum() + 1} samples of {coefficients.shape[2]} splines '
                          f'for a mode: more than {MAX_SPLINE_SAMPLE_VALUES:.0e} values')

@@ -63,7 +63,10 @@ def assert_keeps_the_plan(traj, before, points):
     """``traj`` is ``before`` with knots moved: the same timing, rest, C4, limits, end jerks."""
     assert traj.duration == before.duration
     np.testing.assert_array_equal(traj.waypoint_times, before.waypoint_times)
-    np.testing.assert_allclose(traj.evaluate(traj.waypoint_times), points, atol=1e-9)
+    # Through the planned waypoints (the request's, near duplicates merged) at their times.
+    np.testing.assert_array_equal(traj.waypoints, before.waypoints)
+    assert before.waypoints.shape[0] <= points.shape[0]
+    np.testing.assert_allclose(traj.evaluate(traj.waypoint_times), traj.waypoints, atol=1e-9)
     ends = np.array([0.0, traj.duration])
     for order in (1, 2):
         np.testing.assert_allclose(traj.evaluate(ends, order), 0.0, atol=1e-9)
@@ -104,6 +107,66 @@ def test_the_ringing_after_the_stop_falls_and_the_motion_rings_no_more(seed, fre
         assert residual == pytest.approx(after.max(), rel=0.05, abs=2e-3)
     else:
         np.testing.assert_array_equal(traj.ppoly.c, before.ppoly.c)
+
+
+def test_a_low_mode_on_short_pieces_rings_no_more_during_the_motion():
+    """A 0.8 Hz mode on 35-134 ms pieces: 2-3 samples a piece misjudged it by 4 % (helper-40)."""
+    points = np.array([
+        -0.00543342522738591, -0.00961821202430515, -0.0153391299201648, -0.01702919291904968,
+        -0.0203745586485776, -0.02683673800715158, -0.02223173604799348, -0.01735628182327069,
+        -0.02189782043471992, -0.02504484600828983, -0.01882887891458404, -0.01523556117964176,
+        -0.01484082826762111, -0.01698599209055359, -0.01629078287773694, -0.01299170914282408,
+        -0.01797733248688675, -0.02292471121050294, -0.02847145629172461,
+        -0.03167308893850161])[:, None]
+    limits = {'max_velocity': [2.141858351144803], 'max_acceleration': [5.604060811115841],
+              'max_jerk': [180.50969706505973]}
+    frequency = 0.8036598403252758
+    traj, before = plans(points, limits, frequency)
+    assert_keeps_the_plan(traj, before, points)
+    assert amplitude(traj, frequency)[0].max() <= amplitude(before, frequency)[0].max() + 1e-6
+
+
+def wrong_side(traj, points):
+    """
+    Return (2, n): how far each joint passes its start and its goal (sampled).
+
+    In the first segment on the side it moves away from, in the last on
+    the side it moves towards; 0 where it does not.
+    """
+    ends = []
+    for at, end, towards in ((slice(0, 2), points[0], np.sign(points[1] - points[0])),
+                             (slice(-2, None), points[-1], np.sign(points[-1] - points[-2]))):
+        t0, t1 = traj.waypoint_times[at]
+        q = traj.evaluate(np.linspace(t0, t1, 4001))
+        side = -towards if at.start == 0 else towards
+        ends.append(np.max(np.maximum((q - end) * side, 0.0), axis=0))
+    return np.array(ends)
+
+
+@pytest.mark.parametrize('seed', [113, 118, 128, 130, 134, 137])
+def test_a_joint_does_not_pass_its_start_or_goal_where_it_did_not(seed):
+    """A joint past one bound may not pass another instead (helper-40: 7-8 mrad)."""
+    points, limits = walk_request(np.random.default_rng(seed))
+    for frequency in (1.5, 4.0):
+        traj, before = plans(points, limits, frequency)
+        np.testing.assert_array_less(wrong_side(traj, points),
+                                     wrong_side(before, points) + 1e-9)
+
+
+def test_limits_at_the_plans_own_range_are_kept():
+    """A joint within the position limits stays within them (helper-40: 8.3e-5 past)."""
+    points, limits = walk_request(np.random.default_rng(113))
+    before = plans(points, limits, 1.5)[1]
+    low, high = before.position_extrema()[:2]
+    keep = planner._pulled_within
+    planner._pulled_within = lambda traj, options, points: None    # no pull to hide it
+    try:
+        traj = plan(points, '555', 'optimal', vibration_frequency=1.5,
+                    min_position=low - 1e-9, max_position=high + 1e-9, **limits)
+    finally:
+        planner._pulled_within = keep
+    q = traj.evaluate(np.linspace(0.0, traj.duration, 20001))
+    assert np.all(q >= low - 1e-9) and np.all(q <= high + 1e-9)
 
 
 def long_walk(rng):
