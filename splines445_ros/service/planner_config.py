@@ -258,7 +258,8 @@ class PlannerConfig(ValidatedConfig):
         'same profile (tool speed and acceleration as its rows), kept when shorter and within '
         'the tolerances.', choices=SPEED_PROFILES)
     model_file: str = parameter(
-        '', '`kinematics: model`: URDF or MJCF file of the robot; empty = the '
+        '', '`kinematics: model` (a value is refused otherwise, as for the three below): URDF '
+        'or MJCF file of the robot; empty = the '
         '`robot_description` topic (std_msgs/String, reliable, transient-local).')
     tool_frame: str = parameter(
         '', '`kinematics: model`: the tool frame (URDF link, MJCF body or site) of '
@@ -503,11 +504,25 @@ class PlannerConfig(ValidatedConfig):
                                      f'or leave {name} at its default)')
 
     def _require_model_for_torque(self):
-        """Refuse limit_torque without kinematics "model" (checked first: it says why)."""
+        """
+        Refuse limit_torque, and the robot's files and frames, without kinematics "model".
+
+        Checked first: it says why.  ``model_file``, ``tool_frame``,
+        ``base_frame`` and ``joint_limits_file`` mean nothing to the other
+        kinematics, and would be ignored silently (helper-36: a
+        ``joint_limits_file`` of ``/dev/zero`` was accepted).
+        """
         if self.limit_torque and self.kinematics != 'model':
             raise ValueError('limit_torque needs kinematics "model": the torques come from the '
                              "robot description's masses and inertias (kinematics is "
                              f'{show(self.kinematics)})')
+        if self.kinematics != 'model':
+            for name in ('model_file', 'tool_frame', 'base_frame', 'joint_limits_file'):
+                if getattr(self, name):
+                    raise ValueError(f'{name} is set but kinematics is '
+                                     f'{show(self.kinematics)}: it only matters to kinematics '
+                                     f'"model" (set kinematics:=model with it, in one '
+                                     f'set_parameters_atomically, or leave {name} empty)')
 
     def torque_payload(self):
         """Return the payload as ArmDynamics keyword arguments (inertia None when not set)."""

@@ -182,3 +182,13 @@ def test_every_row_with_bounds_or_choices_is_enforced(config):
             assert f'{row.low:g}' in str(refused.value)
         checked += 1
     assert checked >= (15 if config is PlannerConfig else 6)
+
+
+@pytest.mark.parametrize('name, value', [('model_file', '/dev/zero'),
+                                         ('joint_limits_file', '/dev/zero'),
+                                         ('tool_frame', 'tool0'), ('base_frame', 'base_link')])
+def test_the_robots_files_and_frames_are_refused_without_kinematics_model(name, value):
+    """They would be ignored (helper-36: a joint_limits_file of /dev/zero was accepted)."""
+    for kinematics in ('', 'planar_3dof'):
+        with pytest.raises(ValueError, match=f'{name} is set but kinematics is'):
+            PlannerConfig(kinematics=kinematics, **{name: value}).validate()
