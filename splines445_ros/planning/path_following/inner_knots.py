@@ -291,6 +291,12 @@ def end_jerks(coeffs, last_width):
                      + 60.0 * coeffs[-1, 5] * h * h])
 
 
+def end_snaps(coeffs, last_width):
+    """Return (2, n): the snap of quintic pieces ``coeffs`` at the start and at the end."""
+    return np.stack([24.0 * coeffs[0, 4], 24.0 * coeffs[-1, 4] + 120.0 * coeffs[-1, 5]
+                     * last_width])
+
+
 def unit_splines(count, knots, pieces):
     """
     Return (S, 6, len(knots)): how a move of the ``knots`` moves the 555 spline at rest.

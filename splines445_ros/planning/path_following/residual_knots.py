@@ -46,11 +46,11 @@ before anything is allocated).
 import numpy as np
 from scipy.special import factorial
 
-from .inner_knots import end_jerks, moved_trajectory, unit_splines
+from .inner_knots import end_jerks, end_snaps, moved_trajectory, unit_splines
 from .position_limit_knots import knot_layout
 from ..speed_profile.residual_vibration import (
-    content_envelope, content_weights, MAX_SPLINE_SAMPLE_VALUES, spline_sample_count,
-    spline_samples, SPLINE_SAMPLES_PER_PERIOD, static_scale)
+    content_envelope, content_weights, MAX_SPLINE_SAMPLE_VALUES, sampled_content,
+    spline_sample_count, spline_samples, SPLINE_SAMPLES_PER_PERIOD, static_scale)
 from ..spline.continuity_system import spline_coefficients
 from ..spline.limits import limit_ratios
 from ..spline.peaks import position_extrema, segment_peak_times
@@ -120,25 +120,21 @@ def cancelled_residual(traj, frequency, low, high):
     # The windows' second zero (2 f) stays where it is: the moves add no content there.
     steps, accelerations = spline_samples(np.concatenate([coeffs, units], axis=2), times,
                                           step, PIECE_SAMPLES)           # (T, n + m)
-    contents = []
-    for f in (frequency, 2.0 * frequency):
-        z = content_weights(steps, f) @ accelerations
-        contents += [z.real, z.imag]
-    content = np.array(contents)[:2, :n]
+    contents = sampled_content(steps, accelerations, (frequency, 2.0 * frequency))
+    content = contents[:2, :n]
     # The end jerks and snaps stay as they are: each joint leaves its start and
     # reaches its goal the way step 4 of inner_knots turned it (along its move;
     # where it zeroed a jerk, the snap sets the way).  The Panda's worst residual
     # at 4 Hz was 0.57 of TOPP-RA's with the jerks alone, 0.22 with both (seed 7001).
-    h = widths[-1]
-    snaps = np.stack([24.0 * units[0, 4], 24.0 * units[-1, 4] + 120.0 * units[-1, 5] * h])
-    rows = np.vstack([np.array(contents)[:, n:], end_jerks(units, h), snaps])     # (8, m)
+    rows = np.vstack([contents[:, n:], end_jerks(units, widths[-1]),
+                      end_snaps(units, widths[-1])])                        # (8, m)
     shares = np.hypot(content[0], content[1]) * static_scale(frequency, traj.limits.acceleration)
     joints = np.flatnonzero(shares > NEGLIGIBLE_SHARE)
     if joints.size == 0:
         return None
-    search = _ShareSearch(traj, coeffs, widths, units, (low, high), waypoint_knots)
-    search.mode = _Envelope(steps, accelerations[:, :n], accelerations[:, n:],
-                            (frequency, 2.0 * frequency), traj.limits)
+    mode = _Envelope(steps, accelerations[:, :n], accelerations[:, n:],
+                     (frequency, 2.0 * frequency), traj.limits)
+    search = _ShareSearch(traj, coeffs, widths, units, (low, high), waypoint_knots, mode)
     weights = _room_weights(search.ratios.max(axis=2), free)          # (m, n)
     held = {j: (rows, np.concatenate([-content[:, j], np.zeros(rows.shape[0] - 2)]))
             for j in joints}
@@ -302,8 +298,9 @@ class _ShareSearch:
     where the joint is already past one, its own excess there.
     """
 
-    def __init__(self, traj, coeffs, widths, units, bounds, waypoint_knots):
+    def __init__(self, traj, coeffs, widths, units, bounds, waypoint_knots, mode):
         self.coeffs, self.widths, self.units, self.limits = coeffs, widths, units, traj.limits
+        self.mode = mode        # the _Envelope of the ringing during the motion
         self.ends = np.concatenate([coeffs[1:, 0, :], traj.waypoints[-1:]])
         self.ratios = limit_ratios(coeffs, widths, traj.limits)           # (S, n, 3)
         self.peak = np.maximum(self.ratios.max(axis=(0, 2)), 1.0)

@@ -79,9 +79,14 @@ def content_weights(steps, frequency, damping=DAMPING):
     return weight * np.exp(exponent * (t[-1] - t))
 
 
+def _piece_counts(knots, step, least):
+    """Return (S,) the steps :func:`spline_samples` cuts each piece of ``knots`` into."""
+    return np.maximum(least, np.ceil(np.diff(knots) / step)).astype(int)
+
+
 def spline_sample_count(knots, step, least=2):
     """Return how many samples :func:`spline_samples` takes on ``knots`` (S + 1,)."""
-    return int(np.maximum(least, np.ceil(np.diff(knots) / step)).sum()) + 1
+    return int(_piece_counts(knots, step, least).sum()) + 1
 
 
 def spline_samples(coefficients, knots, step, least=2):
@@ -95,7 +100,7 @@ def spline_samples(coefficients, knots, step, least=2):
     as a function of knot moves (:mod:`position_limit_knots`,
     :mod:`residual_knots`).
     """
-    counts = np.maximum(least, np.ceil(np.diff(knots) / step)).astype(int)
+    counts = _piece_counts(knots, step, least)
     if (counts.sum() + 1.0) * coefficients.shape[2] > MAX_SPLINE_SAMPLE_VALUES:
         raise ValueError(f'{counts.sum() + 1} samples of {coefficients.shape[2]} splines '
                          f'for a mode: more than {MAX_SPLINE_SAMPLE_VALUES:.0e} values')
@@ -122,7 +127,15 @@ def spline_content(coefficients, knots, frequencies, damping=DAMPING):
     the fastest mode and 1 ms apart at most.
     """
     step = min(1e-3, 1.0 / (SPLINE_SAMPLES_PER_PERIOD * max(frequencies)))
-    steps, accelerations = spline_samples(coefficients, knots, step)
+    return sampled_content(*spline_samples(coefficients, knots, step), frequencies, damping)
+
+
+def sampled_content(steps, accelerations, frequencies, damping=DAMPING):
+    """
+    Return (2 k, m): Re and Im of each mode's ``Z`` of accelerations (T, m) ``steps`` apart.
+
+    :func:`spline_content` on samples the caller has (:func:`spline_samples`).
+    """
     rows = []
     for frequency in frequencies:
         content = content_weights(steps, frequency, damping) @ accelerations
