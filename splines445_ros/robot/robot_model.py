@@ -46,8 +46,7 @@ cap, when it has more than :data:`MAX_LINKS` links (MJCF bodies, including
 robots stay far below (a humanoid has about 100 links).  An MJCF's
 ``<include>`` files are checked and counted too, and its asset files
 (meshes, textures, height fields, skins) must be regular files of at most
-:data:`MAX_ASSET_BYTES` (:func:`check_mjcf_files`): MuJoCo opens them
-itself.
+:data:`MAX_ASSET_BYTES` (:func:`check_mjcf`): MuJoCo opens them itself.
 """
 
 from dataclasses import dataclass
@@ -412,8 +411,7 @@ def load_robot_model(model_file='', urdf_string=None, where=None):
     if _root_tag(text) == 'robot':
         return _from_urdf(mujoco, text, where, os.path.dirname(os.path.abspath(model_file)),
                           model_file)
-    check_mjcf_size(text, where)
-    check_mjcf_files(model_file, text, where)
+    check_mjcf(model_file, text, where)
     return _from_mjcf(mujoco, model_file, where)
 
 
@@ -448,21 +446,40 @@ def read_description_file(path, where=None):
 
 def check_mjcf_size(text, where):
     """
-    Refuse an MJCF text beyond the size caps before MuJoCo compiles it (ValueError).
+    Refuse an MJCF text beyond the size caps before MuJoCo compiles it; return its counts.
 
-    Counted with ElementTree, resolving nothing: ``<body>`` elements (each
-    times the ``count`` of every ``<replicate>`` around it; a
+    The counts are (bodies, joints); a ValueError past a cap.  Counted with
+    ElementTree, resolving nothing: ``<body>`` elements (each times the
+    ``count`` of every ``<replicate>`` around it; a
     ``<composite>`` or ``<flexcomp>`` as the product of its ``count``),
     ``<joint>`` and ``<freejoint>`` elements in bodies, and the nesting
     depth of bodies (:func:`check_mjcf_files` reads the ``<include>``
     files).  Text that ElementTree cannot parse is left to MuJoCo's own
     error.
     """
-    bodies, joints = mjcf_counts(text, where)
+    return _check_counts(mjcf_counts(text, where), where)
+
+
+def _check_counts(counts, where, what=''):
+    """Return ``counts`` (bodies, joints), or raise ValueError past the caps (``what``: whose)."""
+    bodies, joints = counts
     if bodies > MAX_LINKS:
-        raise ValueError(f'{where} has {bodies} bodies, more than the {MAX_LINKS} accepted')
+        raise ValueError(f'{where} has {bodies} bodies{what}, more than the {MAX_LINKS} '
+                         'accepted')
     if joints > MAX_JOINTS:
-        raise ValueError(f'{where} has {joints} joints, more than the {MAX_JOINTS} accepted')
+        raise ValueError(f'{where} has {joints} joints{what}, more than the {MAX_JOINTS} '
+                         'accepted')
+    return counts
+
+
+def check_mjcf(path, text, where):
+    """
+    Refuse the MJCF file ``path`` (its ``text`` read) before MuJoCo compiles it (ValueError).
+
+    Its size (:func:`check_mjcf_size`), then the files it names and their
+    size with it (:func:`check_mjcf_files`).
+    """
+    check_mjcf_files(path, text, where, check_mjcf_size(text, where))
 
 
 def mjcf_counts(text, where):
@@ -502,9 +519,11 @@ def mjcf_counts(text, where):
     return bodies, joints
 
 
-def check_mjcf_files(path, text, where):
+def check_mjcf_files(path, text, where, counts):
     """
     Refuse an MJCF whose included files or assets MuJoCo should not open (ValueError).
+
+    ``counts``: the (bodies, joints) of ``text`` itself (:func:`check_mjcf_size`).
 
     MuJoCo follows ``<include file>`` and opens every asset's ``file``
     (mesh, texture, height field, skin) itself, unchecked: a named pipe
@@ -512,7 +531,7 @@ def check_mjcf_files(path, text, where):
     (helper-36).  Each included file, relative to the main file's folder as
     MuJoCo resolves it, must be a regular file within
     :data:`MAX_DESCRIPTION_CHARS` (:func:`~.user_text.check_text_file`);
-    its text is read and checked as the main one (:func:`check_mjcf_size`,
+    its text is read and checked as the main one (:func:`mjcf_counts`,
     the bodies and joints of all files counted together), down to
     :data:`MAX_INCLUDE_DEPTH` levels.  Each asset file that exists must be
     a regular file of at most :data:`MAX_ASSET_BYTES` (a missing one is
@@ -521,7 +540,7 @@ def check_mjcf_files(path, text, where):
     folder = os.path.dirname(os.path.abspath(path))
     seen = {os.path.abspath(path)}
     pending = [(text, where, 0)]
-    combined = [text]
+    bodies, joints = counts
     while pending:
         text, source, depth = pending.pop()
         includes, assets, dirs = _mjcf_files(text)
@@ -534,7 +553,8 @@ def check_mjcf_files(path, text, where):
                 raise ValueError(f'{here} is more than {MAX_INCLUDE_DEPTH} includes deep')
             seen.add(os.path.abspath(included))
             body = read_text_file(included, here, MAX_DESCRIPTION_CHARS)
-            combined.append(body)
+            counted = mjcf_counts(body, where)
+            bodies, joints = bodies + counted[0], joints + counted[1]
             pending.append((body, here, depth + 1))
         for tag, name in assets:
             base = dirs.get(tag) or dirs.get('asset') or ''
@@ -542,17 +562,7 @@ def check_mjcf_files(path, text, where):
             if os.path.lexists(asset):
                 check_text_file(asset, f'{source}: <{tag} file={show_path(name)}>',
                                 MAX_ASSET_BYTES)
-    if len(combined) > 1:
-        bodies = joints = 0
-        for body in combined:
-            counted = mjcf_counts(body, where)
-            bodies, joints = bodies + counted[0], joints + counted[1]
-        if bodies > MAX_LINKS:
-            raise ValueError(f'{where} has {bodies} bodies with its included files, more '
-                             f'than the {MAX_LINKS} accepted')
-        if joints > MAX_JOINTS:
-            raise ValueError(f'{where} has {joints} joints with its included files, more '
-                             f'than the {MAX_JOINTS} accepted')
+    _check_counts((bodies, joints), where, ' with its included files')
 
 
 # MJCF elements whose ``file`` MuJoCo opens, and the <compiler> folder each is in.

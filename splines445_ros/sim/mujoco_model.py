@@ -32,8 +32,7 @@ from typing import Optional, Tuple
 import numpy as np
 
 from ..robot.mujoco_import import import_mujoco
-from ..robot.robot_model import (check_mjcf_files, check_mjcf_size, model_file_where,
-                                 read_description_file,
+from ..robot.robot_model import (check_mjcf, model_file_where, read_description_file,
                                  urdf_spec)
 from ..robot.user_text import clip, show, show_names, show_path
 
@@ -162,8 +161,7 @@ def _load_spec(mujoco, xml=None, path=None, text=None):
         spec = urdf_spec(mujoco, path, text)
         if spec is not None:
             return spec
-        check_mjcf_size(text, model_file_where(path))
-        check_mjcf_files(path, text, model_file_where(path))
+        check_mjcf(path, text, model_file_where(path))
     try:
         if path is not None:
             return mujoco.MjSpec.from_file(path)
