@@ -215,10 +215,7 @@ class ArmSimConfig(ValidatedConfig):
         if self.model_file:
             self._validate_model_file(n)
             return
-        if len(self.initial_positions) != n or not _finite(
-                self.initial_positions, -MAX_MAGNITUDE, MAX_MAGNITUDE):
-            raise ValueError(f'initial_positions must be {n} finite angles of magnitude at '
-                             f'most {MAX_MAGNITUDE:g}, got {show(self.initial_positions)}')
+        self._check_initial_positions(n)
         self._validate_common()
         self._validate_built_in()
         per_joint = (('torque_limits', 0.0, math.inf, True, 'positive'),
@@ -264,17 +261,21 @@ class ArmSimConfig(ValidatedConfig):
         """Return True when the arm carries a payload (its other values need a mass)."""
         return self.payload_mass > 0.0
 
+    def _check_initial_positions(self, n=None):
+        """Refuse initial_positions unless ``n`` (None: any number) finite, bounded angles."""
+        if not _finite(self.initial_positions, -MAX_MAGNITUDE, MAX_MAGNITUDE) or (
+                n is not None and len(self.initial_positions) != n):
+            raise ValueError(f'initial_positions must be {n or "one per joint"} finite angles '
+                             f'of magnitude at most {MAX_MAGNITUDE:g}, got '
+                             f'{show(self.initial_positions)}')
+
     def _validate_model_file(self, n=None):
         """With model_file: per-joint arrays one per joint, or unset (from the model)."""
         if len(set(self.joint_names)) != len(self.joint_names):
             raise ValueError(f'joint_names has duplicates: {show(self.joint_names)}')
         self._validate_common()
         if not self.from_model('initial_positions'):
-            if not _finite(self.initial_positions, -MAX_MAGNITUDE, MAX_MAGNITUDE) or (
-                    n is not None and len(self.initial_positions) != n):
-                raise ValueError(f'initial_positions must be {n or "one per joint"} finite '
-                                 f'angles of magnitude at most {MAX_MAGNITUDE:g}, got '
-                                 f'{show(self.initial_positions)}')
+            self._check_initial_positions(n)
         per_joint = (('torque_limits', MAX_KP * MAX_KD, 'in [0, inf) (0 = from the model)'),
                      ('kp', MAX_KP, f'in [0, {MAX_KP:g}] (0 = from the model)'),
                      ('kd', MAX_KD, f'in [0, {MAX_KD:g}] (0 = from the model)'))
