@@ -47,8 +47,11 @@ GOLDEN_STEPS = 10
 # largest few (so the reported maximum is exact even far below it).
 REFINE_FRACTION = 0.25
 ALWAYS_REFINED = 8
-# Edges shorter than this [m] are pure rotations: parameterised by time.
+# Edges shorter than this [m] are pure rotations: parameterised by how far the
+# tool has turned about the edge's axis, or by time where they turn less than
+# MIN_TURN [rad] too (a stop in place).
 MIN_EDGE_LENGTH = 1e-9
+MIN_TURN = 1e-9
 
 
 @dataclass(frozen=True)
@@ -104,14 +107,15 @@ class PathMeasure:
             self.quat0 = a[:, 3:]
             self.quat1 = b[:, 3:]
             self._matrices = has_transforms(kinematics)
+            # The slerp of edge e at s is R0 Rot(axis, s angle).
+            turn = rot.multiply(rot.conjugate(self.quat0), self.quat1)
+            turn = np.where(turn[:, :1] < 0.0, -turn, turn)
+            sine = np.linalg.norm(turn[:, 1:], axis=1)
+            self.angle = 2.0 * np.arctan2(sine, turn[:, 0])
+            self.axis = turn[:, 1:] / np.where(sine > 1e-15, sine, 1.0)[:, None]
             if self._matrices:
-                # The slerp of edge e at s is R0 Rot(axis, s angle): Rodrigues' terms.
-                turn = rot.multiply(rot.conjugate(self.quat0), self.quat1)
-                turn = np.where(turn[:, :1] < 0.0, -turn, turn)
-                sine = np.linalg.norm(turn[:, 1:], axis=1)
-                self.angle = 2.0 * np.arctan2(sine, turn[:, 0])
-                axis = turn[:, 1:] / np.where(sine > 1e-15, sine, 1.0)[:, None]
-                x, y, z = axis[:, 0], axis[:, 1], axis[:, 2]
+                # Rodrigues' terms of the slerp.
+                x, y, z = self.axis[:, 0], self.axis[:, 1], self.axis[:, 2]
                 zero = np.zeros_like(x)
                 self.skew = np.stack([np.stack([zero, -z, y], -1), np.stack([z, zero, -x], -1),
                                       np.stack([-y, x, zero], -1)], -2)
@@ -120,6 +124,7 @@ class PathMeasure:
         else:
             self.yaw0 = a[:, 2]
             self.dyaw = b[:, 2] - a[:, 2]
+            self.angle = np.abs(self.dyaw)
         n_edges = len(a)
         first = np.searchsorted(segment_edges, np.arange(n_edges), side='left')
         last = np.searchsorted(segment_edges, np.arange(n_edges), side='right')
@@ -136,23 +141,51 @@ class PathMeasure:
         pose = np.asarray(self.kinematics.forward(self.traj.evaluate(t)), dtype=float)
         p = pose[:, :2] - self.start[e]
         ab = self.direction[e]
-        s = self._edge_parameter(p, t, e)
+        s_time = self._time_fraction(t, e)
+        # On a pure rotation: how far the yaw has turned, unwrapped near the time's share.
+        turned = s_time * self.dyaw[e]
+        turned = turned + _wrap(pose[:, 2] - self.yaw0[e] - turned)
+        s_turn = turned / np.where(self.angle[e] > 0.0, self.dyaw[e], 1.0)
+        s = self._edge_parameter(p, s_time, s_turn, e)
         position = np.hypot(*(p - s[:, None] * ab).T)
         orientation = np.abs(_wrap(pose[:, 2] - self.yaw0[e] - s * self.dyaw[e]))
         return position, orientation, pose[:, :2]
 
-    def _edge_parameter(self, p, t, e):
+    def _time_fraction(self, t, e):
+        """Return the fraction of its edge's time at each time ``t`` (K,) on edges ``e``."""
+        span = self.edge_t1[e] - self.edge_t0[e]
+        return (t - self.edge_t0[e]) / np.where(span > 0.0, span, 1.0)
+
+    def _edge_parameter(self, p, s_time, s_turn, e):
         """
         Where on its edge each tool point is, in [0, 1]: ``p`` (K, d) from the edge start.
 
-        The projection on the edge; the fraction of the edge's time on an
-        edge too short to project on.
+        The projection on the edge.  On an edge too short to project on (a
+        pure rotation), the share ``s_turn`` (K,) of the edge's rotation the
+        tool has turned about the edge's axis, which follows the tool however
+        the trajectory is timed along the edge; the fraction ``s_time`` of the
+        edge's time where it does not turn either.
         """
         long_edge = self.length2[e] > MIN_EDGE_LENGTH**2
         s_line = np.sum(p * self.direction[e], axis=1) / np.where(long_edge, self.length2[e], 1.0)
-        span = self.edge_t1[e] - self.edge_t0[e]
-        s_time = (t - self.edge_t0[e]) / np.where(span > 0.0, span, 1.0)
-        return np.clip(np.where(long_edge, s_line, s_time), 0.0, 1.0)
+        s_rest = np.where(self.angle[e] > MIN_TURN, s_turn, s_time)
+        return np.clip(np.where(long_edge, s_line, s_rest), 0.0, 1.0)
+
+    def _turn_share(self, orientation, e):
+        """
+        Return the share (K,) of its edge's rotation the tool has turned about the edge's axis.
+
+        ``orientation`` (K, 3, 3) rotation matrices or (K, 4) quaternions of
+        the tool: the rotation vector of ``R0^T R`` along the edge's axis,
+        over the edge's angle (not used where that angle is below
+        :data:`MIN_TURN`).
+        """
+        if orientation.ndim == 3:
+            orientation = rot.from_matrix(orientation)
+        relative = rot.multiply(rot.conjugate(self.quat0[e]), orientation)
+        turned = rot.rotation_vector(relative)
+        return np.sum(turned * self.axis[e], axis=1) / np.where(
+            self.angle[e] > MIN_TURN, self.angle[e], 1.0)
 
     def _spatial(self, t, e):
         joints = self.traj.evaluate(t)
@@ -163,7 +196,8 @@ class PathMeasure:
             position = pose[:, :3]
         p = position - self.start[e]
         ab = self.direction[e]
-        s = self._edge_parameter(p, t, e)
+        s = self._edge_parameter(p, self._time_fraction(t, e),
+                                 self._turn_share(mat if self._matrices else pose[:, 3:], e), e)
         deviation = np.linalg.norm(p - s[:, None] * ab, axis=1)
         if not self._matrices:
             orientation = rot.angle_between(rot.slerp(self.quat0[e], self.quat1[e], s),

@@ -68,12 +68,19 @@ from .tool_lines import edge_geometry, LineUnreachable, plan_tool_lines
 from ..planning import merge_duplicates
 from ..planning.constraints import GravityOverload
 from ..planning.plan_options import PlanOptions, smoothing_windows
-from ..planning.planner import (joint_label, plan_with_options, position_limit_slack,
-                                within_position_limits)
+from ..planning.planner import (DUPLICATE_RTOL, joint_label, plan_with_options,
+                                position_limit_slack, within_position_limits)
 from ..planning.validation import waypoint_array
 from ..robot import rotations as rot
 
 DEFAULT_MAX_INSERTED = 200
+# Optimal timing's warm start after an insertion: the least share of its
+# segment's time a half gets (its joint chord can be 0 at the IK's
+# resolution, and a duration of 0 is refused).
+MIN_SPLIT_SHARE = 1e-3
+# The largest tool coordinate [m, and rad for a planar yaw] taken: far beyond
+# any arm's reach, and far below where a line's length or its samples overflow.
+MAX_COORDINATE = 1e6
 # 'tool lines': a tool waypoint within this share of both tolerances of the one
 # before is merged into it (_close_waypoints).
 MERGE_SHARE = 0.1
@@ -159,6 +166,8 @@ def tool_pose_array(poses):
     """
     Return tool poses as a finite (N, 3) or (N, 7) array, N >= 2.
 
+    Coordinates (and a planar yaw) of at most :data:`MAX_COORDINATE` in magnitude.
+
     Planar (x, y, yaw): yaw unwrapped.  Spatial (x, y, z, qw, qx, qy, qz):
     quaternions normalised and sign-continuous (neighbours' dot products >= 0).
     """
@@ -177,6 +186,12 @@ def tool_pose_array(poses):
         k, c = bad[0]
         raise ValueError(f'tool waypoint {k} has {components[c]} = {arr[k, c]}: '
                          'values must be finite')
+    far = np.argwhere(np.abs(arr[:, :3]) > MAX_COORDINATE)
+    if far.size:
+        k, c = far[0]
+        raise ValueError(f'tool waypoint {k} has {components[c]} = {arr[k, c]:.6g}: beyond '
+                         f'{MAX_COORDINATE:.0e} in magnitude (no arm reaches it, and the '
+                         'lines between waypoints would overflow)')
     if arr.shape[1] == 3:
         arr[:, 2] = np.unwrap(arr[:, 2])
         return arr
@@ -348,9 +363,9 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
         # Duplicates are merged by pose, which gives them the same joints.
         kept_index, waypoint_knots = _kept(n_req, merge_duplicates(request)[1])
         edge_poses = request[kept_index]
-        close = _close_waypoints(edge_poses, tol_position, tol_orientation)
+        close, passed_at = _close_waypoints(edge_poses, tol_position, tol_orientation)
         try:
-            found = _tool_lines(edge_poses[close], (np.cumsum(close) - 1)[waypoint_knots],
+            found = _tool_lines(edge_poses[close], passed_at[waypoint_knots],
                                 kinematics, (tol_position, tol_orientation), speeds,
                                 max_inserted, options, kept_index[close])
         except LineUnreachable as exc:
@@ -439,18 +454,26 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
 
 def _close_waypoints(poses, tol_position, tol_orientation):
     """
-    Return which tool waypoints (N,) the 'tool lines' keep: not those close to the one before.
+    Return which tool waypoints (N,) the 'tool lines' keep, and the kept one each is passed at.
 
     A waypoint within :data:`MERGE_SHARE` of both tolerances of the last one
     kept is passed within that share of them without being a waypoint of its
     own: a line of a few micrometres between two waypoints would be a stop
-    that the whole rest-to-rest spline slows down for.  The first and the
-    last waypoint are kept (the goal replaces a kept one close to it).
-    Without tolerances (inf) nothing is merged.
+    that the whole rest-to-rest spline slows down for.  A tolerance not
+    checked (inf) merges only round-off on its side: a waypoint that moves
+    the tool, or turns it, is kept however close it is in the other.  The first and
+    the last waypoint are kept (the goal replaces a kept one close to it,
+    and is then where the waypoints merged into that one are passed).
+    Returns (keep (N,) bool, owner (N,) the index among the kept waypoints
+    of the one each waypoint is passed at).
     """
-    limits = (MERGE_SHARE * tol_position, MERGE_SHARE * tol_orientation)
-    if not any(math.isfinite(v) for v in limits):
-        return np.ones(len(poses), dtype=bool)
+    checked = [math.isfinite(tol) for tol in (tol_position, tol_orientation)]
+    owner = np.arange(len(poses))
+    if not any(checked):
+        return np.ones(len(poses), dtype=bool), owner
+    # An unchecked side merges round-off only [m, rad].
+    limits = [MERGE_SHARE * tol if ok else DUPLICATE_RTOL
+              for tol, ok in zip((tol_position, tol_orientation), checked)]
     keep = [0]
     for i in range(1, len(poses)):
         a, b = poses[keep[-1]], poses[i]
@@ -458,12 +481,15 @@ def _close_waypoints(poses, tol_position, tol_orientation):
         if not (d[0] < limits[0] and theta[0] < limits[1]):
             keep.append(i)
         elif i == len(poses) - 1 and len(keep) > 1:
+            owner[owner == keep[-1]] = i
             keep[-1] = i
+        owner[i] = keep[-1]
     if len(keep) < 2:
         keep.append(len(poses) - 1)
+        owner[-1] = len(poses) - 1
     mask = np.zeros(len(poses), dtype=bool)
     mask[keep] = True
-    return mask
+    return mask, np.searchsorted(keep, owner)
 
 
 def _kept(count, dropped):
@@ -587,7 +613,11 @@ def _describe_inserted(bad, segment_edges, kept_index, new_knots):
 
 
 def _split_durations(durations, bad, joints):
-    """Split the durations of segments ``bad`` by the joint chords of their halves."""
+    """
+    Split the durations of segments ``bad`` by the joint chords of their halves.
+
+    Each half gets at least :data:`MIN_SPLIT_SHARE` of its segment's time.
+    """
     out = []
     bad_set = {int(b) for b in bad}
     k = 0  # knot index in the new list
@@ -596,6 +626,9 @@ def _split_durations(durations, bad, joints):
             c1 = np.linalg.norm(joints[k + 1] - joints[k])
             c2 = np.linalg.norm(joints[k + 2] - joints[k + 1])
             share = 0.5 if c1 + c2 <= 0.0 else c1 / (c1 + c2)
+            # A half whose joints do not move (an inserted knot on the one
+            # before, to the IK's resolution) still gets time: a start, not 0.
+            share = min(max(share, MIN_SPLIT_SHARE), 1.0 - MIN_SPLIT_SHARE)
             out += [duration * share, duration * (1.0 - share)]
             k += 2
         else:

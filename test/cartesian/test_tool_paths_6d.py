@@ -10,6 +10,7 @@ import math
 
 import numpy as np
 import pytest
+from scipy.optimize import minimize_scalar
 from scipy.spatial.transform import Rotation, Slerp
 from splines445_ros.cartesian.tool_paths import plan_tool_path
 from splines445_ros.robot import paper_example as pe
@@ -162,3 +163,91 @@ def test_a_tool_waypoint_out_of_reach_is_named_by_the_tool_lines_too(ur5):
     with pytest.raises(ValueError, match=r'tool waypoint 2 at \(x, y, z\) = \(2, .*out of reach'):
         plan_tool_path([good, good + [0.05, 0, 0, 0, 0, 0, 0], far], kin, MM, method='555',
                        timing='optimal', max_tool_speed=0.1, **UR5_LIMITS)
+
+
+def off_the_turn(fk, traj, start, goal):
+    """Largest angle [rad] at 1 kHz between the tool and the rotation from start to goal."""
+    first = Rotation.from_quat(start, scalar_first=True)
+    turn = (first.inv() * Rotation.from_quat(goal, scalar_first=True)).as_rotvec()
+    _, mat = fk(traj.evaluate(np.arange(0.0, traj.duration, 1e-3)))
+    worst = 0.0
+    for tool in Rotation.from_matrix(mat):
+        def away(s, tool=tool):
+            return ((first * Rotation.from_rotvec(s * turn)).inv() * tool).magnitude()
+        worst = max(worst, minimize_scalar(away, bounds=(0.0, 1.0), method='bounded',
+                                           options={'xatol': 1e-10}).fun)
+    return worst
+
+
+@pytest.mark.parametrize('method, timing', [('555', 'optimal'), ('434', 'optimal'),
+                                            ('445', 'uniform')])
+def test_a_turn_in_place_stays_on_its_rotation(ur5, method, timing):
+    """A pure rotation is measured by how far the tool has turned, however it is timed."""
+    kin, fk = ur5
+    start = kin.forward(np.array(vr.UR5_READY))
+    goal = start.copy()
+    goal[3:] = (Rotation.from_rotvec(math.radians(70) * np.array([0.3, 0.2, 0.93]))
+                * Rotation.from_quat(start[3:], scalar_first=True)).as_quat(scalar_first=True)
+    result = plan_tool_path([start, goal], kin, MM, DEG, method=method, timing=timing,
+                            **UR5_LIMITS)
+    traj = result.trajectory
+    position, _ = fk(traj.evaluate(np.arange(0.0, traj.duration, 1e-3)))
+    assert np.max(np.linalg.norm(position - start[:3], axis=1)) <= MM
+    angle = off_the_turn(fk, traj, start[3:], goal[3:])
+    assert angle <= DEG
+    assert result.max_orientation_deviation >= angle - 1e-6
+    _, at_goal = fk(traj.evaluate(np.array([traj.duration])))
+    goal_rotation = Rotation.from_quat(goal[3:], scalar_first=True)
+    assert (goal_rotation.inv() * Rotation.from_matrix(at_goal[0])).magnitude() < 1e-8
+
+
+@pytest.mark.parametrize('tolerances', [(None, DEG), (MM, None), (0.0, DEG), (MM, 0.0)])
+def test_one_tolerance_alone_never_skips_a_waypoint(ur5, tolerances):
+    """A waypoint 15 cm away, or turned 60 degrees in place, is passed with either unchecked."""
+    kin, fk = ur5
+    a = kin.forward(np.array(vr.UR5_READY))
+    moved, turned, last = a.copy(), a.copy(), a.copy()
+    moved[0] += 0.15
+    turned[:3] = moved[:3]
+    turned[3:] = (Rotation.from_euler('z', math.radians(60))
+                  * Rotation.from_quat(a[3:], scalar_first=True)).as_quat(scalar_first=True)
+    last[:3] = moved[:3] + [0.0, 0.15, 0.0]
+    last[3:] = turned[3:]
+    poses = np.array([a, moved, turned, last])
+    result = plan_tool_path(poses, kin, *tolerances, method='555', timing='optimal',
+                            **UR5_LIMITS)
+    traj = result.trajectory
+    passed = traj.waypoint_times[result.waypoint_knots]
+    position, mat = fk(traj.evaluate(passed))
+    np.testing.assert_allclose(position, poses[:, :3], atol=1e-8)
+    requested = Rotation.from_quat(poses[:, 3:], scalar_first=True)
+    np.testing.assert_allclose((requested.inv() * Rotation.from_matrix(mat)).magnitude(), 0.0,
+                               atol=1e-8)
+
+
+def test_a_waypoint_the_goal_replaces_is_passed_at_the_goal(ur5):
+    """A waypoint 20 micrometres before the goal is merged into it: passed there, not earlier."""
+    kin, fk = ur5
+    a = kin.forward(np.array(vr.UR5_READY))
+    b, goal = a.copy(), a.copy()
+    b[0] += 0.15
+    goal[:3] = b[:3] + [0.0, 2e-5, 0.0]
+    result = plan_tool_path([a, b, goal], kin, MM, DEG, method='555', timing='optimal',
+                            **UR5_LIMITS)
+    knots = result.waypoint_knots
+    assert knots[1] == knots[2] != knots[0]
+    traj = result.trajectory
+    position, _ = fk(traj.evaluate(traj.waypoint_times[knots]))
+    # Within the merging share (0.1) of the position tolerance of each.
+    np.testing.assert_allclose(position[1], b[:3], atol=0.1 * MM)
+    np.testing.assert_allclose(position[2], goal[:3], atol=1e-8)
+
+
+@pytest.mark.parametrize('method, timing', [('555', 'optimal'), ('445', 'uniform')])
+def test_a_coordinate_beyond_any_reach_is_refused_by_name(ur5, method, timing):
+    kin, _ = ur5
+    good = kin.forward(np.array(vr.UR5_READY))
+    far = good.copy()
+    far[0] = 1e300
+    with pytest.raises(ValueError, match=r'tool waypoint 1 has x = 1e\+300: beyond'):
+        plan_tool_path([good, far], kin, MM, DEG, method=method, timing=timing, **UR5_LIMITS)
