@@ -23,11 +23,12 @@ time_factor`).  A pose where gravity alone exceeds a limit holds it at no
 speed: :class:`constraints.GravityOverload`.
 
 The check of a finished trajectory samples it every :data:`CHECK_PERIOD`
-(1 kHz).  Between two samples the torque is a smooth function of time; the
-largest it can exceed the larger sampled neighbour by is ``h**2 / 8`` times
-its second derivative (h the period), which the check estimates from the
-samples' second differences and adds (:meth:`TorqueLimit.time_factor`).  A
-434 plan's jerk jumps at its knots, so its torque has a kink there, which
+(1 kHz; :data:`MIN_CHECK_SAMPLES` times at least).  Between two samples the
+torque is a smooth function of time; the largest it can exceed the larger
+sampled neighbour by is ``h**2 / 8`` times its second derivative (h the
+period), which the check estimates from the samples' second differences and
+adds (:meth:`TorqueLimit.time_factor`).  A 434 plan's jerk jumps at its
+knots, so its torque has a kink there, which
 no curvature bounds: its knots are samples too (the spacing uneven then).
 """
 
@@ -41,6 +42,11 @@ from ..spline.segments import sample_segments
 # Period [s] of the dense checks of a plan: the torque here, the tool speed in
 # cartesian.tool_lines, the demos' deviations (1 kHz, a servo rate).
 CHECK_PERIOD = 1e-3
+# Samples of a dense check at least, however short the plan: a plan of a few
+# milliseconds sampled 2-3 times at 1 kHz left the curvature estimate nothing
+# to work with, and its torque peaked 2 % over the limit between them
+# (helper-41).  Denser than 1 kHz only below 0.1 s.
+MIN_CHECK_SAMPLES = 100
 # Period [s] of TorqueLimit.factor_at_least's samples.
 COARSE_PERIOD = 1e-2
 # Most samples of one check (an hour at 1 kHz): a longer plan is refused
@@ -367,13 +373,15 @@ def check_times(duration, period, what):
     """
     Return the sample times of a check every ``period`` over ``duration``; ValueError if too many.
 
-    At most :data:`MAX_CHECK_SAMPLES`: ``what`` (e.g. "the torque") names
+    At least :data:`MIN_CHECK_SAMPLES` steps (denser on a short plan), at
+    most :data:`MAX_CHECK_SAMPLES`: ``what`` (e.g. "the torque") names
     the check in the error.
     """
     if not math.isfinite(duration) or duration / period > MAX_CHECK_SAMPLES:
         raise ValueError(f'the trajectory lasts {duration:.4g} s: {what} is checked every '
                          f'{period * 1e3:g} ms for at most {MAX_CHECK_SAMPLES * period:g} s')
-    return np.linspace(0.0, duration, max(3, int(math.ceil(duration / period)) + 1))
+    return np.linspace(0.0, duration,
+                       max(MIN_CHECK_SAMPLES, int(math.ceil(duration / period))) + 1)
 
 
 __all__ = ['check_times', 'CHECK_PERIOD', 'GravityOverload', 'SLOW_DOWN_ROUNDOFF', 'TorqueCheck',

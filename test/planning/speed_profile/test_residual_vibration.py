@@ -2,8 +2,11 @@
 
 import numpy as np
 import pytest
+from scipy.integrate import solve_ivp
 from scipy.signal import lsim
-from splines445_ros.planning.speed_profile.residual_vibration import residual_shares
+from splines445_ros.planning import plan
+from splines445_ros.planning.speed_profile.residual_vibration import (
+    DAMPING, residual_shares, trajectory_residual)
 
 
 @pytest.mark.parametrize('width', [0.05, 0.125, 0.2, 0.25, 0.4])
@@ -36,3 +39,26 @@ def test_shares_match_a_damped_oscillator_after_the_stop():
         swing = np.max(np.abs(y[t.size:])) * w * w / a[k]
         # The amplitude decays by exp(-zeta w / f) = 0.83 over that period at most.
         assert 0.8 * shares[k] <= swing <= 1.001 * shares[k] + 1e-6
+
+
+@pytest.mark.parametrize('frequency, move', [(44.7, 1.45e-7), (10.0, 1e-6), (20.0, 3e-7)])
+def test_a_plan_of_a_millisecond_reports_its_ringing(frequency, move):
+    """Sampled at its ends and middle, where it does not accelerate, it reported none."""
+    traj = plan(np.array([[0.0], [move]]), '555', 'optimal', speed_profile='time_optimal',
+                max_velocity=[0.19], max_acceleration=[0.589],
+                vibration_frequency=frequency, waypoint_tolerance=0.0)
+    assert traj.duration < 0.005
+    # The test's own oscillator, integrated over the plan; then its free ringing's amplitude.
+    w, damping = 2.0 * np.pi * frequency, DAMPING
+    damped = w * np.sqrt(1.0 - damping**2)
+
+    def motion(t, state):
+        return [state[1], -traj.evaluate(np.array([t]), 2)[0, 0] - 2.0 * damping * w * state[1]
+                - w * w * state[0]]
+
+    end = solve_ivp(motion, (0.0, traj.duration), [0.0, 0.0], rtol=1e-10, atol=1e-20,
+                    max_step=traj.duration / 2000).y[:, -1]
+    amplitude = np.hypot(end[0], (end[1] + damping * w * end[0]) / damped)
+    swing = amplitude * w * w / traj.limits.acceleration[0]
+    reported = trajectory_residual(traj, frequency, traj.limits.acceleration)
+    assert swing == pytest.approx(reported, rel=0.05)
