@@ -510,7 +510,8 @@ def _instead(options, traj, used, points):
 
     * empty for requests of more than :data:`SMALL_REQUEST` waypoints (the
       other plans cost up to seconds there, for a refusal more often than
-      not), where a moving end heads past a limit it sits on
+      not; but a time_optimal plan still gets "smoothed", the default plan,
+      cheaper than its own), where a moving end heads past a limit it sits on
       (:func:`_heads_past_a_limit`: no plan stays within), and for a
       "smoothed" plan with ``inner_knots`` or ``smoothing`` given (the
       others would silently ignore them) or with a ``vibration_frequency``
@@ -526,17 +527,21 @@ def _instead(options, traj, used, points):
       time_optimal, then the chord-length durations, last.
     """
     if (options.timing != 'optimal' or options.method != '555'
-            or points.shape[0] > SMALL_REQUEST or _heads_past_a_limit(points, options)):
+            or _heads_past_a_limit(points, options)):
         return []
+    large = points.shape[0] > SMALL_REQUEST
     # Not with a mode to cancel: the chord-length spline has no zero at it.
-    chords = [] if options.vibration_frequency else [(
+    chords = [] if options.vibration_frequency or large else [(
         replace(options, timing='uniform', speed_profile='smoothed', inner_knots=0,
                 inner_knots_auto=False),
         ': planned with timing "uniform" (chord-length durations) instead, slower')]
     if used == TIME_OPTIMAL:
+        # At any size: "smoothed" is the default plan, cheaper than time_optimal's own.
         return [(replace(options, speed_profile='smoothed'),
                  ': planned with speed_profile "smoothed" instead (within every limit, but '
                  'slower)')] + chords
+    if large:
+        return []
     if options.speed_profile == TIME_OPTIMAL:
         return chords       # time_optimal fell back to "smoothed" already
     if options.vibration_frequency:

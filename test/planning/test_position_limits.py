@@ -755,3 +755,47 @@ def test_time_optimal_past_a_limit_the_smoothed_plan_keeps_falls_back():
     with pytest.raises(ValueError, match=rf'joint {j} goes to .* at t = {t_high:.6g} s'):
         plan(points, '555', 'optimal', speed_profile='time_optimal', max_position=high,
              **limits)
+
+
+# 35 waypoints (13 after merging) whose time_optimal plan leaves its limits
+# while the default plan stays within (helper-41's fuzz, seed 74).
+LONG_TIME_OPTIMAL_PAST = (
+    [[-38.01402137275125, 9.652914240786261], [-37.997835555298074, 9.65911674711743],
+     [-37.99718608960342, 9.645986252261153], [-37.99718579817783, 9.645986802548917],
+     [-37.99718121343629, 9.645987041562368], [-37.997180534705805, 9.645987212982687],
+     [-37.99323224178029, 9.648380097186635], [-38.214277720620466, 9.488408115766033],
+     [-38.21314323987447, 9.487280524891036], [-38.21317550526614, 9.487254176180292],
+     [-38.21320023957092, 9.487235519164809], [-38.21352092356108, 9.487449111409287],
+     [-38.20738889066145, 9.335319828579612], [-38.2037409282116, 9.336628135733394],
+     [-38.20374293805875, 9.336624197097507], [-38.20367558392642, 9.3366875929538],
+     [-38.2033637121906, 9.33704574064785], [-38.20330172134921, 9.337097498063912],
+     [-38.197688588086116, 9.338881571814289], [-38.19768725260641, 9.338882049684996],
+     [-38.18666152164971, 9.330957782832737], [-38.186706051154786, 9.331022774029558],
+     [-38.186813065489254, 9.330840096910464], [-38.23006315782722, 9.34230910603562],
+     [-38.23006318760842, 9.342308842431631], [-38.229367044382066, 9.352863602243607],
+     [-38.229370403562264, 9.352887504710468], [-38.228505797665555, 9.353529760832656],
+     [-38.22850614264698, 9.353490868402739], [-38.22850392159529, 9.35362299270919],
+     [-38.23203529387366, 9.351487088211696], [-38.23206368804105, 9.351238083479071],
+     [-38.23206381683191, 9.351238533687669], [-38.23206420590419, 9.351238352385753],
+     [-38.23181152343865, 9.352124457354053]],
+    {'max_velocity': [2.8222909789076844, 1.4720757684820258],
+     'max_acceleration': [0.31480336887598764, 8.59042919862031],
+     'max_jerk': [2.4622707920106266, 24.17750833215414],
+     'min_position': [-38.235013177902154, 9.326788747155565],
+     'max_position': [-37.990283269782324, 9.66316809687233]})
+
+
+def test_time_optimal_past_a_limit_on_a_long_request_gives_way_to_the_default_plan():
+    """Above SMALL_REQUEST the other plans are not tried, but "smoothed", the default, is."""
+    points, kwargs = LONG_TIME_OPTIMAL_PAST
+    assert len(points) > planner.SMALL_REQUEST
+    low, high = np.array(kwargs['min_position']), np.array(kwargs['max_position'])
+    limits = {k: v for k, v in kwargs.items() if 'position' not in k}
+    assert leaves(plan(points, '555', 'optimal', speed_profile='time_optimal', **limits),
+                  low, high)
+    traj = plan(points, '555', 'optimal', speed_profile='time_optimal', **kwargs)
+    lowest, highest = sampled_range(traj)
+    assert np.all(lowest >= low - 1e-9) and np.all(highest <= high + 1e-9)
+    assert traj.optimizer['speed_profile_skipped'].startswith(
+        planner.LEAVES_POSITION_LIMITS.format('time_optimal'))
+    assert traj.duration == plan(points, '555', 'optimal', **kwargs).duration
