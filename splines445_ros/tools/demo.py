@@ -80,42 +80,50 @@ def run_paper_example(runs=PAPER_RUNS, recording=None):
                          arm_parameters=arm_parameters) as system:
         recorder = (None if recording is None
                     else McapRecording(system.client, recording, RECORDED_TOPICS))
-        if recorder is not None:
-            system.spin_until(lambda: all(
-                s.get_publisher_count() >= 1 for s in recorder.subscriptions), 10.0)
-        for method, timing in runs:
-            outcome = system.set_planner_parameters({'method': method, 'timing': timing})
-            if not all(r.successful for r in outcome):
-                raise RuntimeError(f'planner refused {method}/{timing}: {outcome}')
-            n_arm_status = len(system.arm_status)
-            status, trajectory = system.request(request)
-            if trajectory is None:
-                raise RuntimeError(f'{method}/{timing} failed: {status.message}')
-            values = status_values(status)
-            played, final = system.wait_until_played(n_arm_status, float(values['duration']))
-            tracking = _tracking_status(system, n_arm_status)
-            system.spin_for(0.05)
-            pose = system.tool_poses[-1].pose.position
-            start = int(status_values(system.arm_status[n_arm_status])['start_ns'])
-            settled = [s for s in system.joint_states if start <= stamp_ns(s)]
-            # The planner's plan, recomputed with the core for exact curves and peaks.
-            planned = plan(waypoints, method, timing, max_velocity=pe.MAX_VELOCITY,
-                           max_acceleration=pe.MAX_ACCELERATION, start_velocity=boundary[0],
-                           start_acceleration=boundary[1], end_velocity=boundary[2],
-                           end_acceleration=boundary[3])
-            positions = np.array([s.position for s in played + [final]])
-            results.append({'status': values, 'trajectory': trajectory, 'plan': planned,
-                            'joint_states': played, 'final_state': final,
-                            'tool_path': arm.forward(positions)[:, :2],
-                            'tool_end': (pose.x, pose.y),
-                            'tracking': tracking, 'start_ns': start, 'states': settled,
-                            'torque_limits': ArmSimConfig().torque_limits})
-        counts = {}
-        if recorder is not None:
-            system.spin_for(0.1)  # the last statuses
-            recorder.close()
-            counts = dict(recorder.counts)
-    return results, counts
+        try:
+            if recorder is not None:
+                system.spin_until(lambda: all(
+                    s.get_publisher_count() >= 1 for s in recorder.subscriptions), 10.0)
+            for method, timing in runs:
+                results.append(_run_once(system, request, waypoints, boundary, arm,
+                                         method, timing))
+            if recorder is not None:
+                system.spin_for(0.1)  # the last statuses
+        finally:
+            # A run that fails, or Ctrl-C, still leaves a finished, readable file.
+            if recorder is not None:
+                recorder.close()
+    return results, ({} if recorder is None else dict(recorder.counts))
+
+
+def _run_once(system, request, waypoints, boundary, arm, method, timing):
+    """Plan ``request`` with ``method``/``timing`` on the running system; return its result."""
+    outcome = system.set_planner_parameters({'method': method, 'timing': timing})
+    if not all(r.successful for r in outcome):
+        raise RuntimeError(f'planner refused {method}/{timing}: {outcome}')
+    n_arm_status = len(system.arm_status)
+    status, trajectory = system.request(request)
+    if trajectory is None:
+        raise RuntimeError(f'{method}/{timing} failed: {status.message}')
+    values = status_values(status)
+    played, final = system.wait_until_played(n_arm_status, float(values['duration']))
+    tracking = _tracking_status(system, n_arm_status)
+    system.spin_for(0.05)
+    pose = system.tool_poses[-1].pose.position
+    start = int(status_values(system.arm_status[n_arm_status])['start_ns'])
+    settled = [s for s in system.joint_states if start <= stamp_ns(s)]
+    # The planner's plan, recomputed with the core for exact curves and peaks.
+    planned = plan(waypoints, method, timing, max_velocity=pe.MAX_VELOCITY,
+                   max_acceleration=pe.MAX_ACCELERATION, start_velocity=boundary[0],
+                   start_acceleration=boundary[1], end_velocity=boundary[2],
+                   end_acceleration=boundary[3])
+    positions = np.array([s.position for s in played + [final]])
+    return {'status': values, 'trajectory': trajectory, 'plan': planned,
+            'joint_states': played, 'final_state': final,
+            'tool_path': arm.forward(positions)[:, :2],
+            'tool_end': (pose.x, pose.y),
+            'tracking': tracking, 'start_ns': start, 'states': settled,
+            'torque_limits': ArmSimConfig().torque_limits}
 
 
 def _tracking_status(system, n_arm_status, timeout=10.0):

@@ -102,3 +102,14 @@ def test_markers_trace_the_tool_through_the_waypoints(recorded):
         assert len(spheres.points) == len(waypoints)
         for point, q in zip(spheres.points, waypoints):
             assert (point.x, point.y) == pytest.approx(planar_tool(q), abs=1e-9)
+
+
+def test_a_run_that_fails_still_leaves_a_finished_file(tmp_path):
+    """A failing run (a method the planner refuses) after a good one: the good one is kept."""
+    path = str(tmp_path / 'failed.mcap')
+    with pytest.raises(RuntimeError, match='planner refused'):
+        run_paper_example((('555', 'optimal'), ('999', 'optimal')), recording=path)
+    messages = list(read_ros2_messages(path))
+    assert sum(m.channel.topic == '/joint_trajectory' for m in messages) == 1
+    with open(path, 'rb') as handle:
+        assert make_reader(handle).get_summary().statistics.message_count == len(messages)
