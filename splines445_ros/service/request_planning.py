@@ -36,6 +36,9 @@ SLOW_PLAN_FACTOR = 20.0
 # Resolution of time_from_start (builtin_interfaces/Duration) [s]: knots are
 # published at their times rounded to it.
 TIME_RESOLUTION = 1e-9
+# The longest trajectory a message holds [s]: builtin_interfaces/Duration's
+# seconds are an int32 (a longer time_from_start wraps round in transit).
+MAX_TIME_FROM_START = 2**31 - 1
 # The torque limits bind a plan whose peak torque reaches this share of a limit
 # (and more than any velocity, acceleration or jerk limit's share).
 TORQUE_BINDING = 0.999
@@ -226,8 +229,13 @@ def output_samples(config, traj):
     knots included), at its time rounded to the nanosecond with the spline's
     exact state there (see ``Trajectory.knots``).  Raises ValueError when
     there would be more than ``max_trajectory_points`` points (checked before
-    sampling) or when two knots are less than a nanosecond apart.
+    sampling), when two knots are less than a nanosecond apart, or when the
+    trajectory lasts longer than a message's ``time_from_start`` holds
+    (:data:`MAX_TIME_FROM_START`).
     """
+    if not traj.duration <= MAX_TIME_FROM_START:
+        raise ValueError(f'the trajectory lasts {traj.duration:.6g} s: more than a '
+                         f'time_from_start holds ({MAX_TIME_FROM_START} s, an int32)')
     if config.output == 'knots':
         n_points = traj.ppoly.x.size
         what = f'{n_points} knots'

@@ -25,12 +25,14 @@ and requires 1e-9 alone for 434 when the knots lie on the nanosecond grid.
 from hypothesis import assume, given, settings, strategies as st
 import numpy as np
 import pytest
+from rclpy.serialization import deserialize_message, serialize_message
 from splines445_ros.nodes.ros_conversions import sampled_trajectory_from_msg, trajectory_to_msg
 from splines445_ros.planning import plan
 from splines445_ros.robot import paper_example as pe
 from splines445_ros.service.planner_config import PlannerConfig
 from splines445_ros.service.request_planning import output_samples
 from splines445_ros.tools.plot_trajectory import controller_view
+from trajectory_msgs.msg import JointTrajectory
 
 NANOS = 1_000_000_000
 METHODS = ['434', '445', '555']
@@ -315,6 +317,24 @@ def test_output_is_validated_and_knots_count_against_max_trajectory_points():
     # The same limit with samples: 0.01 s over about 3.3 s is about 336 points.
     with pytest.raises(ValueError, match='sample_period'):
         output_samples(PlannerConfig(max_trajectory_points=12), traj)
+
+
+@pytest.mark.parametrize('vmax', [3e-9, 1e-12])
+def test_a_plan_longer_than_a_time_from_start_holds_is_refused(vmax):
+    """int32 seconds (68 years): a longer time_from_start wrapped round in transit."""
+    traj = plan(np.array([[0.0], [10.0]]), '445', 'uniform', max_velocity=[vmax],
+                max_acceleration=[vmax])
+    assert traj.duration > 2**31
+    with pytest.raises(ValueError, match='more than a time_from_start holds'):
+        output_samples(PlannerConfig(output='knots'), traj)
+    # Within int32 seconds the last point's time is the duration, as serialised.
+    short = plan(np.array([[0.0], [10.0]]), '445', 'uniform', max_velocity=[1e-8],
+                 max_acceleration=[1e-8])
+    assert short.duration < 2**31
+    last = serialize_message(trajectory_to_msg(output_samples(PlannerConfig(output='knots'),
+                                                              short), ['j']))
+    point = deserialize_message(last, JointTrajectory).points[-1].time_from_start
+    assert point.sec + 1e-9 * point.nanosec == pytest.approx(short.duration, abs=1e-6)
 
 
 def test_plot_trajectory_shows_the_controllers_motion_between_knots():
