@@ -393,17 +393,18 @@ class PlannerNode(Node):
                 continue
             if not isinstance(job, PlanJob):
                 job = PlanJob(job)  # a waypoints or tool_waypoints message
-            if job.kind == 'stop':
-                outcome = self._serve_stop(job)
-            else:
+            stop = job.kind == 'stop'
+            if not stop:
                 self._request_count += 1
-                try:
-                    outcome = self._serve(job, self._request_count)
-                except Exception as exc:  # noqa: B902 - a request must never kill the node
-                    message = f'internal error: {type(exc).__name__}: {exc}'
-                    self._report(False, message, {'request': self._request_count})
-                    self.get_logger().error(traceback.format_exc())
-                    outcome = PlanOutcome(False, message, {'request': self._request_count})
+            try:
+                outcome = (self._serve_stop(job) if stop
+                           else self._serve(job, self._request_count))
+            except Exception as exc:  # noqa: B902 - a request must never kill the node
+                message = f'internal error: {type(exc).__name__}: {exc}'
+                values = {} if stop else {'request': self._request_count}
+                self._report(False, ('stop: ' if stop else '') + message, values)
+                self.get_logger().error(traceback.format_exc())
+                outcome = PlanOutcome(False, message, values)
             if job.done is not None:
                 try:
                     job.done(outcome)

@@ -21,7 +21,7 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from splines445_interfaces.action import FollowWaypoints
 from splines445_interfaces.srv import Plan
-from splines445_ros.nodes import topics
+from splines445_ros.nodes import planner_node, topics
 from splines445_ros.nodes.diagnostics import status_values
 from splines445_ros.nodes.ros_conversions import duration_to_seconds
 from splines445_ros.planning import plan
@@ -436,3 +436,22 @@ def test_markers_follow_every_plan(system):
     first = system.markers[-1].markers[1].points[0]
     assert (first.x, first.y) == pytest.approx(planar_tool(W[-1]), abs=1e-9)
     assert status_values(system.planner_status[-1])['request']
+
+
+def test_a_stop_that_fails_unexpectedly_leaves_the_node_serving(system, monkeypatch):
+    """An unexpected error while planning a stop is reported; the worker serves the next."""
+    node = system.planner
+
+    def broken(job):
+        raise RuntimeError('broken stop')
+    monkeypatch.setattr(node, '_serve_stop', broken)
+    job = node.plan_job(None, {}, kind='stop', interface='test')
+    outcomes = []
+    job.done = outcomes.append
+    node._stops.append(job)
+    node._requests.put(planner_node._WAKE)    # the worker takes the stop first
+    assert system.spin_until(lambda: outcomes, 10.0)
+    assert not outcomes[0].ok
+    assert 'internal error: RuntimeError: broken stop' in outcomes[0].message
+    response = call(system, plan_request())
+    assert response.success, response.message
