@@ -142,6 +142,15 @@ class LineUnreachable(ValueError):
         super().__init__(f'line {edge} leaves the reach of the arm: {reason}')
 
 
+class LineOutOfTolerance(ValueError):
+    """Line ``edge`` (from waypoint ``edge``) stays out of the tolerances: ``reason`` says how."""
+
+    def __init__(self, edge, reason):
+        """Record the edge and the reason."""
+        self.edge, self.reason = edge, reason
+        super().__init__(f'line {edge}: {reason}')
+
+
 @dataclass(frozen=True)
 class ToolLines:
     """What :func:`plan_tool_lines` found: the trajectory and its figures."""
@@ -500,14 +509,18 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
         if bad.size == 0:
             break
         if inserted + bad.size > budget:
-            raise ValueError(f'the tool path needs more than max_inserted = {max_inserted} '
-                             f'knots to stay within the tolerances')
+            raise LineOutOfTolerance(
+                int(piece_edges[bad[np.argmax(excess[bad])]]),
+                f'the tool path needs more than max_inserted = {max_inserted} knots to stay '
+                f'within the tolerances ({float(np.max(excess)):.3g} times them there)')
         fractions = midpoint_fractions(timing.fractions, bad)
         inserted += int(sum(f.size for f in fractions) - sum(f.size for f in timing.fractions))
         timing = plan_along_path(path, limits, fractions, timing.local)
     else:
-        raise ValueError(f'the tool path is still {float(np.max(excess)):.3g} times its '
-                         f'tolerance after {MAX_ROUNDS} rounds of knot insertion')
+        raise LineOutOfTolerance(
+            int(piece_edges[np.argmax(excess)]),
+            f'the tool path is still {float(np.max(excess)):.3g} times its tolerance after '
+            f'{MAX_ROUNDS} rounds of knot insertion')
     if speeds:
         timing, more, measured = _unbound(timing, path, limits, check, measure, tolerances)
         inserted += more

@@ -64,7 +64,7 @@ import numpy as np
 
 from .path_deviation import Deviation, PathMeasure, tolerance_excess
 from .tool_kinematics import declared_joint_count, refused_pose
-from .tool_lines import edge_geometry, LineUnreachable, plan_tool_lines
+from .tool_lines import edge_geometry, LineOutOfTolerance, LineUnreachable, plan_tool_lines
 from ..planning import merge_duplicates
 from ..planning.constraints import GravityOverload
 from ..planning.plan_options import PlanOptions, smoothing_windows
@@ -555,6 +555,11 @@ def _tool_lines(edge_poses, waypoint_knots, kinematics, tolerances, speeds, max_
         raise
     except GravityOverload:
         raise
+    except LineOutOfTolerance as exc:
+        if any(speeds):
+            raise ValueError(f'the line from tool waypoint {names[exc.edge]} to '
+                             f'{names[exc.edge + 1]}: {exc.reason}') from None
+        return None
     except ValueError:
         if any(speeds):
             raise

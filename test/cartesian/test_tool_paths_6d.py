@@ -251,3 +251,13 @@ def test_a_coordinate_beyond_any_reach_is_refused_by_name(ur5, method, timing):
     far[0] = 1e300
     with pytest.raises(ValueError, match=r'tool waypoint 1 has x = 1e\+300: beyond'):
         plan_tool_path([good, far], kin, MM, DEG, method=method, timing=timing, **UR5_LIMITS)
+
+
+def test_a_line_the_tool_lines_cannot_keep_within_is_named(ur5):
+    """With a tool speed the tool lines' error is raised: it names the line, by waypoints."""
+    kin, _ = ur5
+    poses = seam(kin, vr.UR5_READY, UR5_SEAM, 0.15)
+    with pytest.raises(ValueError, match=r'the line from tool waypoint \d to \d: the tool path '
+                                         r'needs more than max_inserted = 1 knots'):
+        plan_tool_path(poses, kin, 1e-7, DEG, method='555', timing='optimal',
+                       max_tool_speed=0.1, max_inserted=1, **UR5_LIMITS)
