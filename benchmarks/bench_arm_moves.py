@@ -19,15 +19,16 @@ j = 10 a), no torque limit:
   spline), also with ``vibration_frequency=4`` (the mode's ringing after
   the stop cancelled by the profile, ``planning/speed_profile/residual_vibration.py``);
 * TOPP-RA: as in ``bench_inner_knots`` (``bench_planning.toppra_trajectory``:
-  toppra's spline through the waypoints, v/a, its default grid; no jerk
-  limit).
+  toppra's chord spline through the waypoints, v/a, its default grid; no
+  jerk limit).
 
 Every row gives the figures of ``bench_figures.py`` (duration, duration over
 TOPP-RA along our own path, that one over TOPP-RA, shaking at 4 and 8 Hz
 peak and residual, planning time; each over TOPP-RA's on the same path),
-median / worst over the arm's paths.  Planning times: best of
-:data:`REPEATS`, TOPP-RA's, the default's and time_optimal's in turn (the
-``vibration_frequency`` plans once each).  Then, per arm, what a speed
+median / worst over the arm's paths, and whether the plan held every limit
+on all of them.  Planning times: each plan and TOPP-RA in turn, best of
+:data:`REPEATS` each (``wall_time.timed_against``: each ratio's two times
+from the same rounds).  Then, per arm, what a speed
 profile alone could reach on the path the construction starts from
 (:func:`profile_bounds`: the natural cubic through the waypoints at their
 rest-to-rest times, step 1 of ``planning/path_following/inner_knots.py``), over TOPP-RA's
@@ -36,7 +37,8 @@ fastest v/a/j one that the sequential LPs of ``planning/speed_profile/jerk_profi
 find (their jerk rows are conservative: a profile that holds the jerk
 limits on the grid, not a lower bound).  Their ratio is the price of the
 jerk limit on that path; our duration over the v/a/j one is what the
-spline and its rounds give away beyond it.
+spline and its rounds give away beyond it.  Paths where the sequential LPs
+find no v/a/j profile are left out of its columns, and counted.
 
 Usage: ``python benchmarks/bench_arm_moves.py``; ``SPLINES445_BENCH_SEED``
 repeats a run, ``SPLINES445_BENCH_CASES`` sets the paths per arm,
@@ -64,7 +66,7 @@ from splines445_ros.planning.speed_profile.jerk_profile import ThirdOrderProfile
 from splines445_ros.planning.speed_profile.path_velocity import (  # noqa: E402
     PathLimits, traversal_times)
 from splines445_ros.planning.spline.limits import JointLimits  # noqa: E402
-from wall_time import best_of, interleaved_best_of  # noqa: E402
+from wall_time import timed_against  # noqa: E402
 
 CASES = 10
 REPEATS = 3
@@ -111,33 +113,29 @@ def profile_bounds(path, s, limits):
 
 
 def run_case(arm, points):
-    """Return {plan name: figures} and whether every plan held its limits, on one path."""
+    """Return {plan name: figures} and {plan name: whether it held its limits}, on one path."""
     limits = arm.plan_limits()
     vmax, amax = limits['max_velocity'], limits['max_acceleration']
-    (t_top, top), (t_ours, ours), (optimal_time, optimal) = interleaved_best_of((
-        lambda: toppra_trajectory(points, vmax, amax),
-        lambda: plan(points, '555', 'optimal', **limits),
-        lambda: plan(points, '555', 'optimal', speed_profile='time_optimal', **limits)),
-        REPEATS)
-    shaped_time, shaped = best_of(
-        lambda: plan(points, '555', 'optimal', vibration_frequency=VIBRATION_FREQUENCY,
-                     **limits), 1)
-    cancelled_time, cancelled = best_of(
-        lambda: plan(points, '555', 'optimal', vibration_frequency=VIBRATION_FREQUENCY,
-                     speed_profile='time_optimal', **limits), 1)
+    options = ({}, {'vibration_frequency': VIBRATION_FREQUENCY},
+               {'speed_profile': 'time_optimal'},
+               {'speed_profile': 'time_optimal', 'vibration_frequency': VIBRATION_FREQUENCY})
+    timed = {name: timed_against(lambda: toppra_trajectory(points, vmax, amax),
+                                 lambda: plan(points, '555', 'optimal', **more, **limits),
+                                 REPEATS)
+             for name, more in zip(PLANS, options)}
+    top = timed[PLANS[0]][0][1]
+    ours = timed[PLANS[0]][1][1]
     reference = shaking_figures(of_toppra(top), top.duration, amax)
     joint = JointLimits.from_user(points.shape[1], vmax, amax, limits['max_jerk'])
     bounds = np.array(profile_bounds(
         *construction_path(rest_to_rest_knots(points, joint), points), joint))
-    figures, held = {'bounds': list(bounds / top.duration) + [ours.duration / bounds[1]]}, True
-    for name, traj, elapsed in ((PLANS[0], ours, t_ours), (PLANS[1], shaped, shaped_time),
-                                (PLANS[2], optimal, optimal_time),
-                                (PLANS[3], cancelled, cancelled_time)):
+    figures, held = {'bounds': list(bounds / top.duration) + [ours.duration / bounds[1]]}, {}
+    for name, ((t_top, _), (elapsed, traj)) in timed.items():
         own = own_path.toppra_along(traj, own_path.velocity_acceleration(vmax, amax))
         figures[name] = bench_figures.figures(traj.duration, own.duration, top.duration,
                                               shaking_ratios(traj, reference, amax), elapsed,
                                               t_top)
-        held &= traj.within_limits(rtol=1e-9)
+        held[name] = traj.within_limits(rtol=1e-9)
     return figures, held
 
 
@@ -146,39 +144,40 @@ def main():
     seed, cases, arms = bench_arms.start_run(CASES)
     print(f"{cases} random joint paths per arm (seed {seed}, the arm's stream), the arm's "
           'v/a/j limits, no torque; each plan over TOPP-RA (v/a, no jerk) on the same path; '
-          f'planning times best of {REPEATS}, in turn (the vibration_frequency plans: '
-          'once); median / worst')
-    print('| arm | j / a | plan | ' + bench_figures.header() + ' | limits held |')
+          f'planning times best of {REPEATS}, each plan and TOPP-RA in turn; median / worst')
+    print('| arm | j / a | plan | ' + bench_figures.header() + ' | limits held (every path) |')
     print(bench_figures.rule(4 + len(bench_figures.NAMES)))
     bounds = {}
     for arm in arms:
         paths = arm_paths(arm, cases)
         rows = {name: [] for name in PLANS + ('bounds',)}
-        held = True
+        held = dict.fromkeys(PLANS, True)
         for points in paths:
             figures, ok = run_case(arm, points)
-            held &= ok
+            for name in PLANS:
+                held[name] &= ok[name]
             for name in rows:
                 rows[name].append(figures[name])
         bounds[arm.name] = np.array(rows['bounds'])
         ratio = np.median(arm.jerk / arm.acceleration)
         for name in PLANS:
             print(f'| {arm.name} | {ratio:g} | {name} | {bench_figures.summary(rows[name])} '
-                  f'| {held} |')
+                  f'| {held[name]} |')
         sys.stdout.flush()
     print()
     print("Speed profiles alone on the construction's first path (the natural cubic at the "
           'rest-to-rest times), median / worst over the paths: ÷ TOPP-RA, and the default ÷ '
           'the v/a/j profile')
     print('| arm | v/a profile ÷ TOPP-RA | v/a/j profile ÷ TOPP-RA | v/a/j ÷ v/a (the jerk '
-          'limit) | default ÷ v/a/j profile |')
-    print(bench_figures.rule(5))
+          'limit) | default ÷ v/a/j profile | paths without a v/a/j profile (left out) |')
+    print(bench_figures.rule(6))
     for name, rows in bounds.items():
         cells = [f'{np.nanmedian(rows[:, k]):.3f} / {np.nanmax(rows[:, k]):.3f}'
                  for k in range(2)]
         price = rows[:, 1] / rows[:, 0]
         cells.append(f'{np.nanmedian(price):.3f} / {np.nanmax(price):.3f}')
         cells.append(f'{np.nanmedian(rows[:, 2]):.3f} / {np.nanmax(rows[:, 2]):.3f}')
+        cells.append(f'{int(np.sum(np.isnan(rows[:, 1])))} of {len(rows)}')
         print(f'| {name} | ' + ' | '.join(cells) + ' |')
     return 0
 

@@ -1,12 +1,13 @@
 """
 The figures every row of the issue 38 benches prints, each a plan's over TOPP-RA's on its case.
 
-:data:`NAMES`: the duration over TOPP-RA's (on its own spline through the
-waypoints, or the bench's rival); over TOPP-RA's along our own path
+:data:`NAMES`: the duration over TOPP-RA's (on its chord spline through the
+waypoints, ``own_path.chord_spline``, or the bench's rival); over TOPP-RA's along our own path
 (:mod:`own_path`: what the speed profile gives away); TOPP-RA along our path
 over TOPP-RA (what the path gains or loses); the shaking of a lightly damped
 mode at 4 and 8 Hz, peak while moving and residual after the end
-(:mod:`shaking`); the planning time over TOPP-RA's.  :func:`summary` gives
+(:mod:`shaking`); the planning time over TOPP-RA's (the two timed in the
+same rounds: ``wall_time.timed_against``).  :func:`summary` gives
 median and worst (the largest: every figure is better smaller) over the
 cases of one row.
 """

@@ -4,14 +4,15 @@ Free inner knots (issue 17): 555 optimal timing against TOPP-RA, one run.
 20 random rest-to-rest requests (fresh every run, the seed printed first:
 ``bench_seeds.py``; 5 to 50 waypoints, 3 to 7 joints, v in [1, 3] rad/s and
 a in [5, 15] rad/s^2 per joint).  For each: TOPP-RA's duration and planning
-time (toppra, v/a limits only, its own spline path through the waypoints,
-default grid), the lower bound LB of the issue, and 555 optimal with knots
-at the waypoints only (``inner_knots=0``, before the issue) and with inner
-knots (the default), for no jerk limit, j = 20 a and j = 5 a, plus the
-default with ``vibration_frequency=4`` and ``speed_profile='time_optimal'``
-(``planning/path_following/time_optimal.py``) with no jerk limit and at j = 20 a, and
-time_optimal with ``vibration_frequency=4`` (the mode's ringing after the
-stop cancelled by its profile, ``planning/speed_profile/residual_vibration.py``).
+time (toppra, v/a limits only, its chord spline through the waypoints,
+``own_path.chord_spline``, default grid), the lower bound LB of the issue,
+and 555 optimal with knots at the waypoints only (``inner_knots=0``,
+before the issue) and with inner knots (the default), for no jerk limit,
+j = 20 a and j = 5 a, plus the default with ``vibration_frequency=4`` and
+``speed_profile='time_optimal'`` (``planning/path_following/time_optimal.py``)
+with no jerk limit and at j = 20 a, and time_optimal with
+``vibration_frequency=4`` (the mode's ringing after the stop cancelled by
+its profile, ``planning/speed_profile/residual_vibration.py``).
 
 Every plan's figures (issue 38, ``bench_figures.py``), each over TOPP-RA's
 on the same case: the duration; the duration over TOPP-RA's along our own
@@ -20,10 +21,13 @@ path of our plan, re-parameterised by arc length: what the speed profile
 alone gives away) and that TOPP-RA over TOPP-RA (what our path gains); the
 shaking of a lightly damped mode at 4 and 8 Hz on every joint
 (``shaking.py``: peak while moving and residual after the end); the
-planning time.  The summary gives medians and worst cases over the cases
-and whether every limit held (exact peaks).  Then the paper's example (its
-boundary values); the same figures at 100 x 7 and 1000 x 7, each timed in
-turn in this run; last, the planning time of small requests (3 x 3 to
+planning time (each plan and TOPP-RA on its request in turn, best of
+:data:`REPEATS` each: ``wall_time.timed_against``; a case's TOPP-RA
+planning time printed is the best of all its calls).  The summary gives
+medians and worst cases over the cases and whether every limit held (exact
+peaks).  Then the paper's example (its boundary values); the same figures
+at 100 x 7 and 1000 x 7, each timed in turn with TOPP-RA, best of
+:data:`REPEATS`; last, the planning time of small requests (3 x 3 to
 30 x 7) against TOPP-RA's, each the best of several calls made in turn,
 with the durations over TOPP-RA's.
 
@@ -35,7 +39,6 @@ plan()'s); ``SPLINES445_BENCH_SEED=<seed>`` repeats a run,
 import logging
 import os
 import sys
-import time
 from types import SimpleNamespace
 
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but the rule holds
@@ -48,6 +51,7 @@ import own_path  # noqa: E402, I100
 from shaking import of_toppra, shaking_figures, shaking_ratios  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
 from splines445_ros.robot import paper_example as pe  # noqa: E402
+from wall_time import best_of, timed_against  # noqa: E402
 
 N_CASES = 20
 JERK_RATIOS = (None, 20.0, 5.0)
@@ -58,19 +62,14 @@ VIBRATION_FREQUENCY = 4.0
 OPTIMAL_JERK_RATIOS = (None, 20.0)
 # Random streams of the run's seed (bench_seeds.generator).
 CASES_STREAM, LARGE_STREAM, SMALL_STREAM = 0, 1, 2
+# Rounds of a plan and TOPP-RA in turn, best of each (wall_time.timed_against).
+REPEATS = 3
 
 
 def shaking_row(traj, elapsed, reference, d_top, t_top, amax):
     """Duration, :func:`shaking_ratios` and planning time of ``traj``, each / TOPP-RA's."""
     return ([traj.duration / d_top] + shaking_ratios(traj, reference, amax)
             + [elapsed / t_top])
-
-
-def timed(func):
-    """Wall time [s] of one call and its result."""
-    started = time.perf_counter()
-    result = func()
-    return time.perf_counter() - started, result
 
 
 def rest_to_rest_time(distance, vmax, amax):
@@ -115,12 +114,38 @@ def label(ratio):
     return 'no jerk limit' if ratio is None else f'j = {ratio:g} a'
 
 
-def plan_figures(traj, elapsed, case):
-    """Return the :data:`bench_figures.NAMES` figures of one of our plans on ``case``."""
+def plan_figures(traj, elapsed, t_top, case):
+    """
+    Return the :data:`bench_figures.NAMES` figures of one of our plans on ``case``.
+
+    ``elapsed`` and ``t_top``: its planning time and TOPP-RA's, timed in
+    the same rounds (:func:`against_toppra`).
+    """
     own = own_path.toppra_along(traj, own_path.velocity_acceleration(case.vmax, case.amax))
     return bench_figures.figures(traj.duration, own.duration, case.d_top,
                                  shaking_ratios(traj, case.reference, case.amax), elapsed,
-                                 case.t_top)
+                                 t_top)
+
+
+def toppra_case(waypoints, vmax, amax):
+    """Return TOPP-RA's figures on a request (``t_tops``: its planning times, filled later)."""
+    top = toppra_trajectory(waypoints, vmax, amax)
+    return SimpleNamespace(waypoints=waypoints, vmax=vmax, amax=amax, d_top=top.duration,
+                           t_tops=[],
+                           reference=shaking_figures(of_toppra(top), top.duration, amax))
+
+
+def against_toppra(case, func):
+    """
+    Return (our planning time, TOPP-RA's, our plan): ``func`` and TOPP-RA in turn.
+
+    Best of :data:`REPEATS` each (``wall_time.timed_against``); TOPP-RA's
+    time is also kept in ``case.t_tops``.
+    """
+    (t_top, _), (elapsed, traj) = timed_against(
+        lambda: toppra_trajectory(case.waypoints, case.vmax, case.amax), func, REPEATS)
+    case.t_tops.append(t_top)
+    return elapsed, t_top, traj
 
 
 def main():
@@ -154,41 +179,39 @@ def main():
     bounds = []
     for index in range(n_cases):
         waypoints, vmax, amax = random_case(rng)
-        t_top, top = timed(lambda: toppra_trajectory(waypoints, vmax, amax))
-        case = SimpleNamespace(vmax=vmax, amax=amax, d_top=top.duration, t_top=t_top,
-                               reference=shaking_figures(of_toppra(top), top.duration, amax))
+        case = toppra_case(waypoints, vmax, amax)
         bounds.append(lower_bound(waypoints, vmax, amax) / case.d_top)
         cells = []
         for ratio in JERK_RATIOS:
             kwargs = {'max_velocity': vmax, 'max_acceleration': amax,
                       'max_jerk': None if ratio is None else ratio * amax}
-            plans = [(f'inner_knots=0, {label(ratio)}',) + timed(
-                lambda: plan(waypoints, '555', 'optimal', inner_knots=0, **kwargs))]
-            plans.append((f'inner_knots={name}, {label(ratio)}',) + timed(
-                lambda: plan(waypoints, '555', 'optimal', inner_knots=inner, **kwargs)))
+            plans = [(f'inner_knots=0, {label(ratio)}',) + against_toppra(
+                case, lambda: plan(waypoints, '555', 'optimal', inner_knots=0, **kwargs))]
+            plans.append((f'inner_knots={name}, {label(ratio)}',) + against_toppra(
+                case, lambda: plan(waypoints, '555', 'optimal', inner_knots=inner, **kwargs)))
             if ratio == SHAKING_JERK:
-                plans.append((shaped_name,) + timed(
-                    lambda: plan(waypoints, '555', 'optimal', inner_knots=inner,
-                                 vibration_frequency=VIBRATION_FREQUENCY, **kwargs)))
-                plans.append((cancelled_name,) + timed(
-                    lambda: plan(waypoints, '555', 'optimal', speed_profile='time_optimal',
-                                 vibration_frequency=VIBRATION_FREQUENCY, **kwargs)))
+                plans.append((shaped_name,) + against_toppra(
+                    case, lambda: plan(waypoints, '555', 'optimal', inner_knots=inner,
+                                       vibration_frequency=VIBRATION_FREQUENCY, **kwargs)))
+                plans.append((cancelled_name,) + against_toppra(
+                    case, lambda: plan(waypoints, '555', 'optimal', speed_profile='time_optimal',
+                                       vibration_frequency=VIBRATION_FREQUENCY, **kwargs)))
             if ratio in optimal_names:
-                plans.append((optimal_names[ratio],) + timed(
-                    lambda: plan(waypoints, '555', 'optimal', speed_profile='time_optimal',
-                                 **kwargs)))
-            for row, elapsed, traj in plans:
-                rows[row].append(plan_figures(traj, elapsed, case))
+                plans.append((optimal_names[ratio],) + against_toppra(
+                    case, lambda: plan(waypoints, '555', 'optimal', speed_profile='time_optimal',
+                                       **kwargs)))
+            for row, elapsed, t_top, traj in plans:
+                rows[row].append(plan_figures(traj, elapsed, t_top, case))
                 held[row] &= traj.within_limits(rtol=1e-9)
             before, after = rows[plans[0][0]][-1], rows[plans[1][0]][-1]
             cells.append(f'{before[0]:.3f} ({before[-1]:.2f}) -> {after[0]:.3f} '
                          f'({after[-1]:.2f}), own path {after[1]:.3f}')
         print(f'| {index} | {len(waypoints)} x {waypoints.shape[1]} | {case.d_top:.2f} '
-              f'({t_top:.3f}) | {bounds[-1]:.3f} | ' + ' | '.join(cells) + ' |')
+              f'({min(case.t_tops):.3f}) | {bounds[-1]:.3f} | ' + ' | '.join(cells) + ' |')
         sys.stdout.flush()
     print()
     print(f'Every plan / TOPP-RA on the same case, medians and worst (largest) over the '
-          f'{n_cases} cases (TOPP-RA: its spline through the waypoints; along our path: '
+          f'{n_cases} cases (TOPP-RA: its chord spline through the waypoints; along our path: '
           'benchmarks/own_path.py; shaking: peak while moving, residual after the end, '
           f'benchmarks/shaking.py); LB / TOPP-RA median {np.median(bounds):.3f}')
     print('| plan | ' + bench_figures.header() + ' | all limits held (exact peaks) |')
@@ -200,8 +223,8 @@ def main():
     for knots in (0, inner):
         times = []
         for _ in range(5):
-            elapsed, traj = timed(lambda: plan(pe.joint_waypoints(), '555', 'optimal',
-                                               inner_knots=knots, **kwargs))
+            elapsed, traj = best_of(lambda: plan(pe.joint_waypoints(), '555', 'optimal',
+                                                 inner_knots=knots, **kwargs), 1)
             times.append(elapsed)
         print(f"Paper's example (its boundary values), 555 optimal, inner_knots="
               f"{'default' if knots is None else knots}: {traj.duration:.4f} s, planned in "
@@ -213,10 +236,11 @@ def main():
 
 
 def large_requests(inner):
-    """Print 100 x 7 and 1000 x 7: the figures of every row, one run each in turn."""
+    """Print 100 x 7 and 1000 x 7: the figures of every row, best of REPEATS each in turn."""
     print()
     print(f'Random walks x 7 joints (stream {LARGE_STREAM}), v = 2, a = 10, j = 200 (TOPP-RA: '
-          'v/a), one run each in turn; figures of inner_knots=default / TOPP-RA:')
+          f'v/a), planning times best of {REPEATS}, ours and TOPP-RA in turn; figures of '
+          'inner_knots=default / TOPP-RA:')
     print('| N x n | TOPP-RA [s] | inner_knots=0 [s] | inner knots [s] | TOPP-RA planning [s] '
           '| inner knots planning [s] | ' + bench_figures.header(cases=False)
           + ' | limits held |')
@@ -226,15 +250,13 @@ def large_requests(inner):
         waypoints = np.cumsum(rng.uniform(-1.0, 1.0, (n_points, 7)), axis=0)
         vmax, amax = np.full(7, 2.0), np.full(7, 10.0)
         kwargs = {'max_velocity': vmax, 'max_acceleration': amax, 'max_jerk': 20.0 * amax}
-        t_top, top = timed(lambda: toppra_trajectory(waypoints, vmax, amax))
-        case = SimpleNamespace(vmax=vmax, amax=amax, d_top=top.duration, t_top=t_top,
-                               reference=shaking_figures(of_toppra(top), top.duration, amax))
-        elapsed, traj = timed(lambda: plan(waypoints, '555', 'optimal', inner_knots=inner,
-                                           **kwargs))
+        case = toppra_case(waypoints, vmax, amax)
+        elapsed, t_top, traj = against_toppra(
+            case, lambda: plan(waypoints, '555', 'optimal', inner_knots=inner, **kwargs))
         knots_only = plan(waypoints, '555', 'optimal', inner_knots=0, **kwargs)
         print(f'| {n_points} x 7 | {case.d_top:.2f} | {knots_only.duration:.2f} '
               f'| {traj.duration:.2f} | {t_top:.2f} | {elapsed:.2f} | '
-              + bench_figures.single(plan_figures(traj, elapsed, case))
+              + bench_figures.single(plan_figures(traj, elapsed, t_top, case))
               + f' | {traj.within_limits(rtol=1e-9)} |')
         sys.stdout.flush()
 
@@ -263,13 +285,10 @@ def small_requests(inner):
             waypoints = np.cumsum(rng.uniform(-1.0, 1.0, (n_points, n_joints)), axis=0)
             vmax, amax = rng.uniform(1.0, 3.0, n_joints), rng.uniform(5.0, 15.0, n_joints)
             kwargs = {'max_velocity': vmax, 'max_acceleration': amax, 'max_jerk': 20.0 * amax}
-            best_top = best_ours = np.inf
-            for _ in range(SMALL_REPEATS):
-                elapsed, top = timed(lambda: toppra_trajectory(waypoints, vmax, amax))
-                best_top = min(best_top, elapsed)
-                elapsed, traj = timed(lambda: plan(waypoints, '555', 'optimal',
-                                                   inner_knots=inner, **kwargs))
-                best_ours = min(best_ours, elapsed)
+            (best_top, top), (best_ours, traj) = timed_against(
+                lambda: toppra_trajectory(waypoints, vmax, amax),
+                lambda: plan(waypoints, '555', 'optimal', inner_knots=inner, **kwargs),
+                SMALL_REPEATS)
             with_knots += traj.optimizer.get('inner_knots', 0) > 0
             rows.append((best_top, best_ours, traj.duration / top.duration))
         rows = np.array(rows)

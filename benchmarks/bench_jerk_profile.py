@@ -10,16 +10,17 @@ with 8 inner knots at most and three choices of smoothing windows: the
 profile then holds the jerk limits itself (:mod:`planning.speed_profile.jerk_profile`).
 Every row prints the figures of ``bench_figures.NAMES`` (duration over
 TOPP-RA's and over TOPP-RA's along our own path, shaking at 4 and 8 Hz,
-planning time over TOPP-RA's), median and worst.
+planning time over TOPP-RA's: each plan and TOPP-RA on the same request in
+turn, best of 3 each, ``wall_time.timed_against``), median and worst.
 
 Usage: ``python benchmarks/bench_jerk_profile.py``
 (``SPLINES445_BENCH_SEED`` repeats a run, ``SPLINES445_BENCH_CASES`` sets
 how many requests; default 12).
 """
 
+from functools import partial
 import logging
 import os
-import time
 
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but the rule holds
 
@@ -33,6 +34,7 @@ from shaking import of_toppra, shaking_figures, shaking_ratios  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
 from splines445_ros.planning.path_following.inner_knots import plan_with_inner_knots  # noqa: E402
 from splines445_ros.planning.spline.limits import JointLimits  # noqa: E402
+from wall_time import timed_against  # noqa: E402
 
 N_CASES = 12
 JERK_RATIO = 20.0
@@ -41,13 +43,6 @@ MOST_KNOTS = 8
 # 1/4 s and its half, and plan()'s default.
 WINDOWS = ((0.1, 0.05), (0.25, 0.125), (0.3, 0.15))
 CASES_STREAM = 38
-
-
-def timed(func):
-    """Wall time [s] of one call and its result."""
-    started = time.perf_counter()
-    result = func()
-    return time.perf_counter() - started, result
 
 
 def main():
@@ -65,16 +60,17 @@ def main():
         jerk = JERK_RATIO * amax
         limits = JointLimits.from_user(n, vmax, amax, jerk)
         zero = np.zeros(n)
-        t_top, top = timed(lambda: toppra_trajectory(waypoints, vmax, amax))
+        rival = partial(toppra_trajectory, waypoints, vmax, amax)
+        top = rival()
         reference = shaking_figures(of_toppra(top), top.duration, amax)
-        plans = [timed(lambda: plan(waypoints, method='555', timing='optimal',
-                                    max_velocity=vmax, max_acceleration=amax,
-                                    max_jerk=jerk))]
+        plans = [timed_against(rival, lambda: plan(waypoints, method='555', timing='optimal',
+                                                   max_velocity=vmax, max_acceleration=amax,
+                                                   max_jerk=jerk))]
         for windows in WINDOWS:
-            plans.append(timed(lambda: plan_with_inner_knots(
+            plans.append(timed_against(rival, lambda: plan_with_inner_knots(
                 waypoints, (zero,) * 4, limits, MOST_KNOTS, windows=windows,
                 third_order=True)))
-        for name, (elapsed, traj) in zip(names, plans):
+        for name, ((t_top, _), (elapsed, traj)) in zip(names, plans):
             if traj is None or not traj.within_limits(rtol=1e-9):
                 raise AssertionError(f'{name}: no plan within the limits (seed {seed})')
             own = own_path.toppra_along(traj, own_path.velocity_acceleration(vmax, amax))

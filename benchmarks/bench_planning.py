@@ -12,8 +12,13 @@ rest-to-rest requests of 12x3, 100x7, 1000x7 and 10000x7 waypoints x joints
   length (a fit only: no timing, no limits) - the floor of what any spline
   fit costs;
 * TOPP-RA (toppra, time-optimal path parameterisation with the same v/a
-  limits along a spline through the same waypoints); skipped at 10000x7
-  unless SPLINES445_BENCH_FULL=1 (it takes about half a minute there).
+  limits along its chord spline: its cubic spline through the same
+  waypoints against their normalised chord length,
+  ``own_path.chord_spline``); skipped at 10000x7 unless
+  SPLINES445_BENCH_FULL=1 (it takes about half a minute there).
+
+Every planner of a size is called in turn, the same number of rounds
+(``wall_time.interleaved_best_of``), toppra imported before any is timed.
 
 Then, on the same requests, every uniform timing's duration and oscillator
 shaking (4 and 8 Hz, peak while moving and residual after the end,
@@ -29,12 +34,17 @@ os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but th
 
 import bench_seeds  # noqa: E402, I100
 import numpy as np  # noqa: E402, I100
+import own_path  # noqa: E402, I100
 from scipy.interpolate import CubicSpline  # noqa: E402
 
 from shaking import of_toppra, shaking_figures, shaking_header, shaking_ratios  # noqa: E402
 from splines445_ros.planning import chord_durations, plan  # noqa: E402
 from splines445_ros.robot import paper_example as pe  # noqa: E402
-from wall_time import best_of  # noqa: E402
+# toppra imported here, with this module: no timed call pays for the import.
+import toppra  # noqa: E402, F401, I100
+import toppra.algorithm  # noqa: E402, F401
+import toppra.constraint  # noqa: E402, F401
+from wall_time import best_of, interleaved_best_of  # noqa: E402
 
 SIZES = ((12, 3), (100, 7), (1000, 7), (10000, 7))
 METHODS = ('445', '434', '555')
@@ -47,22 +57,22 @@ def random_request(n_points, n_joints, rng):
 
 
 def toppra_plan(waypoints, vmax, amax):
-    """TOPP-RA through the waypoints (toppra's spline path); returns its duration."""
+    """TOPP-RA through the waypoints (its chord spline); returns its duration."""
     return toppra_trajectory(waypoints, vmax, amax).duration
 
 
 def toppra_trajectory(waypoints, vmax, amax):
-    """TOPP-RA through the waypoints (toppra's spline path); returns its trajectory."""
-    import toppra
-    import toppra.algorithm
-    import toppra.constraint
-    path = toppra.SplineInterpolator(np.linspace(0.0, 1.0, len(waypoints)), waypoints)
-    constraints = [toppra.constraint.JointVelocityConstraint(np.column_stack([-vmax, vmax])),
-                   toppra.constraint.JointAccelerationConstraint(
-                       np.column_stack([-amax, amax]))]
-    instance = toppra.algorithm.TOPPRA(constraints, path,
-                                       parametrizer='ParametrizeConstAccel')
-    return instance.compute_trajectory()
+    """
+    TOPP-RA through the waypoints with v/a limits (n,); returns its trajectory.
+
+    Its chord spline (``own_path.chord_spline``: toppra's cubic spline
+    through the waypoints against their cumulative chord length, normalised
+    to [0, 1]; a waypoint coinciding with the one before it is merged into
+    it), toppra's default grid, ``ParametrizeConstAccel``; RuntimeError when
+    it finds no parametrisation.
+    """
+    return own_path.toppra_on(own_path.chord_spline(waypoints),
+                              own_path.velocity_acceleration(vmax, amax))
 
 
 def cubic_fit(waypoints):
@@ -85,15 +95,19 @@ def main():
     for n_points, n_joints in SIZES:
         waypoints, vmax, amax = random_request(n_points, n_joints, rng)
         repeats = 50 if n_points <= 100 else (10 if n_points <= 1000 else 3)
-        times, trajs = {}, {}
-        for method in METHODS:
-            times[method], trajs[method] = best_of(
-                lambda: plan(waypoints, method, max_velocity=vmax, max_acceleration=amax),
-                repeats)
-        tfit, _ = best_of(lambda: cubic_fit(waypoints), repeats)
-        if n_points <= 1000 or full:
-            ttop, reference = best_of(lambda: toppra_trajectory(waypoints, vmax, amax),
-                                      3 if n_points <= 100 else 1)
+        with_toppra = n_points <= 1000 or full
+        calls = [lambda method=method: plan(waypoints, method, max_velocity=vmax,
+                                            max_acceleration=amax) for method in METHODS]
+        calls.append(lambda: cubic_fit(waypoints))
+        if with_toppra:
+            calls.append(lambda: toppra_trajectory(waypoints, vmax, amax))
+        # Every call in turn, the same rounds: TOPP-RA's best of as many as ours.
+        timed = interleaved_best_of(calls, repeats)
+        times = {m: timed[k][0] for k, m in enumerate(METHODS)}
+        trajs = {m: timed[k][1] for k, m in enumerate(METHODS)}
+        tfit = timed[len(METHODS)][0]
+        if with_toppra:
+            ttop, reference = timed[-1]
             top = f'{1e3 * ttop:.1f}'
             top_ratio = f'{ttop / times["555"]:.0f}x'
             top_duration = f'{reference.duration:.2f}'

@@ -21,10 +21,11 @@ durations' of timing "uniform" (``planner._other_profile_within``).
 Printed: how far the smoothed plan leaves the range (a creep: under 1e-3
 rad; more: a swing of its path), how many requests plan() plans within
 the limits and how, and on those planned another way, the plan over the smoothed
-plan the same request gets without limits and over TOPP-RA (its spline
-through the waypoints, v/a only): duration, shaking of a 4 Hz and an 8 Hz
+plan the same request gets without limits and over TOPP-RA (its chord
+spline through the waypoints, v/a only): duration, shaking of a 4 Hz and an 8 Hz
 mode (peak while moving and residual after the stop, benchmarks/shaking.py)
-and planning time (one call each, in turn).  Printed second, before those
+and planning time over the plan without limits (the two in turn, best of 3
+each: ``wall_time.timed_against``).  Printed second, before those
 tables: what the switch does to the same requests' plans without limits
 (the default and ``vibration_frequency`` 4 and 1.5 Hz), the ratios of the
 plans it changes.
@@ -45,7 +46,6 @@ count).
 import logging
 import os
 import sys
-import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..'))
 
@@ -56,6 +56,7 @@ from shaking import FREQUENCIES, of_toppra, of_trajectory, shaking_figures  # no
 from splines445_ros.planning import plan, planner  # noqa: E402
 from splines445_ros.planning.path_following import inner_knots  # noqa: E402
 from splines445_ros.planning.planner import position_limit_slack  # noqa: E402
+from wall_time import timed_against  # noqa: E402
 
 N_CASES = 80
 CASES_STREAM = 61
@@ -120,6 +121,14 @@ def kind_of(traj):
     return next((kind for kind in OTHER_PLANS if reason and kind in reason), 'as without limits')
 
 
+def within(points, limits, low, high):
+    """Return plan()'s 555 optimal plan within [low, high], or None where it refuses."""
+    try:
+        return plan(points, '555', 'optimal', min_position=low, max_position=high, **limits)
+    except ValueError:
+        return None
+
+
 def cut_swings(requests):
     """
     Plan each walk with its cut limit, with and without the pull; return counts and ratios.
@@ -127,29 +136,25 @@ def cut_swings(requests):
     ``({kind: count} now, {kind: count} before, rows)``; a row per pulled
     plan: its duration, 4 Hz peak and 4 Hz residual over the plan without
     limits, then the plan before's over the same (NaN where refused), then
-    the planning time with the limits less without [ms] (one call each).
+    the planning time with the limits less without [ms] (the two in turn,
+    best of 3 each: ``wall_time.timed_against``).
     """
     now, before, rows = {}, {}, []
     saved = planner._pulled_within
     for points, limits, share in requests:
-        t_free, free = timed(lambda: plan(points, '555', 'optimal', **limits))
+        free = plan(points, '555', 'optimal', **limits)
         low, high = cut_swing(free, points, share)
         f_low, f_high = free.position_extrema()[:2]
         if np.all(f_low >= low) and np.all(f_high <= high):
             continue    # no swing past the waypoints
-        plans, times = [], []
-        for pull in (True, False):
-            if not pull:
-                planner._pulled_within = lambda traj, options, points: None
-            start = time.perf_counter()
-            try:
-                plans.append(plan(points, '555', 'optimal', min_position=low,
-                                  max_position=high, **limits))
-            except ValueError:
-                plans.append(None)
-            finally:
-                planner._pulled_within = saved
-            times.append(time.perf_counter() - start)
+        (t_free, _), (t_pulled, pulled) = timed_against(
+            lambda: plan(points, '555', 'optimal', **limits),
+            lambda: within(points, limits, low, high))
+        planner._pulled_within = lambda traj, options, points: None
+        try:
+            plans = [pulled, within(points, limits, low, high)]
+        finally:
+            planner._pulled_within = saved
         for counts, traj in zip((now, before), plans):
             kind = 'refused' if traj is None else kind_of(traj)
             counts[kind] = counts.get(kind, 0) + 1
@@ -159,7 +164,7 @@ def cut_swings(requests):
         reference = figures_of(of_trajectory(free), free.duration, amax)[:3]
         ratios = [figures_of(of_trajectory(t), t.duration, amax)[:3] / reference
                   if t is not None else np.full(3, np.nan) for t in plans]
-        rows.append(np.concatenate(ratios + [[1e3 * (times[0] - t_free)]]))
+        rows.append(np.concatenate(ratios + [[1e3 * (t_pulled - t_free)]]))
     return now, before, np.array(rows)
 
 
@@ -197,13 +202,6 @@ def print_cut_swings(requests):
           f'(median; {more.min():.0f}-{more.max():.0f})')
 
 
-def timed(func):
-    """Return (seconds, result) of one call."""
-    start = time.perf_counter()
-    result = func()
-    return time.perf_counter() - start, result
-
-
 def figures_of(acceleration_of, duration, amax):
     """[duration, 4 Hz peak, 4 Hz residual, 8 Hz peak, 8 Hz residual] of one trajectory."""
     figures = shaking_figures(acceleration_of, duration, amax)
@@ -223,18 +221,17 @@ def run(requests):
     out.update({kind: [] for kind in OTHER_PLANS})
     for points, limits in requests:
         low, high = points.min(axis=0), points.max(axis=0)
-        t_free, free = timed(lambda: plan(points, '555', 'optimal', **limits))
+        (t_free, free), (t_limited, limited) = timed_against(
+            lambda: plan(points, '555', 'optimal', **limits),
+            lambda: within(points, limits, low, high))
         q_low, q_high = free.position_extrema()[:2]
         slack = position_limit_slack(low, high).ravel()
         beyond = np.concatenate([low - q_low, q_high - high])
         if np.any(beyond > slack):
             out['excess'].append(float(beyond.max()))
             out['creeps' if out['excess'][-1] < CREEP else 'swings'] += 1
-        try:
-            t_limited, limited = timed(lambda: plan(points, '555', 'optimal', min_position=low,
-                                                    max_position=high, **limits))
-        except ValueError:
-            continue
+        if limited is None:
+            continue    # refused (ValueError)
         out['planned'] += 1
         reason = limited.optimizer.get('speed_profile_reason')
         turned = 'end_knots' in limited.optimizer

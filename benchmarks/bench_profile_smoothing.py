@@ -26,11 +26,12 @@ rows do not reach); the path-acceleration rate for :data:`PATH_RULES`;
 the tiny windows of :data:`TINY` with the smoothing jerk of :data:`TINY_RULES`.
 Every row prints the figures of ``bench_figures.NAMES`` (duration over
 TOPP-RA's and over TOPP-RA's along our own path, shaking at 4 and 8 Hz,
-planning time over TOPP-RA's), median and worst; a second table gives each
-row's duration over plan()'s default on the same request and the number of
-requests that meet issue 38's 4 Hz target (peak <= 0.5, residual <= 0.2 of
-TOPP-RA's).  Every way plans one small
-request before the timed ones (imports and caches of first calls).
+planning time over TOPP-RA's: each way and TOPP-RA on the same request in
+turn, best of 3 each, ``wall_time.timed_against``), median and worst; a
+second table gives each row's duration over plan()'s default on the same
+request and the number of requests that meet issue 38's 4 Hz target (peak
+<= 0.5, residual <= 0.2 of TOPP-RA's).  Every way plans one small request
+before the timed ones (imports and caches of first calls).
 
 No library file is changed: the smoothing rows are made by swapping, for
 the duration of one call, the names ``JointJerk`` and ``ThirdOrderProfile``
@@ -44,9 +45,9 @@ how many requests; default 10).
 """
 
 from contextlib import contextmanager
+from functools import partial
 import logging
 import os
-import time
 
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but the rule holds
 
@@ -64,6 +65,7 @@ from splines445_ros.planning.path_following.inner_knots import (  # noqa: E402
     end_ramps, plan_with_inner_knots)
 from splines445_ros.planning.speed_profile.jerk_profile import ThirdOrderProfile  # noqa: E402
 from splines445_ros.planning.spline.limits import JointLimits  # noqa: E402
+from wall_time import timed_against  # noqa: E402
 
 N_CASES = 10
 JERK_RATIO = 20.0
@@ -227,13 +229,6 @@ def warm_up():
         way(waypoints, vmax, amax, JERK_RATIO * amax, limits)
 
 
-def timed(func):
-    """Wall time [s] of one call and its result."""
-    started = time.perf_counter()
-    result = func()
-    return time.perf_counter() - started, result
-
-
 def main():
     """Plan every request every way and print the table."""
     logging.getLogger('toppra').setLevel(logging.ERROR)
@@ -248,10 +243,12 @@ def main():
         n = waypoints.shape[1]
         jerk = JERK_RATIO * amax
         limits = JointLimits.from_user(n, vmax, amax, jerk)
-        t_top, top = timed(lambda: toppra_trajectory(waypoints, vmax, amax))
+        rival = partial(toppra_trajectory, waypoints, vmax, amax)
+        top = rival()
         reference = shaking_figures(of_toppra(top), top.duration, amax)
         for name, way in ways:
-            elapsed, traj = timed(lambda: way(waypoints, vmax, amax, jerk, limits))
+            (t_top, _), (elapsed, traj) = timed_against(
+                rival, lambda: way(waypoints, vmax, amax, jerk, limits))
             if traj is None or not traj.within_limits(rtol=1e-9):
                 raise AssertionError(f'{name}: no plan within the limits (seed {seed}, '
                                      f'case {case})')

@@ -128,12 +128,23 @@ def at_limit(qd, qdd, vmax, amax):
     return max(np.max(np.abs(qd) / vmax), np.max(np.abs(qdd) / amax)) >= NEAR_LIMIT
 
 
+def refused_cell(refused, no_default):
+    """
+    Return the refused column's cell: states time_optimal refused (ValueError).
+
+    Those are left out of every other column.  Followed states whose default
+    plan raised (no ratio to it) are counted after them when there are any.
+    """
+    extra = f' (+ {no_default} followed, default refused: no ratio)' if no_default else ''
+    return f'{refused}{extra}'
+
+
 def time_optimal_replanning():
     """Print how often time_optimal follows its own plan from its running plan's states."""
     limits = {'max_velocity': [VMAX] * 3, 'max_acceleration': [AMAX] * 3,
               'max_jerk': [20.0 * AMAX] * 3}
     counts = {False: [0, 0], True: [0, 0]}     # at a limit: [states, followed]
-    reasons, ratios, refused = {}, [], 0
+    reasons, ratios, refused, no_default = {}, [], 0, 0
     for _, running_points, goal in cases():
         running = plan(running_points, '555', 'optimal', speed_profile='time_optimal', **limits)
         for q, qd, qdd in running_states(running):
@@ -155,7 +166,8 @@ def time_optimal_replanning():
             try:
                 default = plan(points, '555', 'optimal', **boundary, **limits)
             except ValueError:
-                continue    # the default has no plan from this state; time_optimal has
+                no_default += 1     # the default has no plan from this state; time_optimal has
+                continue
             amax = np.full(3, AMAX)
             ratios.append([ours.duration / default.duration] + list(
                 np.array(shaking(of_trajectory(ours), ours.duration, amax, SHAKING_FREQUENCY))
@@ -176,7 +188,7 @@ def time_optimal_replanning():
              if ratios.size else '-' for k, digits in ((0, 3), (1, 2), (2, 2))]
     print(f'| {total} | {followed} | {counts[True][1]} of {counts[True][0]} | '
           f'{counts[False][1]} of {counts[False][0]} | ' + ' | '.join(cells)
-          + f' | {refused} |')
+          + f' | {refused_cell(refused, no_default)} |')
     for why, count in sorted(reasons.items(), key=lambda item: -item[1]):
         print(f'fell back {count} times: {why}')
 
@@ -189,14 +201,14 @@ def arm_replanning():
           f'running time_optimal plan on each arm ({count} random paths per arm):')
     print(f'| arm | at >= {NEAR_LIMIT:g} of a v or a limit: followed | below: followed | '
           'followed / default: duration, median '
-          f'| {SHAKING_FREQUENCY:g} Hz peak, median |')
-    print('|---|---|---|---|---|')
+          f'| {SHAKING_FREQUENCY:g} Hz peak, median | refused (ValueError) |')
+    print('|---|---|---|---|---|---|')
     for arm in arms:
         limits = arm.plan_limits()
         vmax = np.asarray(limits['max_velocity'], float)
         amax = np.asarray(limits['max_acceleration'], float)
         counts = {False: [0, 0], True: [0, 0]}
-        ratios = []
+        ratios, refused = [], [0, 0]     # refused: time_optimal, the default where followed
         for points in arm_paths(arm, count):
             half = max(2, points.shape[0] // 2)
             if points.shape[0] <= half:
@@ -209,14 +221,19 @@ def arm_replanning():
                 try:
                     ours = plan(np.vstack([q, goal]), '555', 'optimal',
                                 speed_profile='time_optimal', **boundary, **limits)
-                    default = plan(np.vstack([q, goal]), '555', 'optimal', **boundary,
-                                   **limits)
                 except ValueError:
+                    refused[0] += 1
                     continue
                 near = at_limit(qd, qdd, vmax, amax)
                 counts[near][0] += 1
                 if not ours.optimizer.get('speed_profile_skipped'):
                     counts[near][1] += 1
+                    try:
+                        default = plan(np.vstack([q, goal]), '555', 'optimal', **boundary,
+                                       **limits)
+                    except ValueError:
+                        refused[1] += 1     # followed, but no default to compare with
+                        continue
                     ratios.append((ours.duration / default.duration, shaking(
                         of_trajectory(ours), ours.duration, amax, SHAKING_FREQUENCY)[0]
                         / shaking(of_trajectory(default), default.duration, amax,
@@ -224,7 +241,8 @@ def arm_replanning():
         cells = (f'{np.median([r[0] for r in ratios]):.3f} | '
                  f'{np.median([r[1] for r in ratios]):.2f}' if ratios else '- | -')
         print(f'| {arm.name} | {counts[True][1]} of {counts[True][0]} | '
-              f'{counts[False][1]} of {counts[False][0]} | {cells} |', flush=True)
+              f'{counts[False][1]} of {counts[False][0]} | {cells} | {refused_cell(*refused)} |',
+              flush=True)
 
 
 if __name__ == '__main__':

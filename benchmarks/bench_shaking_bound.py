@@ -405,14 +405,16 @@ def main():
           f"j = {JERK_RATIO:g} a; every figure over TOPP-RA's on the same move, "
           'median / worst (the worst is the largest).')
     print()
-    print('| what | duration | 4 Hz peak | least 4 Hz peak at that duration |')
+    print('| what | duration | 4 Hz peak | least 4 Hz peak at that duration (moves whose LP '
+          'failed: left out) |')
     print('|---|---|---|---|')
     print(f'| shortest with v/a/j (no shaking bound) | {_percent([r["fastest"] for r in rows])} '
           '| | |')
     for name in ('default', 'time_optimal'):
         values = np.array([r[name] for r in rows])
+        failed = int(np.sum(np.isnan(values[:, 2])))
         print(f'| `plan()` {name} | {_percent(values[:, 0])} | {_percent(values[:, 1])} '
-              f'| {_percent(values[:, 2])} |')
+              f'| {_percent(values[:, 2])} ({failed} of {len(values)} left out) |')
     print()
     print(f'Shortest duration at which any trajectory has peak <= {PEAK_TARGET:g} and residual '
           f"<= {RESIDUAL_TARGET:g} of TOPP-RA's (issue 38's target), over TOPP-RA's:")

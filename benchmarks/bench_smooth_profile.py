@@ -136,8 +136,10 @@ def main():
           "the arm's v/a/j limits; durations over TOPP-RA's (v/a, no jerk) on the same path; "
           'median / worst; wall times of one call [s]')
     names = ('smooth x f / TOPP-RA', 'f (1 kHz)', 'grid LP / TOPP-RA', 'default / TOPP-RA',
-             'smooth / default', '4 Hz peak: smooth x f / default',
-             '4 Hz residual: smooth x f / default', 'LPs', 't smooth', 't grid LP',
+             'smooth / default',
+             '4 Hz peak / TOPP-RA: smooth x f (median / worst) / default (median / worst)',
+             '4 Hz residual / TOPP-RA: smooth x f (median / worst) / default (median / worst)',
+             'LPs', 't smooth', 't grid LP',
              't default')
     print('| arm | paths (points) | ' + ' | '.join(names) + ' |')
     print('|' + '---|' * (len(names) + 2))

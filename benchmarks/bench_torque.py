@@ -36,10 +36,11 @@ pass for the torques at rest), TOPP-RA its ``torques``.
   plans.)
 * TOPP-RA: toppra's ``JointVelocityConstraint`` and ``JointTorqueConstraint``
   (the same inverse dynamics, one sample per call, no dry friction) on its
-  own cubic spline through the waypoints over normalised chord length,
-  default grid, ``ParametrizeConstAccel``; no jerk limit.  Its default
-  Collocation holds the torque at its grid points only: checked here at
-  1 kHz, and its Interpolation discretisation shown next to it.
+  chord spline (``own_path.chord_spline``: its cubic spline through the
+  waypoints over normalised chord length), default grid,
+  ``ParametrizeConstAccel``; no jerk limit.  Its default Collocation holds
+  the torque at its grid points only: checked here at 1 kHz, and its
+  Interpolation discretisation shown next to it.
 
 * ``speed_profile='time_optimal'`` (issue 38, ``planning/path_following/time_optimal.py``):
   the same limits, the torque a row of the third-order profile, timed in
@@ -129,13 +130,12 @@ def arm_paths(arm, cases, offset=0):
 
 def toppra_torque(points, vmax, tau_max, torques, interpolation=False):
     """
-    TOPP-RA with velocity and torque limits on its chord-length spline; its trajectory.
+    TOPP-RA with velocity and torque limits on its chord spline; its trajectory.
 
     ``interpolation``: toppra's Interpolation discretisation of the torque
     constraint instead of its default Collocation.  None when it finds none.
     """
-    chords = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
-    path = own_path.spline_path(chords / chords[-1], points)
+    path = own_path.chord_spline(points)
     constraints = own_path.velocity_torque(vmax, tau_max, torques, interpolation)
     try:
         return own_path.toppra_on(path, constraints)
@@ -379,7 +379,7 @@ def print_summary(summary, cases):
     k = len(bench_figures.NAMES)
     print()
     print('Summary per arm and payload: the figures of issue 38 (ours / TOPP-RA Collocation on '
-          'its spline, median / worst over the paths planned; along our path: TOPP-RA with '
+          'its chord spline, median / worst over the paths planned; along our path: TOPP-RA with '
           'the same constraints on our path; shaking: benchmarks/shaking.py)')
     print('| arm | payload [kg] (held at every waypoint) | paths planned / refused | '
           + bench_figures.header() + ' |')

@@ -3,7 +3,7 @@
 
 Random rest-to-rest requests (``bench_inner_knots.random_case``, fresh
 every run, the seed printed first; j = 20 a), at mode frequencies
-:data:`FREQUENCIES`.  For each: TOPP-RA (v/a, its own spline); time_optimal
+:data:`FREQUENCIES`.  For each: TOPP-RA (v/a, its chord spline); time_optimal
 without and with ``vibration_frequency=f`` (its profile cancels the mode's
 ringing, ``planning/speed_profile/residual_vibration.py``); the default construction
 with ``vibration_frequency=f`` (its two windows of ``1 / f``, and its knots
@@ -19,24 +19,27 @@ worst over the requests, each over TOPP-RA's on the same request:
 * the same residual for a mode the user mis-measured: at 0.9 f and 1.1 f,
   and at ``f`` with damping 0.01 and 0.05 (a cancellation is narrow);
 * the residual at ``2 f`` (a harmonic);
-* planning time.
+* planning time (each plan and TOPP-RA on the same request in turn, best
+  of 3 each: ``wall_time.timed_against``).
 
 Usage: ``python benchmarks/bench_vibration_residual.py``;
 ``SPLINES445_BENCH_SEED=<seed>`` repeats a run,
 ``SPLINES445_BENCH_CASES=<count>`` draws another number of requests.
 """
 
+from functools import partial
 import os
 import sys
 
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but the rule holds
 
-from bench_inner_knots import random_case, timed  # noqa: E402
+from bench_inner_knots import random_case  # noqa: E402
 from bench_planning import toppra_trajectory  # noqa: E402
 import bench_seeds  # noqa: E402, I100
 import numpy as np  # noqa: E402, I100
 from shaking import of_toppra, of_trajectory, shaking  # noqa: E402
 from splines445_ros.planning import plan, planner  # noqa: E402
+from wall_time import timed_against  # noqa: E402
 
 N_CASES = 12
 FREQUENCIES = (1.5, 4.0, 8.0)
@@ -81,19 +84,21 @@ def main():
         rows = {name: [] for name in PLANS}
         followed = dict.fromkeys(PLANS, 0)
         for waypoints, vmax, amax in cases:
-            t_top, top = timed(lambda: toppra_trajectory(waypoints, vmax, amax))
+            rival = partial(toppra_trajectory, waypoints, vmax, amax)
+            top = rival()
             reference = residuals(of_toppra(top), top.duration, amax, frequency)
             limits = {'max_velocity': vmax, 'max_acceleration': amax,
                       'max_jerk': JERK_RATIO * amax}
             plans = (
-                timed(lambda: plan(waypoints, '555', 'optimal', speed_profile='time_optimal',
-                                   **limits)),
-                timed(lambda: plan(waypoints, '555', 'optimal', speed_profile='time_optimal',
-                                   vibration_frequency=frequency, **limits)),
-                timed(lambda: plan(waypoints, '555', 'optimal', vibration_frequency=frequency,
-                                   **limits)),
-                timed(lambda: unmoved(waypoints, frequency, limits)))
-            for name, (elapsed, traj) in zip(PLANS, plans):
+                timed_against(rival, lambda: plan(waypoints, '555', 'optimal',
+                                                  speed_profile='time_optimal', **limits)),
+                timed_against(rival, lambda: plan(waypoints, '555', 'optimal',
+                                                  speed_profile='time_optimal',
+                                                  vibration_frequency=frequency, **limits)),
+                timed_against(rival, lambda: plan(waypoints, '555', 'optimal',
+                                                  vibration_frequency=frequency, **limits)),
+                timed_against(rival, lambda: unmoved(waypoints, frequency, limits)))
+            for name, ((t_top, _), (elapsed, traj)) in zip(PLANS, plans):
                 ours = residuals(of_trajectory(traj), traj.duration, amax, frequency)
                 rows[name].append([traj.duration / top.duration] + list(ours / reference)
                                   + [elapsed / t_top])

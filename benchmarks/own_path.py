@@ -1,12 +1,13 @@
 """
 TOPP-RA along our own path (issue 38): how much the speed profile alone gives away.
 
-Our plan's duration over TOPP-RA's on its own spline mixes two things: the
-path (the curve through the waypoints in joint space) and the speed along
-it.  :func:`arc_length_samples` takes the geometric path of one of our
+Our plan's duration over TOPP-RA's on its chord spline (:func:`chord_spline`:
+toppra's cubic through the waypoints against their normalised chord length)
+mixes two things: the path (the curve through the waypoints in joint space)
+and the speed along it.  :func:`arc_length_samples` takes the geometric path of one of our
 trajectories and :func:`toppra_along` times that same curve with TOPP-RA
 under the same limits; our duration over that one is what the speed profile
-gives away, and that one over TOPP-RA's on its own spline is what our path
+gives away, and that one over TOPP-RA's on its chord spline is what our path
 gains or loses.
 
 The path: our trajectory sampled every :data:`TIME_STEP` (and at least
@@ -57,6 +58,33 @@ def spline_path(s, q):
     """Return toppra's cubic spline through ``q`` (M, n) against ``s`` (M,)."""
     import toppra
     return toppra.SplineInterpolator(s, q)
+
+
+def chord_parameter(points):
+    """
+    Return (s (M,), q (M, n)): ``points`` (N, n) against their chord-length parameter.
+
+    ``s``: the cumulative joint-space chord lengths (Euclidean norm of the
+    steps between consecutive waypoints) over their total, from 0 to 1,
+    the parameter of TOPP-RA's chord spline (:func:`chord_spline`).  A
+    waypoint that coincides with the one before it (a zero chord, or one
+    too short to raise ``s`` in floating point) would make the knots
+    non-increasing, which toppra's spline refuses: it is merged into that
+    one (left out, M <= N; the path passes there once, as plan() merges
+    such waypoints).  ValueError when all the waypoints coincide.
+    """
+    points = np.asarray(points, float)
+    chords = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
+    if not chords[-1] > 0.0:
+        raise ValueError('the waypoints coincide: no path to time')
+    s = chords / chords[-1]
+    keep = np.concatenate([[True], np.diff(s) > 0.0])
+    return s[keep], points[keep]
+
+
+def chord_spline(points):
+    """Return toppra's cubic spline through ``points`` (N, n) against :func:`chord_parameter`."""
+    return spline_path(*chord_parameter(points))
 
 
 def velocity_acceleration(vmax, amax):

@@ -1,4 +1,10 @@
-"""Wall time of a call, best of several: what every bench's planning times are."""
+"""
+Wall time of a call, best of several: what every bench's planning times are.
+
+A planning time over TOPP-RA's (or over any other call's) comes from
+:func:`timed_against`: both calls on the same request, in turn, best of
+each, so neither side is timed cold or on the machine's slower moments.
+"""
 
 import time
 
@@ -24,3 +30,16 @@ def interleaved_best_of(funcs, repeats=3):
             results[k] = func()
             best[k] = min(best[k], time.perf_counter() - started)
     return list(zip(best, results))
+
+
+def timed_against(reference, func, repeats=3):
+    """
+    Return ((``reference``'s best time [s], result), (``func``'s best time [s], result)).
+
+    The two calls in turn, ``repeats`` rounds (:func:`interleaved_best_of`):
+    the two times of a ratio ``func`` / ``reference`` (our plan over
+    TOPP-RA's on the same request) come from the same rounds, and neither
+    is a first, cold call.
+    """
+    first, second = interleaved_best_of((reference, func), repeats)
+    return first, second
