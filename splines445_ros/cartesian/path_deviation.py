@@ -171,21 +171,24 @@ class PathMeasure:
         s_rest = np.where(self.angle[e] > MIN_TURN, s_turn, s_time)
         return np.clip(np.where(long_edge, s_line, s_rest), 0.0, 1.0)
 
-    def _turn_share(self, orientation, e):
+    def _turn_share(self, orientation, e, s_time):
         """
         Return the share (K,) of its edge's rotation the tool has turned about the edge's axis.
 
         ``orientation`` (K, 3, 3) rotation matrices or (K, 4) quaternions of
         the tool: the rotation vector of ``R0^T R`` along the edge's axis,
-        over the edge's angle (not used where that angle is below
-        :data:`MIN_TURN`).
+        unwrapped near the time's share ``s_time`` of the edge's angle (a
+        rotation vector stops at pi: a tool just past pi on an edge of
+        nearly pi would read as turned back by 2 pi less), over the edge's
+        angle (not used where that angle is below :data:`MIN_TURN`).
         """
         if orientation.ndim == 3:
             orientation = rot.from_matrix(orientation)
         relative = rot.multiply(rot.conjugate(self.quat0[e]), orientation)
-        turned = rot.rotation_vector(relative)
-        return np.sum(turned * self.axis[e], axis=1) / np.where(
-            self.angle[e] > MIN_TURN, self.angle[e], 1.0)
+        turned = np.sum(rot.rotation_vector(relative) * self.axis[e], axis=1)
+        guess = s_time * self.angle[e]
+        turned = guess + _wrap(turned - guess)
+        return turned / np.where(self.angle[e] > MIN_TURN, self.angle[e], 1.0)
 
     def _spatial(self, t, e):
         joints = self.traj.evaluate(t)
@@ -196,8 +199,9 @@ class PathMeasure:
             position = pose[:, :3]
         p = position - self.start[e]
         ab = self.direction[e]
-        s = self._edge_parameter(p, self._time_fraction(t, e),
-                                 self._turn_share(mat if self._matrices else pose[:, 3:], e), e)
+        s_time = self._time_fraction(t, e)
+        s_turn = self._turn_share(mat if self._matrices else pose[:, 3:], e, s_time)
+        s = self._edge_parameter(p, s_time, s_turn, e)
         deviation = np.linalg.norm(p - s[:, None] * ab, axis=1)
         if not self._matrices:
             orientation = rot.angle_between(rot.slerp(self.quat0[e], self.quat1[e], s),

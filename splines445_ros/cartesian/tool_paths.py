@@ -29,7 +29,8 @@ Algorithm
    the two *requested* tool waypoints it belongs to, and the largest
    orientation deviation: ``|wrap(yaw(t) - (yaw_a + s (yaw_b - yaw_a)))|``,
    where ``s`` in [0, 1] is the projection of the tool position on that
-   segment (for a pure rotation, the fraction of the segment's time), so
+   segment (for a pure rotation, the share of its rotation the tool has
+   turned about its axis: ``path_deviation.PathMeasure``), so
    position and orientation are interpolated together, as in Taylor's method.
    Requested yaws are unwrapped, so the interpolation takes the short way.
    Spatial poses: the orientation deviation is the rotation angle between
@@ -67,9 +68,9 @@ from .tool_kinematics import declared_joint_count, refused_pose
 from .tool_lines import edge_geometry, LineOutOfTolerance, LineUnreachable, plan_tool_lines
 from ..planning import merge_duplicates
 from ..planning.constraints import GravityOverload
-from ..planning.plan_options import PlanOptions, smoothing_windows
-from ..planning.planner import (DUPLICATE_RTOL, joint_label, plan_with_options,
-                                position_limit_slack, within_position_limits)
+from ..planning.plan_options import DEFAULT_WAYPOINT_TOLERANCE, PlanOptions, smoothing_windows
+from ..planning.planner import (joint_label, plan_with_options, position_limit_slack,
+                                within_position_limits)
 from ..planning.validation import waypoint_array
 from ..robot import rotations as rot
 
@@ -84,6 +85,13 @@ MAX_COORDINATE = 1e6
 # 'tool lines': a tool waypoint within this share of both tolerances of the one
 # before is merged into it (_close_waypoints).
 MERGE_SHARE = 0.1
+# ... and on a side whose tolerance is not checked, within this [m, rad]: plan()'s
+# default waypoint tolerance (1e-3, "below anything taught as two distinct
+# points"), read as metres and radians.  Round-off only left a recorded path's
+# 1-microradian jitter a line of its own, a stop (+35 % on a UR5 request,
+# helper-46); merging within 0.1 of the checked side alone skipped poses 15 cm
+# or 60 degrees away (helper-42).
+UNCHECKED_MERGE = DEFAULT_WAYPOINT_TOLERANCE
 
 
 @dataclass(frozen=True)
@@ -99,7 +107,8 @@ class ToolPath:
     joints : (M, n) joint positions of its knots (the waypoints planned).
     waypoint_knots : (N,) the knot of every requested tool waypoint (a merged
         duplicate maps to the knot it equals; with 'tool lines', a waypoint
-        within a tenth of the tolerances of the one before maps to that one's).
+        within a tenth of the tolerances of the one before maps to that one's,
+        or to the goal's where the goal replaced that one).
     segment_edges : (M-1,) the requested edge (tool waypoints e, e+1 of the
         request) every trajectory segment lies on.
     inserted : number of knots inserted.
@@ -460,10 +469,11 @@ def _close_waypoints(poses, tol_position, tol_orientation):
     kept is passed within that share of them without being a waypoint of its
     own: a line of a few micrometres between two waypoints would be a stop
     that the whole rest-to-rest spline slows down for.  A tolerance not
-    checked (inf) merges only round-off on its side: a waypoint that moves
-    the tool, or turns it, is kept however close it is in the other.  The first and
-    the last waypoint are kept (the goal replaces a kept one close to it,
-    and is then where the waypoints merged into that one are passed).
+    checked (inf) merges within :data:`UNCHECKED_MERGE` only on its side: a
+    waypoint that moves the tool, or turns it, is kept however close it is
+    in the other.  The first and the last waypoint are kept (the goal
+    replaces a kept one close to it, and is then where the waypoints merged
+    into that one are passed: within twice the share).
     Returns (keep (N,) bool, owner (N,) the index among the kept waypoints
     of the one each waypoint is passed at).
     """
@@ -471,8 +481,7 @@ def _close_waypoints(poses, tol_position, tol_orientation):
     owner = np.arange(len(poses))
     if not any(checked):
         return np.ones(len(poses), dtype=bool), owner
-    # An unchecked side merges round-off only [m, rad].
-    limits = [MERGE_SHARE * tol if ok else DUPLICATE_RTOL
+    limits = [MERGE_SHARE * tol if ok else UNCHECKED_MERGE
               for tol, ok in zip((tol_position, tol_orientation), checked)]
     keep = [0]
     for i in range(1, len(poses)):

@@ -193,8 +193,9 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         them (not with ``inner_knots``, ``smoothing`` or a
         ``vibration_frequency`` given), and "time_optimal" asked for gives
         way to "smoothed", then "uniform", likewise ("smoothed" only with a
-        ``vibration_frequency``); none above :data:`SMALL_REQUEST`
-        waypoints, or where a moving end heads past a limit it sits on
+        ``vibration_frequency``, or above :data:`SMALL_REQUEST`
+        waypoints); none other above :data:`SMALL_REQUEST` waypoints, and
+        none where a moving end heads past a limit it sits on
         (:func:`_other_profile_within`).  The plan says so
         (``optimizer['speed_profile_reason']``, or
         ``['speed_profile_skipped']`` when time_optimal was asked for).

@@ -249,9 +249,10 @@ class PlannerConfig(ValidatedConfig):
         f'{MAX_TIME_OPTIMAL_WAYPOINTS} waypoints; where it finds no spline (a moving state it '
         'cannot keep, a joint reversing alone, a path nearly turning back) the plan is '
         "`smoothed`'s; where its plan "
-        'leaves `min_position` / `max_position` (at most 30 waypoints, not where a moving end '
-        "heads past a limit it sits on), `smoothed`'s or else timing `uniform`'s (not with a "
-        '`vibration_frequency`), whichever stays within them first; each with a warning. '
+        'leaves `min_position` / `max_position` (not where a moving end heads past a limit '
+        "it sits on), `smoothed`'s or else timing `uniform`'s (not with a "
+        '`vibration_frequency`, nor above 30 waypoints), whichever stays within them first; '
+        'each with a warning. '
         '`smoothing` and `inner_knots` are refused with it (it would ignore them); '
         '`vibration_frequency` cancels the ringing of a mode at it after the stop. On '
         'tool_waypoints requests '

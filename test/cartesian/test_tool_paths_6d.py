@@ -12,7 +12,9 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize_scalar
 from scipy.spatial.transform import Rotation, Slerp
+from splines445_ros.cartesian.path_deviation import PathMeasure
 from splines445_ros.cartesian.tool_paths import plan_tool_path
+from splines445_ros.planning import plan
 from splines445_ros.robot import paper_example as pe
 from splines445_ros.robot.inverse_kinematics import ModelKinematics
 from splines445_ros.robot.kinematics import PlanarArm
@@ -261,3 +263,45 @@ def test_a_line_the_tool_lines_cannot_keep_within_is_named(ur5):
                                          r'needs more than max_inserted = 1 knots'):
         plan_tool_path(poses, kin, 1e-7, DEG, method='555', timing='optimal',
                        max_tool_speed=0.1, max_inserted=1, **UR5_LIMITS)
+
+
+class _TurningTool:
+    """A tool at the origin turned about z by the one joint's angle (quaternions, no matrices)."""
+
+    def forward(self, q):
+        angle = np.asarray(q, dtype=float)[..., 0]
+        zero = np.zeros_like(angle)
+        return np.stack([zero, zero, zero, np.cos(angle / 2), zero, zero, np.sin(angle / 2)],
+                        axis=-1)
+
+
+@pytest.mark.parametrize('overshoot', [0.0, 0.03, 0.1])
+def test_a_turn_of_nearly_pi_is_measured_past_pi(overshoot):
+    """A rotation vector stops at pi: a tool just past it read as turned the other way."""
+    edge = 3.1
+    traj = plan(np.array([[0.0], [edge + overshoot]]), '555', 'fixed', durations=[1.0])
+    poses = _TurningTool().forward(np.array([[0.0], [edge]]))
+    deviation = PathMeasure(traj, _TurningTool(), poses, np.array([0])).deviation((MM, DEG))
+    # The tool's largest angle from the turn is its overshoot at the end (the test's own).
+    assert deviation.max_orientation == pytest.approx(overshoot, abs=1e-6)
+
+
+@pytest.mark.parametrize('tolerances', [(MM, None), (None, DEG)])
+def test_a_recorded_jitter_is_merged_with_one_tolerance_unchecked(ur5, tolerances):
+    """20 micrometres and a microradian from the one before: no line of its own (no stop)."""
+    kin, fk = ur5
+    a = kin.forward(np.array(vr.UR5_READY))
+    jitter, goal = a.copy(), a.copy()
+    jitter[1] += 2e-5
+    jitter[3:] = (Rotation.from_rotvec([1e-6, 0.0, 0.0])
+                  * Rotation.from_quat(a[3:], scalar_first=True)).as_quat(scalar_first=True)
+    goal[0] += 0.2
+    result = plan_tool_path([a, jitter, goal], kin, *tolerances, method='555',
+                            timing='optimal', **UR5_LIMITS)
+    assert len(result.poses) == 2
+    alone = plan_tool_path([a, goal], kin, *tolerances, method='555', timing='optimal',
+                           **UR5_LIMITS)
+    assert result.trajectory.duration == pytest.approx(alone.trajectory.duration, rel=1e-9)
+    position, _ = fk(result.trajectory.evaluate(
+        result.trajectory.waypoint_times[result.waypoint_knots[1:2]]))
+    assert np.linalg.norm(position[0] - jitter[:3]) < 1e-4
