@@ -41,11 +41,16 @@ from .ros_conversions import sampled_trajectory_from_msg
 from ..robot.kinematics import PlanarArm
 from ..service.arm_sim_config import ArmSimConfig
 from ..service.arm_sim_model import add_payload, resolve_model_config
-from ..sim.dynamic_sim import DynamicArm, rotation_to_quaternion, TrackingMetrics
+from ..sim.dynamic_sim import (
+    DynamicArm, rotation_to_quaternion, TrackingMetrics, UnstableSimulation)
 from ..sim.mujoco_model import load_arm_model
 
 SETTLING_TIME = 0.5     # s after the end of a trajectory: settling_error
 MAX_CATCH_UP = 10.0     # s: a larger clock jump is not simulated across
+# Physics steps at most per callback (the rest at the next ones): at 20 kHz a
+# 9.9 s jump of a simulated clock took 4.5 s in one callback, and joint_states
+# stalled (helper-48); 10,000 take about 0.2 s.
+MAX_CATCH_UP_STEPS = 10_000
 
 
 class ArmSimNode(Node):
@@ -71,6 +76,8 @@ class ArmSimNode(Node):
         self._settling = None    # (metrics, info, end position, report time in ns)
         self.dynamic = None      # DynamicArm when simulation is dynamic
         self._sim_ns = self._now_ns()
+        self._last_ns = self._sim_ns   # the clock at the last callback: jumps (_follow_clock)
+        self._frozen = False     # the physics went unstable: no steps until a new config
         if config.dynamic:
             self.dynamic = self._build_dynamic(config, self.position, self.velocity)
         self._status_name = self.get_fully_qualified_name()
@@ -141,6 +148,7 @@ class ArmSimNode(Node):
         if dynamic is None:
             self._settling = self._metrics = None  # kinematic playback reports no tracking
         self.dynamic = dynamic
+        self._frozen = False
         self.effective = config
         self.effort = None if dynamic is None else dynamic.efforts()
         if dynamic is not None and self._active is not None and self._metrics is None:
@@ -160,7 +168,14 @@ class ArmSimNode(Node):
             self.get_logger().error(message)
             self.status_publisher.publish(status_message(self._status_name, False, message))
             return
-        start = stamp if stamp > 0 else self._now_ns()
+        now = self._now_ns()
+        self._follow_clock(now)
+        start = stamp if stamp > 0 else now
+        if self._pending is not None:
+            replaced = 'trajectory replaced before it started'
+            self.get_logger().warning(replaced)
+            self.status_publisher.publish(status_message(
+                self._status_name, True, replaced, {'start_ns': self._pending[1]}, warn=True))
         self._pending = (trajectory, start)
         message = (f'trajectory accepted: {len(msg.points)} points, '
                    f'{trajectory.duration:.4f} s')
@@ -213,7 +228,40 @@ class ArmSimNode(Node):
         self._info = {'points': trajectory.times.size, 'duration': trajectory.duration,
                       'start_ns': start}
 
+    def _follow_clock(self, now):
+        """
+        Keep the motion continuous across a jump of the clock (back, or ahead too far).
+
+        A clock that goes back (a simulated one restarting, ``use_sim_time``
+        switched on) or jumps ahead by more than the physics catches up with
+        would start a trajectory mid-way or at its end: the arm would jump
+        (and so would one received before a simulated clock started).
+        Every time the node keeps (the running and pending trajectories'
+        starts, the settling report, the physics clock) moves with the clock,
+        so the motion goes on from where it was; a warning says so.
+        """
+        last, self._last_ns = self._last_ns, now
+        jump = now - last
+        if 0 <= jump <= MAX_CATCH_UP * 1e9:
+            return
+        if self._active is not None:
+            self._active = (self._active[0], self._active[1] + jump)
+        if self._pending is not None:
+            self._pending = (self._pending[0], self._pending[1] + jump)
+        if self._settling is not None:
+            self._settling = self._settling[:3] + (self._settling[3] + jump,)
+        if self.dynamic is not None:
+            self._sim_ns += jump
+        if last > 0:    # (0: a simulated clock starting; what came before starts with it)
+            direction = 'back' if jump < 0 else 'ahead'
+            self.get_logger().warning(
+                f'the clock jumped {direction} by {abs(jump) * 1e-9:.6g} s: the motion goes on '
+                'from where it was')
+
     def _advance_dynamic(self, now):
+        if self._frozen:
+            self._sim_ns = now  # held where the physics was sane, until a new config
+            return
         dt_ns = int(round(self.dynamic.timestep * 1e9))
         if now < self._sim_ns or now - self._sim_ns > MAX_CATCH_UP * 1e9:
             if now > self._sim_ns > 0:  # (0: a simulated clock that had not started)
@@ -221,22 +269,40 @@ class ArmSimNode(Node):
                     f'the clock jumped ahead by {(now - self._sim_ns) * 1e-9:.3g} s: the '
                     f'physics is not stepped across more than {MAX_CATCH_UP:g} s')
             self._sim_ns = now  # a clock reset or jump: carry the state over
-        while now - self._sim_ns >= dt_ns:
+        budget = MAX_CATCH_UP_STEPS
+        while now - self._sim_ns >= dt_ns and budget > 0:
             self._handle_events()  # every event up to now is handled: the others are later
-            steps = (now - self._sim_ns) // dt_ns
+            steps = min((now - self._sim_ns) // dt_ns, budget)
             events = [event for event in self._event_times() if event > self._sim_ns]
             if events:
                 steps = min(steps, -(-(min(events) - self._sim_ns) // dt_ns))
             times = self._sim_ns + dt_ns * np.arange(steps, dtype=np.int64)
             q_d, v_d, a_d = self._reference(times)
-            log = self.dynamic.run(q_d, v_d, a_d)
+            try:
+                log = self.dynamic.run(q_d, v_d, a_d)
+            except UnstableSimulation as exc:
+                self._unstable(exc, now)
+                break
             if self._metrics is not None:
                 self._metrics.update(q_d, log, self.dynamic.timestep)
             self._sim_ns += int(steps) * dt_ns
+            budget -= int(steps)
         self._handle_events()
         arm = self.dynamic
         self.position, self.velocity, self.effort = (arm.positions(), arm.velocities(),
                                                      arm.efforts())
+
+    def _unstable(self, exc, now):
+        """Hold the state before the physics went unstable, drop the trajectories, say so."""
+        self._hold = self.dynamic.positions()
+        self.dynamic.set_state(self._hold, np.zeros(len(self._hold)))
+        self._active = self._pending = self._settling = self._metrics = self._info = None
+        self._sim_ns = now
+        self._frozen = True
+        message = (f'{exc}; the arm holds its last sane state until its parameters change, '
+                   'the trajectory is dropped')
+        self.get_logger().error(message)
+        self.status_publisher.publish(status_message(self._status_name, False, message))
 
     def _event_times(self):
         """Node times [ns] of the next switch, trajectory end and settling report."""
@@ -306,6 +372,7 @@ class ArmSimNode(Node):
 
     def _on_timer(self):
         now = self._now_ns()
+        self._follow_clock(now)
         if self.dynamic is not None:
             self._advance_dynamic(now)
             now = self._sim_ns  # the physics time of the state (at most one step earlier)

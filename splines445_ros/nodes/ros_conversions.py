@@ -30,6 +30,9 @@ from ..sim.playback import SampledTrajectory
 NANOS = 1_000_000_000
 # A tool orientation may tilt away from a rotation about z by this much [rad].
 MAX_TOOL_TILT = 1e-6
+# Most points a received trajectory may have: the planner's own default
+# max_trajectory_points (a million took the arm 4 s and 1.9 GB to read).
+MAX_TRAJECTORY_POINTS = 200_000
 
 
 def duration_to_seconds(duration):
@@ -137,11 +140,30 @@ def trajectory_to_msg(samples, joint_names, stamp=None):
 
 
 def sampled_trajectory_from_msg(msg, joint_names):
-    """Convert a received ``JointTrajectory`` to a :class:`SampledTrajectory` (our order)."""
+    """
+    Convert a received ``JointTrajectory`` to a :class:`SampledTrajectory` (our order).
+
+    Refused (ValueError): more than :data:`MAX_TRAJECTORY_POINTS` points
+    (counted before anything is read), efforts (the arm plays positions,
+    velocities and accelerations: they would be ignored), accelerations
+    without velocities (played as positions only, as joint_trajectory_controller
+    refuses them too), a ``time_from_start`` whose nanoseconds are not below
+    1e9, and what :class:`SampledTrajectory` refuses.
+    """
     order = joint_order(msg.joint_names, joint_names)
     n = len(order)
     if not msg.points:
         raise ValueError('trajectory has no points')
+    if len(msg.points) > MAX_TRAJECTORY_POINTS:
+        raise ValueError(f'trajectory has {len(msg.points)} points: more than '
+                         f'{MAX_TRAJECTORY_POINTS}')
+    for k, point in enumerate(msg.points):
+        if len(point.effort):
+            raise ValueError(f'point {k} has efforts: the arm takes positions, velocities '
+                             'and accelerations only')
+        if not point.time_from_start.nanosec < NANOS:
+            raise ValueError(f'point {k}: time_from_start.nanosec = '
+                             f'{point.time_from_start.nanosec} is not below 1e9')
     positions = np.array([_column(p, 'positions', k, n, order, True)
                           for k, p in enumerate(msg.points)])
     optional = {}
@@ -154,6 +176,8 @@ def sampled_trajectory_from_msg(msg, joint_names):
             raise ValueError(f'{field} must be given on every point or on none')
         else:
             optional[field] = None
+    if optional['accelerations'] is not None and optional['velocities'] is None:
+        raise ValueError('accelerations without velocities: give both, or neither')
     times = np.array([duration_to_seconds(p.time_from_start) for p in msg.points])
     return SampledTrajectory(times, positions, optional['velocities'],
                              optional['accelerations'])

@@ -83,6 +83,17 @@ def dry_friction(mujoco, model, dofs):
     return friction, speed
 
 
+# MuJoCo's warnings of a simulation gone unstable: it resets its state to the
+# model's reference pose and goes on, which the arm must not pass off as motion.
+UNSTABLE_WARNINGS = ('mjWARN_BADQPOS', 'mjWARN_BADQVEL', 'mjWARN_BADQACC', 'mjWARN_BADCTRL')
+# ... and a state beyond what any trajectory commands (playback.MAX_MAGNITUDE) or not finite.
+MAX_STATE = 1e6
+
+
+class UnstableSimulation(ValueError):
+    """The physics went unstable during a run; the arm is back at its state before it."""
+
+
 class DynamicArm:
     """One simulated arm with its controller; ``run`` steps it along reference arrays."""
 
@@ -209,9 +220,16 @@ class DynamicArm:
         applies), ``command`` (the controller's torque), ``effort`` (the
         applied torque during the step), ``saturated`` (K,) bool, and
         ``tool_error`` (K,) [m] when the model has a tool site.
+        :class:`UnstableSimulation` (the state put back as it was before
+        the run) when MuJoCo warns of a bad position, velocity, acceleration
+        or control, or the state is not finite or beyond :data:`MAX_STATE`.
         """
         mj, m, d, arm = self.mujoco, self.model, self.data, self.arm
         K, n = q_d.shape
+        before = self.positions(), self.velocities()
+        warnings = [int(getattr(mj.mjtWarning, name)) for name in UNSTABLE_WARNINGS]
+        for w in warnings:
+            d.warning[w].number = 0
         position = np.empty((K, n))
         velocity = np.empty((K, n))
         command = np.empty((K, n))
@@ -247,6 +265,12 @@ class DynamicArm:
             d.ctrl[arm.actuators] = tau
             mj.mj_step2(m, d)
             effort[k] = d.actuator_force[arm.actuators]
+        if any(d.warning[w].number for w in warnings) or not (
+                np.all(np.abs(d.qpos) <= MAX_STATE) and np.all(np.abs(d.qvel) <= MAX_STATE)):
+            self.set_state(*before)
+            raise UnstableSimulation(
+                'the physics went unstable (MuJoCo reset its state): the gains kp, kd are '
+                'too high for physics_rate, or the torque limits let the arm be thrown')
         self.time += K * self.timestep
         log = {'position': position, 'velocity': velocity, 'command': command,
                'effort': effort, 'saturated': saturated}

@@ -14,6 +14,7 @@ from fuzz_messages import arm_trajectories
 from hypothesis import given, HealthCheck, settings, strategies as st
 import numpy as np
 import pytest
+from rclpy.parameter import Parameter
 from sim_clock import ClockDriver
 from splines445_ros.nodes.arm_sim_node import ArmSimNode
 from splines445_ros.nodes.diagnostics import status_values
@@ -273,3 +274,39 @@ def test_fuzzed_trajectories_never_break_the_dynamic_arm(dynamic_arm, case, huge
     node = dynamic_arm.node
     assert np.all(np.isfinite(node.position)) and np.all(np.isfinite(node.effort))
     assert np.all(np.abs(node.effort) <= np.array(ArmSimConfig().torque_limits))
+
+
+def test_physics_gone_unstable_is_reported_and_the_arm_holds_its_last_sane_state(
+        tmp_path, monkeypatch):
+    """Gains far too high for the physics step: MuJoCo resets its state, the arm must not."""
+    monkeypatch.chdir(tmp_path)     # MuJoCo writes its warnings to MUJOCO_LOG.TXT here
+    with LocalRos() as ros:
+        arm = Harness(ros, {'simulation': 'dynamic', 'initial_positions': START.tolist(),
+                            'kp': [1e8] * 3, 'torque_limits': [1e12] * 3})
+        n = len(arm.status)
+        arm.publisher.publish(trajectory_to_msg(slow_plan().sample(0.01), JOINTS))
+        assert ros.spin_until(lambda: any(s.level == DiagnosticStatus.ERROR
+                                          for s in arm.status[n:]), 10.0)
+        error = next(s for s in arm.status[n:] if s.level == DiagnosticStatus.ERROR)
+        assert 'went unstable' in error.message
+        ros.spin_for(0.3)
+        # Held where the physics was last sane (how far it had flung the arm by then
+        # depends on the steps per tick), at rest: never MuJoCo's reset to (0, 0, 0).
+        held = [s for s in arm.states if stamp_ns(s) > stamp_ns(arm.states[-1]) - 200_000_000]
+        positions = np.array([s.position for s in held])
+        assert len(held) > 3 and np.all(np.isfinite(positions))
+        assert np.all(positions == positions[-1])
+        assert np.any(positions[-1] != 0.0)
+        np.testing.assert_array_equal(np.array([s.velocity for s in held]), 0.0)
+        # Sane gains again: the arm follows the next trajectory from there.
+        results = arm.node.set_parameters_atomically(
+            [Parameter('kp', value=list(ArmSimConfig().kp)),
+             Parameter('torque_limits', value=list(ArmSimConfig().torque_limits))])
+        assert results.successful, results.reason
+        n = len(arm.status)
+        start = positions[-1]
+        goal = start + [0.05, -0.05, 0.05]
+        arm.publisher.publish(trajectory_to_msg(slow_plan(start, goal).sample(0.01), JOINTS))
+        _, done = arm.finished(n)
+        assert done.level != DiagnosticStatus.ERROR, done.message
+        np.testing.assert_allclose(arm.states[-1].position, goal, atol=2.0 * DEADBAND + 1e-6)

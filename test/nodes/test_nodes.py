@@ -5,6 +5,7 @@ import os
 from diagnostic_msgs.msg import DiagnosticStatus
 import numpy as np
 import pytest
+from splines445_ros.nodes import ros_conversions
 from splines445_ros.nodes.diagnostics import status_values
 from splines445_ros.nodes.ros_conversions import duration_to_seconds, sampled_trajectory_from_msg
 from splines445_ros.planning import plan
@@ -196,6 +197,19 @@ def raw_trajectory(names, times, positions):
     return msg
 
 
+def with_point_fields(effort=None, accelerations=None, nanosec=None):
+    """Return a one-point trajectory to W[1] with fields the arm would ignore or misread."""
+    msg = raw_trajectory(pe.JOINT_NAMES, [0.5], [W[1]])
+    point = msg.points[0]
+    if effort is not None:
+        point.effort = effort
+    if accelerations is not None:
+        point.accelerations = accelerations
+    if nanosec is not None:
+        point.time_from_start.sec, point.time_from_start.nanosec = 0, nanosec
+    return msg
+
+
 def test_arm_rejects_bad_trajectories_and_keeps_its_state(system):
     system.spin_until(lambda: len(system.joint_states) >= 2, 5.0)
     held = np.array(system.joint_states[-1].position)
@@ -205,6 +219,9 @@ def test_arm_rejects_bad_trajectories_and_keeps_its_state(system):
         (raw_trajectory(pe.JOINT_NAMES, [0.5, 0.2], [W[1], W[2]]), 'increase strictly'),
         (raw_trajectory(pe.JOINT_NAMES, [], []), 'no points'),
         (raw_trajectory(pe.JOINT_NAMES, [0.5], [[np.nan, 0.0, 0.0]]), 'non-finite'),
+        (with_point_fields(effort=[1.0, 2.0, 3.0]), 'has efforts'),
+        (with_point_fields(accelerations=[0.0, 0.0, 0.0]), 'accelerations without velocities'),
+        (with_point_fields(nanosec=1_999_999_999), 'is not below 1e9'),
     ]
     for msg, reason in bad:
         n = len(system.arm_status)
@@ -219,3 +236,13 @@ def test_arm_rejects_bad_trajectories_and_keeps_its_state(system):
     system.trajectory_publisher.publish(raw_trajectory(pe.JOINT_NAMES, [0.2], [W[3]]))
     assert system.spin_until(
         lambda: np.allclose(system.joint_states[-1].position, W[3], atol=1e-12), 5.0)
+
+
+def test_the_arm_counts_a_trajectorys_points_before_reading_them(monkeypatch):
+    """More than MAX_TRAJECTORY_POINTS is refused at once: the size is what stops it."""
+    msg = raw_trajectory(pe.JOINT_NAMES, [0.1, 0.2, 0.3], [W[1], W[2], W[3]])
+    monkeypatch.setattr(ros_conversions, 'MAX_TRAJECTORY_POINTS', 2)
+    with pytest.raises(ValueError, match='3 points: more than 2'):
+        ros_conversions.sampled_trajectory_from_msg(msg, pe.JOINT_NAMES)
+    monkeypatch.setattr(ros_conversions, 'MAX_TRAJECTORY_POINTS', 3)
+    assert ros_conversions.sampled_trajectory_from_msg(msg, pe.JOINT_NAMES).times.size == 3

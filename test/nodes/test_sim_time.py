@@ -1,10 +1,14 @@
 """arm_sim_node plays trajectories on the node's clock: with use_sim_time, on /clock."""
 
+from builtin_interfaces.msg import Time as TimeMsg
+from diagnostic_msgs.msg import DiagnosticStatus
 import numpy as np
+from rosgraph_msgs.msg import Clock
 from sim_clock import ClockDriver
 from splines445_ros.nodes.arm_sim_node import ArmSimNode
+from splines445_ros.nodes.diagnostics import status_values
 from splines445_ros.tools.in_process import LocalRos, overrides, stamp_ns
-from trajectory_msgs.msg import JointTrajectoryPoint
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 GOAL = [1.0, 2.0, 3.0]
 
@@ -30,3 +34,77 @@ def test_arm_follows_simulated_time():
         set_clock(101.5)
         assert stamp_ns(states[-1]) == 101_500_000_000
         np.testing.assert_allclose(states[-1].position, GOAL, atol=1e-12)
+
+
+def one_second_to_goal():
+    point = JointTrajectoryPoint(positions=GOAL)
+    point.time_from_start.sec = 1
+    return point
+
+
+def reach(ros, states, seconds):
+    """Spin until the arm published a state stamped exactly at ``seconds``."""
+    target = int(round(seconds * 1e9))
+    assert ros.spin_until(lambda: stamp_ns(states[-1]) == target, 10.0), stamp_ns(states[-1])
+    return np.array(states[-1].position)
+
+
+def test_a_clock_that_jumps_back_leaves_the_motion_where_it_was():
+    """A simulated clock restarting mid-trajectory: the arm goes on, it does not jump back."""
+    with LocalRos() as ros:
+        ros.add(ArmSimNode(context=ros.context, parameter_overrides=overrides(
+            {'use_sim_time': True, 'publish_rate': 50.0})))
+        driver = ClockDriver(ros)
+        driver.set_clock(100.0)
+        driver.send(['joint1', 'joint2', 'joint3'], one_second_to_goal())
+        driver.set_clock(100.5)
+        halfway = reach(ros, driver.states, 100.5)
+        np.testing.assert_allclose(halfway, 0.5 * np.array(GOAL), atol=1e-9)
+        # Back by 3.5 s, then on in 20 ms steps (the timer fires on simulated time).
+        after = len(driver.states)
+        for k in range(16):
+            driver._clock.publish(Clock(clock=TimeMsg(sec=97, nanosec=20_000_000 * k)))
+            ros.spin_for(0.02)
+        assert ros.spin_until(lambda: any(stamp_ns(s) >= 97_200_000_000
+                                          for s in driver.states[after:]), 10.0)
+        later = [s for s in driver.states[after:] if stamp_ns(s) < 100_000_000_000]
+        assert len(later) > 3
+        # The first state after the jump is where the arm was (the jump happened some
+        # time after the last state: the arm goes on from there), then the motion goes on.
+        for state in later:
+            since = (stamp_ns(state) - stamp_ns(later[0])) * 1e-9
+            np.testing.assert_allclose(state.position, (0.5 + since) * np.array(GOAL),
+                                       atol=1e-9)
+
+
+def test_a_trajectory_sent_before_the_clock_starts_starts_with_it():
+    """Accepted at simulated time 0, it starts when /clock does, not at its end."""
+    with LocalRos() as ros:
+        ros.add(ArmSimNode(context=ros.context, parameter_overrides=overrides(
+            {'use_sim_time': True, 'publish_rate': 50.0})))
+        driver = ClockDriver(ros)
+        driver.send(['joint1', 'joint2', 'joint3'], one_second_to_goal())
+        driver._clock.publish(Clock(clock=TimeMsg(sec=100)))
+        np.testing.assert_allclose(reach(ros, driver.states, 100.0), 0.0, atol=1e-9)
+        driver._clock.publish(Clock(clock=TimeMsg(sec=100, nanosec=500_000_000)))
+        np.testing.assert_allclose(reach(ros, driver.states, 100.5), 0.5 * np.array(GOAL),
+                                   atol=1e-9)
+
+
+def test_a_pending_trajectory_replaced_before_it_starts_is_reported():
+    """Two stamped trajectories in a row: the first never runs, and the status says so."""
+    with LocalRos() as ros:
+        ros.add(ArmSimNode(context=ros.context, parameter_overrides=overrides(
+            {'use_sim_time': True, 'publish_rate': 50.0})))
+        driver = ClockDriver(ros)
+        driver.set_clock(100.0)
+        for second in (101, 102):
+            msg = JointTrajectory(joint_names=['joint1', 'joint2', 'joint3'],
+                                  points=[one_second_to_goal()])
+            msg.header.stamp = TimeMsg(sec=second)
+            n = len(driver.arm_status)
+            driver._trajectories.publish(msg)
+            assert ros.spin_until(lambda: len(driver.arm_status) > n, 10.0)
+        replaced = [s for s in driver.arm_status if 'replaced before it started' in s.message]
+        assert len(replaced) == 1 and replaced[0].level == DiagnosticStatus.WARN
+        assert status_values(replaced[0])['start_ns'] == str(101_000_000_000)
