@@ -163,8 +163,13 @@ class ConfigParameters:
                 # The node applies the config first; a ValueError (e.g. a model
                 # file that does not load) rejects it and the old one stays.
                 self._on_change(new)
-        except (TypeError, ValueError) as exc:
-            reason = f'rejected: {exc}'
+        except Exception as exc:  # noqa: B902 - a parameter must never kill the node
+            # TypeError and ValueError are the config's own refusals; anything
+            # else (an OverflowError or a RecursionError from a file read for
+            # it) is refused all the same, with its type.
+            text = str(exc) if isinstance(exc, (TypeError, ValueError)) else (
+                f'{type(exc).__name__}: {exc}')
+            reason = f'rejected: {text}'
             self._node.get_logger().warning(reason)
             if self._on_reject is not None:
                 self._on_reject(reason, [p.name for p in parameters])

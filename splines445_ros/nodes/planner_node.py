@@ -321,10 +321,12 @@ class PlannerNode(Node):
         """
         try:
             robot = load_model(source)
-        except ValueError as exc:
+        except Exception as exc:  # noqa: B902 - e.g. a RecursionError: reported as refused
             with self._robot_lock:
                 if self._pending == source:
                     self._pending = None
+            if not isinstance(exc, ValueError):
+                exc = ValueError(f'{type(exc).__name__}: {exc}')
             self._report_kept(what, exc, source)
             return
         with self._robot_lock:

@@ -213,6 +213,11 @@ def parse_joint_limits(data, where='joint limits'):
             if max_key not in entry:
                 raise ValueError(f'{where}: joint {name} has {has_key}: true but no {max_key}')
             value = entry[max_key]
+            if isinstance(value, int) and not isinstance(value, bool):
+                try:
+                    float(value)
+                except OverflowError:   # an integer too large for a float: refused below
+                    value = math.inf
             if (isinstance(value, bool) or not isinstance(value, (int, float))
                     or not math.isfinite(value) or value <= 0.0):
                 raise ValueError(f'{where}: joint {name}: {max_key} = {show(value)} must be a '

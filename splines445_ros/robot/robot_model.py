@@ -234,7 +234,10 @@ class _UrdfDescription:
         compiler.set('balanceinertia', 'true')
         compiler.set('boundmass', '1e-6')
         compiler.set('boundinertia', '1e-9')
-        self.text = ET.tostring(root, encoding='unicode')
+        try:
+            self.text = ET.tostring(root, encoding='unicode')
+        except RecursionError:
+            raise ValueError(f'{where}: its elements nest too deep to read') from None
 
 
 def _resolve_mesh(uri, base_dir):
@@ -408,7 +411,7 @@ def load_robot_model(model_file='', urdf_string=None, where=None):
         raise ValueError('no model: model_file is empty')
     where = where or model_file_where(model_file)
     text = read_description_file(model_file, where)
-    if _root_tag(text) == 'robot':
+    if _root_tag(text, where) == 'robot':
         return _from_urdf(mujoco, text, where, os.path.dirname(os.path.abspath(model_file)),
                           model_file)
     check_mjcf(model_file, text, where)
@@ -454,8 +457,8 @@ def check_mjcf_size(text, where):
     ``<composite>`` or ``<flexcomp>`` as the product of its ``count``),
     ``<joint>`` and ``<freejoint>`` elements in bodies, and the nesting
     depth of bodies (:func:`check_mjcf_files` reads the ``<include>``
-    files).  Text that ElementTree cannot parse is left to MuJoCo's own
-    error.
+    files).  Text that ElementTree cannot parse is refused (ValueError):
+    MuJoCo's parser takes some of it (``--`` in a comment), unchecked.
     """
     return _check_counts(mjcf_counts(text, where), where)
 
@@ -486,8 +489,8 @@ def mjcf_counts(text, where):
     """
     Return (bodies, joints) of an MJCF text, as :func:`check_mjcf_size` counts them.
 
-    A ValueError where bodies nest deeper than :data:`MAX_DEPTH`; (0, 0)
-    for text that ElementTree cannot parse (MuJoCo's own error follows).
+    A ValueError where bodies nest deeper than :data:`MAX_DEPTH`, and for
+    text that ElementTree cannot parse.
     """
     bodies = joints = 0
     stack = []  # per open element: (tag, copies, body depth)
@@ -514,8 +517,8 @@ def mjcf_counts(text, where):
             elif tag in ('joint', 'freejoint') and parent == 'body':
                 joints += copies
             stack.append((tag, copies, depth))
-    except ET.ParseError:
-        return 0, 0
+    except ET.ParseError as exc:
+        raise ValueError(f'{where} is not well-formed XML: {exc}') from None
     return bodies, joints
 
 
@@ -543,7 +546,7 @@ def check_mjcf_files(path, text, where, counts):
     bodies, joints = counts
     while pending:
         text, source, depth = pending.pop()
-        includes, assets, dirs = _mjcf_files(text)
+        includes, assets, dirs = _mjcf_files(text, source)
         for name in includes:
             included = name if os.path.isabs(name) else os.path.join(folder, name)
             here = f'{source}: <include file={show_path(name)}>'
@@ -553,7 +556,7 @@ def check_mjcf_files(path, text, where, counts):
                 raise ValueError(f'{here} is more than {MAX_INCLUDE_DEPTH} includes deep')
             seen.add(os.path.abspath(included))
             body = read_text_file(included, here, MAX_DESCRIPTION_CHARS)
-            counted = mjcf_counts(body, where)
+            counted = mjcf_counts(body, here)
             bodies, joints = bodies + counted[0], joints + counted[1]
             pending.append((body, here, depth + 1))
         for tag, name in assets:
@@ -570,7 +573,7 @@ _ASSET_DIRS = {'mesh': 'meshdir', 'skin': 'meshdir', 'texture': 'texturedir',
                'hfield': 'assetdir'}
 
 
-def _mjcf_files(text):
+def _mjcf_files(text, where):
     """Return (included files, [(asset tag, file)], {tag: compiler folder}) of an MJCF text."""
     includes, assets, dirs = [], [], {}
     try:
@@ -586,8 +589,8 @@ def _mjcf_files(text):
                         dirs[tag] = element.get(attribute)
                 if element.get('assetdir'):
                     dirs['asset'] = element.get('assetdir')
-    except ET.ParseError:
-        pass    # left to MuJoCo's own error
+    except ET.ParseError as exc:
+        raise ValueError(f'{where} is not well-formed XML: {exc}') from None
     return includes, assets, dirs
 
 
@@ -602,13 +605,21 @@ def _count(text):
     return product
 
 
-def _root_tag(text):
+def _root_tag(text, where):
+    """
+    Return the root element's tag of a description ``text``; ValueError if not well-formed.
+
+    MuJoCo's parser takes some XML that ElementTree refuses (``--`` in a
+    comment): such a file would skip every check here (the size caps, the
+    included and asset files) and a URDF would go to MuJoCo as if it were
+    MJCF, its velocity limits and frames dropped.  Refused instead.
+    """
     try:
         for _, element in ET.iterparse(_Lines(text), events=('start',)):
             return element.tag
-    except ET.ParseError:
-        return None
-    return None
+    except ET.ParseError as exc:
+        raise ValueError(f'{where} is not well-formed XML: {exc}') from None
+    raise ValueError(f'{where} has no XML element')
 
 
 class _Lines:
@@ -684,7 +695,7 @@ def urdf_spec(mujoco, path, text=None):
     where = model_file_where(path)
     if text is None:
         text = read_description_file(path, where)
-    if _root_tag(text) != 'robot':
+    if _root_tag(text, where) != 'robot':
         return None
     description = _UrdfDescription(text, where, os.path.dirname(os.path.abspath(path)))
     for note in description.notes:

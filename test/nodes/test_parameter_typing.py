@@ -152,3 +152,22 @@ def test_descriptors_show_the_table_and_our_reason_rejects():
         assert rate.additional_constraints == 'in [0.001, 1000] Hz'
         result = arm.set_parameters([Parameter('publish_rate', value=5000.0)])[0]
         assert result.reason == 'rejected: publish_rate = 5000.0: must be in [0.001, 1000] Hz'
+
+
+def test_an_unexpected_error_applying_parameters_is_a_refusal_not_a_crash():
+    """An OverflowError or a RecursionError from a file read for a parameter once left it."""
+    with LocalRos() as ros:
+        node = ros.add(ArmSimNode(context=ros.context))
+        apply = node.parameters._on_change
+
+        def broken(config):
+            if config.publish_rate == 7.0:
+                raise RecursionError('maximum recursion depth exceeded')
+            return apply(config)
+        node.parameters._on_change = broken
+        result = node.set_parameters([Parameter('publish_rate', value=7.0)])[0]
+        assert not result.successful
+        assert 'RecursionError: maximum recursion depth exceeded' in result.reason
+        assert node.get_parameter('publish_rate').value != 7.0
+        assert node.set_parameters([Parameter('publish_rate', value=25.0)])[0].successful
+        assert node.effective.publish_rate == 25.0

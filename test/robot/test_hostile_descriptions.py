@@ -343,3 +343,32 @@ def test_an_mjcf_with_a_small_included_file_still_loads(tmp_path):
     path = write(tmp_path, '<mujoco><include file="arm_body.xml"/></mujoco>', 'arm.xml')
     robot = rm.load_robot_model(path)
     assert [j.name for j in robot.joints] == ['j']
+
+
+# ------------------------------------------------- XML that MuJoCo reads and ElementTree does not
+
+@pytest.mark.parametrize('name, text', [
+    # '--' inside a comment: MuJoCo's parser takes it, ElementTree does not, and the
+    # checks above (the caps, the included files) once gave up silently on it.
+    ('big.xml', '<!-- a -- b -->' + mjcf(BODY * 1500)),
+    ('dashes.urdf', None),
+])
+def test_a_description_that_is_not_well_formed_xml_is_refused(tmp_path, name, text):
+    if text is None:    # a UR5 with a separator comment: once loaded as MJCF, limits lost
+        with open(vr.ur5_urdf(), encoding='utf-8') as handle:
+            text = handle.read().replace('<robot ', '<!-- ---- -->\n<robot ', 1)
+    path = write(tmp_path, text, name)
+    with pytest.raises(ValueError, match='is not well-formed XML'):
+        rm.load_robot_model(path)
+    with pytest.raises(ValueError, match='is not well-formed XML'):
+        load_arm_model(('j',), [1.0], 0.0, model_file=path)
+
+
+def test_a_urdf_nested_deeper_than_python_writes_back_is_refused():
+    """2000 nested elements in a link: a RecursionError once, which left arm_sim_node."""
+    with open(vr.ur5_urdf(), encoding='utf-8') as handle:
+        text = handle.read()
+    deep = '<a>' * 2000 + '</a>' * 2000
+    text = text.replace('<link name="base_link">', '<link name="base_link">' + deep, 1)
+    with pytest.raises(ValueError, match='nest too deep to read'):
+        rm.load_robot_model(urdf_string=text)

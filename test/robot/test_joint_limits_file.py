@@ -111,6 +111,9 @@ def test_a_joint_without_acceleration_limit_is_named(ur5_velocity):
     ('joint_limits: {}\nscaling: 1\n', r"unknown top-level key\(s\) \['scaling'\]"),
     ('joint_limits: [1, 2]\n', 'must map joint names'),
     ('joint_limits: {j: [1]\n', 'not readable YAML'),
+    # An integer too large for a float (an OverflowError once, which left the node).
+    ('joint_limits:\n  j:\n    has_velocity_limits: true\n    max_velocity: ' + '9' * 4000
+     + '\n', 'max_velocity = inf must be a positive number'),
 ])
 def test_bad_limits_files_are_refused_with_the_reason(tmp_path, text, match):
     with pytest.raises(ValueError, match=match):
