@@ -181,7 +181,7 @@ def test_bad_parameters_and_model_files_are_rejected_and_the_arm_lives_on(tmp_pa
     cases = [
         ({'simulation': 'wobbly'}, 'simulation must be one of'),
         ({'model_file': str(tmp_path / 'absent.xml')}, 'no such file'),
-        ({'model_file': str(broken)}, 'cannot load MJCF'),
+        ({'model_file': str(broken)}, 'is not well-formed XML'),
         # joint_names not set: all of the file's joints, which the 3 explicit
         # initial_positions do not fit.
         ({'model_file': str(other)}, 'initial_positions must be 2 values (one per joint of '
@@ -305,8 +305,11 @@ def test_physics_gone_unstable_is_reported_and_the_arm_holds_its_last_sane_state
         assert results.successful, results.reason
         n = len(arm.status)
         start = positions[-1]
-        goal = start + [0.05, -0.05, 0.05]
+        goal = start + [0.3, -0.3, 0.3]
         arm.publisher.publish(trajectory_to_msg(slow_plan(start, goal).sample(0.01), JOINTS))
         _, done = arm.finished(n)
         assert done.level != DiagnosticStatus.ERROR, done.message
-        np.testing.assert_allclose(arm.states[-1].position, goal, atol=2.0 * DEADBAND + 1e-6)
+        # Wherever the arm was flung, it moves again: to the goal, within the tracking
+        # the default gains give in that pose (its friction dead band is the start pose's).
+        end = np.array(arm.states[-1].position)
+        assert np.max(np.abs(end - goal)) < 0.05

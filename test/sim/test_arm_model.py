@@ -218,7 +218,7 @@ def test_model_errors_say_what_is_wrong(tmp_path):
                      '<geom size="0.1" mass="1"/></body></worldbody></mujoco>')
     limits = (1.0, 1.0, 1.0)
     cases = [(str(tmp_path / 'missing.xml'), '', 'no such file'),
-             (str(bad_xml), '', 'cannot load MJCF'),
+             (str(bad_xml), '', 'is not well-formed XML'),
              (str(other), '', "no joint(s) ['joint1', 'joint2', 'joint3']"),
              ('', 'nowhere', "no site 'nowhere'")]
     for path, site, reason in cases:
