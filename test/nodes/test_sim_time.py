@@ -15,9 +15,7 @@ GOAL = [1.0, 2.0, 3.0]
 
 def test_arm_follows_simulated_time():
     with LocalRos() as ros:
-        ros.add(ArmSimNode(context=ros.context, parameter_overrides=overrides(
-            {'use_sim_time': True, 'publish_rate': 50.0})))
-        driver = ClockDriver(ros)
+        driver = simulated_arm(ros)
         states, set_clock = driver.states, driver.set_clock
         set_clock(100.0)
         point = JointTrajectoryPoint(positions=GOAL)
@@ -36,6 +34,13 @@ def test_arm_follows_simulated_time():
         np.testing.assert_allclose(states[-1].position, GOAL, atol=1e-12)
 
 
+def simulated_arm(ros):
+    """Add an arm on simulated time to ``ros``; return the ClockDriver of its clock."""
+    ros.add(ArmSimNode(context=ros.context, parameter_overrides=overrides(
+        {'use_sim_time': True, 'publish_rate': 50.0})))
+    return ClockDriver(ros)
+
+
 def one_second_to_goal():
     point = JointTrajectoryPoint(positions=GOAL)
     point.time_from_start.sec = 1
@@ -52,9 +57,7 @@ def reach(ros, states, seconds):
 def test_a_clock_that_jumps_back_leaves_the_motion_where_it_was():
     """A simulated clock restarting mid-trajectory: the arm goes on, it does not jump back."""
     with LocalRos() as ros:
-        ros.add(ArmSimNode(context=ros.context, parameter_overrides=overrides(
-            {'use_sim_time': True, 'publish_rate': 50.0})))
-        driver = ClockDriver(ros)
+        driver = simulated_arm(ros)
         driver.set_clock(100.0)
         driver.send(['joint1', 'joint2', 'joint3'], one_second_to_goal())
         driver.set_clock(100.5)
@@ -80,9 +83,7 @@ def test_a_clock_that_jumps_back_leaves_the_motion_where_it_was():
 def test_a_trajectory_sent_before_the_clock_starts_starts_with_it():
     """Accepted at simulated time 0, it starts when /clock does, not at its end."""
     with LocalRos() as ros:
-        ros.add(ArmSimNode(context=ros.context, parameter_overrides=overrides(
-            {'use_sim_time': True, 'publish_rate': 50.0})))
-        driver = ClockDriver(ros)
+        driver = simulated_arm(ros)
         driver.send(['joint1', 'joint2', 'joint3'], one_second_to_goal())
         driver._clock.publish(Clock(clock=TimeMsg(sec=100)))
         np.testing.assert_allclose(reach(ros, driver.states, 100.0), 0.0, atol=1e-9)
@@ -94,9 +95,7 @@ def test_a_trajectory_sent_before_the_clock_starts_starts_with_it():
 def test_a_pending_trajectory_replaced_before_it_starts_is_reported():
     """Two stamped trajectories in a row: the first never runs, and the status says so."""
     with LocalRos() as ros:
-        ros.add(ArmSimNode(context=ros.context, parameter_overrides=overrides(
-            {'use_sim_time': True, 'publish_rate': 50.0})))
-        driver = ClockDriver(ros)
+        driver = simulated_arm(ros)
         driver.set_clock(100.0)
         for second in (101, 102):
             msg = JointTrajectory(joint_names=['joint1', 'joint2', 'joint3'],
