@@ -124,6 +124,13 @@ class ArmSimNode(Node):
         config = self._effective(config)
         n = len(config.joint_names)
         same_joints = tuple(config.joint_names) == tuple(old.joint_names)
+        if same_joints and tuple(config.initial_positions) != tuple(old.initial_positions):
+            raise ValueError('initial_positions take effect at start-up, or with new '
+                             'joint_names in the same call: the arm stays where it is')
+        if old.dynamic and not config.dynamic and self._active is not None:
+            raise ValueError('simulation cannot switch to kinematic while a trajectory runs '
+                             '(its playback would jump to the commanded state): wait for '
+                             'its end')
         position = self.position if same_joints and len(self.position) == n else np.array(
             config.initial_positions, dtype=float)
         velocity = self.velocity if same_joints and len(self.velocity) == n else np.zeros(n)

@@ -163,6 +163,38 @@ def _deepest(parent_of):
     return deepest
 
 
+# The numbers of a URDF's kinematics and inertia (element path, attribute names):
+# MuJoCo loads NaN, inf or 1e308 there without a word, and every request then
+# fails obscurely ("cannot convert float NaN to integer", helper-47).
+_URDF_NUMBERS = (('joint/origin', ('xyz', 'rpy')), ('joint/axis', ('xyz',)),
+                 ('joint/mimic', ('multiplier', 'offset')),
+                 ('link/inertial/origin', ('xyz', 'rpy')), ('link/inertial/mass', ('value',)),
+                 ('link/inertial/inertia', ('ixx', 'ixy', 'ixz', 'iyy', 'iyz', 'izz')))
+# ... and the largest magnitude taken there [m, rad, kg, kg m^2]: far beyond any arm.
+MAX_URDF_NUMBER = 1e6
+
+
+def _check_urdf_numbers(root, where):
+    """Refuse a URDF origin, axis, mimic or inertial number that is not finite or absurd."""
+    for path, attributes in _URDF_NUMBERS:
+        parent_tag = path.split('/')[0]
+        for parent in root.findall(parent_tag):
+            for element in parent.findall(path.split('/', 1)[1]):
+                for attribute in attributes:
+                    text = element.get(attribute)
+                    if text is None:
+                        continue
+                    try:
+                        values = [float(word) for word in text.split()]
+                    except ValueError:
+                        values = [math.nan]
+                    if not all(abs(v) <= MAX_URDF_NUMBER for v in values):
+                        raise ValueError(
+                            f'{where}: {parent_tag} {show(parent.get("name", ""))}: '
+                            f'<{element.tag} {attribute}={show(text)}> must be finite numbers '
+                            f'of at most {MAX_URDF_NUMBER:g} in magnitude')
+
+
 class _UrdfDescription:
     """What MuJoCo drops from a URDF, and the cleaned text MuJoCo compiles."""
 
@@ -180,6 +212,7 @@ class _UrdfDescription:
             raise ValueError(f'{where} is not a URDF (its root element is <{clip(root.tag)}>, '
                              'not <robot>)')
         _check_urdf_size(root, where)
+        _check_urdf_numbers(root, where)
         self.limits = {}
         self.mimic = set()
         self.held = {}         # joint -> position, for a range with lower == upper

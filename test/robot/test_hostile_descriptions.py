@@ -372,3 +372,22 @@ def test_a_urdf_nested_deeper_than_python_writes_back_is_refused():
     text = text.replace('<link name="base_link">', '<link name="base_link">' + deep, 1)
     with pytest.raises(ValueError, match='nest too deep to read'):
         rm.load_robot_model(urdf_string=text)
+
+
+@pytest.mark.parametrize('path, attribute, value, match', [
+    ("joint[@name='elbow_joint']/origin", 'xyz', '0 nan 0', r"joint 'elbow_joint': <origin xyz="),
+    ("joint[@name='elbow_joint']/axis", 'xyz', '0 inf 0', r"joint 'elbow_joint': <axis xyz="),
+    ("link[@name='forearm_link']/inertial/mass", 'value', '1e308',
+     r"link 'forearm_link': <mass value="),
+    ("link[@name='forearm_link']/inertial/inertia", 'ixx', 'nan',
+     r"link 'forearm_link': <inertia ixx="),
+])
+def test_a_urdf_number_that_is_not_finite_or_absurd_is_refused_at_load(path, attribute, value,
+                                                                       match):
+    """They loaded with an OK status, and every request then failed obscurely."""
+    root = ET.parse(vr.ur5_urdf()).getroot()
+    element = root.find(path)
+    assert element is not None, path
+    element.set(attribute, value)
+    with pytest.raises(ValueError, match=match + '.*must be finite numbers'):
+        rm.load_robot_model(urdf_string=ET.tostring(root, encoding='unicode'))
