@@ -200,7 +200,13 @@ class PathMeasure:
         p = position - self.start[e]
         ab = self.direction[e]
         s_time = self._time_fraction(t, e)
-        s_turn = self._turn_share(mat if self._matrices else pose[:, 3:], e, s_time)
+        # The turn's share is read only on edges too short to project on: the others
+        # (nearly every point of a refinement's many measures) skip its conversions.
+        s_turn = s_time.copy()
+        short = self.length2[e] <= MIN_EDGE_LENGTH**2
+        if np.any(short):
+            orientation = mat[short] if self._matrices else pose[short, 3:]
+            s_turn[short] = self._turn_share(orientation, e[short], s_time[short])
         s = self._edge_parameter(p, s_time, s_turn, e)
         deviation = np.linalg.norm(p - s[:, None] * ab, axis=1)
         if not self._matrices:

@@ -109,6 +109,8 @@ class DynamicArm:
         self.arm = arm_model
         self.model = arm_model.model
         self.data = self.mujoco.MjData(self.model)
+        self._unstable_warnings = [int(getattr(self.mujoco.mjtWarning, name))
+                                   for name in UNSTABLE_WARNINGS]
         self.rigid_data = self.mujoco.MjData(arm_model.rigid)
         self.kp = np.asarray(kp, dtype=float)
         self.kd = np.asarray(kd, dtype=float)
@@ -227,7 +229,7 @@ class DynamicArm:
         mj, m, d, arm = self.mujoco, self.model, self.data, self.arm
         K, n = q_d.shape
         before = self.positions(), self.velocities()
-        warnings = [int(getattr(mj.mjtWarning, name)) for name in UNSTABLE_WARNINGS]
+        warnings = self._unstable_warnings
         for w in warnings:
             d.warning[w].number = 0
         position = np.empty((K, n))
