@@ -24,7 +24,7 @@ import numpy as np
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from ..service.interface_requests import check_request_size
-from ..service.request_planning import WaypointRequest
+from ..service.request_planning import DEFAULT_MAX_TRAJECTORY_POINTS, WaypointRequest
 from ..sim.playback import SampledTrajectory
 
 NANOS = 1_000_000_000
@@ -32,7 +32,7 @@ NANOS = 1_000_000_000
 MAX_TOOL_TILT = 1e-6
 # Most points a received trajectory may have: the planner's own default
 # max_trajectory_points (a million took the arm 4 s and 1.9 GB to read).
-MAX_TRAJECTORY_POINTS = 200_000
+MAX_TRAJECTORY_POINTS = DEFAULT_MAX_TRAJECTORY_POINTS
 
 
 def duration_to_seconds(duration):

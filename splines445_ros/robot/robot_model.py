@@ -163,23 +163,23 @@ def _deepest(parent_of):
     return deepest
 
 
-# The numbers of a URDF's kinematics and inertia (element path, attribute names):
+# The numbers of a URDF's kinematics and inertia (element, child path, attributes):
 # MuJoCo loads NaN, inf or 1e308 there without a word, and every request then
 # fails obscurely ("cannot convert float NaN to integer", helper-47).
-_URDF_NUMBERS = (('joint/origin', ('xyz', 'rpy')), ('joint/axis', ('xyz',)),
-                 ('joint/mimic', ('multiplier', 'offset')),
-                 ('link/inertial/origin', ('xyz', 'rpy')), ('link/inertial/mass', ('value',)),
-                 ('link/inertial/inertia', ('ixx', 'ixy', 'ixz', 'iyy', 'iyz', 'izz')))
+_URDF_NUMBERS = (('joint', 'origin', ('xyz', 'rpy')), ('joint', 'axis', ('xyz',)),
+                 ('joint', 'mimic', ('multiplier', 'offset')),
+                 ('link', 'inertial/origin', ('xyz', 'rpy')),
+                 ('link', 'inertial/mass', ('value',)),
+                 ('link', 'inertial/inertia', ('ixx', 'ixy', 'ixz', 'iyy', 'iyz', 'izz')))
 # ... and the largest magnitude taken there [m, rad, kg, kg m^2]: far beyond any arm.
 MAX_URDF_NUMBER = 1e6
 
 
 def _check_urdf_numbers(root, where):
     """Refuse a URDF origin, axis, mimic or inertial number that is not finite or absurd."""
-    for path, attributes in _URDF_NUMBERS:
-        parent_tag = path.split('/')[0]
+    for parent_tag, path, attributes in _URDF_NUMBERS:
         for parent in root.findall(parent_tag):
-            for element in parent.findall(path.split('/', 1)[1]):
+            for element in parent.findall(path):
                 for attribute in attributes:
                     text = element.get(attribute)
                     if text is None:
@@ -207,7 +207,7 @@ class _UrdfDescription:
         try:
             root = ET.fromstring(text)
         except ET.ParseError as exc:
-            raise ValueError(f'{where} is not well-formed XML: {exc}') from None
+            raise _not_well_formed(where, exc) from None
         if root.tag != 'robot':
             raise ValueError(f'{where} is not a URDF (its root element is <{clip(root.tag)}>, '
                              'not <robot>)')
@@ -551,7 +551,7 @@ def mjcf_counts(text, where):
                 joints += copies
             stack.append((tag, copies, depth))
     except ET.ParseError as exc:
-        raise ValueError(f'{where} is not well-formed XML: {exc}') from None
+        raise _not_well_formed(where, exc) from None
     return bodies, joints
 
 
@@ -623,7 +623,7 @@ def _mjcf_files(text, where):
                 if element.get('assetdir'):
                     dirs['asset'] = element.get('assetdir')
     except ET.ParseError as exc:
-        raise ValueError(f'{where} is not well-formed XML: {exc}') from None
+        raise _not_well_formed(where, exc) from None
     return includes, assets, dirs
 
 
@@ -651,8 +651,13 @@ def _root_tag(text, where):
         for _, element in ET.iterparse(_Lines(text), events=('start',)):
             return element.tag
     except ET.ParseError as exc:
-        raise ValueError(f'{where} is not well-formed XML: {exc}') from None
+        raise _not_well_formed(where, exc) from None
     raise ValueError(f'{where} has no XML element')
+
+
+def _not_well_formed(where, exc):
+    """Return the ValueError of a description ElementTree cannot parse (``exc``)."""
+    return ValueError(f'{where} is not well-formed XML: {exc}')
 
 
 class _Lines:

@@ -15,7 +15,7 @@ import math
 from typing import Tuple
 
 from .parameter_table import parameter
-from .request_planning import REPLAN_MAX_DELAY
+from .request_planning import DEFAULT_MAX_TRAJECTORY_POINTS, REPLAN_MAX_DELAY
 from .validated_config import ValidatedConfig
 from ..planning import DEFAULT_WAYPOINT_TOLERANCE, METHODS, TIMINGS
 from ..planning.plan_options import (MAX_INNER_KNOTS, MAX_TIME_OPTIMAL_WAYPOINTS,
@@ -126,9 +126,9 @@ class PlannerConfig(ValidatedConfig):
         0.2, 'How far ahead of now a replanned trajectory takes over [s]; planning must '
         'finish within it.', low=0.0, high=MAX_LEAD_TIME, unit='s')
     max_trajectory_points: int = parameter(
-        200000, 'Largest number of points a published trajectory may have (at '
-        '`sample_period`, or knots); a longer one is rejected (raise `sample_period` or use '
-        '`output: knots` instead).', low=2)
+        DEFAULT_MAX_TRAJECTORY_POINTS, 'Largest number of points a published trajectory may '
+        'have (at `sample_period`, or knots); a longer one is rejected (raise `sample_period` '
+        'or use `output: knots` instead).', low=2)
     kinematics: str = parameter(
         '', 'Kinematics for `tool_waypoints` requests: `""` = none (joint space only: tool '
         "requests get an ERROR), `planar_3dof` = the paper's arm with `link_lengths` (needs 3 "

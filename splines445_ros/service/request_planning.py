@@ -36,6 +36,9 @@ SLOW_PLAN_FACTOR = 20.0
 # Resolution of time_from_start (builtin_interfaces/Duration) [s]: knots are
 # published at their times rounded to it.
 TIME_RESOLUTION = 1e-9
+# The default max_trajectory_points: the most points a published trajectory has
+# (and the most arm_sim_node reads, ros_conversions.MAX_TRAJECTORY_POINTS).
+DEFAULT_MAX_TRAJECTORY_POINTS = 200_000
 # The longest trajectory a message holds [s]: builtin_interfaces/Duration's
 # seconds are an int32 (a longer time_from_start wraps round in transit).
 MAX_TIME_FROM_START = 2**31 - 1
