@@ -116,7 +116,8 @@ class PlannerConfig(ValidatedConfig):
         '(minimum total time) or `fixed` (durations from `time_from_start`).',
         choices=TIMINGS)
     sample_period: float = parameter(
-        0.01, '`output: sampled`: period of the published trajectory points [s].',
+        0.01, '`output: sampled`: period of the published trajectory points [s]; every '
+        'waypoint is a point too.',
         low=MIN_SAMPLE_PERIOD, unit='s')
     start_from_current_state: bool = parameter(
         False, 'Start every trajectory from the commanded state at now + `replan_lead_time` '

@@ -243,7 +243,7 @@ def output_samples(config, traj):
         n_points = traj.ppoly.x.size
         what = f'{n_points} knots'
     else:
-        n_points = int(traj.duration / config.sample_period) + 2
+        n_points = int(traj.duration / config.sample_period) + 1 + len(traj.waypoint_times)
         what = f'about {n_points} points at sample_period {config.sample_period} s'
     if n_points > config.max_trajectory_points:
         raise ValueError(

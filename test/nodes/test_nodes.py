@@ -46,10 +46,19 @@ def test_paper_example_through_both_nodes(system, method):
     assert list(msg.joint_names) == list(pe.JOINT_NAMES)
     times, pos, vel, acc = trajectory_arrays(msg)
     period = 0.01
+    reference = plan(W, method, 'uniform', max_velocity=pe.MAX_VELOCITY,
+                     max_acceleration=pe.MAX_ACCELERATION, max_jerk=[JERK_LIMIT] * 3,
+                     start_velocity=BOUNDARY[0], start_acceleration=BOUNDARY[1],
+                     end_velocity=BOUNDARY[2], end_acceleration=BOUNDARY[3])
     assert times[0] == 0.0 and np.all(np.diff(times) > 0.0)
-    # Every step is the period except the last, which ends exactly on the last waypoint.
-    np.testing.assert_allclose(np.diff(times)[:-1], period, atol=1e-9)
-    assert 0.5 * period <= times[-1] - times[-2] < 1.5 * period
+    # A point every period, but those within half a period of a waypoint's
+    # time, and one exactly at every waypoint.
+    passed = reference.waypoint_times
+    regular = [t for t in np.arange(0.0, reference.duration, period)
+               if np.min(np.abs(t - passed)) >= 0.5 * period - 1e-12]
+    np.testing.assert_allclose(times, np.sort(np.concatenate([regular, passed])), atol=1e-8)
+    for t, q in zip(passed, W):
+        np.testing.assert_allclose(pos[np.argmin(np.abs(times - t))], q, atol=1e-12)
     np.testing.assert_array_equal(pos[-1], W[-1])
     np.testing.assert_allclose(vel[0], pe.BOUNDARY_VELOCITY, atol=1e-9)
     np.testing.assert_allclose(acc[0], pe.BOUNDARY_ACCELERATION, atol=1e-9)
@@ -62,10 +71,6 @@ def test_paper_example_through_both_nodes(system, method):
     assert np.all(np.abs(np.diff(acc, axis=0)) <= JERK_LIMIT * np.diff(times)[:, None] + 1e-9)
     assert np.all(np.abs(np.diff(vel, axis=0)) <= 10.0 * np.diff(times)[:, None] + 1e-9)
     # The published curve passes through every waypoint at the planned knot times.
-    reference = plan(W, method, 'uniform', max_velocity=pe.MAX_VELOCITY,
-                     max_acceleration=pe.MAX_ACCELERATION, max_jerk=[JERK_LIMIT] * 3,
-                     start_velocity=BOUNDARY[0], start_acceleration=BOUNDARY[1],
-                     end_velocity=BOUNDARY[2], end_acceleration=BOUNDARY[3])
     assert times[-1] == pytest.approx(reference.duration, abs=1e-9)
     played = sampled_trajectory_from_msg(msg, pe.JOINT_NAMES)
     for t, q in zip(reference.breakpoints, W):

@@ -166,7 +166,30 @@ def test_sampling_is_increasing_and_ends_exactly_on_last_waypoint(req, period):
     assert samples.times[0] == 0.0
     assert samples.times[-1] == traj.duration
     assert np.all(np.diff(samples.times) > 0.0)
-    assert np.all(np.diff(samples.times) <= period * (1 + 1e-9) * 1.5)
+    assert np.all(np.diff(samples.times) < 2.0 * period * (1 + 1e-9))
     np.testing.assert_array_equal(samples.positions[-1], points[-1])
     np.testing.assert_allclose(samples.positions, traj.evaluate(samples.times),
                                atol=1e-12 * scale_of(points) * 100)
+
+
+@given(req=requests(max_points=6), period=st.floats(0.001, 5.0))
+def test_samples_pass_every_waypoint_at_its_time_however_coarse(req, period):
+    # The published points must pass every waypoint: a controller
+    # interpolating them would skip one that falls between two samples.
+    points, durations, _ = req
+    traj = plan(points, '445', 'fixed', durations=durations)
+    samples = traj.sample(period)
+    passed = np.concatenate([[0.0], np.cumsum(durations)])
+    # Independently: the multiples of the period at least half a period from
+    # every waypoint time (and before the end), plus the waypoint times.
+    regular = [k * period for k in range(int(traj.duration / period) + 1)
+               if k * period < traj.duration
+               and min(abs(k * period - t) for t in traj.waypoint_times) >= 0.5 * period]
+    np.testing.assert_allclose(samples.times, np.sort(np.concatenate([regular, passed])),
+                               rtol=0, atol=1e-9 * max(1.0, traj.duration))
+    for k, t in enumerate(traj.waypoint_times):
+        index = np.flatnonzero(samples.times == t)
+        assert index.size == 1
+        np.testing.assert_array_equal(samples.positions[index[0]], points[k])
+    # A regular sample dropped next to each of two waypoints: up to 2 periods.
+    assert np.all(np.diff(samples.times) < 2.0 * period * (1 + 1e-9))

@@ -176,10 +176,16 @@ class Trajectory:
 
     def sample(self, period):
         """
-        Sample every ``period`` seconds; the last sample is exactly the last waypoint.
+        Sample every ``period`` seconds and at every waypoint's time, at it exactly.
 
-        A regular sample closer than ``period / 2`` to the end is dropped so
-        that the final interval is never tiny.
+        The published trajectory then passes through every waypoint however
+        coarse ``period`` is: a controller interpolating the samples (JTC's
+        quintics between points) would otherwise pass a waypoint that falls
+        between two samples only approximately, and skip it altogether where
+        a segment is shorter than ``period``.  A regular sample closer than
+        ``period / 2`` to a waypoint's time (the end included) is dropped, so
+        that no interval is tiny but those between waypoints closer than that;
+        none is two periods or longer.
         """
         try:
             period = float(period)
@@ -192,14 +198,20 @@ class Trajectory:
             raise ValueError(f'sample period {period:g} s gives about {count:.3g} samples of '
                              f'this {self.duration:.6g} s trajectory, more than {MAX_SAMPLES}')
         count = int(count)
-        times = np.arange(count + 1) * period
-        keep = times < self.duration - 0.5 * period
-        keep[0] = True  # t = 0 always, even for a trajectory shorter than period / 2
-        times = np.append(times[keep], self.duration)
+        regular = np.arange(count + 1) * period
+        passed = np.asarray(self.waypoint_times, dtype=float)
+        # The nearest waypoint time of every regular sample (the times are sorted).
+        after = np.clip(np.searchsorted(passed, regular), 1, passed.size - 1)
+        nearest = np.minimum(np.abs(regular - passed[after - 1]), np.abs(passed[after] - regular))
+        regular = regular[(nearest >= 0.5 * period) & (regular < self.duration)]
+        times = np.concatenate([regular, passed])
+        order = np.argsort(times, kind='stable')
+        times = times[order]
         positions = self.evaluate(times, 0)
         velocities = self.evaluate(times, 1)
         accelerations = self.evaluate(times, 2)
-        positions[-1] = self.waypoints[-1]
+        at_waypoint = order >= regular.size
+        positions[at_waypoint] = self.waypoints
         velocities[-1] = self.end_velocity
         accelerations[-1] = self.end_acceleration
         return Samples(times, positions, velocities, accelerations)
