@@ -274,7 +274,8 @@ class PlannerConfig(ValidatedConfig):
         'the world); empty = the world (the URDF root).')
     joint_limits_file: str = parameter(
         '', "`kinematics: model`: MoveIt `joint_limits.yaml`; its limits override the URDF's "
-        'velocity, explicit (non-zero) `max_*` values override both.')
+        'velocity, explicit (non-zero) `max_*` values override both. At most 64 KiB (some '
+        '380 joints).')
     limit_torque: bool = parameter(
         False, '`kinematics: model` (refused without it): keep the rigid-body torque of every '
         'planned joint, the payload included, within `max_effort`, checked every 1 ms (within '

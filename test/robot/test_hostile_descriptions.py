@@ -270,6 +270,23 @@ def test_a_file_larger_than_its_cap_is_refused_unread(tmp_path, monkeypatch):
         rm.load_robot_model(path)
 
 
+def test_a_limits_file_for_hundreds_of_joints_is_read_and_a_larger_one_refused(tmp_path):
+    # It is parsed in the parameter callback: the cap bounds how long that
+    # blocks (a 1 MB file took 3-9 s).  MoveIt's format for 300 joints fits.
+    def limits_file(joints):
+        lines = ['joint_limits:']
+        for k in range(joints):
+            lines += [f'  joint_{k}:', '    has_velocity_limits: true',
+                      '    max_velocity: 2.0', '    has_acceleration_limits: true',
+                      '    max_acceleration: 5.0', '    has_jerk_limits: false']
+        return write(tmp_path, '\n'.join(lines) + '\n', f'limits_{joints}.yaml')
+
+    limits = jlf.read_joint_limits_file(limits_file(300))
+    assert len(limits) == 300 and limits['joint_299'] == {'velocity': 2.0, 'acceleration': 5.0}
+    with pytest.raises(ValueError, match='bytes, more than the 65536 bytes accepted'):
+        jlf.read_joint_limits_file(limits_file(600))
+
+
 def test_model_messages_show_user_names_bounded(ur5, tmp_path):
     long = 'x' * 100_000
     path = write(tmp_path, planar_arm_mjcf(PlanarArmModel(), PLANAR_JOINTS), 'arm.xml')
