@@ -129,12 +129,12 @@ def check_limit_value(quantity, value, where):
 
 
 class _AliasError(ValueError):
-    """A YAML anchor or alias, refused."""
+    """A YAML anchor or alias, or a key given twice in one mapping: refused."""
 
 
 class _Loader(yaml.SafeLoader):
     """
-    PyYAML's safe loader without anchors and aliases, reading YAML 1.2 numbers like ``1e3``.
+    PyYAML's safe loader without anchors, aliases and repeated keys, reading ``1e3`` as a number.
 
     MoveIt (yaml-cpp) reads ``max_jerk: 1e3`` as a number; PyYAML (YAML
     1.1) as the string '1e3'.  An alias bomb (nested aliases, each level
@@ -149,6 +149,22 @@ class _Loader(yaml.SafeLoader):
             raise _AliasError(f'YAML anchors and aliases (&name, *name) are not accepted '
                               f'(line {mark.line + 1}, column {mark.column + 1})')
         return super().compose_node(parent, index)
+
+    def construct_mapping(self, node, deep=False):
+        """Build a mapping, refusing a key it has twice: one of the values would be ignored."""
+        if isinstance(node, yaml.MappingNode):
+            seen = {}
+            for key_node, _ in node.value:
+                key = self.construct_object(key_node, deep=True)
+                line = key_node.start_mark.line + 1
+                try:
+                    if key in seen:
+                        raise _AliasError(f'the key {show(key)} is given twice in one mapping '
+                                          f'(lines {seen[key]} and {line})')
+                    seen[key] = line
+                except TypeError:   # an unhashable key: the loader refuses it below
+                    continue
+        return super().construct_mapping(node, deep)
 
 
 _Loader.add_implicit_resolver(

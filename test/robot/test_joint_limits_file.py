@@ -182,6 +182,23 @@ def test_yaml_aliases_are_refused(tmp_path):
         read_joint_limits_file(write(tmp_path, text))
 
 
+@pytest.mark.parametrize('text, key, lines', [
+    ('joint_limits:\n  j:\n    has_velocity_limits: true\n    max_velocity: 1.0\n'
+     '    max_velocity: 2.0\n', 'max_velocity', (4, 5)),
+    ('joint_limits:\n  j: {has_velocity_limits: true, max_velocity: 1.0}\n'
+     '  j: {has_velocity_limits: true, max_velocity: 3.0}\n', 'j', (2, 3)),
+    ('joint_limits: {j: {has_velocity_limits: true, max_velocity: 1, max_velocity: 2}}\n',
+     'max_velocity', (1, 1)),
+    ('joint_limits: {}\njoint_limits:\n  j: {has_velocity_limits: true, max_velocity: 1}\n',
+     'joint_limits', (1, 2)),
+], ids=['key', 'joint', 'one line', 'top level'])
+def test_a_key_given_twice_is_refused_as_one_value_would_be_ignored(tmp_path, text, key, lines):
+    # PyYAML keeps the last value silently; which one MoveIt keeps is not the point.
+    with pytest.raises(ValueError, match=rf"the key '{key}' is given twice in one mapping "
+                                         rf'\(lines {lines[0]} and {lines[1]}\)'):
+        read_joint_limits_file(write(tmp_path, text))
+
+
 @pytest.mark.parametrize('text', [
     f'joint_limits:\n  ? {LONG}\n  : max_vel: 1\n',
     f'joint_limits:\n  j:\n    ? {LONG}\n    : 1\n',
