@@ -429,7 +429,7 @@ class ToolRates:
 def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_tool_speed=0.0,
                     max_tool_angular_speed=0.0, max_tool_acceleration=0.0, windows=(),
                     max_inserted=None, torque=None, time_optimal=False,
-                    vibration_frequency=0.0, position_limits=(None, None)):
+                    vibration_frequency=0.0, position_limits=(None, None), clock=None):
     """
     Return the :class:`ToolLines` of the tool path through ``edge_poses`` (module docstring).
 
@@ -452,9 +452,12 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
     cancels the ringing of a mode at it after the stop
     (:mod:`planning.speed_profile.residual_vibration`).  ``position_limits`` (low, high),
     (n,) arrays or both None: step 5's spline is kept only within them
-    (the caller checks the plan returned).  ValueError
+    (the caller checks the plan returned).  ``clock``, a
+    :class:`refinement_time.RefinementClock` (None: no limit), is read
+    before every round of knot insertion.  ValueError
     when the inverse kinematics fails, no spline meets the limits, or the
-    tolerances are not reached.
+    tolerances are not reached; :class:`refinement_time.RefinementTimeout`
+    when the clock's time is up first.
     """
     s, sigma, edge, waypoint_index = sample_edges(edge_poses)
     # One continuous walk through every sample (a redundant arm's joints
@@ -508,6 +511,9 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
         bad = np.flatnonzero(excess > 1.0)
         if bad.size == 0:
             break
+        if clock is not None:
+            clock.check(lambda: f'{inserted} knots inserted along the tool lines, and the tool '
+                                f'is still {float(np.max(excess)):.3g} times its tolerance')
         if inserted + bad.size > budget:
             raise LineOutOfTolerance(
                 int(piece_edges[bad[np.argmax(excess[bad])]]),

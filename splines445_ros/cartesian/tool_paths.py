@@ -64,6 +64,7 @@ import numbers
 import numpy as np
 
 from .path_deviation import Deviation, PathMeasure, tolerance_excess
+from .refinement_time import RefinementClock, RefinementTimeout
 from .tool_kinematics import declared_joint_count, refused_pose
 from .tool_lines import edge_geometry, LineOutOfTolerance, LineUnreachable, plan_tool_lines
 from ..planning import merge_duplicates
@@ -274,7 +275,8 @@ def _joints_within(joints, options, describe):
 def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviation=None,
                    max_inserted=DEFAULT_MAX_INSERTED, method='445', timing='uniform',
                    durations=None, max_tool_speed=None, max_tool_angular_speed=None,
-                   options=None, max_tool_acceleration=None, **plan_kwargs):
+                   options=None, max_tool_acceleration=None, max_refinement_time=None,
+                   **plan_kwargs):
     """
     Plan a joint trajectory whose tool follows the straight lines between ``poses``.
 
@@ -316,6 +318,11 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
         of a caller that validated them once already (the planner node,
         ``PlanOptions.from_validated``), for the joints of ``kinematics``;
         used as they are.
+    max_refinement_time : float
+        Most seconds the refinement may run (:mod:`refinement_time`: read
+        between its rounds, so one round can run over); None or 0: no
+        limit.  Past it, a :class:`refinement_time.RefinementTimeout` (a
+        ValueError) says how far the refinement got.
 
     Method 555 with optimal timing (inner knots, rest to rest) is timed
     along the inverse kinematics of the lines themselves
@@ -330,6 +337,7 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
     the tolerances (naming the segment and the deviation reached).
 
     """
+    clock = RefinementClock(max_refinement_time)
     request = tool_pose_array(poses)
     tol_position = _tolerance('max_deviation', max_deviation)
     tol_orientation = _tolerance('max_orientation_deviation', max_orientation_deviation)
@@ -376,7 +384,7 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
         try:
             found = _tool_lines(edge_poses[close], passed_at[waypoint_knots],
                                 kinematics, (tol_position, tol_orientation), speeds,
-                                max_inserted, options, kept_index[close])
+                                max_inserted, options, kept_index[close], clock)
         except LineUnreachable as exc:
             # A tool waypoint out of reach is named as such (as the refinement does).
             _inverse(kinematics, request, lambda k: f'tool waypoint {k}')
@@ -426,6 +434,9 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
             initial = (deviation, traj.duration)
         excess = tolerance_excess(deviation, (tol_position, tol_orientation))
         bad = np.flatnonzero(excess > 1.0)
+        if bad.size and iteration > 1:
+            clock.check(lambda: f'{inserted} waypoints inserted, and the tool still ' + _still(
+                deviation, excess, segment_edges, kept_index, tol_position, tol_orientation))
         if bad.size == 0:
             if options.inner_knots:
                 traj, deviation = _with_inner_knots(
@@ -534,7 +545,7 @@ def _speed_limit(name, value):
 
 
 def _tool_lines(edge_poses, waypoint_knots, kinematics, tolerances, speeds, max_inserted,
-                options, names):
+                options, names, clock=None):
     """
     Return the :class:`ToolPath` of :func:`tool_lines.plan_tool_lines`, or None to refine instead.
 
@@ -543,6 +554,8 @@ def _tool_lines(edge_poses, waypoint_knots, kinematics, tolerances, speeds, max_
     line out of reach as the :class:`tool_lines.LineUnreachable`.  A tool
     waypoint whose joints lie beyond the position limits is named
     (``names``: each edge pose's index among the request's waypoints).
+    Past the ``clock``'s time its :class:`refinement_time.RefinementTimeout`
+    is raised: the refinement would only start the clock's work again.
     """
     segment_edges = np.arange(len(edge_poses) - 1)
 
@@ -557,7 +570,10 @@ def _tool_lines(edge_poses, waypoint_knots, kinematics, tolerances, speeds, max_
                                 torque=options.torque,
                                 time_optimal=options.speed_profile == 'time_optimal',
                                 vibration_frequency=vibration,
-                                position_limits=(options.min_position, options.max_position))
+                                position_limits=(options.min_position, options.max_position),
+                                clock=clock)
+    except RefinementTimeout:
+        raise
     except LineUnreachable:
         if not any(speeds):
             return None
@@ -653,6 +669,18 @@ def _split_durations(durations, bad, joints):
 
 def _not_within(deviation, excess, segment_edges, kept_index, tol_position,
                 tol_orientation, max_inserted, method):
+    what = _still(deviation, excess, segment_edges, kept_index, tol_position, tol_orientation)
+    hint = ''
+    if str(method) == '445':
+        hint = ('; 445 carries the disturbance of every inserted knot to the end, so '
+                'it needs many more waypoints than 555 or optimal timing (paper triangle at '
+                '1 mm: 785 with uniform timing, under 70 otherwise)')
+    return (f'tool path refinement stopped after inserting {max_inserted} waypoints '
+            f'(max_inserted): the tool still {what}{hint}')
+
+
+def _still(deviation, excess, segment_edges, kept_index, tol_position, tol_orientation):
+    """Where and by how much the tool is furthest out of its tolerances ("deviates ...")."""
     s = int(np.argmax(excess))
     e = int(segment_edges[s])
     where = (f'between tool waypoints {kept_index[e]} and {kept_index[e + 1]} '
@@ -664,10 +692,4 @@ def _not_within(deviation, excess, segment_edges, kept_index, tol_position,
         what = (f'deviates {deviation.orientation[s]:.4g} rad from the interpolated '
                 f'orientation (tolerance {tol_orientation:g} rad) {where}, '
                 f't = {deviation.orientation_time[s]:.4g} s)')
-    hint = ''
-    if str(method) == '445':
-        hint = ('; 445 carries the disturbance of every inserted knot to the end, so '
-                'it needs many more waypoints than 555 or optimal timing (paper triangle at '
-                '1 mm: 785 with uniform timing, under 70 otherwise)')
-    return (f'tool path refinement stopped after inserting {max_inserted} waypoints '
-            f'(max_inserted): the tool still {what}{hint}')
+    return what

@@ -173,6 +173,11 @@ class PlannerConfig(ValidatedConfig):
         200, 'Most waypoints the refinement of one tool request may insert (knots, with the '
         'tool lines of 555 optimal); a request that needs more is rejected.',
         low=0, high=MAX_INSERTED_WAYPOINTS)
+    max_refinement_time: float = parameter(
+        30.0, 'Most time [s] the refinement of one tool request may take; a request not within '
+        'its tolerances by then is rejected, saying how far it got (read between rounds, so '
+        'a round can run over). The planner serves nothing else meanwhile. 0 = no limit.',
+        low=0.0, unit='s', special=(0.0, 'no limit'))
     waypoint_tolerance: float = parameter(
         DEFAULT_WAYPOINT_TOLERANCE, 'Consecutive waypoints whose every joint differs by at '
         'most this [rad or m] are merged (uniform and optimal timing), and a replanning start '

@@ -220,6 +220,7 @@ def plan_tool_poses(config, poses, kinematics, torque=None):
                                max_tool_speed=config.max_tool_speed,
                                max_tool_angular_speed=config.max_tool_angular_speed,
                                max_tool_acceleration=config.max_tool_acceleration,
+                               max_refinement_time=config.max_refinement_time,
                                options=options)
     return tool_path
 

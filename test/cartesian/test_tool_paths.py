@@ -12,6 +12,7 @@ from hypothesis import assume, event, given, settings, strategies as st
 import numpy as np
 import pytest
 from splines445_ros.cartesian.path_deviation import path_deviation
+from splines445_ros.cartesian.refinement_time import RefinementTimeout
 from splines445_ros.cartesian.tool_paths import plan_tool_path
 from splines445_ros.planning import METHODS
 from splines445_ros.robot import paper_example as pe
@@ -229,6 +230,32 @@ def test_the_cap_stops_with_the_segment_and_the_deviation_reached():
                                          r'line \(tolerance 0\.001 m\) between tool '
                                          r'waypoints \d+ and \d+'):
         plan_tool_path(poses, ARM, 1e-3, max_inserted=5, method='434', **LIMITS)
+
+
+@pytest.mark.parametrize('method, timing', [('434', 'uniform'), ('555', 'uniform'),
+                                            ('555', 'optimal')])
+def test_the_refinement_stops_at_max_refinement_time_saying_how_far_it_got(method, timing):
+    # 555 optimal refines its tool lines, the others insert waypoints: each
+    # stops at its next round once the time is up, whatever max_inserted allows.
+    xy = pe.triangle_points()
+    poses = np.column_stack([xy, np.zeros(len(xy))])
+    kwargs = dict(method=method, timing=timing, max_inserted=10_000, **LIMITS)
+    with pytest.raises(RefinementTimeout, match=r'stopped after \d.* s, past max_refinement_time '
+                                                r'\(1e-09 s\): \d+ (waypoints|knots) inserted'
+                                                r'.* still'):
+        plan_tool_path(poses, ARM, 1e-4, max_refinement_time=1e-9, **kwargs)
+    # Without the limit it refines; a path within its tolerances at once
+    # needs no round, so the limit never stops it.
+    for tolerance, seconds in ((1e-4, 0), (1.0, 1e-9)):
+        result = plan_tool_path(poses, ARM, tolerance, max_refinement_time=seconds, **kwargs)
+        assert (result.inserted > 0) == (tolerance < 1.0)
+        assert measured_deviation(result, poses)[0] <= tolerance * (1 + 1e-6)
+
+
+@pytest.mark.parametrize('seconds', [-1.0, float('nan')])
+def test_a_negative_refinement_time_is_refused(seconds):
+    with pytest.raises(ValueError, match='max_refinement_time = .*non-negative'):
+        plan_tool_path([[1, 0, 0], [1, 1, 0]], ARM, max_refinement_time=seconds, **LIMITS)
 
 
 def test_orientation_alone_can_drive_the_refinement():

@@ -21,7 +21,7 @@ PLANNER = {'kinematics': 'planar_3dof', 'max_path_deviation': 1e-3, 'method': '4
            'max_velocity': pe.MAX_VELOCITY.tolist(),
            'max_acceleration': pe.MAX_ACCELERATION.tolist(), 'max_jerk': [0.0, 0.0, 0.0]}
 RESTORE = {'max_inserted_waypoints': 200, 'timing': 'uniform', 'start_from_current_state': False,
-           'kinematics': 'planar_3dof'}
+           'kinematics': 'planar_3dof', 'max_refinement_time': 30.0}
 
 
 @pytest.fixture(scope='module')
@@ -135,6 +135,7 @@ def test_bad_tool_requests_get_an_error_and_the_node_keeps_serving(system):
         assert traj is None
     for values, expected in [
             ({'max_inserted_waypoints': 3}, 'after inserting 3 waypoints (max_inserted)'),
+            ({'max_refinement_time': 1e-9}, 'past max_refinement_time (1e-09 s): '),
             ({'timing': 'fixed'}, 'timing "fixed" needs times'),
             ({'start_from_current_state': True}, 'rest to rest'),
             ({'kinematics': ''}, 'tool_waypoints need the kinematics parameter')]:
@@ -148,6 +149,7 @@ def test_bad_tool_requests_get_an_error_and_the_node_keeps_serving(system):
         assert traj is None
     assert system.planner.parameters.config.kinematics == 'planar_3dof'
     assert system.planner.parameters.config.max_inserted_waypoints == 200
+    assert system.planner.parameters.config.max_refinement_time == 30.0
     status, traj = system.request(tool_waypoint_message(TRIANGLE))
     assert status.level == DiagnosticStatus.OK, status.message
     assert traj is not None
@@ -183,6 +185,8 @@ def test_random_pose_arrays_get_one_status_each_and_never_an_internal_error(syst
     ({'max_path_deviation': -1e-3}, 'max_path_deviation = -0.001'),
     ({'max_orientation_deviation': math.nan}, 'max_orientation_deviation'),
     ({'max_inserted_waypoints': -1}, 'max_inserted_waypoints'),
+    ({'max_refinement_time': -1.0}, 'max_refinement_time = -1.0'),
+    ({'max_refinement_time': math.inf}, 'max_refinement_time = inf'),
 ])
 def test_invalid_tool_parameters_are_rejected_with_a_reason(system, values, reason):
     before = system.planner.parameters.config
