@@ -29,6 +29,7 @@ reported and logged; the node keeps serving.
 
 import collections
 from dataclasses import dataclass, field
+import os
 import queue
 import threading
 import time
@@ -121,6 +122,23 @@ class _Compile:
         self.source = source
 
 
+def _file_stamp(source):
+    """
+    Return what tells a changed ``model_file`` of ``source`` (a description_source).
+
+    The file's device, inode, size, modification and change times; None
+    for a robot_description (its text is its source) or a file that cannot
+    be looked at (compiling it then says why).
+    """
+    if source[0] != 'model_file':
+        return None
+    try:
+        info = os.stat(source[1])
+    except (OSError, ValueError):
+        return None
+    return (info.st_dev, info.st_ino, info.st_size, info.st_mtime_ns, info.st_ctime_ns)
+
+
 class PlannerNode(Node):
     """Plans a trajectory for every waypoint request."""
 
@@ -129,7 +147,7 @@ class PlannerNode(Node):
         super().__init__('planner_node', **kwargs)
         self._robot = None        # RobotSetup of kinematics "model" (the last good one)
         self._robot_fields = None  # robot_fields() of the config it was set up for
-        self._compiled = None     # (description_source, RobotModel) last compiled
+        self._compiled = None     # (description_source, RobotModel, _file_stamp) last compiled
         self._pending = None      # the description_source queued for compiling
         self._description = None  # the latest robot_description string
         self._robot_lock = threading.Lock()
@@ -139,6 +157,7 @@ class PlannerNode(Node):
                                            on_change=self._on_config_change,
                                            on_reject=self._on_parameters_rejected)
         self._robot_config = self.parameters.config  # the config last accepted
+        self.add_post_set_parameters_callback(self._on_parameters_set)
         self._status_name = self.get_fully_qualified_name()
         self._request_count = 0
         self.trajectory_publisher = self.create_publisher(
@@ -264,7 +283,10 @@ class PlannerNode(Node):
         checked here (exists, is a file, size) and compiled on the worker,
         in order with the requests, so the executor never waits for MuJoCo.
         Until it is compiled the last good robot stays, and a model_file
-        that does not compile is reported on ``~/status``.
+        that does not compile is reported on ``~/status``.  A model_file
+        that has changed on disk since it was compiled is compiled again
+        like a new one when the robot is set up again, or when model_file
+        is set again (:meth:`_on_parameters_set`).
         """
         with self._robot_lock:
             self._apply_robot_config(config, compile_now=False)
@@ -279,15 +301,19 @@ class PlannerNode(Node):
             self._robot_config, self._robot = config, None
             return
         if self._compiled is not None and self._compiled[0] == source:
-            if self._robot is None or self._robot_fields != robot_fields(config):
+            if self._robot is not None and self._robot_fields == robot_fields(config):
+                self._robot_config = config
+                return
+            if _file_stamp(source) == self._compiled[2]:  # else compiled again, below
                 self._use_robot(build_robot_setup(config, self._description,
                                                   self._compiled[1]), config)
-            self._robot_config = config
-            return
+                self._robot_config = config
+                return
         if compile_now:
+            stamp = _file_stamp(source)  # before the file is read: a later edit reloads it
             robot = load_model(source)
             setup = build_robot_setup(config, self._description, robot)
-            self._compiled = (source, robot)
+            self._compiled = (source, robot, stamp)
             self._robot_config = config
             self._use_robot(setup, config)
             return
@@ -297,6 +323,34 @@ class PlannerNode(Node):
         if source != self._pending:  # the queued compile sets up the latest config
             self._pending = source
             self._requests.put(_Compile(source))
+
+    def _on_parameters_set(self, parameters):
+        """
+        Read ``model_file`` again when it is set to the path in use and the file has changed.
+
+        Runs on the executor after an accepted update (post-set callback).
+        The path is the compiled model's, so :meth:`_on_config_change` kept
+        it; when the file has changed on disk since it was compiled (see
+        :func:`_file_stamp`), it is compiled again on the worker, in order
+        with the requests, and a file that no longer compiles is reported
+        on ``~/status`` while the last good robot stays.
+        """
+        if not any(parameter.name == 'model_file' for parameter in parameters):
+            return
+        try:
+            with self._robot_lock:
+                config = self._robot_config
+                if config.kinematics != 'model' or not config.model_file:
+                    return
+                source = description_source(config)
+                if (self._compiled is None or self._compiled[0] != source
+                        or source == self._pending):  # being compiled anew already
+                    return
+                if _file_stamp(source) != self._compiled[2]:
+                    self._pending = source
+                    self._requests.put(_Compile(source))
+        except Exception as exc:  # noqa: B902 - a parameter must never kill the node
+            self._report(False, f'model_file: internal error: {type(exc).__name__}: {exc}', {})
 
     def _use_robot(self, setup, config):
         self._robot = setup
@@ -319,6 +373,7 @@ class PlannerNode(Node):
         ``what`` names the source in messages.  A description that does not
         compile, or whose setup fails, is reported; the last good robot stays.
         """
+        stamp = _file_stamp(source)  # before the file is read: a later edit reloads it
         try:
             robot = load_model(source)
         except Exception as exc:  # noqa: B902 - e.g. a RecursionError: reported as refused
@@ -338,14 +393,14 @@ class PlannerNode(Node):
             if (config.kinematics != 'model'
                     or description_source(config, description) != source):
                 # A later config uses another description: keep this one for later.
-                self._description, self._compiled = description, (source, robot)
+                self._description, self._compiled = description, (source, robot, stamp)
                 return
             try:
                 setup = build_robot_setup(config, description, robot)
             except ValueError as exc:
                 self._report_kept(what, exc, source)
                 return
-            self._description, self._compiled = description, (source, robot)
+            self._description, self._compiled = description, (source, robot, stamp)
             self._use_robot(setup, config)
 
     def _report_kept(self, what, exc, source):
@@ -424,19 +479,18 @@ class PlannerNode(Node):
         Return the RobotSetup that plans under ``config`` (kinematics "model"; ValueError).
 
         The node's own, or for a request whose overrides change the limits a
-        setup of its own, built from the compiled model (quick, nothing kept).
+        setup of its own, built from the model the node's own was built from
+        (quick, nothing kept).  Not from ``_compiled``: that may be another
+        description's, compiled for a config that has since been replaced.
         """
-        robot = self._robot
-        if robot is None:
-            raise ValueError('kinematics "model" has no robot yet: set model_file or '
-                             'publish robot_description')
-        if robot_fields(config) == self._robot_fields:
-            return robot
-        with self._robot_lock:
-            if self._compiled is None:
-                raise ValueError('kinematics "model": the robot is still being set up; send '
-                                 'the request again')
-            return build_robot_setup(config, self._description, self._compiled[1])
+        with self._robot_lock:  # the robot and the fields it was set up for, together
+            robot = self._robot
+            if robot is None:
+                raise ValueError('kinematics "model" has no robot yet: set model_file or '
+                                 'publish robot_description')
+            if robot_fields(config) == self._robot_fields:
+                return robot
+            return build_robot_setup(config, self._description, robot.robot)
 
     def _serve(self, job, request_id):
         """Plan one request, report it on ``~/status``, publish it if asked: a PlanOutcome."""
