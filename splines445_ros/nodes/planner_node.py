@@ -633,8 +633,9 @@ class PlannerNode(Node):
         a jump; an arm already (nearly) at rest holds its commanded position.
         """
         config = self.parameters.config
-        if config.kinematics == 'model' and self._robot is not None:
-            config = self._robot.effective(config)
+        robot = self._robot     # read once: a parameter change may set it to None meanwhile
+        if config.kinematics == 'model' and robot is not None:
+            config = robot.effective(config)
         now_ns = self.get_clock().now().nanoseconds
         if not self._running_at(now_ns):
             return PlanOutcome(True, 'nothing to stop: the trajectory has ended', {})
