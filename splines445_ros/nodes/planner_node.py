@@ -608,8 +608,10 @@ class PlannerNode(Node):
         except (ValueError, ArithmeticError) as exc:  # the plan stands without its markers
             self.get_logger().warning(f'planned_path: no markers: {exc}')
             return
-        self.planned_path_publisher.publish(planned_path_markers(
-            path, waypoints, frame_id, self.get_clock().now().to_msg()))
+        # Stamped 0, RViz's "latest transform": the markers are latched, and an
+        # RViz started later would look the frame up at their publish time, which
+        # may have left its transform buffer.  The frame is fixed to the base.
+        self.planned_path_publisher.publish(planned_path_markers(path, waypoints, frame_id))
 
     def _rejected(self, message, values):
         """Report a rejected request on ``~/status``; return its PlanOutcome."""

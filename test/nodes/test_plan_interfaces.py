@@ -424,6 +424,8 @@ def test_markers_follow_every_plan(system):
     line = next(m for m in markers if m.type == Marker.LINE_STRIP)
     spheres = next(m for m in markers if m.type == Marker.SPHERE_LIST)
     assert line.header.frame_id == spheres.header.frame_id == 'base_link'
+    # Stamped 0 (the latest transform): an RViz started later still draws them.
+    assert all((m.header.stamp.sec, m.header.stamp.nanosec) == (0, 0) for m in markers)
     for point, q in ((line.points[0], W[0]), (line.points[-1], W[-1])):
         assert (point.x, point.y) == pytest.approx(planar_tool(q), abs=1e-9)
     assert [(p.x, p.y) for p in spheres.points] == [pytest.approx(planar_tool(q), abs=1e-9)
