@@ -17,11 +17,17 @@ BIN :=
 PYTHON := python3
 COLCON := colcon
 ENV_STAMP :=
+SKIPS :=
 else
 BIN := $(abspath $(VENV))/bin/
 PYTHON := $(BIN)python
 COLCON := $(BIN)colcon
 ENV_STAMP := $(VENV)/.installed
+# Every test's packages are pinned in .venv: a skipped test means one is missing.
+SKIPS := --skips-fail
+# The Jazzy wheels and the pins are for Python 3.11 (Ubuntu 24.04's 3.12 breaks the
+# pinned setuptools in the interfaces' build): python3.11 where there is one.
+PYTHON311 := $(shell command -v python3.11 || command -v python3)
 # The Jazzy wheels install their CMake configs and ament index in the venv:
 # CMake and the rosidl generators of splines445_interfaces find them there.
 export CMAKE_PREFIX_PATH := $(abspath $(VENV))
@@ -50,9 +56,17 @@ help:
 	@echo "make clean  remove build products (keeps .venv)"
 
 env: $(ENV_STAMP)
+ifneq ($(ENV_STAMP),)
+	@# Again every time (about a second when nothing is missing): a package removed
+	@# from .venv since it was set up is installed again, not skipped by its tests.
+	$(VENV)/bin/pip install --disable-pip-version-check -q -r requirements.txt
+endif
 
 $(VENV)/.installed: requirements.txt
-	python3 -m venv $(VENV)
+	@$(PYTHON311) -c 'import sys; sys.exit(sys.version_info[:2] != (3, 11))' || { \
+	    echo "make: .venv needs Python 3.11 (python3.11, or python3 being 3.11): the"; \
+	    echo "pinned ROS 2 Jazzy wheels are for it. Found: $(PYTHON311)"; exit 1; }
+	$(PYTHON311) -m venv $(VENV)
 	$(VENV)/bin/pip install --disable-pip-version-check -q pip==26.3
 	$(VENV)/bin/pip install --disable-pip-version-check -q -r requirements.txt
 	touch $@
@@ -62,15 +76,17 @@ $(VENV)/.installed: requirements.txt
 # So the Python package is copied afresh each time (a second or two); the interfaces stay.
 build: env
 	rm -rf build/splines445_ros/build install/splines445_ros/lib/python*/site-packages/splines445_ros
+	@# setuptools does not byte-compile here: a syntax error would only show where imported.
+	$(PYTHON) -m compileall -q splines445_ros benchmarks scripts
 	$(COLCON) build $(COLCON_PATHS) --event-handlers console_cohesion- summary+
 
 test: build
-	@rc=0; \
+	@rm -f build/test_result.txt build/test_summary.txt; rc=0; \
 	$(COLCON) test $(COLCON_PATHS) --test-result-base build/test_results \
 	    --event-handlers console_direct+ summary+ || rc=$$?; \
 	$(COLCON) test-result --test-result-base build/test_results --verbose \
 	    | tee build/test_result.txt || rc=$$?; \
-	$(PYTHON) scripts/test_summary.py build/test_result.txt | tee build/test_summary.txt \
+	$(PYTHON) scripts/test_summary.py build/test_result.txt $(SKIPS) | tee build/test_summary.txt \
 	    || rc=$$?; \
 	exit $$rc
 
