@@ -6,8 +6,10 @@ from ament_flake8.main import main_with_errors
 import pytest
 
 # Sources only: build/, install/ and .venv/ live inside the package directory too.
-LINTED = [p for p in ('splines445_ros', 'test', 'scripts', 'benchmarks', 'setup.py')
-          if os.path.exists(p)]
+# From this file's folder, so that pytest run from anywhere lints them all.
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+LINTED = [os.path.join(ROOT, p)
+          for p in ('splines445_ros', 'test', 'scripts', 'benchmarks', 'setup.py')]
 
 
 @pytest.mark.flake8
