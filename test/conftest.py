@@ -8,8 +8,9 @@ Test set-up shared by every test module.
   and the helpers stay at the top.
 
 * DDS discovery stays on this machine (ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST)
-  and every test process gets its own ROS_DOMAIN_ID unless one is set, so
-  parallel runs never see each other.  Both are set before rclpy is imported.
+  and every test process reserves a ROS_DOMAIN_ID of its own unless one is
+  set (``splines445_ros.tools.local_dds``), so parallel runs never see each
+  other.  Both are set before rclpy is imported.
 * Hypothesis: the default profile has moderate example counts and is
   derandomized (each test draws the same examples on every run), so
   ``make test`` and CI are reproducible and a red run means a change broke
@@ -30,10 +31,11 @@ sys.path[:0] = [_HERE] + sorted(
     if folder != _HERE and not any(
         part.startswith(('.', '_')) for part in os.path.relpath(folder, _HERE).split(os.sep)))
 
-os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
-os.environ.setdefault('ROS_DOMAIN_ID', str(1 + os.getpid() % 100))
+from splines445_ros.tools.local_dds import keep_dds_local  # noqa: E402, I100 (no rclpy)
 
-from hypothesis import HealthCheck, settings  # noqa: E402
+keep_dds_local()
+
+from hypothesis import HealthCheck, settings  # noqa: E402, I100, I202
 
 settings.register_profile(
     'default', max_examples=60, deadline=None, derandomize=True,

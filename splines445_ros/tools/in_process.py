@@ -3,11 +3,10 @@ Both nodes and a client in one process and one executor, without launch files.
 
 Used by the demo and the tests.  Creating an :class:`InProcessSystem` forces
 ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` (DDS traffic stays on this machine)
-and picks a per-process ``ROS_DOMAIN_ID`` unless one is set.
+and reserves a ``ROS_DOMAIN_ID`` of its own unless one is set (:mod:`local_dds`).
 """
 
 import math
-import os
 import time
 
 from diagnostic_msgs.msg import DiagnosticStatus
@@ -20,17 +19,12 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
+from .local_dds import keep_dds_local
 from ..nodes import topics
 from ..nodes.arm_sim_node import ArmSimNode
 from ..nodes.diagnostics import status_values
 from ..nodes.planner_node import PlannerNode
 from ..nodes.ros_conversions import seconds_to_duration
-
-
-def keep_dds_local():
-    """Force loopback-only discovery and a per-process domain (unless set)."""
-    os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
-    os.environ.setdefault('ROS_DOMAIN_ID', str(1 + os.getpid() % 100))
 
 
 def waypoint_message(joint_names, waypoints, start_velocity=None, start_acceleration=None,
