@@ -48,6 +48,7 @@ import os
 import sys
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..'))
+os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but the rule holds
 
 from bench_planning import toppra_trajectory  # noqa: E402
 import bench_seeds  # noqa: E402, I100
