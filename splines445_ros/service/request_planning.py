@@ -244,15 +244,20 @@ def output_samples(config, traj):
         n_points = traj.ppoly.x.size
         what = f'{n_points} knots'
     else:
-        n_points = int(traj.duration / config.sample_period) + 1 + len(traj.waypoint_times)
-        what = f'about {n_points} points at sample_period {config.sample_period} s'
+        # Between the regular samples alone (each waypoint's replaces at most one)
+        # and all of them with the waypoints': counted exactly only in between.
+        regular = int(traj.duration / config.sample_period) + 1
+        n_points = regular
+        if regular <= config.max_trajectory_points < regular + len(traj.waypoint_times):
+            n_points = traj.sample_times(config.sample_period, TIME_RESOLUTION)[0].size
+        what = f'{n_points} points or more at sample_period {config.sample_period} s'
     if n_points > config.max_trajectory_points:
         raise ValueError(
             f'the trajectory lasts {traj.duration:.6g} s: {what}, more than '
             f'max_trajectory_points ({config.max_trajectory_points})')
     if config.output == 'knots':
         return traj.knots(TIME_RESOLUTION)
-    return traj.sample(config.sample_period)
+    return traj.sample(config.sample_period, TIME_RESOLUTION)
 
 
 def tool_summary_values(tool_path):

@@ -317,6 +317,19 @@ def test_output_is_validated_and_knots_count_against_max_trajectory_points():
     # The same limit with samples: 0.01 s over about 3.3 s is about 336 points.
     with pytest.raises(ValueError, match='sample_period'):
         output_samples(PlannerConfig(max_trajectory_points=12), traj)
+    # Exactly as many samples as produced count, the waypoints' among them: 100
+    # waypoints every 10 ms sampled every 10 ms are 100 points, not 199.
+    points = np.cumsum(np.r_[[[0.0]], np.full((99, 1), 1e-3)], axis=0)
+    dense = plan(points, '445', 'fixed', durations=np.full(99, 0.01))
+    produced = dense.sample(0.01, 1e-9).times.size
+    assert produced == 100
+    for limit in (produced - 1, produced):
+        config = PlannerConfig(max_trajectory_points=limit, joint_names=('j',))
+        if limit < produced:
+            with pytest.raises(ValueError, match=f'{produced} points or more at sample_period'):
+                output_samples(config, dense)
+        else:
+            assert output_samples(config, dense).times.size == produced
 
 
 @pytest.mark.parametrize('vmax', [3e-9, 1e-12])

@@ -193,3 +193,20 @@ def test_samples_pass_every_waypoint_at_its_time_however_coarse(req, period):
         np.testing.assert_array_equal(samples.positions[index[0]], points[k])
     # A regular sample dropped next to each of two waypoints: up to 2 periods.
     assert np.all(np.diff(samples.times) < 2.0 * period * (1 + 1e-9))
+
+
+def test_waypoints_closer_than_the_resolution_give_one_sample():
+    # Two waypoints 0.1 ns apart round to one nanosecond in a message: one of
+    # them is dropped, so the published times stay strictly increasing.
+    points = np.array([[0.0], [1.0], [1.0 + 1e-10], [2.0]])
+    traj = plan(points, '445', 'uniform', max_velocity=[100.0], max_acceleration=[1e4],
+                max_jerk=[1e6], waypoint_tolerance=0.0)
+    assert np.min(np.diff(traj.waypoint_times)) < 1e-9
+    samples = traj.sample(0.01, resolution=1e-9)
+    ticks = np.round(samples.times / 1e-9)
+    assert np.all(np.diff(ticks) > 0) and samples.times[-1] == traj.duration
+    for t, q in zip(traj.waypoint_times, points):
+        k = np.argmin(np.abs(samples.times - t))
+        assert abs(samples.times[k] - t) < 1e-9
+        np.testing.assert_allclose(samples.positions[k], q, atol=1e-9)
+    assert len(samples.times) == len(traj.sample(0.01).times) - 1

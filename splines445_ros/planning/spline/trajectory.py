@@ -174,7 +174,7 @@ class Trajectory:
         t = np.clip(np.atleast_1d(np.asarray(t, dtype=float)), 0.0, self.duration)
         return self._derivative(derivative)(t)
 
-    def sample(self, period):
+    def sample(self, period, resolution=0.0):
         """
         Sample every ``period`` seconds and at every waypoint's time, at it exactly.
 
@@ -185,10 +185,28 @@ class Trajectory:
         a segment is shorter than ``period``.  A regular sample closer than
         ``period / 2`` to a waypoint's time (the end included) is dropped, so
         that no interval is tiny but those between waypoints closer than that;
-        none is two periods or longer.
+        none is two periods or longer.  ``resolution`` > 0 (a message's
+        nanosecond): a sample whose time rounds onto the one before it is
+        dropped (the last one stays, the one before it goes), so the times
+        stay strictly increasing once rounded.
+        """
+        times, at_waypoint = self.sample_times(period, resolution)
+        positions = self.evaluate(times, 0)
+        velocities = self.evaluate(times, 1)
+        accelerations = self.evaluate(times, 2)
+        positions[at_waypoint >= 0] = self.waypoints[at_waypoint[at_waypoint >= 0]]
+        velocities[-1] = self.end_velocity
+        accelerations[-1] = self.end_acceleration
+        return Samples(times, positions, velocities, accelerations)
+
+    def sample_times(self, period, resolution=0.0):
+        """
+        Return the times of :meth:`sample` and, per time, its waypoint's index (-1: none).
+
+        Cheap (no evaluation): for counting the samples before taking them.
         """
         try:
-            period = float(period)
+            period, resolution = float(period), float(resolution)
         except (TypeError, ValueError):
             raise ValueError(f'sample period must be a number, got {period!r}') from None
         if not np.isfinite(period) or period <= 0.0:
@@ -197,24 +215,24 @@ class Trajectory:
         if count + 2 > MAX_SAMPLES:
             raise ValueError(f'sample period {period:g} s gives about {count:.3g} samples of '
                              f'this {self.duration:.6g} s trajectory, more than {MAX_SAMPLES}')
-        count = int(count)
-        regular = np.arange(count + 1) * period
+        regular = np.arange(int(count) + 1) * period
         passed = np.asarray(self.waypoint_times, dtype=float)
         # The nearest waypoint time of every regular sample (the times are sorted).
         after = np.clip(np.searchsorted(passed, regular), 1, passed.size - 1)
         nearest = np.minimum(np.abs(regular - passed[after - 1]), np.abs(passed[after] - regular))
         regular = regular[(nearest >= 0.5 * period) & (regular < self.duration)]
         times = np.concatenate([regular, passed])
+        index = np.concatenate([np.full(regular.size, -1), np.arange(passed.size)])
         order = np.argsort(times, kind='stable')
-        times = times[order]
-        positions = self.evaluate(times, 0)
-        velocities = self.evaluate(times, 1)
-        accelerations = self.evaluate(times, 2)
-        at_waypoint = order >= regular.size
-        positions[at_waypoint] = self.waypoints
-        velocities[-1] = self.end_velocity
-        accelerations[-1] = self.end_acceleration
-        return Samples(times, positions, velocities, accelerations)
+        times, index = times[order], index[order]
+        if resolution > 0.0:
+            ticks = np.round(times / resolution)
+            keep = np.append(ticks[1:] > ticks[:-1], True)   # the last of each tick
+            keep[0] = True
+            if keep.sum() > 1 and ticks[0] == ticks[np.flatnonzero(keep)[1]]:
+                keep[np.flatnonzero(keep)[1]] = False        # t = 0 stays, the start
+            times, index = times[keep], index[keep]
+        return times, index
 
     def knots(self, resolution=0.0):
         """
