@@ -73,29 +73,32 @@ def solve_elastic_lp(c, A, b, lower, upper, penalty):
     # The last row holds the reduced costs (and minus the objective), pivoted with the rest.
     table = np.vstack([table, np.append(cost, 0.0)])
     table[-1] -= cost[basis] @ table[:-1]
+    # (The pivots use the arrays' own methods and no np.outer: numpy's
+    # wrappers of the same reductions and product cost more than a pivot's
+    # arithmetic on tables this small.)
     for pivots in range(MAX_PIVOTS):
         reduced = table[-1, :-1]
         if pivots < BLAND_AFTER:
-            enter = int(np.argmin(reduced))
+            enter = int(reduced.argmin())
             if reduced[enter] >= -tolerance:
                 break
         else:
-            candidates = np.flatnonzero(reduced < -tolerance)
+            candidates = (reduced < -tolerance).nonzero()[0]
             if candidates.size == 0:
                 break
             enter = int(candidates[0])
         column = table[:-1, enter]
-        rows = np.flatnonzero(column > PIVOT_TOLERANCE * max(float(np.max(np.abs(column))), 1.0))
+        rows = (column > PIVOT_TOLERANCE * max(float(np.abs(column).max()), 1.0)).nonzero()[0]
         if rows.size == 0:
             return None     # unbounded: cannot happen with finite bounds
         ratios = table[rows, -1] / column[rows]
-        least = np.min(ratios)
+        least = ratios.min()
         ties = rows[ratios <= least + 1e-14 * max(abs(least), 1.0)]
-        leave = int(ties[np.argmin(basis[ties])])
+        leave = int(ties[basis[ties].argmin()])
         table[leave] /= table[leave, enter]
         factors = table[:, enter].copy()
         factors[leave] = 0.0
-        table -= np.outer(factors, table[leave])
+        table -= factors[:, None] * table[leave][None, :]
         basis[leave] = enter
     else:
         return None

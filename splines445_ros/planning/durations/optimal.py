@@ -238,7 +238,13 @@ def _restored_total(state):
     """
     if state is None:
         return np.inf
-    return float(state['durations'].sum() * np.exp(max(0.0, np.max(state['log_ratios']))))
+    # Kept in the state (its durations and ratios do not change): an
+    # iteration asks for it up to five times.
+    total = state.get('restored_total')
+    if total is None:
+        total = state['restored_total'] = float(
+            state['durations'].sum() * np.exp(max(0.0, np.max(state['log_ratios']))))
+    return total
 
 
 def _rejected_above(state, merit, predicted):

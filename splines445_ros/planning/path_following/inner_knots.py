@@ -84,11 +84,13 @@ spline is found.
 """
 
 from dataclasses import dataclass
+from functools import cached_property
+from math import isfinite
 from typing import Optional
 
 import numpy as np
 
-from .knot_pieces import (equal_fractions, exact_factors, knot_times, knots_per_segment,
+from .knot_pieces import (equal_knot_times, exact_factors, knot_times, knots_per_segment,
                           ramp_accelerations, RAMP_PIECES)
 from ..constraints import GravityOverload, GriddedPath, JointAcceleration, JointJerk, JointVelocity
 from ..durations.timing import closed_form_scale, rest_to_rest_durations
@@ -96,7 +98,7 @@ from ..plan_options import DEFAULT_SMOOTHING, torque_without_windows
 from ..speed_profile.averaged_timing import AveragedTiming
 from ..speed_profile.jerk_profile import ThirdOrderProfile
 from ..speed_profile.path_velocity import PathLimits, traversal_times
-from ..spline.continuity_system import spline_coefficients
+from ..spline.continuity_system import ContinuitySystem, spline_coefficients
 from ..spline.limits import limit_ratios
 from ..spline.natural_cubic import natural_cubic_spline
 from ..spline.trajectory import REBUILD_RTOL, representable_durations, require_finite, Trajectory
@@ -184,6 +186,18 @@ class TimingProblem:
     def points(self):
         """Return the path's waypoints, which the spline passes: an (N, n) array."""
         return self.path.points
+
+    @cached_property
+    def end_tangent_signs(self):
+        """
+        Return the signs (2, n) of the path's tangent ``q'(s)`` at its start and at its end.
+
+        What step 4 holds a joint's jerk at a rest end against
+        (:meth:`KnotCandidate._end_jerks_along_path`): the path's alone, so
+        every candidate of the problem reads the same (found once).
+        """
+        path = self.path
+        return np.sign(np.stack([path.ppoly(path.s[0], 1), path.ppoly(path.s[-1], 1)]))
 
 
 @dataclass(frozen=True)
@@ -287,8 +301,10 @@ class _Path:
 def end_jerks(coeffs, last_width):
     """Return (2, n): the jerk of quintic pieces ``coeffs`` at the start and at the end."""
     h = last_width
-    return np.stack([6.0 * coeffs[0, 3], 6.0 * coeffs[-1, 3] + 24.0 * coeffs[-1, 4] * h
-                     + 60.0 * coeffs[-1, 5] * h * h])
+    out = np.empty((2, coeffs.shape[-1]))     # (np.stack's values, without its wrapper)
+    out[0] = 6.0 * coeffs[0, 3]
+    out[1] = 6.0 * coeffs[-1, 3] + 24.0 * coeffs[-1, 4] * h + 60.0 * coeffs[-1, 5] * h * h
+    return out
 
 
 def end_snaps(coeffs, last_width):
@@ -314,6 +330,32 @@ def unit_end_jerks(count, knots, pieces):
     """Return :func:`unit_splines` and their end jerks (2, len(knots)) (step 4)."""
     units = unit_splines(count, knots, pieces)
     return units, end_jerks(units, pieces[-1])
+
+
+def spline_and_units(positions, pieces, boundary, knots):
+    """
+    Return the 555 spline through ``positions`` (K, n) and the :func:`unit_splines` of ``knots``.
+
+    One banded solve for both (step 4): the unit positions are more
+    right-hand-side columns of the system of ``pieces``, and every column
+    of a banded solve is solved on its own, so the spline is
+    :func:`spline_coefficients` ``('555', positions, pieces, boundary)``
+    and the units are :func:`unit_splines` ``(K, knots, pieces)``, bit for
+    bit (their boundary values are 0).  Raises ValueError as
+    :func:`spline_coefficients` does.
+    """
+    n, k = positions.shape[1], len(knots)
+    columns = np.zeros((positions.shape[0], n + k))
+    columns[:, :n] = positions
+    columns[knots, n + np.arange(k)] = 1.0
+    system = ContinuitySystem('555', pieces)
+    dP = columns[1:] - columns[:-1]
+    zero = np.zeros(k)
+    vel, acc = system.solve(dP, *(np.concatenate([b, zero]) for b in boundary))
+    # The coefficients of each set of columns as they were found alone (a
+    # matrix product's bits could depend on how many columns it has).
+    return (system.coefficients(positions[:-1], dP[:, :n], vel[:, :n], acc[:, :n]),
+            system.coefficients(columns[:-1, n:], dP[:, n:], vel[:, n:], acc[:, n:]))
 
 
 def first_path(points, durations, boundary, steps=GRID_STEPS):
@@ -380,7 +422,7 @@ class SpeedProfile:
             if held is not None:
                 self.x = held
         self.times = times = traversal_times(self.x, path.steps)
-        self.valid = bool(np.all(np.isfinite(times)) and times[-1] > 0.0)
+        self.valid = bool(np.isfinite(times).all() and times[-1] > 0.0)
         if not self.valid:
             return
         self.timing = path.timing(times, self.x)
@@ -426,27 +468,39 @@ class KnotCandidate:
                 counts = knots_per_segment(passed[1:] - passed[:-1], limits, path.most,
                                            path.min_piece, path.ramp_pieces,
                                            path.ramp_acceleration)
-            fractions = equal_fractions(counts)
+            # knot_times(passed, equal_fractions(counts)), without a list a segment.
+            self.knot_times = equal_knot_times(passed, counts)
         else:
             counts = np.array([f.size - 1 for f in fractions])
+            self.knot_times = knot_times(passed, fractions)
         self.counts = counts
         self.waypoint_knots = np.concatenate([[0], np.cumsum(counts + 1)])
-        self.knot_times = knot_times(passed, fractions)
-        # (Differences and clips here without numpy's wrappers: the same
-        # values; a candidate is a few dozen numpy calls on small arrays.)
+        # (Differences, clips and reductions here without numpy's wrappers:
+        # the same values; a candidate is a few dozen numpy calls on small
+        # arrays.)
         pieces = self.knot_times[1:] - self.knot_times[:-1]
-        if not np.all(pieces > 0.0):
+        if not (pieces > 0.0).all():
             return
         self.knot_s = timing.position_at(self.knot_times)
         self.positions = path.ppoly(self.knot_s)
         self.positions[self.waypoint_knots] = path.points
+        self.against_path = False
+        along = rest and path.windows and END_JERK_SIGN
+        # Step 4's inner knots next to the ends (None: its segment has none),
+        # whose unit splines join the spline's solve.
+        near = [1 if counts[0] > 0 else None,
+                self.positions.shape[0] - 2 if counts[-1] > 0 else None] if along else []
+        knots = sorted({k for k in near if k is not None})
         try:
-            coeffs = spline_coefficients('555', self.positions, pieces, boundary)
+            if knots:
+                coeffs, units = spline_and_units(self.positions, pieces, boundary, knots)
+            else:
+                coeffs = spline_coefficients('555', self.positions, pieces, boundary)
         except ValueError:
             return
-        self.against_path = False
-        if rest and path.windows and END_JERK_SIGN:
-            coeffs = self._end_jerks_along_path(coeffs, pieces, path)
+        if along:
+            coeffs = self._end_jerks_along_path(coeffs, pieces, problem, near, knots,
+                                                units if knots else None)
         self.factors, self.ratios = exact_factors(coeffs, pieces, limits)
         self.neighbours = None
         if path.piece_factors is not None:
@@ -457,8 +511,8 @@ class KnotCandidate:
                 self.neighbours = (np.where(own >= self.factors, own, 1.0)
                                    ** path.torque_neighbours)
             self.factors = np.maximum(self.factors, own)
-        f = float(np.max(self.factors)) * _ROUNDOFF
-        if not (np.isfinite(f) and f > 0.0):
+        f = float(self.factors.max()) * _ROUNDOFF
+        if not (isfinite(f) and f > 0.0):
             return
         if rest and path.keep_time_scale:
             f = max(f, _ROUNDOFF)
@@ -473,7 +527,7 @@ class KnotCandidate:
         self.feasible = rest or f <= _ROUNDOFF
         self.total = float(self.pieces.sum()) if self.feasible else np.inf
 
-    def _end_jerks_along_path(self, coeffs, pieces, path):
+    def _end_jerks_along_path(self, coeffs, pieces, problem, near, knots, units):
         """
         Return ``coeffs`` with no joint's jerk at a rest end against the path's direction.
 
@@ -492,21 +546,20 @@ class KnotCandidate:
         other against the path.  The spline still passes every waypoint and
         the path's ends, and step 5 scales it to its limits as before.
         ``against_path`` says whether a joint still starts or stops the wrong
-        way (no inner knot to move).
+        way (no inner knot to move).  ``near`` is the inner knot next to
+        each end (None: its segment has none), ``knots`` those there are and
+        ``units`` their :func:`unit_splines` (None without one), solved with
+        the spline (:func:`spline_and_units`).
         """
         jerks = end_jerks(coeffs, pieces[-1])                       # (2 ends, n)
-        sign = np.sign(np.stack([path.ppoly(path.s[0], 1), path.ppoly(path.s[-1], 1)]))
+        sign = problem.end_tangent_signs
         wrong = jerks * sign < 0.0
-        if not np.any(wrong):
+        if not wrong.any():
             return coeffs
-        # The inner knot next to each end (None: its segment has none).
-        near = [1 if self.counts[0] > 0 else None,
-                self.positions.shape[0] - 2 if self.counts[-1] > 0 else None]
-        knots = sorted({k for k in near if k is not None})
         if not knots:
             self.against_path = True
             return coeffs
-        units, sensitivity = unit_end_jerks(self.positions.shape[0], knots, pieces)
+        sensitivity = end_jerks(units, pieces[-1])                  # (2 ends, len(knots))
         if len(knots) == 2:
             moves = np.linalg.solve(sensitivity, -np.where(wrong, jerks, 0.0))
             wrong[:] = False
@@ -722,8 +775,8 @@ def iterate_knots(problem, local, counts, best, budget, fractions=None, profile=
         if give_up is not None and best.feasible and best.score > give_up * (
                 1.0 + GIVE_UP_GAINS[min(made + iterations, len(GIVE_UP_GAINS)) - 1]):
             return None, iterations
-        if stalled >= stall:
-            break
+        if stalled >= stall or iterations == budget.iterations:
+            break   # (no next candidate: its factors are not needed)
         local = candidate.relaxed(local, budget.relax)
     return best, iterations
 

@@ -70,6 +70,22 @@ def knot_times(passed, fractions):
                            for k, f in enumerate(fractions)] + [passed[-1:]])
 
 
+def equal_knot_times(passed, counts):
+    """
+    Return :func:`knot_times` of :func:`equal_fractions` ``(counts)``: the same values.
+
+    Every knot at once, segment ``k``'s ``j``-th at ``passed[k] + j / (c + 1)
+    * (passed[k + 1] - passed[k])`` as there: a few numpy calls for any
+    number of segments, where the lists cost a few a segment.
+    """
+    per = counts + 1
+    segment = np.repeat(np.arange(per.size), per)
+    j = np.arange(segment.size) - np.repeat(np.cumsum(per) - per, per)
+    start = passed[segment]
+    return np.concatenate([start + j / per[segment] * (passed[segment + 1] - start),
+                           passed[-1:]])
+
+
 def exact_factors(coeffs, pieces, limits):
     """
     Exact restoring factor per piece (P,): ``max(r_v, r_a**(1/2), r_j**(1/3))``, worst joint.

@@ -104,10 +104,11 @@ class AveragedTiming:
                 rate += k * rows[..., k]
             value *= tau
             value += rows[..., k]
-        value[t <= 0.0] = 0.0
+        before = t <= 0.0
+        value[before] = 0.0
         if not slope:
             return value
-        rate[t <= 0.0] = 0.0
+        rate[before] = 0.0
         return value, rate
 
     def position_at(self, t):
@@ -159,20 +160,20 @@ class AveragedTiming:
         hi = lo + sum(self.widths)
         t = 0.5 * (lo + hi)
         tolerance = NEWTON_TOLERANCE * self.s[-1]
-        for _ in range(NEWTON_STEPS):
-            values, rates = self._antiderivative(t[..., None] - self._shifts, slope=True)
-            f = values @ self._signs / self._product - s
-            off = np.abs(f) > tolerance
-            if not np.any(off):
-                return t
-            rate = rates @ self._signs / self._product
-            above = f > 0.0
-            np.copyto(hi, t, where=above)
-            np.copyto(lo, t, where=~above)
-            with np.errstate(divide='ignore', invalid='ignore'):
+        with np.errstate(divide='ignore', invalid='ignore'):
+            for _ in range(NEWTON_STEPS):
+                values, rates = self._antiderivative(t[..., None] - self._shifts, slope=True)
+                f = values @ self._signs / self._product - s
+                off = np.abs(f) > tolerance
+                if not off.any():
+                    return t
+                rate = rates @ self._signs / self._product
+                above = f > 0.0
+                np.copyto(hi, t, where=above)
+                np.copyto(lo, t, where=~above)
                 step = t - f / rate
-            inside = (step > lo) & (step < hi)
-            t = np.where(inside, step, 0.5 * (lo + hi))
+                inside = (step > lo) & (step < hi)
+                t = np.where(inside, step, 0.5 * (lo + hi))
         # The last step's positions; the targets still off get regula falsi.
         f = self.position_at(t) - s
         off = np.abs(f) > tolerance

@@ -178,11 +178,11 @@ def _interpolated(parts, steps):
 
 def _lower_envelopes(slope, offset):
     """
-    Per step, the lines ``slope x + offset`` that can be lowest, as flat lists.
+    Per step, the lines ``slope x + offset`` that can be lowest: a list of (slope, offset) lists.
 
     A line is dropped when another has a slope and an offset no larger (and
-    is not the same line), or when it is infinite.  Returns (slopes, offsets,
-    bounds): the lines of step ``i`` are ``bounds[i]`` to ``bounds[i + 1]``.
+    is not the same line), or when it is infinite.  Plain floats, grouped by
+    step once: the passes of every profile loop over them.
     """
     finite = np.isfinite(slope) & np.isfinite(offset)
     ds = slope[:, :, None] >= slope[:, None, :]   # [i, k, j]: line j's slope <= line k's
@@ -191,22 +191,22 @@ def _lower_envelopes(slope, offset):
     j_first = np.arange(slope.shape[1])[None, None, :] < np.arange(slope.shape[1])[None, :, None]
     beaten = ds & do & (strictly | j_first) & finite[:, None, :]
     keep = finite & ~np.any(beaten, axis=2)
-    bounds = np.concatenate([[0], np.cumsum(np.sum(keep, axis=1))])
-    return slope[keep].tolist(), offset[keep].tolist(), bounds.tolist()
+    bounds = np.concatenate([[0], np.cumsum(np.sum(keep, axis=1))]).tolist()
+    lines = list(zip(slope[keep].tolist(), offset[keep].tolist()))
+    return [lines[bounds[i]:bounds[i + 1]] for i in range(len(bounds) - 1)]
 
 
 def _backward(braking, square, x_max, last):
     """beta_i = min(x_max_i, min_j slope_ij beta_{i+1} + offset_ij square_i), from the end."""
     # Plain floats: the recursion is sequential, and per step it is a
     # handful of joints, where numpy's per-call cost would dominate.
-    slopes, offsets, bounds = braking
     beta = [0.0] * len(x_max)
     b = beta[-1] = last
     for i in range(len(x_max) - 2, -1, -1):
         best = x_max[i]
         scale = square[i]
-        for k in range(bounds[i], bounds[i + 1]):
-            value = slopes[k] * b + offsets[k] * scale
+        for slope, offset in braking[i]:
+            value = slope * b + offset * scale
             if value < best:
                 best = value
         beta[i] = b = best
@@ -215,15 +215,14 @@ def _backward(braking, square, x_max, last):
 
 def _forward(accelerating, square, two_ds, beta, start):
     """Largest acceleration at every step that stays below ``beta``; returns x (M + 1,)."""
-    slopes, offsets, bounds = accelerating
     x = [0.0] * len(beta)
     xi = x[0] = min(start, beta[0])
     infinity = float('inf')
     for i in range(len(two_ds)):
         most = infinity
         scale = square[i]
-        for k in range(bounds[i], bounds[i + 1]):
-            value = offsets[k] * scale + slopes[k] * xi
+        for slope, offset in accelerating[i]:
+            value = offset * scale + slope * xi
             if value < most:
                 most = value
         following = xi + two_ds[i] * most

@@ -267,8 +267,16 @@ def banded_solve(bandwidth, band, rhs, overwrite_b=False):
 
 @lru_cache(maxsize=64)
 def _tiled_segment_types(definition, n_seg, n_batch):
-    """Return the types of ``n_seg`` segments of ``definition``, tiled ``n_batch`` times."""
-    tiled = np.tile(definition.segment_types(n_seg), n_batch)
+    """
+    Return the types of ``n_seg`` segments of ``definition``, tiled ``n_batch`` times.
+
+    One type (an int) when every segment has it (every 555 spline's): then
+    :func:`segments.input_maps` need not compare them.
+    """
+    types = definition.segment_types(n_seg)
+    if np.all(types == types[0]):
+        return int(types[0])
+    tiled = np.tile(types, n_batch)
     tiled.flags.writeable = False   # shared by later systems
     return tiled
 

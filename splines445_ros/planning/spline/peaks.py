@@ -92,7 +92,8 @@ def _cubic_roots(q):
     Closed form (trigonometric for three real roots, Cardano for one), then
     two Newton steps on the original cubic; cubics whose leading coefficient
     is small next to the others (scaled, below :data:`_SMALL_CUBIC`) use
-    companion-matrix eigenvalues instead.
+    companion-matrix eigenvalues instead.  Called with numpy's invalid and
+    divide warnings off (:func:`_unit_interval_roots`: one context for both).
     """
     # Every step is element-wise, so rows go through it in any grouping; the
     # selections are skipped where every row takes the same branch (the
@@ -116,23 +117,22 @@ def _cubic_roots(q):
     three = disc <= 0.0
     n = a.size
     n_three = np.count_nonzero(three)
-    with np.errstate(invalid='ignore', divide='ignore'):
+    if n_three:
+        p3, r3 = (p, r) if n_three == n else (p[three], r[three])
+        m = 2.0 * np.sqrt(np.maximum(-p3, 0.0) / 3.0)
+        # np.clip's values, without its wrapper.
+        cos_arg = np.minimum(np.maximum(np.where(m > 0.0, 3.0 * r3 / (p3 * m), 0.0),
+                                        -1.0), 1.0)
+        theta = np.arccos(cos_arg) / 3.0
+        t_three = m[:, None] * np.cos(theta[:, None] - _THIRDS)
+    if n_three < n:
         if n_three:
-            p3, r3 = (p, r) if n_three == n else (p[three], r[three])
-            m = 2.0 * np.sqrt(np.maximum(-p3, 0.0) / 3.0)
-            # np.clip's values, without its wrapper.
-            cos_arg = np.minimum(np.maximum(np.where(m > 0.0, 3.0 * r3 / (p3 * m), 0.0),
-                                            -1.0), 1.0)
-            theta = np.arccos(cos_arg) / 3.0
-            t_three = m[:, None] * np.cos(theta[:, None] - _THIRDS)
-        if n_three < n:
-            if n_three:
-                one = ~three
-                p1, r1, disc1 = p[one], r[one], disc[one]
-            else:
-                p1, r1, disc1 = p, r, disc
-            u = np.cbrt(-0.5 * r1 - np.copysign(np.sqrt(disc1), r1))
-            t_one = np.where(u != 0.0, u - p1 / (3.0 * u), 0.0)
+            one = ~three
+            p1, r1, disc1 = p[one], r[one], disc[one]
+        else:
+            p1, r1, disc1 = p, r, disc
+        u = np.cbrt(-0.5 * r1 - np.copysign(np.sqrt(disc1), r1))
+        t_one = np.where(u != 0.0, u - p1 / (3.0 * u), 0.0)
     if n_three == n:
         t = t_three
     else:
@@ -145,11 +145,10 @@ def _cubic_roots(q):
     x = t - B[:, None] / 3.0
     c0, c1, c2, c3 = q[:, 0:1], q[:, 1:2], q[:, 2:3], q[:, 3:4]
     c3_3, c2_2 = 3.0 * c3, 2.0 * c2
-    with np.errstate(invalid='ignore', divide='ignore'):
-        for _ in range(2):
-            value = ((c3 * x + c2) * x + c1) * x + c0
-            slope = (c3_3 * x + c2_2) * x + c1
-            x = np.where(slope != 0.0, x - value / slope, x)
+    for _ in range(2):
+        value = ((c3 * x + c2) * x + c1) * x + c0
+        slope = (c3_3 * x + c2_2) * x + c1
+        x = np.where(slope != 0.0, x - value / slope, x)
     if not n_small:
         return x
     roots[ok] = x
@@ -171,27 +170,28 @@ def _unit_interval_roots(q, out):
     if width == 4:
         cubic = np.abs(q[:, 3]) > _DEGENERATE
         n_cubic = np.count_nonzero(cubic)
-    if n_cubic == K:
-        # Only cubics (no rows for the closed forms below).
-        roots = _cubic_roots(q)
-    else:
-        # The closed forms on every row (element-wise, so the rows that are
-        # not cubics get the values they would get alone), then the cubics'
-        # roots over theirs: fewer numpy calls than selecting the other rows
-        # (102 -> 91 us on the 18 rows of a 3 x 3 rival's evaluation).
-        a = q[:, 2] if width > 2 else np.zeros(K)
-        b, c = q[:, 1], q[:, 0]
-        quad = np.abs(a) > _DEGENERATE
-        roots = np.empty((K, 3))
-        with np.errstate(invalid='ignore', divide='ignore'):
+    with np.errstate(invalid='ignore', divide='ignore'):
+        if n_cubic == K:
+            # Only cubics (no rows for the closed forms below).
+            roots = _cubic_roots(q)
+        else:
+            # The closed forms on every row (element-wise, so the rows that
+            # are not cubics get the values they would get alone), then the
+            # cubics' roots over theirs: fewer numpy calls than selecting the
+            # other rows (102 -> 91 us on the 18 rows of a 3 x 3 rival's
+            # evaluation).
+            a = q[:, 2] if width > 2 else np.zeros(K)
+            b, c = q[:, 1], q[:, 0]
+            quad = np.abs(a) > _DEGENERATE
+            roots = np.empty((K, 3))
             sq = np.sqrt(b * b - 4.0 * a * c)  # NaN when there is no real root
             half = -0.5 * (b + np.copysign(sq, b))
             roots[:, 0] = np.where(quad, half / a,
                                    np.where(np.abs(b) > _DEGENERATE, -c / b, np.nan))
             roots[:, 1] = np.where(quad & (half != 0.0), c / half, np.nan)
-        roots[:, 2] = np.nan
-        if n_cubic:
-            roots[cubic] = _cubic_roots(q[cubic])
+            roots[:, 2] = np.nan
+            if n_cubic:
+                roots[cubic] = _cubic_roots(q[cubic])
     inside = (roots > 0.0) & (roots < 1.0)
     out[:] = np.where(inside, roots, 0.0)
 

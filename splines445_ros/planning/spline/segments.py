@@ -139,7 +139,8 @@ def input_maps(types, durations):
 
     Row 0 (the constant term) is zero; every segment's linear (c1) and, where it
     starts with a given acceleration, quadratic (c2) terms are eqs. (4)-(5) and
-    (15)-(16): ``c1 = v_s``, ``c2 = a_s / 2``.
+    (15)-(16): ``c1 = v_s``, ``c2 = a_s / 2``.  ``types`` are the segments'
+    types (S,), or one type (an int) of every segment.
     """
     T = np.ascontiguousarray(durations, dtype=float)
     S = T.size
@@ -154,9 +155,12 @@ def input_maps(types, durations):
     powers[:, 3] = T**3
     powers[:, 4] = T**4
     powers[:, 5] = T**5
-    types = np.asarray(types)
-    first = types.flat[0]
-    if np.all(types == first):
+    if isinstance(types, int):
+        first = types
+    else:
+        types = np.asarray(types)
+        first = types.flat[0]
+    if isinstance(types, int) or np.all(types == first):
         rows, inputs, constants, exponents = _ENTRIES[int(first)]
         B[:, rows, inputs] = constants / powers[:, exponents]
         return B
