@@ -29,8 +29,10 @@ reported and logged; the node keeps serving.
 
 import collections
 from dataclasses import dataclass, field
+import hashlib
 import os
 import queue
+import stat
 import threading
 import time
 import traceback
@@ -122,21 +124,58 @@ class _Compile:
         self.source = source
 
 
-def _file_stamp(source):
+@dataclass(frozen=True)
+class _FileIdentity:
     """
-    Return what tells a changed ``model_file`` of ``source`` (a description_source).
+    What tells whether a ``model_file`` changed: its stat, and the digest of its bytes.
 
-    The file's device, inode, size, modification and change times; None
-    for a robot_description (its text is its source) or a file that cannot
-    be looked at (compiling it then says why).
+    The stat (device, inode, size, modification and change times) is
+    cheap; the digest (SHA-256) is read only when the stat differs, so a
+    file touched or copied over with the same bytes is the same file (its
+    robot is not compiled again, and values are still checked against it).
     """
-    if source[0] != 'model_file':
-        return None
-    try:
-        info = os.stat(source[1])
-    except (OSError, ValueError):
-        return None
-    return (info.st_dev, info.st_ino, info.st_size, info.st_mtime_ns, info.st_ctime_ns)
+
+    stat: tuple
+    digest: Optional[bytes]
+
+    @classmethod
+    def of(cls, source, digest=True):
+        """
+        Return the identity of ``source`` (a description_source), or None.
+
+        None for a robot_description (its text is its source) and for a
+        file that is missing, not a regular file (a pipe is never read
+        here) or larger than a description may be: nothing to reload then,
+        the robot compiled from it stays.  ``digest`` False: the stat only.
+        """
+        if source[0] != 'model_file':
+            return None
+        try:
+            info = os.stat(source[1])
+            if not stat.S_ISREG(info.st_mode) or info.st_size > MAX_DESCRIPTION_CHARS:
+                return None
+            key = (info.st_dev, info.st_ino, info.st_size, info.st_mtime_ns, info.st_ctime_ns)
+            if not digest:
+                return cls(key, None)
+            with open(source[1], 'rb') as handle:
+                return cls(key, hashlib.sha256(handle.read(MAX_DESCRIPTION_CHARS + 1)).digest())
+        except (OSError, ValueError):
+            return None
+
+    def changed(self, source):
+        """
+        Whether ``source`` now holds other bytes than this identity's (False when unknown).
+
+        Returns (changed, the identity to keep): a file touched without a
+        change keeps its new stat, so the next look is a stat again.
+        """
+        now = _FileIdentity.of(source, digest=False)
+        if now is None or now.stat == self.stat:
+            return False, self
+        now = _FileIdentity.of(source)
+        if now is None:
+            return False, self
+        return now.digest != self.digest, now
 
 
 class PlannerNode(Node):
@@ -147,7 +186,7 @@ class PlannerNode(Node):
         super().__init__('planner_node', **kwargs)
         self._robot = None        # RobotSetup of kinematics "model" (the last good one)
         self._robot_fields = None  # robot_fields() of the config it was set up for
-        self._compiled = None     # (description_source, RobotModel, _file_stamp) last compiled
+        self._compiled = None     # (description_source, RobotModel, _FileIdentity) last compiled
         self._pending = None      # the description_source queued for compiling
         self._description = None  # the latest robot_description string
         self._robot_lock = threading.Lock()
@@ -302,18 +341,18 @@ class PlannerNode(Node):
             return
         if self._compiled is not None and self._compiled[0] == source:
             if self._robot is not None and self._robot_fields == robot_fields(config):
-                self._robot_config = config
+                self._robot_config = config     # nothing the robot depends on: no look
                 return
-            if _file_stamp(source) == self._compiled[2]:  # else compiled again, below
+            if not self._file_changed():    # else compiled again, below
                 self._use_robot(build_robot_setup(config, self._description,
                                                   self._compiled[1]), config)
                 self._robot_config = config
                 return
         if compile_now:
-            stamp = _file_stamp(source)  # before the file is read: a later edit reloads it
+            identity = _FileIdentity.of(source)  # before it is read: a later edit reloads it
             robot = load_model(source)
             setup = build_robot_setup(config, self._description, robot)
-            self._compiled = (source, robot, stamp)
+            self._compiled = (source, robot, identity)
             self._robot_config = config
             self._use_robot(setup, config)
             return
@@ -331,7 +370,7 @@ class PlannerNode(Node):
         Runs on the executor after an accepted update (post-set callback).
         The path is the compiled model's, so :meth:`_on_config_change` kept
         it; when the file has changed on disk since it was compiled (see
-        :func:`_file_stamp`), it is compiled again on the worker, in order
+        :class:`_FileIdentity`), it is compiled again on the worker, in order
         with the requests, and a file that no longer compiles is reported
         on ``~/status`` while the last good robot stays.
         """
@@ -346,11 +385,21 @@ class PlannerNode(Node):
                 if (self._compiled is None or self._compiled[0] != source
                         or source == self._pending):  # being compiled anew already
                     return
-                if _file_stamp(source) != self._compiled[2]:
+                # Changed, or gone (set explicitly: the worker then reports why).
+                if _FileIdentity.of(source, digest=False) is None or self._file_changed():
                     self._pending = source
                     self._requests.put(_Compile(source))
         except Exception as exc:  # noqa: B902 - a parameter must never kill the node
             self._report(False, f'model_file: internal error: {type(exc).__name__}: {exc}', {})
+
+    def _file_changed(self):
+        """Whether the compiled model_file now holds other bytes (under the lock)."""
+        source, robot, identity = self._compiled
+        if identity is None:
+            return False
+        changed, identity = identity.changed(source)
+        self._compiled = (source, robot, identity)
+        return changed
 
     def _use_robot(self, setup, config):
         self._robot = setup
@@ -373,13 +422,16 @@ class PlannerNode(Node):
         ``what`` names the source in messages.  A description that does not
         compile, or whose setup fails, is reported; the last good robot stays.
         """
-        stamp = _file_stamp(source)  # before the file is read: a later edit reloads it
+        identity = _FileIdentity.of(source)  # before it is read: a later edit reloads it
         try:
             robot = load_model(source)
         except Exception as exc:  # noqa: B902 - e.g. a RecursionError: reported as refused
             with self._robot_lock:
                 if self._pending == source:
                     self._pending = None
+                if self._compiled is not None and self._compiled[0] == source:
+                    # Its robot stays; the file, once readable again, is read again.
+                    self._compiled = self._compiled[:2] + (_FileIdentity((), None),)
             if not isinstance(exc, ValueError):
                 exc = ValueError(f'{type(exc).__name__}: {exc}')
             self._report_kept(what, exc, source)
@@ -393,15 +445,19 @@ class PlannerNode(Node):
             if (config.kinematics != 'model'
                     or description_source(config, description) != source):
                 # A later config uses another description: keep this one for later.
-                self._description, self._compiled = description, (source, robot, stamp)
+                self._description, self._compiled = description, (source, robot, identity)
                 return
             try:
                 setup = build_robot_setup(config, description, robot)
             except ValueError as exc:
                 self._report_kept(what, exc, source)
                 return
-            self._description, self._compiled = description, (source, robot, stamp)
+            self._description, self._compiled = description, (source, robot, identity)
             self._use_robot(setup, config)
+            if identity is not None and source != self._pending and self._file_changed():
+                # Edited while it compiled (set again meanwhile, or not): once more.
+                self._pending = source
+                self._requests.put(_Compile(source))
 
     def _report_kept(self, what, exc, source):
         kept = (f'; keeping the last good robot, of {self._robot.source}'

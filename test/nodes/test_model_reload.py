@@ -224,3 +224,68 @@ def test_a_tool_frame_the_changed_file_adds_is_set_up_from_it(compiles, limits_f
         assert ros.spin_until(loaded, 60.0), ros.reports(first, 'robot')
         assert loaded()[0].level == DiagnosticStatus.OK
         assert compiles.count == 2
+
+
+def test_values_are_checked_against_the_compiled_file_while_its_bytes_are_the_same(
+        compiles, limits_file, tmp_path):
+    # A touch (or a copy of the same bytes) is no change: a bad value is still
+    # refused at once, and nothing is compiled again.
+    model = tmp_path / 'ur5.urdf'
+    model.write_text(Path(vr.ur5_urdf()).read_text())
+    with Reloading(ur5_parameters(limits_file, str(model))) as ros:
+        for touch in (False, True):
+            if touch:
+                os.utime(model, ns=(1, 1))
+            result = ros.node.set_parameters_atomically(overrides({'tool_frame': 'no_link'}))
+            assert not result.successful and 'no_link' in result.reason, result.reason
+            assert ros.node.get_parameter('tool_frame').value == 'tool0'
+        ros.set_parameters({'model_file': str(model)})
+        assert ros.plan().success and compiles.count == 1
+
+
+def test_a_removed_file_leaves_the_robot_it_was_compiled_into_usable(
+        compiles, limits_file, tmp_path):
+    model = tmp_path / 'ur5.urdf'
+    model.write_text(Path(vr.ur5_urdf()).read_text())
+    with Reloading(ur5_parameters(limits_file, str(model))) as ros:
+        model.unlink()
+        ros.set_parameters({'max_velocity': [1.0] * 6})  # set up on the compiled robot
+        response = ros.plan()
+        assert response.success, response.message
+        assert max(response.peak_velocity) <= 1.0 + 1e-6 and compiles.count == 1
+
+
+class HeldAfterRead(HeldCompiles):
+    """Like HeldCompiles, but holds a compile once it has read the file."""
+
+    def __call__(self, *args, **kwargs):
+        self.count += 1
+        robot = self.real(*args, **kwargs)
+        if self.hold.is_set():
+            self.held.set()
+            self.release.wait(10.0)
+        self.done += 1
+        return robot
+
+
+def test_a_file_edited_while_it_compiles_is_read_again(monkeypatch, limits_file, tmp_path):
+    compiles = HeldAfterRead(model_planning.load_robot_model)
+    monkeypatch.setattr(model_planning, 'load_robot_model', compiles)
+    model = tmp_path / 'ur5.urdf'
+    text = Path(vr.ur5_urdf()).read_text()
+    model.write_text(text)
+    with Reloading(ur5_parameters(limits_file, str(model))) as ros:
+        model.write_text(text.replace('velocity="3.15"', 'velocity="2.0"', 1))
+        compiles.hold.set()
+        ros.set_parameters({'model_file': str(model)})
+        assert ros.spin_until(compiles.held.is_set, 20.0)     # the 2 rad/s file read
+        # Edited again and set again while the worker holds the first edit's compile.
+        model.write_text(text.replace('velocity="3.15"', 'velocity="1.0"', 1))
+        ros.set_parameters({'model_file': str(model)})
+        compiles.hold.clear()
+        compiles.release.set()
+        ros.plan()                      # queued behind the compiles
+        response = ros.plan()
+        assert response.success, response.message
+        assert response.peak_velocity[0] <= 1.0 + 1e-6, response.peak_velocity
+        assert compiles.count == 3
