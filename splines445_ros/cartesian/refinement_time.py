@@ -11,10 +11,16 @@ between rounds: past its time, the refinement stops with
 :class:`RefinementTimeout`, saying how far it got, as it does at
 ``max_inserted`` (MoveIt's ``allowed_planning_time`` plays the same part).
 A round that has started is not interrupted, so the refinement can run
-over by one round.
+over by one round.  The steps after the rounds that only shorten a plan
+already within its tolerances (the third-order profile's re-timing, the
+pieces split for the tool speed, the refined path's inner knots) are
+skipped once the time is up, and the plan says so (:data:`SKIPPED`).
 """
 
 import time
+
+# optimizer['refinement_time'] of a plan whose last, optional steps were skipped.
+SKIPPED = 'max_refinement_time reached: the steps that only shorten the plan were skipped'
 
 
 class RefinementTimeout(ValueError):
@@ -36,6 +42,10 @@ class RefinementClock:
         """Seconds since the clock started."""
         return time.monotonic() - self.started
 
+    def expired(self):
+        """Whether the time is up (never without a limit)."""
+        return self.seconds is not None and self.elapsed() > self.seconds
+
     def check(self, stopped):
         """
         Raise :class:`RefinementTimeout` when the time is up; ``stopped()`` says where it stood.
@@ -43,7 +53,7 @@ class RefinementClock:
         ``stopped`` is called only then, and returns the rest of the message
         (what was inserted, how far the tool still is from its tolerance).
         """
-        if self.seconds is not None and self.elapsed() > self.seconds:
+        if self.expired():
             raise RefinementTimeout(
                 f'tool path refinement stopped after {self.elapsed():.3g} s, past '
                 f'max_refinement_time ({self.seconds:g} s): {stopped()}')

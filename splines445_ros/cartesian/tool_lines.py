@@ -64,6 +64,7 @@ import numpy as np
 
 from .golden_search import CHECK_MAXIMA, CHECK_STEPS, golden_maxima, sampled_maxima
 from .path_deviation import tolerance_excess
+from .refinement_time import SKIPPED
 from .tool_acceleration import (acceleration_factor, peak_tool_acceleration, PieceAccelerations,
                                 ToolCurve)
 from .tool_kinematics import frame_chain, has_transforms, refused_pose, start_walk
@@ -527,7 +528,15 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
             int(piece_edges[np.argmax(excess)]),
             f'the tool path is still {float(np.max(excess)):.3g} times its tolerance after '
             f'{MAX_ROUNDS} rounds of knot insertion')
-    if speeds:
+    skipped = []        # the optional steps skipped once the clock's time is up
+
+    def late():
+        if clock is not None and clock.expired():
+            skipped.append(True)
+            return True
+        return False
+
+    if speeds and not late():
         timing, more, measured = _unbound(timing, path, limits, check, measure, tolerances)
         inserted += more
         if measured is not None:
@@ -535,7 +544,7 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
     traj = timing.trajectory
     speed_limits = (max_tool_speed, max_tool_angular_speed)
     # Step 5: the third-order profile when asked for ...
-    if time_optimal:
+    if time_optimal and not late():
         traj, measured = _retimed(traj, path, limits, kinematics, constraints, vibration_frequency,
                                   speed_limits, measure, tolerances, position_limits)
         if measured is not None:
@@ -545,7 +554,7 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
     if (RETIME_BELOW_SPEED and speeds and not time_optimal and not windows
             and not vibration_frequency and final.top < AT_SPEED
             and final.traj.duration <= RETIME_BELOW_SPEED_SECONDS
-            and _speed_reachable(path, constraints, limits)):
+            and not late() and _speed_reachable(path, constraints, limits)):
         retimed, measured = _retimed(traj, path, limits, kinematics, constraints, 0.0,
                                      speed_limits, measure, tolerances, position_limits,
                                      final.traj.duration)
@@ -554,6 +563,8 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
             if again.top >= AT_SPEED and again.traj.duration < final.traj.duration:
                 again.traj.optimizer['speed_profile_reason'] = BELOW_SPEED
                 final, (deviation, piece_edges) = again, measured
+    if skipped:
+        final.traj.optimizer['refinement_time'] = SKIPPED
     share = 0.0
     if max_tool_speed:
         # By length: every sample weighs the distance the tool covers there.

@@ -64,7 +64,7 @@ import numbers
 import numpy as np
 
 from .path_deviation import Deviation, PathMeasure, tolerance_excess
-from .refinement_time import RefinementClock, RefinementTimeout
+from .refinement_time import RefinementClock, RefinementTimeout, SKIPPED
 from .tool_kinematics import declared_joint_count, refused_pose
 from .tool_lines import edge_geometry, LineOutOfTolerance, LineUnreachable, plan_tool_lines
 from ..planning import merge_duplicates
@@ -438,7 +438,9 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
             clock.check(lambda: f'{inserted} waypoints inserted, and the tool still ' + _still(
                 deviation, excess, segment_edges, kept_index, tol_position, tol_orientation))
         if bad.size == 0:
-            if options.inner_knots:
+            if options.inner_knots and clock.expired():
+                traj.optimizer['refinement_time'] = SKIPPED
+            elif options.inner_knots:
                 traj, deviation = _with_inner_knots(
                     traj, deviation, knot_joints, kinematics, edge_poses, segment_edges,
                     (tol_position, tol_orientation),

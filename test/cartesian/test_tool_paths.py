@@ -252,6 +252,21 @@ def test_the_refinement_stops_at_max_refinement_time_saying_how_far_it_got(metho
         assert measured_deviation(result, poses)[0] <= tolerance * (1 + 1e-6)
 
 
+def test_past_max_refinement_time_the_steps_that_only_shorten_are_skipped():
+    # Within its tolerance at once: no round to stop, but time_optimal's
+    # re-timing only shortens the lines' own plan, so it is skipped and said so.
+    xy = pe.triangle_points()
+    poses = np.column_stack([xy, np.zeros(len(xy))])
+    kwargs = dict(method='555', timing='optimal', **LIMITS)
+    own = plan_tool_path(poses, ARM, 1e-3, **kwargs).trajectory
+    late = plan_tool_path(poses, ARM, 1e-3, speed_profile='time_optimal',
+                          max_refinement_time=1e-9, **kwargs).trajectory
+    timed = plan_tool_path(poses, ARM, 1e-3, speed_profile='time_optimal', **kwargs).trajectory
+    assert late.optimizer['refinement_time'].startswith('max_refinement_time reached')
+    assert 'refinement_time' not in timed.optimizer
+    assert late.duration == own.duration and timed.duration < own.duration
+
+
 @pytest.mark.parametrize('seconds', [-1.0, float('nan')])
 def test_a_negative_refinement_time_is_refused(seconds):
     with pytest.raises(ValueError, match='max_refinement_time = .*non-negative'):
