@@ -155,8 +155,10 @@ class _Loader(yaml.SafeLoader):
         if isinstance(node, yaml.MappingNode):
             seen = {}
             for key_node, _ in node.value:
-                key = self.construct_object(key_node, deep=True)
                 line = key_node.start_mark.line + 1
+                if key_node.tag == 'tag:yaml.org,2002:merge':
+                    raise _AliasError(f'YAML merge keys (<<) are not accepted (line {line})')
+                key = self.construct_object(key_node, deep=True)
                 try:
                     if key in seen:
                         raise _AliasError(f'the key {show(key)} is given twice in one mapping '
@@ -212,9 +214,13 @@ def parse_joint_limits(data, where='joint limits'):
     if not isinstance(joints, dict):
         raise ValueError(f'{where}: "joint_limits" must map joint names to their limits')
     known = OTHER_KEYS.union(*(set(keys) for keys in QUANTITY_KEYS.values()))
-    result = {}
+    result, keys = {}, {}
     for joint, entry in joints.items():
         name = show(joint)
+        first = keys.setdefault(str(joint), joint)
+        if first is not joint:    # 1 and "1", true and "True": one joint name
+            raise ValueError(f'{where}: joints {show(first)} and {name} are both the joint '
+                             f'{show(str(joint))}')
         if not isinstance(entry, dict):
             raise ValueError(f'{where}: joint {name} must map keys to values')
         bad = [str(k) for k in entry if k not in known]

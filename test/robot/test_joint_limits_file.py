@@ -199,6 +199,21 @@ def test_a_key_given_twice_is_refused_as_one_value_would_be_ignored(tmp_path, te
         read_joint_limits_file(write(tmp_path, text))
 
 
+@pytest.mark.parametrize('text, message', [
+    ('joint_limits:\n  j: {<<: {has_velocity_limits: true}, max_velocity: 1.0}\n',
+     r'merge keys \(<<\) are not accepted \(line 2\)'),
+    ('joint_limits:\n  1: {has_velocity_limits: true, max_velocity: 1.0}\n'
+     '  "1": {has_velocity_limits: true, max_velocity: 3.0}\n',
+     r"joints 1 and '1' are both the joint '1'"),
+    ('joint_limits:\n  true: {has_velocity_limits: true, max_velocity: 1.0}\n'
+     '  "True": {has_velocity_limits: true, max_velocity: 3.0}\n',
+     r"joints True and 'True' are both the joint 'True'"),
+])
+def test_keys_that_would_hide_one_another_are_refused(tmp_path, text, message):
+    with pytest.raises(ValueError, match=message):
+        read_joint_limits_file(write(tmp_path, text))
+
+
 @pytest.mark.parametrize('text', [
     f'joint_limits:\n  ? {LONG}\n  : max_vel: 1\n',
     f'joint_limits:\n  j:\n    ? {LONG}\n    : 1\n',
