@@ -405,11 +405,17 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
         if seg_durations.shape != (n_req - 1,):
             raise ValueError(f'durations must have shape ({n_req - 1},), '
                              f'got {seg_durations.shape}')
-        dropped = ()
+        kept_index, waypoint_knots = _kept(n_req, ())
     else:
         seg_durations = None
-        dropped = merge_duplicates(joints)[1]
-    kept_index, waypoint_knots = _kept(n_req, dropped)
+        # As the tool lines do: a waypoint the tool passes within a tenth of the
+        # tolerances of the one before is not one of its own (a segment of
+        # nanometres would set the whole uniform plan's time); then exact twins.
+        close, passed_at = _close_waypoints(request, tol_position, tol_orientation)
+        kept_close, knot_of_close = _kept(int(close.sum()),
+                                          merge_duplicates(joints[close])[1])
+        kept_index = np.flatnonzero(close)[kept_close]
+        waypoint_knots = knot_of_close[passed_at]
     edge_poses = request[kept_index]
     knots = edge_poses.copy()
     knot_joints = joints[kept_index]
@@ -476,7 +482,7 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
 
 def _close_waypoints(poses, tol_position, tol_orientation):
     """
-    Return which tool waypoints (N,) the 'tool lines' keep, and the kept one each is passed at.
+    Return which tool waypoints (N,) are kept, and the kept one each is passed at.
 
     A waypoint within :data:`MERGE_SHARE` of both tolerances of the last one
     kept is passed within that share of them without being a waypoint of its
@@ -484,7 +490,10 @@ def _close_waypoints(poses, tol_position, tol_orientation):
     that the whole rest-to-rest spline slows down for.  A tolerance not
     checked (inf) merges within :data:`UNCHECKED_MERGE` only on its side: a
     waypoint that moves the tool, or turns it, is kept however close it is
-    in the other.  The first and the last waypoint are kept (the goal
+    in the other (with neither checked, within that on both, as plan()
+    merges joint waypoints within its ``waypoint_tolerance``).  The 'tool
+    lines' and the refinement (but for "fixed" timing, whose durations are
+    per requested edge) both merge so.  The first and the last waypoint are kept (the goal
     replaces a kept one close to it, and is then where the waypoints merged
     into that one are passed: within twice the share).
     Returns (keep (N,) bool, owner (N,) the index among the kept waypoints
@@ -492,8 +501,6 @@ def _close_waypoints(poses, tol_position, tol_orientation):
     """
     checked = [math.isfinite(tol) for tol in (tol_position, tol_orientation)]
     owner = np.arange(len(poses))
-    if not any(checked):
-        return np.ones(len(poses), dtype=bool), owner
     limits = [MERGE_SHARE * tol if ok else UNCHECKED_MERGE
               for tol, ok in zip((tol_position, tol_orientation), checked)]
     keep = [0]

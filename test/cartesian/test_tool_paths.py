@@ -267,6 +267,33 @@ def test_past_max_refinement_time_the_steps_that_only_shorten_are_skipped():
     assert late.duration == own.duration and timed.duration < own.duration
 
 
+@pytest.mark.parametrize('method, timing', [('434', 'uniform'), ('445', 'uniform'),
+                                            ('555', 'uniform'), ('445', 'optimal'),
+                                            ('555', 'optimal')])
+@pytest.mark.parametrize('tolerance', [None, 1e-3])
+def test_a_waypoint_next_to_the_one_before_is_passed_there_not_timed_alone(
+        method, timing, tolerance):
+    # 1.5 nm and 50 um after the second pose: within a tenth of the tolerance
+    # (within 1 mm with none), so passed at the second's time; their segments
+    # of nanometres would otherwise set the whole uniform plan's time (555
+    # uniform without a tolerance took 5.9 s against 0.81 s).
+    poses = np.array([[1.2, 0.0, 0.0], [1.2, 0.5, 0.0], [1.2, 0.5 + 1.5e-9, 0.0],
+                      [1.2, 0.5 + 5e-5, 0.0], [0.8, 0.8, 0.0]])
+    kwargs = dict(method=method, timing=timing, **LIMITS)
+    result = plan_tool_path(poses, ARM, tolerance, **kwargs)
+    alone = plan_tool_path(poses[[0, 1, 4]], ARM, tolerance, **kwargs)
+    assert result.trajectory.duration == alone.trajectory.duration
+    passed = result.trajectory.waypoint_times[result.waypoint_knots]
+    assert passed[1] == passed[2] == passed[3]
+    tool = forward(result.trajectory.evaluate(passed))
+    np.testing.assert_allclose(tool[:, :2], poses[:, :2], atol=1e-4 * (1 + 1e-9))
+    # A pose 2 mm on is its own waypoint, whatever is checked.
+    apart = poses.copy()
+    apart[3, 1] = 0.502
+    knots = plan_tool_path(apart, ARM, tolerance, **kwargs).waypoint_knots
+    assert knots[2] == knots[1] and knots[3] > knots[1]
+
+
 @pytest.mark.parametrize('seconds', [-1.0, float('nan')])
 def test_a_negative_refinement_time_is_refused(seconds):
     with pytest.raises(ValueError, match='max_refinement_time = .*non-negative'):
