@@ -86,12 +86,12 @@ class Reloading(LocalRos):
         return [s for s in self.status[first:] if key in status_values(s)]
 
 
-@pytest.fixture
-def compiles(monkeypatch):
-    held = HeldCompiles(model_planning.load_robot_model)
-    monkeypatch.setattr(model_planning, 'load_robot_model', held)
-    yield held
-    held.release.set()
+def ur5_copy(tmp_path):
+    """Return (the path of a copy of the UR5's URDF in ``tmp_path``, its text)."""
+    model = tmp_path / 'ur5.urdf'
+    text = Path(vr.ur5_urdf()).read_text()
+    model.write_text(text)
+    return model, text
 
 
 @pytest.fixture
@@ -140,9 +140,7 @@ def test_a_request_after_switching_to_a_robot_and_back_plans_on_the_first(compil
 
 def test_setting_model_file_again_reloads_the_file_when_it_changed(
         compiles, limits_file, tmp_path):
-    model = tmp_path / 'ur5.urdf'
-    text = Path(vr.ur5_urdf()).read_text()
-    model.write_text(text)
+    model, text = ur5_copy(tmp_path)
     with Reloading(ur5_parameters(limits_file, str(model))) as ros:
         assert compiles.count == 1
         response = ros.plan()
@@ -178,8 +176,7 @@ def test_setting_model_file_again_reloads_the_file_when_it_changed(
 
 def test_setting_model_file_again_after_it_was_removed_keeps_the_robot(
         compiles, limits_file, tmp_path):
-    model = tmp_path / 'ur5.urdf'
-    model.write_text(Path(vr.ur5_urdf()).read_text())
+    model, _ = ur5_copy(tmp_path)
     with Reloading(ur5_parameters(limits_file, str(model))) as ros:
         model.unlink()
         first = len(ros.status)
@@ -202,9 +199,7 @@ def test_setting_model_file_again_after_it_was_removed_keeps_the_robot(
 
 
 def test_a_tool_frame_the_changed_file_adds_is_set_up_from_it(compiles, limits_file, tmp_path):
-    model = tmp_path / 'ur5.urdf'
-    text = Path(vr.ur5_urdf()).read_text()
-    model.write_text(text)
+    model, text = ur5_copy(tmp_path)
     with Reloading(ur5_parameters(limits_file, str(model))) as ros:
         # Not a link of the file: refused at once, from the compiled model.
         result = ros.node.set_parameters_atomically(overrides({'tool_frame': 'tcp'}))
@@ -230,8 +225,7 @@ def test_values_are_checked_against_the_compiled_file_while_its_bytes_are_the_sa
         compiles, limits_file, tmp_path):
     # A touch (or a copy of the same bytes) is no change: a bad value is still
     # refused at once, and nothing is compiled again.
-    model = tmp_path / 'ur5.urdf'
-    model.write_text(Path(vr.ur5_urdf()).read_text())
+    model, _ = ur5_copy(tmp_path)
     with Reloading(ur5_parameters(limits_file, str(model))) as ros:
         for touch in (False, True):
             if touch:
@@ -245,8 +239,7 @@ def test_values_are_checked_against_the_compiled_file_while_its_bytes_are_the_sa
 
 def test_a_removed_file_leaves_the_robot_it_was_compiled_into_usable(
         compiles, limits_file, tmp_path):
-    model = tmp_path / 'ur5.urdf'
-    model.write_text(Path(vr.ur5_urdf()).read_text())
+    model, _ = ur5_copy(tmp_path)
     with Reloading(ur5_parameters(limits_file, str(model))) as ros:
         model.unlink()
         ros.set_parameters({'max_velocity': [1.0] * 6})  # set up on the compiled robot
@@ -271,9 +264,7 @@ class HeldAfterRead(HeldCompiles):
 def test_a_file_edited_while_it_compiles_is_read_again(monkeypatch, limits_file, tmp_path):
     compiles = HeldAfterRead(model_planning.load_robot_model)
     monkeypatch.setattr(model_planning, 'load_robot_model', compiles)
-    model = tmp_path / 'ur5.urdf'
-    text = Path(vr.ur5_urdf()).read_text()
-    model.write_text(text)
+    model, text = ur5_copy(tmp_path)
     with Reloading(ur5_parameters(limits_file, str(model))) as ros:
         model.write_text(text.replace('velocity="3.15"', 'velocity="2.0"', 1))
         compiles.hold.set()

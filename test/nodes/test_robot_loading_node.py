@@ -12,9 +12,7 @@ import os
 import threading
 
 from diagnostic_msgs.msg import DiagnosticStatus
-import pytest
 from splines445_ros.nodes.diagnostics import status_values
-from splines445_ros.service import model_planning
 from splines445_ros.tools import vendor_robots as vr
 from splines445_ros.tools.in_process import InProcessSystem, overrides, waypoint_message
 from test_model_planner_node import LIMITS_YAML
@@ -53,14 +51,6 @@ def ur5_system(tmp_path):
     planner = {'kinematics': 'model', 'model_file': vr.ur5_urdf(),
                'joint_limits_file': str(limits), 'tool_frame': 'tool0', **ALL_FROM_MODEL}
     return InProcessSystem(planner, {'model_file': vr.ur5_urdf(), 'joint_names': ['']})
-
-
-@pytest.fixture
-def compiles(monkeypatch):
-    held = HeldCompiles(model_planning.load_robot_model)
-    monkeypatch.setattr(model_planning, 'load_robot_model', held)
-    yield held
-    held.release.set()
 
 
 def test_parameters_are_answered_while_a_model_compiles(compiles, tmp_path):
