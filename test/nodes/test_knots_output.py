@@ -257,6 +257,36 @@ def test_inner_knots_as_knots_rest_to_rest():
     np.testing.assert_allclose(msg.points[-1].velocities, 0.0, atol=1e-12)
 
 
+@pytest.mark.parametrize('profile', ['smoothed', 'time_optimal'])
+@pytest.mark.parametrize('period', [0.5, 0.05, 0.01])
+def test_sampled_output_is_played_as_the_planned_trajectory(profile, period):
+    """Every knot is a sample: the controller's quintics between samples are the spline."""
+    kwargs = {k: v for k, v in pe.plan_kwargs().items()
+              if not k.startswith(('start_', 'end_'))}
+    more = {'vibration_frequency': 4.0} if profile == 'smoothed' else {}  # (inner knots)
+    traj = plan(pe.joint_waypoints(), '555', 'optimal', speed_profile=profile, **more,
+                **kwargs)
+    assert traj.breakpoints.size > 12      # inner knots, between the waypoints
+    config = PlannerConfig(sample_period=period, joint_names=tuple(pe.JOINT_NAMES))
+    msg = trajectory_to_msg(output_samples(config, traj), pe.JOINT_NAMES)
+    ns, (positions, _, _) = message_arrays(msg)
+    # The knots, the waypoints among them at their positions, are points.
+    assert np.all(np.abs(ns[:, None] - traj.ppoly.x[None, :] * NANOS).min(axis=0) <= 0.5)
+    at = np.abs(ns[:, None] - traj.waypoint_times[None, :] * NANOS).argmin(axis=0)
+    np.testing.assert_array_equal(positions[at], pe.joint_waypoints())
+    # Between points, the controller's quintic is the spline (up to a knot time's
+    # rounding to the nanosecond: 1e-7 of the peak velocity at most).
+    _, states = message_arrays(msg)
+    for d, rtol in ((0, 1e-9), (1, 1e-6), (2, 1e-4)):
+        peak = float(np.max(np.abs(traj.evaluate(np.linspace(0, traj.duration, 999), d))))
+        for k in range(len(ns) - 1):
+            h = (ns[k + 1] - ns[k]) * 1e-9
+            tau = INSIDE * h
+            played = hermite(h, [x[k] for x in states], [x[k + 1] for x in states], tau, d)
+            np.testing.assert_allclose(played, traj.evaluate(ns[k] * 1e-9 + tau, d),
+                                       rtol=0, atol=rtol * peak)
+
+
 def test_the_check_fails_on_a_wrong_knot():
     """controller_errors is not blind: a velocity off by 1e-6 rad/s at one knot fails it."""
     traj = plan(pe.joint_waypoints(), '445', 'uniform', **pe.plan_kwargs())

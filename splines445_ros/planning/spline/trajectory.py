@@ -176,19 +176,25 @@ class Trajectory:
 
     def sample(self, period, resolution=0.0):
         """
-        Sample every ``period`` seconds and at every waypoint's time, at it exactly.
+        Sample every ``period`` seconds and at every knot (waypoints exactly).
 
-        The published trajectory then passes through every waypoint however
-        coarse ``period`` is: a controller interpolating the samples (JTC's
-        quintics between points) would otherwise pass a waypoint that falls
-        between two samples only approximately, and skip it altogether where
-        a segment is shorter than ``period``.  A regular sample closer than
-        ``period / 2`` to a waypoint's time (the end included) is dropped, so
-        that no interval is tiny but those between waypoints closer than that;
-        none is two periods or longer.  ``resolution`` > 0 (a message's
+        Every breakpoint of :attr:`ppoly` is a sample: the waypoints (at them
+        exactly), the inner knots and a replanning start.  Between two knots
+        the spline is one quintic, so a controller that interpolates the
+        samples by quintics through their positions, velocities and
+        accelerations (JTC, ``arm_sim_node``) plays it exactly, however
+        coarse ``period`` is.  Otherwise it would pass a waypoint that falls
+        between two samples only approximately, skip one where a segment is
+        shorter than ``period``, and leave the spline that a replanning or a
+        stop starts from (a ``time_optimal`` plan sampled every 0.5 s was
+        played at 1.08 times the acceleration limit).  A regular sample
+        closer than ``period / 2`` to a knot is dropped, so that no interval
+        is tiny but those between knots closer than that; none is two
+        periods or longer.  ``resolution`` > 0 (a message's
         nanosecond): a sample whose time rounds onto the one before it is
         dropped (the last one stays, the one before it goes), so the times
-        stay strictly increasing once rounded.
+        stay strictly increasing once rounded, and the samples are taken at
+        the rounded times (a waypoint's position stays the waypoint).
         """
         times, at_waypoint = self.sample_times(period, resolution)
         positions = self.evaluate(times, 0)
@@ -216,13 +222,17 @@ class Trajectory:
             raise ValueError(f'sample period {period:g} s gives about {count:.3g} samples of '
                              f'this {self.duration:.6g} s trajectory, more than {MAX_SAMPLES}')
         regular = np.arange(int(count) + 1) * period
-        passed = np.asarray(self.waypoint_times, dtype=float)
-        # The nearest waypoint time of every regular sample (the times are sorted).
-        after = np.clip(np.searchsorted(passed, regular), 1, passed.size - 1)
-        nearest = np.minimum(np.abs(regular - passed[after - 1]), np.abs(passed[after] - regular))
+        knots = np.asarray(self.ppoly.x, dtype=float)
+        # Each knot's waypoint (the waypoint times are knots, exactly), else -1.
+        waypoint = np.full(knots.size, -1)
+        waypoint[np.searchsorted(knots, self.waypoint_times)] = np.arange(
+            len(self.waypoint_times))
+        # The nearest knot of every regular sample (the times are sorted).
+        after = np.clip(np.searchsorted(knots, regular), 1, knots.size - 1)
+        nearest = np.minimum(np.abs(regular - knots[after - 1]), np.abs(knots[after] - regular))
         regular = regular[(nearest >= 0.5 * period) & (regular < self.duration)]
-        times = np.concatenate([regular, passed])
-        index = np.concatenate([np.full(regular.size, -1), np.arange(passed.size)])
+        times = np.concatenate([regular, knots])
+        index = np.concatenate([np.full(regular.size, -1), waypoint])
         order = np.argsort(times, kind='stable')
         times, index = times[order], index[order]
         if resolution > 0.0:
@@ -231,7 +241,8 @@ class Trajectory:
             keep[0] = True
             if keep.sum() > 1 and ticks[0] == ticks[np.flatnonzero(keep)[1]]:
                 keep[np.flatnonzero(keep)[1]] = False        # t = 0 stays, the start
-            times, index = times[keep], index[keep]
+            # On the grid: the state is then the spline's at the time published.
+            times, index = ticks[keep] * resolution, index[keep]
         return times, index
 
     def knots(self, resolution=0.0):
