@@ -28,7 +28,7 @@ reported and logged; the node keeps serving.
 """
 
 import collections
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 import hashlib
 import os
 import queue
@@ -125,6 +125,20 @@ class _Compile:
 
 
 @dataclass(frozen=True)
+class _Published:
+    """A trajectory published to the arm: the plan, its start [ns], joints and config."""
+
+    traj: object
+    start_ns: int
+    names: tuple
+    config: object      # the PlannerConfig it was planned with (overrides, robot limits)
+
+    def runs_at(self, ns):
+        """Whether it has started at ``ns`` and not yet ended."""
+        return self.start_ns <= ns < self.start_ns + int(self.traj.duration * 1e9)
+
+
+@dataclass(frozen=True)
 class _FileIdentity:
     """
     What tells whether a ``model_file`` changed: its stat, and the digest of its bytes.
@@ -213,8 +227,8 @@ class PlannerNode(Node):
         self.create_subscription(String, ROBOT_DESCRIPTION, self._on_description,
                                  topics.LATCHED)
         self._latest_joint_state = None
-        self._active = None  # (planned Trajectory, start time [ns]) of the last publication
-        self._active_names = ()     # its joint names, as published
+        self._active = None  # _Published: the last trajectory published to the arm
+        self._previous = None   # _Published: the one before, while the last waits for its stamp
         self._worker = threading.Thread(target=self._work, name='planner', daemon=True)
         self._worker.start()
         self.planned_path_publisher = self.create_publisher(
@@ -280,7 +294,29 @@ class PlannerNode(Node):
     def active_trajectory(self):
         """Return the Trajectory last published to the arm (None when stopped or none)."""
         active = self._active
-        return None if active is None else active[0]
+        return None if active is None else active.traj
+
+    def _base(self, now_ns):
+        """
+        Return the :class:`_Published` a new publication takes over from, or None.
+
+        The last one published, unless it still waits for its stamp: the arm
+        drops a waiting trajectory when a newer one arrives, so the new one
+        takes over from the one before it, which runs meanwhile (two requests
+        less than ``replan_lead_time`` apart; a cancel within a goal's start
+        delay).
+        """
+        active = self._active
+        if active is not None and active.start_ns > now_ns:
+            return self._previous
+        return active
+
+    def _published(self, traj, start_ns, names, config, now_ns):
+        """Record a trajectory just published; see :meth:`_base`."""
+        if self._active is None or self._active.start_ns <= now_ns:
+            self._previous = self._active
+        self._active = (None if traj is None
+                        else _Published(traj, start_ns, tuple(names), config))
 
     def measured_state(self, names):
         """
@@ -605,9 +641,11 @@ class PlannerNode(Node):
                 exc = text
             return self._rejected(f'request {request_id} rejected: {exc}', values)
         now_ns = self.get_clock().now().nanoseconds
-        if switch_ns is None and job.from_running and job.publish:
-            # A goal's trajectory starts at a stamped time, so the planner and the arm
-            # agree on its clock: a later stop or preemption then switches without a jump.
+        if switch_ns is None and job.publish:
+            # Every published trajectory starts at a stamped time, so the planner and the
+            # arm agree on its clock: a later stop, preemption or replanning then switches
+            # without a jump (from "on receipt", the arm started a few ms later than the
+            # planner counted: 0.019 rad at 3.4 rad/s).
             switch_ns = now_ns + int(GOAL_START_DELAY * 1e9)
         stamp = None if switch_ns is None else Time(nanoseconds=switch_ns).to_msg()
         out = trajectory_to_msg(samples, config.joint_names, stamp)
@@ -620,8 +658,7 @@ class PlannerNode(Node):
         start_ns = now_ns if switch_ns is None else switch_ns
         if job.publish:
             self.trajectory_publisher.publish(out)
-            self._active = (traj, start_ns)
-            self._active_names = tuple(config.joint_names)
+            self._published(traj, start_ns, config.joint_names, config, now_ns)
         published = time.perf_counter()
         values.update({'points': len(out.points),
                        'planning_time_ms': f'{1e3 * (planned - started):.3f}',
@@ -675,11 +712,10 @@ class PlannerNode(Node):
         return PlanOutcome(False, message, values)
 
     def _running_at(self, now_ns):
-        """Return True while the last published trajectory runs at ``now_ns``."""
-        if self._active is None:
-            return False
-        running, start_ns = self._active
-        return now_ns < start_ns + int(running.duration * 1e9)
+        """Return True while a published trajectory runs at ``now_ns``, or waits to."""
+        base, active = self._base(now_ns), self._active
+        return ((base is not None and base.runs_at(now_ns))
+                or (active is not None and active.start_ns > now_ns))
 
     def _serve_stop(self, job):
         """
@@ -690,16 +726,29 @@ class PlannerNode(Node):
         arm brakes within the velocity, acceleration and jerk limits without
         a jump; an arm already (nearly) at rest holds its commanded position.
         """
-        config = self.parameters.config
-        robot = self._robot     # read once: a parameter change may set it to None meanwhile
-        if config.kinematics == 'model' and robot is not None:
-            config = robot.effective(config)
+        lead = self.parameters.config.replan_lead_time
         now_ns = self.get_clock().now().nanoseconds
-        if not self._running_at(now_ns):
-            return PlanOutcome(True, 'nothing to stop: the trajectory has ended', {})
-        running, start_ns = self._active
-        # The running trajectory's joints, as published: joint_names may have changed since.
-        names = list(self._active_names)
+        base, waiting = self._base(now_ns), self._active
+        if waiting is not None and waiting.start_ns <= now_ns:
+            waiting = None
+        if base is None or not base.runs_at(now_ns):
+            if waiting is None:
+                return PlanOutcome(True, 'nothing to stop: the trajectory has ended', {})
+            # Only a trajectory waiting for its stamp (a goal's start delay): replaced
+            # by a hold where it would start, where the arm is.
+            out = hold_message(waiting.traj.evaluate([0.0], 0)[0], list(waiting.names),
+                               waiting.config.sample_period)
+            self.trajectory_publisher.publish(out)
+            self._published(None, now_ns, waiting.names, waiting.config, now_ns)
+            message = 'stopping: the trajectory had not started; holding where it starts'
+            self._report(True, message, {})
+            return PlanOutcome(True, message, {}, None, out, list(waiting.names), now_ns)
+        running, start_ns = base.traj, base.start_ns
+        # The running trajectory's joints and limits (a goal's overrides, the robot's):
+        # joint_names or the limits may have changed since, and the arm may run faster
+        # than the node's limits now allow a stop to start from.
+        names = list(base.names)
+        config = replace(base.config, replan_lead_time=lead)
         switch_ns = now_ns + int(config.replan_lead_time * 1e9)
         t = 1e-9 * (switch_ns - start_ns)
 
@@ -727,12 +776,11 @@ class PlannerNode(Node):
                                   f'({config.replan_lead_time} s); the running trajectory '
                                   'continues', {})
         self.trajectory_publisher.publish(out)
+        self._published(traj, switch, names, config, now_ns)
         if traj is not None:
-            self._active = (traj, switch)
             message = (f'stopping: braking to rest in {traj.duration:.4f} s, from '
                        f'{1e-9 * (switch - now_ns):.3f} s after the cancel')
         else:
-            self._active = None
             message = 'stopping: holding the commanded position'
         self._report(True, message, {'switch_time_ns': switch})
         return PlanOutcome(True, message, {}, traj, out, names, switch)
@@ -741,19 +789,28 @@ class PlannerNode(Node):
         """
         Plan ``request`` from the state commanded at ``switch_ns``; return (switch_ns, traj).
 
-        While the last published trajectory runs, its state is the start (a
-        later switch along it when none plans there: see plan_from_running);
+        While the trajectory the arm runs (:meth:`_base`) runs at ``switch_ns``,
+        its state there is the start (a later switch along it when none plans
+        there: see plan_from_running); when it ends before then, its end;
         otherwise the latest joint_states are.  ``torque``: the
         TorqueOptions, or None (rest to rest only).
         """
-        if self._active is not None:
-            running, start_ns = self._active
+        now_ns = self.get_clock().now().nanoseconds
+        base = self._base(now_ns)
+        if base is not None and base.names == tuple(config.joint_names):
+            running, start_ns = base.traj, base.start_ns
             t = (switch_ns - start_ns) * 1e-9
-            if t < running.duration and self._active_names == tuple(config.joint_names):
+            if t < running.duration:
                 def clock():
                     return (self.get_clock().now().nanoseconds - start_ns) * 1e-9
                 used, traj = plan_from_running(config, request, running, t, clock, torque)
                 return max(switch_ns, start_ns + int(round(used * 1e9))), traj
+            if base.runs_at(now_ns):
+                # It ends before the switch: the arm is then at its end, which the
+                # latest joint_states, taken on the way there, are not.
+                end = [running.evaluate([running.duration], d)[0] for d in range(3)]
+                return switch_ns, plan_request(config, start_from_state(
+                    request, *end, config.waypoint_tolerance), torque)
         return switch_ns, plan_request(config, start_from_state(
             request, *self._joint_state_start(config), config.waypoint_tolerance), torque)
 

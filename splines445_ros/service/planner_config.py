@@ -117,7 +117,7 @@ class PlannerConfig(ValidatedConfig):
         choices=TIMINGS)
     sample_period: float = parameter(
         0.01, '`output: sampled`: period of the published trajectory points [s]; every '
-        'waypoint is a point too.',
+        'knot of the plan (the waypoints among them) is a point too.',
         low=MIN_SAMPLE_PERIOD, unit='s')
     start_from_current_state: bool = parameter(
         False, 'Start every trajectory from the commanded state at now + `replan_lead_time` '

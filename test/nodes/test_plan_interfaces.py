@@ -13,6 +13,7 @@ import os
 
 from action_msgs.msg import GoalStatus
 from action_msgs.srv import CancelGoal
+from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import Pose
 import numpy as np
 import pytest
@@ -292,6 +293,83 @@ def test_a_new_goal_preempts_the_running_one_without_a_jump(system):
     np.testing.assert_allclose(system.joint_states[-1].position, [-0.5, 0.5, 0.2], atol=1e-6)
     times, positions, velocities = states_between(system, switch_ns - int(0.2e9))
     assert_no_jump(times, positions, velocities)
+
+
+def test_a_goal_preempting_a_topic_trajectory_switches_without_a_jump(system):
+    """A topic trajectory is stamped too: the planner and the arm agree on its start."""
+    status, first = system.request(waypoint_message(NAMES, LONG))
+    assert status.level == DiagnosticStatus.OK, status.message
+    published = system.client.get_clock().now().nanoseconds
+    assert 0 < stamp_ns(first) - published <= 0.1e9  # now + GOAL_START_DELAY, not 0
+    system.spin_for(1.0)
+    switch_ns = system.client.get_clock().now().nanoseconds
+    goal = send_goal(system, np.array([[0.0, 0.0, 0.0], [-0.5, 0.5, 0.2]]))
+    assert goal.accepted
+    assert result_of(system, goal).status == GoalStatus.STATUS_SUCCEEDED
+    times, positions, velocities = states_between(system, switch_ns - int(0.2e9))
+    assert_no_jump(times, positions, velocities)
+
+
+def test_cancel_stops_a_goal_faster_than_the_nodes_limits(system):
+    """The stop keeps the goal's own limits: from 3.3 rad/s the node's 2 rad/s fail."""
+    goal = FollowWaypoints.Goal()
+    goal.waypoints = waypoint_message(NAMES, 4.0 * LONG)
+    goal.overrides.max_velocity = [4.0] * 3
+    goal.overrides.max_acceleration = [20.0] * 3
+    sent = system.action_client.send_goal_async(goal)
+    assert system.spin_until(sent.done, 10.0)
+    handle = sent.result()
+    assert handle.accepted
+    assert system.spin_until(lambda: system.joint_states and np.max(
+        np.abs(system.joint_states[-1].velocity)) > V * 1.2, 10.0)
+    cancel_ns = system.client.get_clock().now().nanoseconds
+    cancel = handle.cancel_goal_async()
+    assert system.spin_until(cancel.done, 5.0)
+    result = result_of(system, handle)
+    assert result.status == GoalStatus.STATUS_CANCELED, result.result.message
+    assert 'braking to rest' in result.result.message, result.result.message
+    system.spin_for(1.5)
+    times, positions, velocities = states_between(system, cancel_ns)
+    assert np.all(velocities[times > 1e-9 * cancel_ns + 1.5] == 0.0)
+    dt = np.diff(times)[:, None]
+    assert np.max(np.abs(np.diff(velocities, axis=0)) - 20.0 * dt) <= 1e-6
+
+
+def test_a_request_in_the_last_lead_time_starts_where_the_running_one_ends(system):
+    """The running trajectory ends before the switch: its end, not older joint_states."""
+    assert system.set_planner_parameters({'start_from_current_state': True})[0].successful
+    assert system.spin_until(lambda: len(system.joint_states) > 2, 5.0)
+    goal = np.array([[0.0, 0.0, 0.0], [1.5, -1.0, 1.0]])
+    status, first = system.request(waypoint_message(NAMES, goal))
+    assert status.level == DiagnosticStatus.OK, status.message
+    end_ns = stamp_ns(first) + int(duration_to_seconds(first.points[-1].time_from_start) * 1e9)
+    assert system.spin_until(
+        lambda: system.client.get_clock().now().nanoseconds >= end_ns - int(0.25e9), 20.0)
+    assert np.max(np.abs(system.joint_states[-1].velocity)) > 0.1   # on its way still
+    status, second = system.request(waypoint_message(NAMES, W))
+    assert status.level == DiagnosticStatus.OK, status.message
+    np.testing.assert_allclose(second.points[0].positions, goal[-1], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(second.points[0].velocities, 0.0, rtol=0, atol=1e-12)
+    system.spin_for(0.8 + duration_to_seconds(second.points[-1].time_from_start))
+    assert_no_jump(*states_between(system, end_ns - int(0.5e9)))
+
+
+def test_two_requests_closer_than_the_lead_time_switch_without_a_jump(system):
+    """The first still waits for its stamp when the second comes: the arm never runs it."""
+    assert system.set_planner_parameters({'start_from_current_state': True})[0].successful
+    assert system.spin_until(lambda: len(system.joint_states) > 2, 5.0)
+    start_ns = system.client.get_clock().now().nanoseconds
+    status, first = system.request(waypoint_message(NAMES, LONG[:2]))
+    assert status.level == DiagnosticStatus.OK, status.message
+    system.spin_for(0.1)
+    status, second = system.request(waypoint_message(NAMES, W[::-1]))
+    assert status.level == DiagnosticStatus.OK, status.message
+    assert stamp_ns(second) - stamp_ns(first) < 0.5e9
+    # It starts where the arm is: at rest at its first position, as the first never ran.
+    np.testing.assert_array_equal(second.points[0].positions, [0.0, 0.0, 0.0])
+    system.spin_for(0.8 + duration_to_seconds(second.points[-1].time_from_start))
+    assert_no_jump(*states_between(system, start_ns))
+    np.testing.assert_allclose(system.joint_states[-1].position, W[0], atol=1e-9)
 
 
 def test_a_new_goal_that_fails_to_plan_leaves_the_running_one_running(system):
