@@ -129,7 +129,8 @@ class PlannerConfig(ValidatedConfig):
     max_trajectory_points: int = parameter(
         DEFAULT_MAX_TRAJECTORY_POINTS, 'Largest number of points a published trajectory may '
         'have (at `sample_period`, or knots); a longer one is rejected (raise `sample_period` '
-        'or use `output: knots` instead).', low=2)
+        'or use `output: knots` instead). `arm_sim_node` refuses more than the default, '
+        f'{DEFAULT_MAX_TRAJECTORY_POINTS}, whatever this says.', low=2)
     kinematics: str = parameter(
         '', 'Kinematics for `tool_waypoints` requests: `""` = none (joint space only: tool '
         "requests get an ERROR), `planar_3dof` = the paper's arm with `link_lengths` (needs 3 "
