@@ -87,6 +87,30 @@ def test_bad_input_raises_value_error_naming_the_problem(name, change, message):
         plan(**kwargs)
 
 
+BOUNDARY_NAMES = ('start_velocity', 'start_acceleration', 'end_velocity', 'end_acceleration')
+
+
+@pytest.mark.parametrize('sign', [1.0, -1.0])
+@pytest.mark.parametrize('name', BOUNDARY_NAMES)
+def test_a_boundary_value_a_hair_past_its_limit_is_refused_and_on_it_is_planned(name, sign):
+    # Joint 0's limits are above joint 1's: each value is checked against its own joint's.
+    limits = {'max_velocity': [1.5, 1.0], 'max_acceleration': [3.0, 2.0]}
+    own = np.array(limits['max_velocity' if name.endswith('velocity') else 'max_acceleration'])
+    on = sign * own  # exactly on both joints' limits
+    for timing in ('fixed', 'uniform'):
+        durations = [1.0, 1.0, 1.0] if timing == 'fixed' else None
+        past = on * np.array([1.0, 1.0 + 1e-9])
+        with pytest.raises(ValueError, match=rf'infeasible: \|{name}\[1\]\| = .* of joint 1$'):
+            plan(W, '445', timing, durations=durations, **limits, **{name: past})
+        past = on * np.array([1.0 + 1e-9, 1.0 - 1e-9])
+        with pytest.raises(ValueError, match=rf'infeasible: \|{name}\[0\]\| = .* of joint 0$'):
+            plan(W, '445', timing, durations=durations, **limits, **{name: past})
+    traj = plan(W, '445', 'fixed', durations=[1.0, 1.0, 1.0], **limits, **{name: on})
+    derivative = 1 if name.endswith('velocity') else 2
+    time = 0.0 if name.startswith('start') else traj.duration
+    np.testing.assert_allclose(traj.evaluate([time], derivative)[0], on, atol=1e-9)
+
+
 @pytest.mark.parametrize('method', ['445', '434', '555'])
 def test_consecutive_duplicates_are_merged_and_reported(method):
     dup = np.array([W[0], W[1], W[1], W[2], W[2], W[2], W[3], W[3]])

@@ -19,6 +19,7 @@ import pytest
 from reference_spline import exact_peaks, random_limits
 from scipy.interpolate import make_interp_spline
 from splines445_ros.planning import get_method, METHODS, plan
+from test_planning_properties import assume_distinct, check_uniform_refusal
 
 
 @st.composite
@@ -181,17 +182,22 @@ def kwargs_of(vmax, amax, jmax, boundary):
 @given(data=st.data())
 def test_uniform_555_meets_limits_one_binds_and_keeps_chord_proportions(fraction, data):
     points, vmax, amax, jmax, boundary = data.draw(limited_requests(fraction))
+    assume_distinct(points)
     try:
         traj = plan(points, '555', 'uniform', **kwargs_of(vmax, amax, jmax, boundary))
     except ValueError as exc:
         assert fraction > 0.0 and 'infeasible' in str(exc)
+        # No common factor (nor documented first-segment share) meets the limits.
+        check_uniform_refusal('555', points, (vmax, amax, jmax), boundary)
         return
     ratios = peak_ratios(traj, vmax, amax, jmax)
     assert max(ratios) <= 1.0 + 1e-7, ratios
     assert max(ratios) >= 1.0 - 1e-6, ratios
     np.testing.assert_allclose(traj.ppoly(traj.breakpoints), points, atol=1e-9 * scale_of(points))
-    np.testing.assert_allclose(traj.ppoly(0.0, 1), boundary[0], atol=1e-8)
-    np.testing.assert_allclose(traj.ppoly(traj.duration, 2), boundary[3], atol=1e-6)
+    v0, a0, ve, ae = boundary
+    for t, v, a in ((0.0, v0, a0), (traj.duration, ve, ae)):
+        np.testing.assert_allclose(traj.ppoly(t, 1), v, atol=1e-8)
+        np.testing.assert_allclose(traj.ppoly(t, 2), a, atol=1e-6)
     if fraction == 0.0:
         chords = np.linalg.norm(np.diff(points, axis=0), axis=1)
         np.testing.assert_allclose(traj.durations / chords, traj.scale, rtol=1e-9)
