@@ -398,11 +398,14 @@ def require_finite(traj):
 
     Finite coefficients can still overflow when evaluated (``c5 * T**5`` with
     T = 1e62 s), so position to jerk are evaluated at every segment's middle
-    and end too.
+    and end too; and so can the derivative's own coefficients, which
+    ``ppoly.derivative`` (``evaluate``, ``sample``) builds first (``60 c5``
+    with T = 1e-61 s: an infinite jerk and NaN at the knots), so those are
+    checked as well.
     """
     if not np.all(np.isfinite(traj.breakpoints)):
         raise ValueError('the segment durations overflow: the plan is not finite')
-    ok = np.all(np.isfinite(traj.coefficients))
+    ok = np.all(np.isfinite(traj.coefficients * _CHECK_FALLING.max(axis=0)[None, :, None]))
     if ok:
         # Both times and all four derivatives in one product (8 einsums
         # before: 77 -> 28 us on a 3 x 3 plan).  Its summation order may
