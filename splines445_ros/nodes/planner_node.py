@@ -72,9 +72,12 @@ from ..service.request_planning import (gravity_overload, gravity_overload_repor
 ROBOT_DESCRIPTION = 'robot_description'
 PLAN_SERVICE = '~/plan'
 PLAN_INTERFACE = 'plan service'
-# A follow_waypoints goal's trajectory takes over this long after it is published [s]
-# (its header.stamp): longer than delivery to the arm takes on one machine.
+# Every published trajectory takes over this long after it is published [s] (its
+# header.stamp; a replanned one at its switch time): longer than delivery to the arm
+# takes on one machine.
 GOAL_START_DELAY = 0.05
+# Attempts at a stop while the trajectory on the arm changes under it (_serve_stop).
+STOP_ATTEMPTS = 3
 
 _STOP = object()
 _WAKE = object()    # wakes the worker for a stop job (PlannerNode._stops)
@@ -591,6 +594,7 @@ class PlannerNode(Node):
         started = time.perf_counter()
         switch_ns = None
         switch_delay = 0.0
+        planned_from = False    # the _Published (or None) a replanned request starts from
         tool_values = {}
         torque = None
         values = {'request': request_id}
@@ -624,7 +628,9 @@ class PlannerNode(Node):
                 if config.start_from_current_state or (job.from_running
                                                        and self._running_at(now_ns)):
                     requested_ns = now_ns + int(config.replan_lead_time * 1e9)
-                    switch_ns, traj = self._replan(config, request, requested_ns, torque)
+                    planned_from = self._base(now_ns)
+                    switch_ns, traj = self._replan(config, request, requested_ns, torque,
+                                                   planned_from)
                     switch_delay = 1e-9 * (switch_ns - requested_ns)
                 else:
                     if job.from_running and job.publish:
@@ -649,6 +655,11 @@ class PlannerNode(Node):
             switch_ns = now_ns + int(GOAL_START_DELAY * 1e9)
         stamp = None if switch_ns is None else Time(nanoseconds=switch_ns).to_msg()
         out = trajectory_to_msg(samples, config.joint_names, stamp)
+        if planned_from is not False and self._base(now_ns) is not planned_from:
+            return self._rejected(
+                f'request {request_id} rejected: the trajectory waiting for its stamp '
+                'started while this request was planned from the one before it; the running '
+                'trajectory continues (send the request again)', values)
         if switch_ns is not None and now_ns > switch_ns:
             return self._rejected(
                 f'request {request_id} rejected: planning took '
@@ -725,7 +736,18 @@ class PlannerNode(Node):
         ``replan_lead_time`` (:func:`plan_stop`) and takes over there, so the
         arm brakes within the velocity, acceleration and jerk limits without
         a jump; an arm already (nearly) at rest holds its commanded position.
+        When the trajectory waiting for its stamp starts while the stop is
+        planned from the one before it, the stop is planned again from it.
         """
+        for _ in range(STOP_ATTEMPTS):
+            outcome = self._serve_stop_once()
+            if outcome is not None:
+                return outcome
+        return self._rejected('stop rejected: the trajectory on the arm changed while the stop '
+                              'was planned, every time; the running trajectory continues', {})
+
+    def _serve_stop_once(self):
+        """One attempt of :meth:`_serve_stop`: its PlanOutcome, or None to plan again."""
         lead = self.parameters.config.replan_lead_time
         now_ns = self.get_clock().now().nanoseconds
         base, waiting = self._base(now_ns), self._active
@@ -771,6 +793,8 @@ class PlannerNode(Node):
         except ValueError as exc:
             return self._rejected(f'stop rejected: {exc}; the running trajectory continues',
                                   {})
+        if self._base(self.get_clock().now().nanoseconds) is not base:
+            return None     # the waiting trajectory started meanwhile: from it
         if self.get_clock().now().nanoseconds > switch:
             return self._rejected(f'stop rejected: planning took longer than replan_lead_time '
                                   f'({config.replan_lead_time} s); the running trajectory '
@@ -785,7 +809,7 @@ class PlannerNode(Node):
         self._report(True, message, {'switch_time_ns': switch})
         return PlanOutcome(True, message, {}, traj, out, names, switch)
 
-    def _replan(self, config, request, switch_ns, torque=None):
+    def _replan(self, config, request, switch_ns, torque=None, base=None):
         """
         Plan ``request`` from the state commanded at ``switch_ns``; return (switch_ns, traj).
 
@@ -793,10 +817,10 @@ class PlannerNode(Node):
         its state there is the start (a later switch along it when none plans
         there: see plan_from_running); when it ends before then, its end;
         otherwise the latest joint_states are.  ``torque``: the
-        TorqueOptions, or None (rest to rest only).
+        TorqueOptions, or None (rest to rest only).  ``base``: :meth:`_base` at
+        the request (the caller checks it is still the one before publishing).
         """
         now_ns = self.get_clock().now().nanoseconds
-        base = self._base(now_ns)
         if base is not None and base.names == tuple(config.joint_names):
             running, start_ns = base.traj, base.start_ns
             t = (switch_ns - start_ns) * 1e-9

@@ -244,11 +244,11 @@ def output_samples(config, traj):
         n_points = traj.ppoly.x.size
         what = f'{n_points} knots'
     else:
-        # Between the regular samples alone (each waypoint's replaces at most one)
-        # and all of them with the waypoints': counted exactly only in between.
+        # Between the regular samples alone (each knot's replaces at most one) and
+        # all of them with every knot's: counted exactly only in between.
         regular = int(traj.duration / config.sample_period) + 1
         n_points = regular
-        if regular <= config.max_trajectory_points < regular + len(traj.waypoint_times):
+        if regular <= config.max_trajectory_points < regular + traj.ppoly.x.size:
             n_points = traj.sample_times(config.sample_period, TIME_RESOLUTION)[0].size
         what = f'{n_points} points or more at sample_period {config.sample_period} s'
     if n_points > config.max_trajectory_points:

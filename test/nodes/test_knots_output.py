@@ -360,6 +360,18 @@ def test_output_is_validated_and_knots_count_against_max_trajectory_points():
                 output_samples(config, dense)
         else:
             assert output_samples(config, dense).times.size == produced
+    # With inner knots too (helper-56: 78 points published at a limit of 20).
+    kwargs = {k: v for k, v in pe.plan_kwargs().items()
+              if not k.startswith(('start_', 'end_'))}
+    knotted = plan(pe.joint_waypoints(), '555', 'optimal', vibration_frequency=4.0, **kwargs)
+    for period in (1.0, 0.5, 0.1):
+        produced = knotted.sample(period, 1e-9).times.size
+        assert produced > int(knotted.duration / period) + 1 + 12   # the inner knots
+        with pytest.raises(ValueError, match='max_trajectory_points'):
+            output_samples(PlannerConfig(sample_period=period,
+                                         max_trajectory_points=produced - 1), knotted)
+        enough = PlannerConfig(sample_period=period, max_trajectory_points=produced)
+        assert output_samples(enough, knotted).times.size == produced
 
 
 @pytest.mark.parametrize('vmax', [3e-9, 1e-12])

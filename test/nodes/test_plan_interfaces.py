@@ -10,6 +10,7 @@ kinematics written out in the test.
 
 import math
 import os
+import time
 
 from action_msgs.msg import GoalStatus
 from action_msgs.srv import CancelGoal
@@ -370,6 +371,29 @@ def test_two_requests_closer_than_the_lead_time_switch_without_a_jump(system):
     system.spin_for(0.8 + duration_to_seconds(second.points[-1].time_from_start))
     assert_no_jump(*states_between(system, start_ns))
     np.testing.assert_allclose(system.joint_states[-1].position, W[0], atol=1e-9)
+
+
+def test_a_request_planned_while_the_waiting_one_starts_is_refused(system, monkeypatch):
+    """Planned from the one before the waiting trajectory, which started meanwhile."""
+    assert system.set_planner_parameters({'start_from_current_state': True})[0].successful
+    assert system.spin_until(lambda: len(system.joint_states) > 2, 5.0)
+    status, first = system.request(waypoint_message(NAMES, LONG[:2]))
+    assert status.level == DiagnosticStatus.OK, status.message
+    real = planner_node.plan_request
+
+    def slow(*args, **kwargs):  # planning outlasts the first's wait for its stamp
+        time.sleep(1e-9 * (stamp_ns(first) - time.time_ns()) + 0.1)
+        return real(*args, **kwargs)
+    monkeypatch.setattr(planner_node, 'plan_request', slow)
+    start_ns = system.client.get_clock().now().nanoseconds
+    system.spin_for(0.3)    # the second's planning (0.3 s) ends within its own lead
+    status, second = system.request(waypoint_message(NAMES, W[::-1]))
+    assert status.level == DiagnosticStatus.ERROR and second is None, status.message
+    assert 'started while this request was planned' in status.message
+    monkeypatch.setattr(planner_node, 'plan_request', real)
+    system.spin_for(0.5 + duration_to_seconds(first.points[-1].time_from_start))
+    assert_no_jump(*states_between(system, start_ns))
+    np.testing.assert_allclose(system.joint_states[-1].position, LONG[1], atol=1e-9)
 
 
 def test_a_new_goal_that_fails_to_plan_leaves_the_running_one_running(system):
