@@ -237,10 +237,9 @@ class Trajectory:
         times, index = times[order], index[order]
         if resolution > 0.0:
             ticks = np.round(times / resolution)
-            keep = np.append(ticks[1:] > ticks[:-1], True)   # the last of each tick
-            keep[0] = True
-            if keep.sum() > 1 and ticks[0] == ticks[np.flatnonzero(keep)[1]]:
-                keep[np.flatnonzero(keep)[1]] = False        # t = 0 stays, the start
+            keep = np.append(ticks[1:] > ticks[:-1], True)   # the last of each tick,
+            keep[ticks == ticks[0]] = False                  # but the first tick's first:
+            keep[0] = True                                   # t = 0, the start
             # On the grid: the state is then the spline's at the time published.
             times, index = ticks[keep] * resolution, index[keep]
         return times, index
