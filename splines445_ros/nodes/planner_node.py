@@ -793,9 +793,10 @@ class PlannerNode(Node):
         except ValueError as exc:
             return self._rejected(f'stop rejected: {exc}; the running trajectory continues',
                                   {})
-        if self._base(self.get_clock().now().nanoseconds) is not base:
+        planned_ns = self.get_clock().now().nanoseconds
+        if self._base(planned_ns) is not base:
             return None     # the waiting trajectory started meanwhile: from it
-        if self.get_clock().now().nanoseconds > switch:
+        if planned_ns > switch:
             return self._rejected(f'stop rejected: planning took longer than replan_lead_time '
                                   f'({config.replan_lead_time} s); the running trajectory '
                                   'continues', {})
