@@ -178,15 +178,6 @@ class ArmSimNode(Node):
         now = self._now_ns()
         self._follow_clock(now)
         start = stamp if stamp > 0 else now
-        if start < now and not self._moving_at(now):
-            # Arrived after its stamp (a loaded machine) at an arm at rest: started
-            # where it begins, on receipt, not mid-way with a jump to there.
-            late = (f'trajectory arrived {1e-9 * (now - start):.3f} s after its stamp: '
-                    'started on receipt')
-            self.get_logger().warning(late)
-            self.status_publisher.publish(status_message(
-                self._status_name, True, late, {'start_ns': now}, warn=True))
-            start = now
         if self._pending is not None:
             replaced = 'trajectory replaced before it started'
             self.get_logger().warning(replaced)
@@ -201,13 +192,6 @@ class ArmSimNode(Node):
             {'points': len(msg.points), 'duration': f'{trajectory.duration:.9g}',
              'start_ns': start}))
         self._on_timer()
-
-    def _moving_at(self, now):
-        """Whether a trajectory runs at ``now`` (the active one, or a pending one due)."""
-        for held in (self._active, self._pending):
-            if held is not None and held[1] <= now < held[1] + int(held[0].duration * 1e9):
-                return True
-        return False
 
     # -- kinematic playback ---------------------------------------------------------------
 
