@@ -178,6 +178,14 @@ class ArmSimNode(Node):
         now = self._now_ns()
         self._follow_clock(now)
         start = stamp if stamp > 0 else now
+        # The time the motion has reached (the physics' own, which may lag the clock).
+        reached = now if self.dynamic is None else self._sim_ns
+        late = max(0, reached - stamp) if stamp > 0 else 0
+        if late:
+            self.get_logger().warning(
+                f'trajectory arrived {late * 1e-9:.3f} s after its header.stamp: it starts '
+                'that far along (its publisher must stamp it further ahead, as the '
+                "planner's start_delay does)")
         if self._pending is not None:
             replaced = 'trajectory replaced before it started'
             self.get_logger().warning(replaced)
@@ -190,7 +198,7 @@ class ArmSimNode(Node):
         self.status_publisher.publish(status_message(
             self._status_name, True, message,
             {'points': len(msg.points), 'duration': f'{trajectory.duration:.9g}',
-             'start_ns': start}))
+             'start_ns': start, **({'started_late_by': f'{late * 1e-9:.9g}'} if late else {})}))
         self._on_timer()
 
     # -- kinematic playback ---------------------------------------------------------------

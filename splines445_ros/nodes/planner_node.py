@@ -72,10 +72,6 @@ from ..service.request_planning import (gravity_overload, gravity_overload_repor
 ROBOT_DESCRIPTION = 'robot_description'
 PLAN_SERVICE = '~/plan'
 PLAN_INTERFACE = 'plan service'
-# Every published trajectory takes over this long after it is published [s] (its
-# header.stamp; a replanned one at its switch time): longer than delivery to the arm
-# takes on one machine.
-GOAL_START_DELAY = 0.05
 # Attempts at a stop while the trajectory on the arm changes under it (_serve_stop).
 STOP_ATTEMPTS = 3
 
@@ -646,15 +642,18 @@ class PlannerNode(Node):
                 values.update(details)
                 exc = text
             return self._rejected(f'request {request_id} rejected: {exc}', values)
+        out = trajectory_to_msg(samples, config.joint_names)
+        # The clock is read once the message is built (thousands of points take
+        # milliseconds, far more on a loaded machine), just before it is published.
         now_ns = self.get_clock().now().nanoseconds
-        if switch_ns is None and job.publish:
+        if switch_ns is None and job.publish and config.start_delay > 0.0:
             # Every published trajectory starts at a stamped time, so the planner and the
             # arm agree on its clock: a later stop, preemption or replanning then switches
             # without a jump (from "on receipt", the arm started a few ms later than the
             # planner counted: 0.019 rad at 3.4 rad/s).
-            switch_ns = now_ns + int(GOAL_START_DELAY * 1e9)
-        stamp = None if switch_ns is None else Time(nanoseconds=switch_ns).to_msg()
-        out = trajectory_to_msg(samples, config.joint_names, stamp)
+            switch_ns = now_ns + int(round(config.start_delay * 1e9))
+        if switch_ns is not None:
+            out.header.stamp = Time(nanoseconds=switch_ns).to_msg()
         if planned_from is not False and self._base(now_ns) is not planned_from:
             return self._rejected(
                 f'request {request_id} rejected: the trajectory waiting for its stamp '

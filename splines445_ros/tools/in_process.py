@@ -114,6 +114,13 @@ class LocalRos:
         self.close()
 
 
+# The planner's start_delay here [s]: its default, 0.05 s, covers delivery between
+# processes; in one process the nodes share one executor and the GIL, and on a loaded
+# 2-core machine a trajectory reached the arm up to 0.3 s after it was published
+# (then it starts part-way along: the arm jumps).
+IN_PROCESS_START_DELAY = 0.4
+
+
 class InProcessSystem(LocalRos):
     """Planner, arm simulation and a recording client spun by one executor."""
 
@@ -132,7 +139,8 @@ class InProcessSystem(LocalRos):
         cli = ['--ros-args', '--params-file', params_file] if params_file else None
         self.planner = self.add(PlannerNode(
             context=self.context, cli_args=cli,
-            parameter_overrides=overrides(planner_parameters or {})))
+            parameter_overrides=overrides({'start_delay': IN_PROCESS_START_DELAY,
+                                           **(planner_parameters or {})})))
         self.arm = self.add(ArmSimNode(context=self.context, cli_args=cli,
                                        parameter_overrides=overrides(arm_parameters or {})))
         self.client = self.add(Node('splines445_client', context=self.context))

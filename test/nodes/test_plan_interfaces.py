@@ -21,14 +21,16 @@ import pytest
 from rclpy.action import ActionClient
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from rclpy.time import Time
 from splines445_interfaces.action import FollowWaypoints
 from splines445_interfaces.srv import Plan
 from splines445_ros.nodes import planner_node, topics
 from splines445_ros.nodes.diagnostics import status_values
-from splines445_ros.nodes.ros_conversions import duration_to_seconds
+from splines445_ros.nodes.ros_conversions import duration_to_seconds, hold_message
 from splines445_ros.planning import plan
 from splines445_ros.service.interface_requests import MAX_REQUEST_WAYPOINTS
-from splines445_ros.tools.in_process import InProcessSystem, stamp_ns, waypoint_message
+from splines445_ros.tools.in_process import (IN_PROCESS_START_DELAY, InProcessSystem, stamp_ns,
+                                             waypoint_message)
 from visualization_msgs.msg import Marker, MarkerArray
 
 CONFIG = os.path.join(os.path.dirname(__file__), '..', '..', 'config', 'planar_arm.yaml')
@@ -301,7 +303,7 @@ def test_a_goal_preempting_a_topic_trajectory_switches_without_a_jump(system):
     status, first = system.request(waypoint_message(NAMES, LONG))
     assert status.level == DiagnosticStatus.OK, status.message
     published = system.client.get_clock().now().nanoseconds
-    assert 0 < stamp_ns(first) - published <= 0.1e9  # now + GOAL_START_DELAY, not 0
+    assert 0 < stamp_ns(first) - published <= IN_PROCESS_START_DELAY * 1e9  # not 0
     system.spin_for(1.0)
     switch_ns = system.client.get_clock().now().nanoseconds
     goal = send_goal(system, np.array([[0.0, 0.0, 0.0], [-0.5, 0.5, 0.2]]))
@@ -309,6 +311,51 @@ def test_a_goal_preempting_a_topic_trajectory_switches_without_a_jump(system):
     assert result_of(system, goal).status == GoalStatus.STATUS_SUCCEEDED
     times, positions, velocities = states_between(system, switch_ns - int(0.2e9))
     assert_no_jump(times, positions, velocities)
+
+
+def accepted_status(system, n):
+    """Return the values of the arm's 'trajectory accepted' status after status ``n``."""
+    assert system.spin_until(lambda: any(
+        'accepted' in s.message for s in system.arm_status[n:]), 10.0)
+    return status_values(next(s for s in system.arm_status[n:] if 'accepted' in s.message))
+
+
+def test_a_trajectory_starts_start_delay_after_it_is_published(system):
+    """Its stamp is publication + start_delay, where the arm starts it; 0: on receipt."""
+    for delay, waypoints in ((0.7, W), (0.0, W[::-1])):
+        assert system.set_planner_parameters({'start_delay': delay})[0].successful
+        n = len(system.arm_status)
+        sent = system.client.get_clock().now().nanoseconds
+        status, msg = system.request(waypoint_message(NAMES, waypoints))
+        received = system.client.get_clock().now().nanoseconds
+        assert status.level == DiagnosticStatus.OK, status.message
+        values = accepted_status(system, n)
+        assert 'started_late_by' not in values
+        if delay:
+            assert sent + delay * 1e9 <= stamp_ns(msg) <= received + delay * 1e9
+            assert int(values['start_ns']) == stamp_ns(msg)
+        else:
+            assert stamp_ns(msg) == 0
+            assert sent <= int(values['start_ns']) <= system.client.get_clock().now().nanoseconds
+        system.spin_for(0.2 + delay + duration_to_seconds(msg.points[-1].time_from_start))
+        np.testing.assert_allclose(system.joint_states[-1].position, waypoints[-1], atol=1e-9)
+
+
+def test_a_trajectory_that_arrives_after_its_stamp_starts_part_way_and_says_so(system):
+    """The arm cannot go back in time: it starts that far along, with a WARN and the lag."""
+    for ahead in (0.5, -0.3):
+        n = len(system.arm_status)
+        now = system.client.get_clock().now().nanoseconds
+        stamp = Time(nanoseconds=now + int(ahead * 1e9)).to_msg()
+        system.trajectory_publisher.publish(hold_message([0.0, 0.0, 0.0], list(NAMES), 0.5,
+                                                         stamp))
+        values = accepted_status(system, n)
+        assert int(values['start_ns']) == now + int(ahead * 1e9)
+        if ahead > 0:
+            assert 'started_late_by' not in values
+        else:
+            assert float(values['started_late_by']) >= -ahead
+            assert float(values['started_late_by']) < -ahead + 5.0
 
 
 def test_cancel_stops_a_goal_faster_than_the_nodes_limits(system):
