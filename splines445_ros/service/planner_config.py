@@ -131,8 +131,8 @@ class PlannerConfig(ValidatedConfig):
         'replanned one starts at its switch time instead). It must exceed delivery to the '
         'controller: one delivered later starts part-way along, on `arm_sim_node` as on '
         'joint_trajectory_controller. 0 = stamp 0, "start on receipt" (the planner then '
-        'counts from publication, a few ms early: a later preemption or stop jumps by that).',
-        low=0.0, high=MAX_LEAD_TIME, unit='s')
+        'counts from publication, early by the delivery time: a later preemption or stop '
+        'jumps by that).', low=0.0, high=MAX_LEAD_TIME, unit='s')
     max_trajectory_points: int = parameter(
         DEFAULT_MAX_TRAJECTORY_POINTS, 'Largest number of points a published trajectory may '
         'have (at `sample_period`, or knots); a longer one is rejected (raise `sample_period` '

@@ -114,18 +114,26 @@ class LocalRos:
         self.close()
 
 
-# The planner's start_delay here [s]: its default, 0.05 s, covers delivery between
-# processes; in one process the nodes share one executor and the GIL, and on a loaded
-# 2-core machine a trajectory reached the arm up to 0.3 s after it was published
-# (then it starts part-way along: the arm jumps).
+# The planner's start_delay and replan_lead_time here [s]: their defaults, 0.05 s and
+# 0.2 s, cover delivery between processes; in one process the nodes share one executor
+# and the GIL, and on a 2-core machine loaded with four busy processes a trajectory
+# reached the arm up to 0.27 s after it was published (then it starts part-way along:
+# the arm jumps). The lead time must also hold the planning of a replanned one.
 IN_PROCESS_START_DELAY = 0.4
+IN_PROCESS_LEAD_TIME = 0.5
 
 
 class InProcessSystem(LocalRos):
     """Planner, arm simulation and a recording client spun by one executor."""
 
     def __init__(self, planner_parameters=None, arm_parameters=None, params_file=None):
-        """Start everything; ``*_parameters`` are dicts of overrides."""
+        """
+        Start everything; ``*_parameters`` are dicts of overrides.
+
+        The planner's ``start_delay`` and ``replan_lead_time`` are
+        :data:`IN_PROCESS_START_DELAY` and :data:`IN_PROCESS_LEAD_TIME` unless
+        ``planner_parameters`` set them (a ``params_file``'s are overridden).
+        """
         super().__init__()
         try:
             self._start(planner_parameters, arm_parameters, params_file)
@@ -140,6 +148,7 @@ class InProcessSystem(LocalRos):
         self.planner = self.add(PlannerNode(
             context=self.context, cli_args=cli,
             parameter_overrides=overrides({'start_delay': IN_PROCESS_START_DELAY,
+                                           'replan_lead_time': IN_PROCESS_LEAD_TIME,
                                            **(planner_parameters or {})})))
         self.arm = self.add(ArmSimNode(context=self.context, cli_args=cli,
                                        parameter_overrides=overrides(arm_parameters or {})))

@@ -322,6 +322,7 @@ def accepted_status(system, n):
 
 def test_a_trajectory_starts_start_delay_after_it_is_published(system):
     """Its stamp is publication + start_delay, where the arm starts it; 0: on receipt."""
+    assert system.spin_until(lambda: len(system.joint_states) > 2, 5.0)
     for delay, waypoints in ((0.7, W), (0.0, W[::-1])):
         assert system.set_planner_parameters({'start_delay': delay})[0].successful
         n = len(system.arm_status)
@@ -334,11 +335,35 @@ def test_a_trajectory_starts_start_delay_after_it_is_published(system):
         if delay:
             assert sent + delay * 1e9 <= stamp_ns(msg) <= received + delay * 1e9
             assert int(values['start_ns']) == stamp_ns(msg)
+            # At rest where it starts until its stamp.
+            assert system.spin_until(lambda: stamp_ns(system.joint_states[-1]) > stamp_ns(msg),
+                                     5.0)
+            times, positions, velocities = states_between(system, sent, stamp_ns(msg))
+            assert times.size > 10
+            np.testing.assert_array_equal(positions, np.tile(waypoints[0], (times.size, 1)))
+            np.testing.assert_array_equal(velocities, 0.0)
         else:
             assert stamp_ns(msg) == 0
             assert sent <= int(values['start_ns']) <= system.client.get_clock().now().nanoseconds
-        system.spin_for(0.2 + delay + duration_to_seconds(msg.points[-1].time_from_start))
-        np.testing.assert_allclose(system.joint_states[-1].position, waypoints[-1], atol=1e-9)
+        assert system.spin_until(lambda: np.allclose(
+            system.joint_states[-1].position, waypoints[-1], rtol=0, atol=1e-9), 10.0)
+
+
+def test_a_slowly_built_message_is_still_stamped_ahead_of_its_arrival(system, monkeypatch):
+    """The stamp is read once the message is built: building it takes no delivery time."""
+    real = planner_node.trajectory_to_msg
+
+    def slow(*args, **kwargs):
+        time.sleep(0.3)     # as a 933-point message took in CI, stamped 0.05 s ahead
+        return real(*args, **kwargs)
+    monkeypatch.setattr(planner_node, 'trajectory_to_msg', slow)
+    assert system.set_planner_parameters({'start_delay': 0.1})[0].successful
+    n = len(system.arm_status)
+    status, msg = system.request(waypoint_message(NAMES, W))
+    assert status.level == DiagnosticStatus.OK, status.message
+    values = accepted_status(system, n)
+    assert 'started_late_by' not in values, values
+    assert int(values['start_ns']) == stamp_ns(msg)
 
 
 def test_a_trajectory_that_arrives_after_its_stamp_starts_part_way_and_says_so(system):
