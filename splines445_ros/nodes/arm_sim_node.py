@@ -41,6 +41,7 @@ from .ros_conversions import sampled_trajectory_from_msg
 from ..robot.kinematics import PlanarArm
 from ..service.arm_sim_config import ArmSimConfig
 from ..service.arm_sim_model import add_payload, resolve_model_config
+from ..service.planner_config import MAX_LEAD_TIME
 from ..sim.dynamic_sim import (
     DynamicArm, rotation_to_quaternion, TrackingMetrics, UnstableSimulation)
 from ..sim.mujoco_model import load_arm_model
@@ -51,6 +52,9 @@ MAX_CATCH_UP = 10.0     # s: a larger clock jump is not simulated across
 # 9.9 s jump of a simulated clock took 4.5 s in one callback, and joint_states
 # stalled (helper-48); 10,000 take about 0.2 s.
 MAX_CATCH_UP_STEPS = 10_000
+# A trajectory stamped further ahead than this [s] gets a WARN (a clock the publisher
+# does not share starts it decades later): the planner's lead times are at most this.
+FAR_AHEAD = MAX_LEAD_TIME
 
 
 class ArmSimNode(Node):
@@ -181,6 +185,20 @@ class ArmSimNode(Node):
         # The time the motion has reached (the physics' own, which may lag the clock).
         reached = now if self.dynamic is None else self._sim_ns
         late = max(0, reached - stamp) if stamp > 0 else 0
+        if late and late >= int(round(trajectory.duration * 1e9)):
+            # As joint_trajectory_controller does: it would only jump to its end (a
+            # latched one from before a restart, or a clock the publisher does not share).
+            message = (f'trajectory rejected: it ended {(late * 1e-9 - trajectory.duration):.6g} '
+                       f"s ago (header.stamp {stamp * 1e-9:.3f} s, this node's time "
+                       f'{reached * 1e-9:.3f} s: do both nodes use the same clock, '
+                       'use_sim_time?); the arm keeps its state')
+            self.get_logger().error(message)
+            self.status_publisher.publish(status_message(self._status_name, False, message))
+            return
+        if stamp - reached > FAR_AHEAD * 1e9:
+            self.get_logger().warning(
+                f'trajectory starts in {(stamp - reached) * 1e-9:.6g} s (header.stamp '
+                f'{stamp * 1e-9:.3f} s): do both nodes use the same clock, use_sim_time?')
         if late:
             self.get_logger().warning(
                 f'trajectory arrived {late * 1e-9:.3f} s after its header.stamp: it starts '

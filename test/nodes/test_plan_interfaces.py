@@ -10,6 +10,7 @@ kinematics written out in the test.
 
 import math
 import os
+import re
 import time
 
 from action_msgs.msg import GoalStatus
@@ -381,6 +382,25 @@ def test_a_trajectory_that_arrives_after_its_stamp_starts_part_way_and_says_so(s
         else:
             assert float(values['started_late_by']) >= -ahead
             assert float(values['started_late_by']) < -ahead + 5.0
+
+
+def test_a_trajectory_that_ended_before_it_arrived_is_rejected(system):
+    """As joint_trajectory_controller does: a latched old one, or a clock not shared."""
+    assert system.spin_until(lambda: len(system.joint_states) > 2, 5.0)
+    n = len(system.arm_status)
+    now = system.client.get_clock().now().nanoseconds
+    old = hold_message([0.5, 0.5, 0.5], list(NAMES), 0.5, Time(nanoseconds=now - 10**9).to_msg())
+    system.trajectory_publisher.publish(old)
+    assert system.spin_until(lambda: len(system.arm_status) > n, 10.0)
+    status = system.arm_status[n]
+    assert status.level == DiagnosticStatus.ERROR, status.message
+    assert 'use_sim_time' in status.message
+    ended = re.search(r'it ended ([0-9.e+-]+) s ago \(header.stamp ([0-9.e+-]+) s', status.message)
+    assert ended is not None, status.message
+    assert 0.5 <= float(ended.group(1)) < 5.0
+    assert float(ended.group(2)) == pytest.approx((now - 10**9) * 1e-9, abs=1e-3)
+    system.spin_for(0.3)
+    np.testing.assert_array_equal(system.joint_states[-1].position, [0.0, 0.0, 0.0])
 
 
 def test_cancel_stops_a_goal_faster_than_the_nodes_limits(system):
