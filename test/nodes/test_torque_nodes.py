@@ -45,7 +45,9 @@ PAYLOAD = {'payload_mass': 10.0, 'payload_center_of_mass': [0.0, 0.0, 0.05],
 PLANNER = {'kinematics': 'model', 'model_file': vr.ur5_urdf(), 'tool_frame': 'tool0',
            'base_frame': 'base_link', 'limit_torque': True, 'max_velocity': [8.0] * 6,
            'method': '555', 'timing': 'optimal', 'sample_period': 0.001,
-           'max_path_deviation': 1e-3}
+           'max_path_deviation': 1e-3,
+           # On time at the MuJoCo arm: one that arrives after its stamp starts part-way.
+           'start_delay': 1.0}
 
 
 def points(msg):

@@ -94,6 +94,7 @@ def check_tracking_columns(row, result):
     t = np.array([(stamp_ns(s) - start) * 1e-9 for s in states])
     error = np.abs(traj.evaluate(t) - np.array([s.position for s in states]))
     effort = np.abs(np.array([s.effort for s in states]))
+    assert result['started_late_by'] == 0.0     # else it would start part-way: a jump
     assert row['saturated_steps'] == '0'
     for j in range(3):
         rms, peak = float(row[f'tracking_rms_error_{j + 1}']), float(
