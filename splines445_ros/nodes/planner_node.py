@@ -65,7 +65,8 @@ from ..service.model_planning import (build_robot_setup, description_source, loa
                                       tool_poses_from_message)
 from ..service.planner_config import PlannerConfig
 from ..service.request_planning import (gravity_overload, gravity_overload_report, output_samples,
-                                        plan_from_running, plan_request, plan_stop,
+                                        plan_from_running, plan_from_state_at,
+                                        plan_request, plan_stop,
                                         plan_tool_request, plan_warnings, start_from_state,
                                         summary_values, tool_summary_values)
 
@@ -832,9 +833,8 @@ class PlannerNode(Node):
             if base.runs_at(now_ns):
                 # It ends before the switch: the arm is then at its end, which the
                 # latest joint_states, taken on the way there, are not.
-                end = [running.evaluate([running.duration], d)[0] for d in range(3)]
-                return switch_ns, plan_request(config, start_from_state(
-                    request, *end, config.waypoint_tolerance), torque)
+                return switch_ns, plan_from_state_at(config, request, running,
+                                                     running.duration, torque)
         return switch_ns, plan_request(config, start_from_state(
             request, *self._joint_state_start(config), config.waypoint_tolerance), torque)
 

@@ -323,6 +323,13 @@ def start_from_state(request, position, velocity, acceleration, tolerance=0.0):
         times)
 
 
+def plan_from_state_at(config, request, running, t, torque=None):
+    """Plan ``request`` from the ``running`` Trajectory's state at ``t`` s (its p, v, a)."""
+    state = tuple(running.evaluate([t], d)[0] for d in (0, 1, 2))
+    return plan_request(config, start_from_state(request, *state, config.waypoint_tolerance),
+                        torque)
+
+
 def plan_from_running(config, request, running, switch_time, clock=None, torque=None):
     """
     Plan ``request`` from the state of the ``running`` Trajectory at ``switch_time``.
@@ -355,10 +362,8 @@ def plan_from_running(config, request, running, switch_time, clock=None, torque=
         if clock is not None and tried and clock() >= t:
             continue
         tried += 1
-        state = tuple(running.evaluate([t], d)[0] for d in (0, 1, 2))
         try:
-            return t, plan_request(config, start_from_state(request, *state,
-                                                            config.waypoint_tolerance), torque)
+            return t, plan_from_state_at(config, request, running, t, torque)
         except ValueError as exc:
             if first_error is None:
                 first_error = exc
