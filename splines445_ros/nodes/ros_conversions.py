@@ -33,6 +33,9 @@ MAX_TOOL_TILT = 1e-6
 # Most points a received trajectory may have: the planner's own default
 # max_trajectory_points (a million took the arm 4 s and 1.9 GB to read).
 MAX_TRAJECTORY_POINTS = DEFAULT_MAX_TRAJECTORY_POINTS
+# A hold lasts at least this long [s] (hold_message): longer than any delivery,
+# so that it never ends before it arrives.
+MIN_HOLD_DURATION = 1.0
 
 
 def duration_to_seconds(duration):
@@ -185,9 +188,13 @@ def sampled_trajectory_from_msg(msg, joint_names):
 
 def hold_message(position, joint_names, period, stamp=None):
     """
-    Return a ``JointTrajectory`` holding ``position`` at rest: two points ``period`` apart.
+    Return a ``JointTrajectory`` holding ``position`` at rest: two points apart.
 
     ``stamp`` (builtin_interfaces/Time) is when it takes over; None = on receipt.
+    The points are ``period`` apart, at least :data:`MIN_HOLD_DURATION`: a
+    stop's hold is stamped ahead, and one that arrived after its end would
+    be rejected (by joint_trajectory_controller and ``arm_sim_node``) and the
+    arm would go on.
     """
     position = [float(v) for v in position]
     zeros = [0.0] * len(position)
@@ -198,7 +205,7 @@ def hold_message(position, joint_names, period, stamp=None):
     msg.points = [JointTrajectoryPoint(positions=position, velocities=zeros,
                                        accelerations=zeros,
                                        time_from_start=seconds_to_duration(t))
-                  for t in (0.0, period)]
+                  for t in (0.0, max(period, MIN_HOLD_DURATION))]
     return msg
 
 

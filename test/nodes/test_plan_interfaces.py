@@ -412,12 +412,26 @@ def test_a_trajectory_that_arrives_after_its_stamp_starts_part_way_and_says_so(s
             assert float(values['started_late_by']) < -ahead + 5.0
 
 
+def test_a_stops_hold_that_arrives_late_still_holds(system):
+    """A hold lasts long enough not to end before it arrives: a late stop still stops."""
+    assert system.spin_until(lambda: len(system.joint_states) > 2, 5.0)
+    n = len(system.arm_status)
+    now = system.client.get_clock().now().nanoseconds
+    # As a stop's hold stamped at its switch, with sample_period 0.01 s, 0.3 s late.
+    system.trajectory_publisher.publish(hold_message(
+        [0.2, 0.0, 0.0], list(NAMES), 0.01, Time(nanoseconds=now - int(0.3e9)).to_msg()))
+    values = accepted_status(system, n)
+    assert float(values['started_late_by']) >= 0.3
+    assert at(system, [0.2, 0.0, 0.0])
+
+
 def test_a_trajectory_that_ended_before_it_arrived_is_rejected(system):
     """As joint_trajectory_controller does: a latched old one, or a clock not shared."""
     assert system.spin_until(lambda: len(system.joint_states) > 2, 5.0)
     n = len(system.arm_status)
     now = system.client.get_clock().now().nanoseconds
-    old = hold_message([0.5, 0.5, 0.5], list(NAMES), 0.5, Time(nanoseconds=now - 10**9).to_msg())
+    stamp = Time(nanoseconds=now - 3 * 10**9).to_msg()
+    old = hold_message([0.5, 0.5, 0.5], list(NAMES), 0.5, stamp)
     system.trajectory_publisher.publish(old)
     assert system.spin_until(lambda: len(system.arm_status) > n, 10.0)
     status = system.arm_status[n]
@@ -425,8 +439,8 @@ def test_a_trajectory_that_ended_before_it_arrived_is_rejected(system):
     assert 'use_sim_time' in status.message
     ended = re.search(r'it ended ([0-9.e+-]+) s ago \(header.stamp ([0-9.e+-]+) s', status.message)
     assert ended is not None, status.message
-    assert 0.5 <= float(ended.group(1)) < 5.0
-    assert float(ended.group(2)) == pytest.approx((now - 10**9) * 1e-9, abs=1e-3)
+    assert 2.0 <= float(ended.group(1)) < 5.0  # a hold lasts 1 s (MIN_HOLD_DURATION)
+    assert float(ended.group(2)) == pytest.approx((now - 3 * 10**9) * 1e-9, abs=1e-3)
     system.spin_for(0.3)
     np.testing.assert_array_equal(system.joint_states[-1].position, [0.0, 0.0, 0.0])
 
