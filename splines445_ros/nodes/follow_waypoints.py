@@ -203,16 +203,24 @@ class FollowWaypointsServer:
             await self._tick()
             now_ns = node.get_clock().now().nanoseconds
             measured = node.measured_state(names)
-            if now_ns >= end_ns and (_settled(measured, rest, config) or now_ns > end_ns + int(
+            settled = _settled(measured, rest, config)
+            if now_ns >= end_ns and (settled or now_ns > end_ns + int(
                     config.goal_time_tolerance * 1e9)):
-                return self._end(run, run.handle.canceled, f'canceled: {stop.message}', names,
-                                 rest)
+                # Canceled all the same (the client asked for it), but not quietly: an
+                # arm still away from the stop's end did not stop as planned.
+                message = f'canceled: {stop.message}'
+                if not settled:
+                    message += f'; {_not_settled(measured, rest, config)}'
+                return self._end(run, run.handle.canceled, message, names, rest,
+                                 warn=not settled)
 
-    def _end(self, run, mark, message, names=(), final=None, success=False, duration=0.0):
+    def _end(self, run, mark, message, names=(), final=None, success=False, duration=0.0,
+             warn=False):
         """
         Mark the goal (succeed, abort or canceled), report, and return its result.
 
-        An aborted goal is an ERROR on ``~/status``; success and cancel are OK.
+        An aborted goal is an ERROR on ``~/status``; success and cancel are OK
+        (WARN with ``warn``).
         """
         mark()
         result = FollowWaypoints.Result(success=success, message=message,
@@ -221,7 +229,7 @@ class FollowWaypointsServer:
         if measured is not None and final is not None:
             result.final_error = [float(v) for v in measured[0] - final]
         self._node.report(mark != run.handle.abort, f'{INTERFACE} goal: {message}',
-                          {'interface': INTERFACE})
+                          {'interface': INTERFACE}, warn=warn)
         return result
 
 

@@ -56,8 +56,8 @@ from .follow_waypoints import FollowWaypointsServer
 from .node_main import run_node
 from .parameters import ConfigParameters
 from .planned_path import planned_path_markers, tool_path_points, tool_position_function
-from .ros_conversions import (hold_message, parse_tool_request, parse_waypoint_request,
-                              plan_response, trajectory_to_msg)
+from .ros_conversions import (hold_message, lasting_at_rest, parse_tool_request,
+                              parse_waypoint_request, plan_response, trajectory_to_msg)
 from ..robot.robot_model import check_description_file, MAX_DESCRIPTION_CHARS
 from ..service.interface_requests import override_values, request_message
 from ..service.model_planning import (build_robot_setup, description_source, load_model,
@@ -789,7 +789,8 @@ class PlannerNode(Node):
                 out = hold_message(running.evaluate([used], 0)[0], names,
                                    config.sample_period, stamp)
             else:
-                out = trajectory_to_msg(output_samples(config, traj), names, stamp)
+                out = lasting_at_rest(trajectory_to_msg(output_samples(config, traj), names,
+                                                        stamp))
         except ValueError as exc:
             return self._rejected(f'stop rejected: {exc}; the running trajectory continues',
                                   {})

@@ -186,6 +186,27 @@ def sampled_trajectory_from_msg(msg, joint_names):
                              optional['accelerations'])
 
 
+def lasting_at_rest(msg, duration=MIN_HOLD_DURATION):
+    """
+    Return ``msg`` with a last point at rest at ``duration`` [s] if it ends earlier.
+
+    For a stop (it ends at rest: zero velocity and acceleration): the point
+    repeats its end, so it holds there, and a stop of a few tens of
+    milliseconds delivered that much late has not ended before it arrives
+    (joint_trajectory_controller and ``arm_sim_node`` reject one that has, and
+    the arm would go on with the motion it was to stop).  Any other ``msg``
+    is returned as it is.
+    """
+    last = msg.points[-1]
+    at_rest = not any(last.velocities) and not any(last.accelerations)
+    if not at_rest or duration_to_seconds(last.time_from_start) >= duration:
+        return msg
+    msg.points.append(JointTrajectoryPoint(
+        positions=list(last.positions), velocities=list(last.velocities),
+        accelerations=list(last.accelerations), time_from_start=seconds_to_duration(duration)))
+    return msg
+
+
 def hold_message(position, joint_names, period, stamp=None):
     """
     Return a ``JointTrajectory`` holding ``position`` at rest: two points apart.

@@ -25,7 +25,7 @@ from rclpy.parameter import Parameter
 from rclpy.time import Time
 from splines445_interfaces.action import FollowWaypoints
 from splines445_interfaces.srv import Plan
-from splines445_ros.nodes import planner_node, topics
+from splines445_ros.nodes import follow_waypoints, planner_node, topics
 from splines445_ros.nodes.diagnostics import status_values
 from splines445_ros.nodes.ros_conversions import duration_to_seconds, hold_message
 from splines445_ros.planning import plan
@@ -288,6 +288,36 @@ def test_cancel_stops_the_arm_within_its_limits(system):
     assert np.max(np.abs(positions[-1] - LONG[-1])) > 0.1
     moving = np.max(np.abs(velocities[times < 1e-9 * cancel_ns]))
     assert moving > 0.5  # it was moving when cancelled
+    # The stop's message lasts 1 s at least, at rest at its end: delivered later than
+    # its braking (here 0.6 s after its stamp), the arm still takes it, as it would a
+    # stop of a few tens of milliseconds, not reject it and go on with the goal.
+    stop = system.trajectories[-1]
+    assert duration_to_seconds(stop.points[-1].time_from_start) >= 1.0
+    braking = stopped - 1e-9 * stamp_ns(stop)
+    assert 0.0 < braking < 0.6
+    stop.header.stamp = Time(nanoseconds=system.client.get_clock().now().nanoseconds
+                             - int(0.6e9)).to_msg()
+    n = len(system.arm_status)
+    system.trajectory_publisher.publish(stop)
+    assert float(accepted_status(system, n)['started_late_by']) >= 0.6
+    assert at(system, stop.points[-1].positions)
+
+
+def test_a_cancel_whose_arm_does_not_settle_says_so(system, monkeypatch):
+    """Canceled, as asked, but with a WARN and the error: the arm did not stop as planned."""
+    assert system.set_planner_parameters({'goal_time_tolerance': 0.2})[0].successful
+    handle = send_goal(system, LONG)
+    assert handle.accepted
+    system.spin_for(1.0)
+    monkeypatch.setattr(follow_waypoints, '_settled', lambda *args: False)
+    n_status = len(system.planner_status)
+    cancel = handle.cancel_goal_async()
+    assert system.spin_until(cancel.done, 5.0)
+    result = result_of(system, handle)
+    assert result.status == GoalStatus.STATUS_CANCELED, result.result.message
+    assert 'did not settle within goal_time_tolerance (0.2 s)' in result.result.message
+    ended = [s for s in system.planner_status[n_status:] if 'goal: canceled' in s.message]
+    assert len(ended) == 1 and ended[0].level == DiagnosticStatus.WARN, ended
 
 
 def test_cancel_stops_the_arm_after_joint_names_changed_mid_goal(system):
