@@ -202,10 +202,11 @@ class FollowWaypointsServer:
         while True:
             await self._tick()
             now_ns = node.get_clock().now().nanoseconds
+            if now_ns < end_ns:
+                continue
             measured = node.measured_state(names)
             settled = _settled(measured, rest, config)
-            if now_ns >= end_ns and (settled or now_ns > end_ns + int(
-                    config.goal_time_tolerance * 1e9)):
+            if settled or now_ns > end_ns + int(config.goal_time_tolerance * 1e9):
                 # Canceled all the same (the client asked for it), but not quietly: an
                 # arm still away from the stop's end did not stop as planned.
                 message = f'canceled: {stop.message}'

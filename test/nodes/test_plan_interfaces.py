@@ -124,6 +124,20 @@ def assert_no_jump(times, positions, velocities):
     assert np.max(dq) <= 1e-6, (np.unravel_index(np.argmax(dq), dq.shape), dq.max())
 
 
+def cancel_goal(system, handle):
+    """
+    Cancel the goal of ``handle``: its result, after the cancel is answered.
+
+    Also returns the clock and the number of planner statuses just before
+    the cancel, as (cancel_ns, n_status, result).
+    """
+    cancel_ns = system.client.get_clock().now().nanoseconds
+    n_status = len(system.planner_status)
+    cancel = handle.cancel_goal_async()
+    assert system.spin_until(cancel.done, 5.0)
+    return cancel_ns, n_status, result_of(system, handle)
+
+
 def braked_to_rest(system, n_status, timeout=10.0):
     """
     Return when [s] the stop the planner reported after status ``n_status`` ends.
@@ -271,11 +285,7 @@ def test_cancel_stops_the_arm_within_its_limits(system):
     assert handle.accepted
     duration = reference(LONG).duration
     system.spin_for(0.4 * duration)
-    cancel_ns = system.client.get_clock().now().nanoseconds
-    n_status = len(system.planner_status)
-    cancel = handle.cancel_goal_async()
-    assert system.spin_until(cancel.done, 5.0)
-    result = result_of(system, handle)
+    cancel_ns, n_status, result = cancel_goal(system, handle)
     assert result.status == GoalStatus.STATUS_CANCELED, result.result.message
     stopped = braked_to_rest(system, n_status)
     times, positions, velocities = states_between(system, cancel_ns - int(0.2e9))
@@ -310,10 +320,7 @@ def test_a_cancel_whose_arm_does_not_settle_says_so(system, monkeypatch):
     assert handle.accepted
     system.spin_for(1.0)
     monkeypatch.setattr(follow_waypoints, '_settled', lambda *args: False)
-    n_status = len(system.planner_status)
-    cancel = handle.cancel_goal_async()
-    assert system.spin_until(cancel.done, 5.0)
-    result = result_of(system, handle)
+    _, n_status, result = cancel_goal(system, handle)
     assert result.status == GoalStatus.STATUS_CANCELED, result.result.message
     assert 'did not settle within goal_time_tolerance (0.2 s)' in result.result.message
     ended = [s for s in system.planner_status[n_status:] if 'goal: canceled' in s.message]
@@ -327,11 +334,8 @@ def test_cancel_stops_the_arm_after_joint_names_changed_mid_goal(system):
     system.spin_for(1.0)
     result = system.planner.set_parameters([Parameter('joint_names', value=['a', 'b', 'c'])])
     assert result[0].successful, result[0].reason
-    cancel_ns = system.client.get_clock().now().nanoseconds
-    n_status = len(system.planner_status)
-    cancel = handle.cancel_goal_async()
-    assert system.spin_until(cancel.done, 5.0)
-    assert result_of(system, handle).status == GoalStatus.STATUS_CANCELED
+    cancel_ns, n_status, result = cancel_goal(system, handle)
+    assert result.status == GoalStatus.STATUS_CANCELED
     stopped = braked_to_rest(system, n_status)
     times, _, velocities = states_between(system, cancel_ns)
     assert np.all(velocities[times > stopped] == 0.0) and np.any(times > stopped)
@@ -487,11 +491,7 @@ def test_cancel_stops_a_goal_faster_than_the_nodes_limits(system):
     assert handle.accepted
     assert system.spin_until(lambda: system.joint_states and np.max(
         np.abs(system.joint_states[-1].velocity)) > V * 1.2, 10.0)
-    cancel_ns = system.client.get_clock().now().nanoseconds
-    n_status = len(system.planner_status)
-    cancel = handle.cancel_goal_async()
-    assert system.spin_until(cancel.done, 5.0)
-    result = result_of(system, handle)
+    cancel_ns, n_status, result = cancel_goal(system, handle)
     assert result.status == GoalStatus.STATUS_CANCELED, result.result.message
     assert 'braking to rest' in result.result.message, result.result.message
     stopped = braked_to_rest(system, n_status)
