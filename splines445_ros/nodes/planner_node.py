@@ -64,8 +64,8 @@ from ..service.model_planning import (build_robot_setup, description_source, loa
                                       plan_model_tool_request, robot_fields,
                                       tool_poses_from_message)
 from ..service.planner_config import PlannerConfig
-from ..service.request_planning import (gravity_overload, gravity_overload_report, output_samples,
-                                        plan_from_running, plan_from_state_at,
+from ..service.request_planning import (ends_at_rest, gravity_overload, gravity_overload_report,
+                                        output_samples, plan_from_running, plan_from_state_at,
                                         plan_request, plan_stop,
                                         plan_tool_request, plan_warnings, start_from_state,
                                         summary_values, tool_summary_values)
@@ -776,6 +776,9 @@ class PlannerNode(Node):
 
         def clock():
             return (self.get_clock().now().nanoseconds - start_ns) * 1e-9
+        # The trajectory ends at rest before the stop could take over: a hold of its end
+        # is where the arm is then, however late it arrives.
+        ends_first = t >= running.duration and ends_at_rest(config, running)
         try:
             stop = (plan_stop(config, running, t, clock)
                     if t < running.duration else None)
@@ -797,7 +800,7 @@ class PlannerNode(Node):
         planned_ns = self.get_clock().now().nanoseconds
         if self._base(planned_ns) is not base:
             return None     # the waiting trajectory started meanwhile: from it
-        if planned_ns > switch:
+        if planned_ns > switch and not ends_first:
             return self._rejected(f'stop rejected: planning took longer than replan_lead_time '
                                   f'({config.replan_lead_time} s); the running trajectory '
                                   'continues', {})
@@ -806,6 +809,10 @@ class PlannerNode(Node):
         if traj is not None:
             message = (f'stopping: braking to rest in {traj.duration:.4f} s, from '
                        f'{1e-9 * (switch - now_ns):.3f} s after the cancel')
+        elif ends_first:
+            message = (f'stopping: the trajectory ends at rest '
+                       f'{max(1e-9 * (switch - now_ns), 0.0):.3f} s after the cancel, '
+                       'sooner than replan_lead_time; holding its end')
         else:
             message = 'stopping: holding the commanded position'
         self._report(True, message, {'switch_time_ns': switch})

@@ -390,6 +390,18 @@ def stop_position(config, position, velocity):
             + velocity * (np.abs(velocity) / (2.0 * acceleration) + 0.5 * ramp))
 
 
+def ends_at_rest(config, running):
+    """
+    Return True when the ``running`` Trajectory ends at rest, as :func:`plan_stop` judges rest.
+
+    Braking from its end velocity would end within ``waypoint_tolerance``
+    of its end position (:func:`stop_position`): a stop there holds it.
+    """
+    position, velocity = (running.evaluate([running.duration], d)[0] for d in (0, 1))
+    return bool(np.max(np.abs(stop_position(config, position, velocity) - position))
+                <= config.waypoint_tolerance)
+
+
 def plan_stop(config, running, switch_time, clock=None):
     """
     Plan a stop of the ``running`` Trajectory from its state at ``switch_time`` (a cancel).

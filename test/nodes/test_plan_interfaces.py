@@ -327,6 +327,37 @@ def test_a_cancel_whose_arm_does_not_settle_says_so(system, monkeypatch):
     assert len(ended) == 1 and ended[0].level == DiagnosticStatus.WARN, ended
 
 
+def test_a_cancel_in_the_last_moments_of_a_goal_is_a_cancel(system, monkeypatch):
+    """
+    A goal cancelled when it ends at rest sooner than a stop could take over ends CANCELED.
+
+    Building the hold of its end is made slower than what is left of the
+    goal: before, that was "planning took longer than replan_lead_time" and
+    the goal ended "cancel failed", though the arm stops at its end anyway.
+    """
+    n_trajectories = len(system.trajectories)
+    handle = send_goal(system, W)
+    assert handle.accepted
+    assert system.spin_until(lambda: len(system.trajectories) > n_trajectories, 5.0)
+    end_ns = stamp_ns(system.trajectories[-1]) + int(reference(W).duration * 1e9)
+    # 0.15 s before its end: within the lead time (0.5 s) of it.
+    assert system.spin_until(lambda: system.client.get_clock().now().nanoseconds
+                             >= end_ns - int(0.15e9), 30.0)
+    real = planner_node.hold_message
+
+    def slow(*args, **kwargs):
+        time.sleep(0.3)
+        return real(*args, **kwargs)
+    monkeypatch.setattr(planner_node, 'hold_message', slow)
+    cancel_ns, n_status, result = cancel_goal(system, handle)
+    assert cancel_ns < end_ns
+    assert result.status == GoalStatus.STATUS_CANCELED, result.result.message
+    assert 'ends at rest' in result.result.message, result.result.message
+    assert at(system, W[-1])
+    times, positions, velocities = states_between(system, cancel_ns - int(0.2e9))
+    assert_no_jump(times, positions, velocities)
+
+
 def test_cancel_stops_the_arm_after_joint_names_changed_mid_goal(system):
     """The stop names the running trajectory's joints, not the new ones (helper-36)."""
     handle = send_goal(system, LONG)

@@ -8,7 +8,8 @@ from splines445_ros.nodes.ros_conversions import WaypointRequest
 from splines445_ros.planning import DEFAULT_WAYPOINT_TOLERANCE, plan
 from splines445_ros.robot import paper_example as pe
 from splines445_ros.service.planner_config import PlannerConfig
-from splines445_ros.service.request_planning import (plan_from_running, REPLAN_MAX_DELAY,
+from splines445_ros.service.request_planning import (ends_at_rest, plan_from_running,
+                                                     REPLAN_MAX_DELAY,
                                                      REPLAN_RETRY_STEP)
 
 SECOND = np.array([[0.2, 2.0, -2.0], [0.6, 1.6, -2.2], [0.9, 1.2, -1.5]])
@@ -17,7 +18,8 @@ VMAX, AMAX = 2.0, 10.0
 
 def request_to(waypoints):
     zero = np.zeros(waypoints.shape[1])
-    return WaypointRequest(np.asarray(waypoints, dtype=float), zero, zero, zero, zero, None)
+    # A copy: a test that spoils its request must not spoil the module's SECOND.
+    return WaypointRequest(np.array(waypoints, dtype=float), zero, zero, zero, zero, None)
 
 
 def config_for(n_joints, method, vmax, amax, jmax):
@@ -148,3 +150,17 @@ def test_replanning_from_a_running_trajectory_continues_it_or_says_why(
         return
     assert t <= used <= min(t + REPLAN_MAX_DELAY, max(t, running.duration)) + 1e-12
     assert_continues(running, used, traj, waypoints, vmax, amax, jmax)
+
+
+def test_ends_at_rest_is_the_stop_rule_at_the_trajectory_end():
+    """A rest-to-rest plan ends at rest; one with an end velocity only below the tolerance."""
+    config = config_for(3, '555', [VMAX] * 3, [AMAX] * 3, None)
+    kwargs = {'method': '555', 'max_velocity': [VMAX] * 3, 'max_acceleration': [AMAX] * 3}
+    assert ends_at_rest(config, plan(SECOND, **kwargs))
+    # Braking from v at the acceleration limit a travels v**2 / 2a (no jerk limit): written
+    # out here against the tolerance, just above and just below it.
+    tolerance = config.waypoint_tolerance
+    for share, expected in ((1.05, False), (0.95, True)):
+        speed = np.sqrt(2.0 * AMAX * tolerance * share)
+        moving = plan(SECOND, end_velocity=[0.0, speed, 0.0], **kwargs)
+        assert ends_at_rest(config, moving) is expected, (share, speed)
