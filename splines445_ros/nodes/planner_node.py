@@ -66,8 +66,8 @@ from ..service.model_planning import (build_robot_setup, description_source, loa
 from ..service.planner_config import PlannerConfig
 from ..service.request_planning import (ends_at_rest, gravity_overload, gravity_overload_report,
                                         output_samples, plan_from_running, plan_from_state_at,
-                                        plan_request, plan_stop,
-                                        plan_tool_request, plan_warnings, start_from_state,
+                                        plan_request, plan_stop, plan_tool_request,
+                                        plan_warnings, running_in_order, start_from_state,
                                         summary_values, tool_summary_values)
 
 ROBOT_DESCRIPTION = 'robot_description'
@@ -830,8 +830,12 @@ class PlannerNode(Node):
         the request (the caller checks it is still the one before publishing).
         """
         now_ns = self.get_clock().now().nanoseconds
-        if base is not None and base.names == tuple(config.joint_names):
-            running, start_ns = base.traj, base.start_ns
+        # The running trajectory in the request's joint order (joint_names may have been
+        # reordered since it was published); None: other joints.
+        running = (None if base is None
+                   else running_in_order(base.traj, base.names, config.joint_names))
+        if running is not None:
+            start_ns = base.start_ns
             t = (switch_ns - start_ns) * 1e-9
             if t < running.duration:
                 def clock():

@@ -323,6 +323,40 @@ def start_from_state(request, position, velocity, acceleration, tolerance=0.0):
         times)
 
 
+class InJointOrder:
+    """
+    A running Trajectory seen in another order of its joints (``joint_names`` reordered).
+
+    ``order`` (n,) gives, for each joint in the new order, its column in
+    ``running``.  It has what :func:`plan_from_running` and
+    :func:`plan_from_state_at` read: ``duration`` and ``evaluate``.
+    """
+
+    def __init__(self, running, order):
+        """Keep the trajectory and the column order."""
+        self.running, self.order = running, list(order)
+        self.duration = running.duration
+
+    def evaluate(self, t, derivative=0):
+        """Return the running trajectory's values at ``t`` (T, n), columns in the new order."""
+        return self.running.evaluate(t, derivative)[:, self.order]
+
+
+def running_in_order(running, running_names, joint_names):
+    """
+    Return ``running`` with its joints in the order ``joint_names``, or None.
+
+    None when the two name other joints (not a reordering): the running
+    state of the planned joints is then unknown to the plan.
+    """
+    running_names, joint_names = tuple(running_names), tuple(joint_names)
+    if running_names == joint_names:
+        return running
+    if sorted(running_names) != sorted(joint_names):
+        return None
+    return InJointOrder(running, [running_names.index(n) for n in joint_names])
+
+
 def plan_from_state_at(config, request, running, t, torque=None):
     """Plan ``request`` from the ``running`` Trajectory's state at ``t`` s (its p, v, a)."""
     state = tuple(running.evaluate([t], d)[0] for d in (0, 1, 2))

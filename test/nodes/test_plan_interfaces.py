@@ -390,6 +390,25 @@ def test_a_new_goal_preempts_the_running_one_without_a_jump(system):
     assert_no_jump(times, positions, velocities)
 
 
+def test_a_goal_after_joint_names_were_reordered_preempts_without_a_jump(system):
+    """The running goal's state, in the new joint order, is the new goal's start (helper-62)."""
+    first = send_goal(system, LONG)
+    assert first.accepted
+    system.spin_for(1.0)
+    reordered = NAMES[::-1]
+    result = system.planner.set_parameters([Parameter('joint_names', value=list(reordered))])
+    assert result[0].successful, result[0].reason
+    switch_ns = system.client.get_clock().now().nanoseconds
+    second = send_goal(system, np.array([[0.0, 0.0, 0.0], [0.2, 0.5, -0.5]]), names=reordered)
+    assert second.accepted
+    assert result_of(system, first).status == GoalStatus.STATUS_ABORTED
+    second_result = result_of(system, second)
+    assert second_result.status == GoalStatus.STATUS_SUCCEEDED, second_result.result.message
+    assert at(system, [-0.5, 0.5, 0.2])     # joint_states name the arm's own order
+    times, positions, velocities = states_between(system, switch_ns - int(0.2e9))
+    assert_no_jump(times, positions, velocities)
+
+
 def test_a_goal_preempting_a_topic_trajectory_switches_without_a_jump(system):
     """A topic trajectory is stamped too: the planner and the arm agree on its start."""
     sent = system.client.get_clock().now().nanoseconds

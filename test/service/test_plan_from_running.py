@@ -9,8 +9,8 @@ from splines445_ros.planning import DEFAULT_WAYPOINT_TOLERANCE, plan
 from splines445_ros.robot import paper_example as pe
 from splines445_ros.service.planner_config import PlannerConfig
 from splines445_ros.service.request_planning import (ends_at_rest, plan_from_running,
-                                                     REPLAN_MAX_DELAY,
-                                                     REPLAN_RETRY_STEP)
+                                                     REPLAN_MAX_DELAY, REPLAN_RETRY_STEP,
+                                                     running_in_order)
 
 SECOND = np.array([[0.2, 2.0, -2.0], [0.6, 1.6, -2.2], [0.9, 1.2, -1.5]])
 VMAX, AMAX = 2.0, 10.0
@@ -164,3 +164,17 @@ def test_ends_at_rest_is_the_stop_rule_at_the_trajectory_end():
         speed = np.sqrt(2.0 * AMAX * tolerance * share)
         moving = plan(SECOND, end_velocity=[0.0, speed, 0.0], **kwargs)
         assert ends_at_rest(config, moving) is expected, (share, speed)
+
+
+def test_the_running_trajectory_in_another_joint_order(paper_running):
+    """Reordered names read the same columns; other joints give None."""
+    names = ('a', 'b', 'c')
+    assert running_in_order(paper_running, names, names) is paper_running
+    assert running_in_order(paper_running, names, ('a', 'b')) is None
+    assert running_in_order(paper_running, names, ('a', 'b', 'd')) is None
+    view = running_in_order(paper_running, names, ('c', 'a', 'b'))
+    assert view.duration == paper_running.duration
+    t = np.linspace(0.0, paper_running.duration, 7)
+    for d in (0, 1, 2):
+        np.testing.assert_array_equal(view.evaluate(t, d),
+                                      paper_running.evaluate(t, d)[:, [2, 0, 1]])
