@@ -58,14 +58,24 @@ class SampledTrajectory:
         """Time of the last sample."""
         return float(self.times[-1])
 
-    def with_start_state(self, position, velocity, acceleration):
-        """Prepend the current state at t = 0 when the first sample is later than 0."""
-        if self.times[0] <= 0.0:
+    def with_start_state(self, position, velocity, acceleration, at=0.0):
+        """
+        Prepend the current state at t = ``at`` when the first sample is later than that.
+
+        ``at`` [s] is when, in this trajectory's time, it takes over: 0 at its
+        stamp, later when it arrives (or the switch is handled) after that.
+        The arm then goes from where it is, when it is there, to the first
+        sample, as joint_trajectory_controller interpolates from the state it
+        had when it first sampled the new trajectory; one whose first sample
+        has passed already starts part-way along, as there.
+        """
+        at = max(float(at), 0.0)
+        if self.times[0] <= at:
             return self
         vel = None if self.velocities is None else np.vstack([velocity, self.velocities])
         acc = None if self.accelerations is None else np.vstack(
             [acceleration, self.accelerations])
-        return SampledTrajectory(np.concatenate([[0.0], self.times]),
+        return SampledTrajectory(np.concatenate([[at], self.times]),
                                  np.vstack([position, self.positions]), vel, acc)
 
     def state_at(self, t):
