@@ -179,6 +179,14 @@ class ArmSimNode(Node):
             self.get_logger().error(message)
             self.status_publisher.publish(status_message(self._status_name, False, message))
             return
+        if self._frozen:
+            # It would be accepted and never run: refused, with what brings the arm back.
+            message = ('trajectory rejected: the physics went unstable and the arm holds its '
+                       'last sane state until its parameters change (set_parameters, with '
+                       'gains or a physics step it can follow)')
+            self.get_logger().error(message)
+            self.status_publisher.publish(status_message(self._status_name, False, message))
+            return
         now = self._now_ns()
         self._follow_clock(now)
         start = stamp if stamp > 0 else now
@@ -195,15 +203,16 @@ class ArmSimNode(Node):
             self.get_logger().error(message)
             self.status_publisher.publish(status_message(self._status_name, False, message))
             return
+        # Accepted all the same, with a WARN on ~/status: a monitor sees what the log says.
+        warning = None
         if stamp - reached > FAR_AHEAD * 1e9:
-            self.get_logger().warning(
-                f'trajectory starts in {(stamp - reached) * 1e-9:.6g} s (header.stamp '
-                f'{stamp * 1e-9:.3f} s): do both nodes use the same clock, use_sim_time?')
+            warning = (f'it starts in {(stamp - reached) * 1e-9:.6g} s (header.stamp '
+                       f'{stamp * 1e-9:.3f} s): do both nodes use the same clock, use_sim_time?')
         if late:
-            self.get_logger().warning(
-                f'trajectory arrived {late * 1e-9:.3f} s after its header.stamp: it starts '
-                'that far along (its publisher must stamp it further ahead, as the '
-                "planner's start_delay does)")
+            warning = (f'it arrived {late * 1e-9:.3f} s after its header.stamp and starts that '
+                       'far along, from where the arm is towards its first point not yet '
+                       "passed (its publisher must stamp it further ahead, as the planner's "
+                       'start_delay does)')
         if self._pending is not None:
             replaced = 'trajectory replaced before it started'
             self.get_logger().warning(replaced)
@@ -212,11 +221,16 @@ class ArmSimNode(Node):
         self._pending = (trajectory, start)
         message = (f'trajectory accepted: {len(msg.points)} points, '
                    f'{trajectory.duration:.4f} s')
-        self.get_logger().info(message)
+        if warning is None:
+            self.get_logger().info(message)
+        else:
+            message += f'; {warning}'
+            self.get_logger().warning(message)
         self.status_publisher.publish(status_message(
             self._status_name, True, message,
             {'points': len(msg.points), 'duration': f'{trajectory.duration:.9g}',
-             'start_ns': start, **({'started_late_by': f'{late * 1e-9:.9g}'} if late else {})}))
+             'start_ns': start, **({'started_late_by': f'{late * 1e-9:.9g}'} if late else {})},
+            warn=warning is not None))
         self._on_timer()
 
     # -- kinematic playback ---------------------------------------------------------------
@@ -228,7 +242,7 @@ class ArmSimNode(Node):
             trajectory, start = self._pending
             self._pending = None
             self._active = (trajectory.with_start_state(
-                self.position, self.velocity, self.acceleration), start)
+                self.position, self.velocity, self.acceleration, (now - start) * 1e-9), start)
         self._set_state(now)
 
     def _set_state(self, now):
@@ -367,7 +381,8 @@ class ArmSimNode(Node):
                 self._report(self._metrics, self._info, None, settled=False)
             trajectory, start = self._pending
             self._pending = None
-            self._active = (trajectory.with_start_state(q[0], v[0], a[0]), start)
+            self._active = (trajectory.with_start_state(q[0], v[0], a[0], (now - start) * 1e-9),
+                            start)
             self._start_metrics()
 
     def _report(self, metrics, info, end_position, settled):

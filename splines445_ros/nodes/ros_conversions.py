@@ -18,11 +18,14 @@ not used); ``position.x``, ``position.y`` and the yaw of the orientation
 (a rotation about z; ``position.z`` must be finite and is ignored).
 """
 
+from collections import Counter
+
 from builtin_interfaces.msg import Duration
 from diagnostic_msgs.msg import KeyValue
 import numpy as np
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
+from ..robot.user_text import show_names
 from ..service.interface_requests import check_request_size
 from ..service.request_planning import DEFAULT_MAX_TRAJECTORY_POINTS, WaypointRequest
 from ..sim.playback import SampledTrajectory
@@ -51,19 +54,28 @@ def seconds_to_duration(seconds):
 
 def joint_order(msg_names, joint_names):
     """Column index in the message for every configured joint (ValueError if not a match)."""
-    names = list(msg_names)
-    if not names:
+    if not msg_names:
         raise ValueError('joint_names of the message is empty')
-    if len(set(names)) != len(names):
-        dup = sorted({n for n in names if names.count(n) > 1})
-        raise ValueError(f'duplicate joint names in message: {dup}')
-    unknown = [n for n in names if n not in joint_names]
+    if len(msg_names) > len(joint_names):
+        # Counted before anything else reads them (an untrusted message of any length).
+        raise ValueError(f'the message names {len(msg_names)} joints; this node controls '
+                         f'{len(joint_names)}: {show_names(joint_names)}')
+    names = list(msg_names)
+    counts = Counter(names)
+    if len(counts) != len(names):
+        dup = sorted(n for n, c in counts.items() if c > 1)
+        raise ValueError(f'duplicate joint names in message: {show_names(dup)}')
+    known = set(joint_names)
+    unknown = [n for n in names if n not in known]
     if unknown:
-        raise ValueError(f'unknown joints {unknown}; this node controls {list(joint_names)}')
-    missing = [n for n in joint_names if n not in names]
+        raise ValueError(f'unknown joints {show_names(unknown)}; this node controls '
+                         f'{show_names(joint_names)}')
+    missing = [n for n in joint_names if n not in counts]
     if missing:
-        raise ValueError(f'missing joints {missing}; the message names {names}')
-    return [names.index(n) for n in joint_names]
+        raise ValueError(f'missing joints {show_names(missing)}; the message names '
+                         f'{show_names(names)}')
+    column = {n: k for k, n in enumerate(names)}
+    return [column[n] for n in joint_names]
 
 
 def _column(point, field, k, n, order, required):

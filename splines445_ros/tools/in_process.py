@@ -224,7 +224,7 @@ class InProcessSystem(LocalRos):
             timeout)
         if status is None:
             raise TimeoutError('the arm did not accept the trajectory')
-        if status.level != DiagnosticStatus.OK:
+        if status.level == DiagnosticStatus.ERROR:  # (a WARN: accepted, but late)
             raise RuntimeError(f'the arm rejected the trajectory: {status.message}')
         start = int({kv.key: kv.value for kv in status.values}['start_ns'])
         end = start + int(round(duration * 1e9))

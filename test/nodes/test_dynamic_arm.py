@@ -275,6 +275,13 @@ def test_physics_gone_unstable_is_reported_and_the_arm_holds_its_last_sane_state
         assert np.all(positions == positions[-1])
         assert np.any(positions[-1] != 0.0)
         np.testing.assert_array_equal(np.array([s.velocity for s in held]), 0.0)
+        # Until its parameters change, a trajectory is refused, not accepted and never run
+        # (helper-61).
+        n = len(arm.status)
+        arm.publisher.publish(trajectory_to_msg(slow_plan(positions[-1]).sample(0.01), JOINTS))
+        assert ros.spin_until(lambda: len(arm.status) > n, 5.0)
+        assert arm.status[n].level == DiagnosticStatus.ERROR, arm.status[n].message
+        assert 'until its parameters change' in arm.status[n].message
         # Sane gains again: the arm follows the next trajectory from there.
         results = arm.node.set_parameters_atomically(
             [Parameter('kp', value=list(ArmSimConfig().kp)),

@@ -102,6 +102,10 @@ def bad_requests():
     ragged.points[5].positions = [0.0, 1.0]
     too_fast = waypoint_message(pe.JOINT_NAMES, W, start_velocity=[3.0, 0.0, 0.0])
     bad_boundary = waypoint_message(pe.JOINT_NAMES, W, end_acceleration=[1.0])
+    # 100,000 names, a duplicate among them: refused by their count, before they are read
+    # (counting duplicates pairwise took seconds on 10,000), with a short message.
+    crowd = JointTrajectory()
+    crowd.joint_names = [f'j{k % 99_999}' for k in range(100_000)]
     return [
         ('NaN position', nan, 'waypoints[3, 1] is nan'),
         ('one point', short, 'at least 2 waypoints'),
@@ -109,6 +113,7 @@ def bad_requests():
         ('unknown joint', unknown, "unknown joints ['elbow']"),
         ('duplicate joint', duplicate, 'duplicate joint names'),
         ('missing joint', missing, "missing joints ['joint3']"),
+        ('too many joints', crowd, 'the message names 100000 joints; this node controls 3'),
         ('ragged point', ragged, 'point 5 has 2 positions for 3 joints'),
         ('infeasible boundary', too_fast, 'infeasible'),
         ('short boundary', bad_boundary, 'point 11 has 1 accelerations for 3 joints'),
@@ -121,6 +126,7 @@ def test_bad_requests_get_an_error_and_the_next_good_one_is_served(system):
         status, traj = system.request(msg)
         assert status.level == DiagnosticStatus.ERROR, name
         assert expected in status.message, (name, status.message)
+        assert len(status.message) < 1000, name
         assert traj is None
     status, traj = system.request(waypoint_message(pe.JOINT_NAMES, W))
     assert status.level == DiagnosticStatus.OK, status.message
@@ -227,6 +233,8 @@ def test_arm_rejects_bad_trajectories_and_keeps_its_state(system):
         (with_point_fields(effort=[1.0, 2.0, 3.0]), 'has efforts'),
         (with_point_fields(accelerations=[0.0, 0.0, 0.0]), 'accelerations without velocities'),
         (with_point_fields(nanosec=1_999_999_999), 'is not below 1e9'),
+        (raw_trajectory([f'j{k % 99_999}' for k in range(100_000)], [], []),
+         'the message names 100000 joints; this node controls 3'),
     ]
     for msg, reason in bad:
         n = len(system.arm_status)
@@ -234,6 +242,7 @@ def test_arm_rejects_bad_trajectories_and_keeps_its_state(system):
         assert system.spin_until(lambda: len(system.arm_status) > n, 5.0)
         status = system.arm_status[n]
         assert status.level == DiagnosticStatus.ERROR and reason in status.message
+        assert len(status.message) < 1000
     n = len(system.joint_states)
     system.spin_until(lambda: len(system.joint_states) > n + 3, 5.0)
     np.testing.assert_array_equal(system.joint_states[-1].position, held)
@@ -241,6 +250,35 @@ def test_arm_rejects_bad_trajectories_and_keeps_its_state(system):
     system.trajectory_publisher.publish(raw_trajectory(pe.JOINT_NAMES, [0.2], [W[3]]))
     assert system.spin_until(
         lambda: np.allclose(system.joint_states[-1].position, W[3], atol=1e-12), 5.0)
+
+
+def test_a_late_trajectory_goes_from_where_the_arm_is_to_its_first_point(system):
+    """
+    Stamped 0.5 s ago, its one point at 1 s: the arm moves there in what is left, no jump.
+
+    As joint_trajectory_controller interpolates from the state it had when it
+    first sampled the new trajectory (helper-61: the arm started it 0.5 s
+    along a line from its stamp, half the way at once).
+    """
+    system.spin_until(lambda: len(system.joint_states) >= 2, 5.0)
+    held = np.array(system.joint_states[-1].position)
+    msg = raw_trajectory(pe.JOINT_NAMES, [1.0], [W[3]])
+    sent = system.client.get_clock().now().nanoseconds
+    stamp = sent - int(0.5e9)
+    msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp, 10**9)
+    system.trajectory_publisher.publish(msg)
+    assert system.spin_until(
+        lambda: np.allclose(system.joint_states[-1].position, W[3], atol=1e-12), 5.0)
+    states = [m for m in system.joint_states if stamp_ns(m) >= sent - int(0.1e9)]
+    times = 1e-9 * np.array([stamp_ns(m) for m in states])
+    positions = np.array([m.position for m in states])
+    # At most the straight line's speed from the arrival (within 0.1 s of sent) to
+    # stamp + 1 s; a jump half the way in one 20 ms tick would be 25 times that.
+    speed = np.max(np.abs(W[3] - held)) / (1e-9 * (stamp - sent) + 1.0 - 0.1)
+    steps = np.max(np.abs(np.diff(positions, axis=0)), axis=1) / np.diff(times)
+    assert np.max(steps) <= speed * (1 + 1e-6), (np.max(steps), speed)
+    arrived = times[np.argmax(np.all(np.abs(positions - W[3]) <= 1e-12, axis=1))]
+    assert arrived == pytest.approx(1e-9 * stamp + 1.0, abs=0.05)
 
 
 def test_the_arm_counts_a_trajectorys_points_before_reading_them(monkeypatch):

@@ -489,11 +489,16 @@ def test_a_trajectory_that_arrives_after_its_stamp_starts_part_way_and_says_so(s
                                                          stamp))
         values = accepted_status(system, n)
         assert int(values['start_ns']) == now + int(ahead * 1e9)
+        accepted = next(s for s in system.arm_status[n:] if 'accepted' in s.message)
         if ahead > 0:
             assert 'started_late_by' not in values
+            assert accepted.level == DiagnosticStatus.OK, accepted.message
         else:
             assert float(values['started_late_by']) >= -ahead
             assert float(values['started_late_by']) < -ahead + 5.0
+            # On ~/status too, not only in the log (helper-61).
+            assert accepted.level == DiagnosticStatus.WARN, accepted.message
+            assert 'after its header.stamp' in accepted.message
 
 
 def test_a_stops_hold_that_arrives_late_still_holds(system):
