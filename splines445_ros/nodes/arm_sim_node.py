@@ -204,15 +204,21 @@ class ArmSimNode(Node):
             self.status_publisher.publish(status_message(self._status_name, False, message))
             return
         # Accepted all the same, with a WARN on ~/status: a monitor sees what the log says.
-        warning = None
+        warnings = []
         if stamp - reached > FAR_AHEAD * 1e9:
-            warning = (f'it starts in {(stamp - reached) * 1e-9:.6g} s (header.stamp '
-                       f'{stamp * 1e-9:.3f} s): do both nodes use the same clock, use_sim_time?')
+            warnings.append(f'it starts in {(stamp - reached) * 1e-9:.6g} s (header.stamp '
+                            f'{stamp * 1e-9:.3f} s): do both nodes use the same clock, '
+                            'use_sim_time?')
         if late:
-            warning = (f'it arrived {late * 1e-9:.3f} s after its header.stamp and starts that '
-                       'far along, from where the arm is towards its first point not yet '
-                       "passed (its publisher must stamp it further ahead, as the planner's "
-                       'start_delay does)')
+            warnings.append(f'it arrived {late * 1e-9:.3f} s after its header.stamp and starts '
+                            'that far along, from where the arm is towards its first point not '
+                            'yet passed (its publisher must stamp it further ahead, as the '
+                            "planner's start_delay does)")
+        if trajectory.velocities is not None and np.any(trajectory.velocities[-1] != 0.0):
+            warnings.append('its last point has a non-zero velocity: the arm stops there at '
+                            'once (joint_trajectory_controller rejects such a trajectory '
+                            'unless allow_nonzero_velocity_at_trajectory_end is set)')
+        warning = '; '.join(warnings) if warnings else None
         if self._pending is not None:
             replaced = 'trajectory replaced before it started'
             self.get_logger().warning(replaced)

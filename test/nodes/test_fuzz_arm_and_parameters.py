@@ -37,7 +37,8 @@ def test_every_arm_trajectory_gets_one_status(system, case):
     assert system.spin_until(lambda: len(system.arm_status) > n, 10.0), 'no status'
     assert len(system.arm_status) == n + 1
     status = system.arm_status[n]
-    assert (status.level == DiagnosticStatus.OK) == good, status.message
+    # Accepted: OK, or WARN (late, far ahead, or ending with a velocity); refused: ERROR.
+    assert (status.level != DiagnosticStatus.ERROR) == good, status.message
     state = system.arm.position
     assert state.shape == (3,) and np.all(np.isfinite(state))
 

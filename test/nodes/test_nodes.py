@@ -81,6 +81,10 @@ def test_paper_example_through_both_nodes(system, method):
     # The arm plays it and ends at the last waypoint, the tool at (1, 0) with yaw 0.
     played, final = system.wait_until_played(n_arm_status, times[-1])
     assert len(played) > 10 and max(np.abs(s.velocity).max() for s in played) > 0.5
+    # It ends moving (the paper's end velocity), which the arm says it stops at once.
+    accepted = next(s for s in system.arm_status[n_arm_status:] if 'accepted' in s.message)
+    assert accepted.level == DiagnosticStatus.WARN, accepted.message
+    assert 'non-zero velocity' in accepted.message
     np.testing.assert_allclose(final.position, W[-1], atol=1e-9)
     np.testing.assert_array_equal(final.velocity, 0.0)
     assert system.spin_until(lambda: system.tool_poses
