@@ -82,7 +82,11 @@ class FollowWaypointsServer:
     def _on_goal(self, goal):
         try:
             msg = request_message(goal.waypoints, goal.tool_waypoints)
-            override_values(goal.overrides)
+            values = override_values(goal.overrides, msg is goal.waypoints)
+            if values:
+                # Refused at once, as a set_parameters of them would be, not accepted and
+                # then aborted (the worker validates them again with the parameters then).
+                self._node.parameters.overridden(values)
             if msg is goal.waypoints:
                 joint_order(msg.joint_names, self._node.planned_joint_names())
                 _check_finite(msg)
@@ -122,8 +126,9 @@ class FollowWaypointsServer:
         run = self._runs.pop(id(handle), None) or _Run(handle)
         goal = handle.request
         try:
-            job = self._node.plan_job(request_message(goal.waypoints, goal.tool_waypoints),
-                                      override_values(goal.overrides), publish=True,
+            msg = request_message(goal.waypoints, goal.tool_waypoints)
+            job = self._node.plan_job(msg, override_values(goal.overrides,
+                                                           msg is goal.waypoints), publish=True,
                                       from_running=True, interface=INTERFACE)
             outcome = await self._node.submit(job)
             if not outcome.ok:

@@ -247,8 +247,9 @@ class PlannerNode(Node):
     async def _on_plan(self, request, response):
         """Serve ``~/plan``: plan (never publish to the arm), answer with the outcome."""
         try:
-            job = self.plan_job(request_message(request.waypoints, request.tool_waypoints),
-                                override_values(request.overrides), publish=False,
+            msg = request_message(request.waypoints, request.tool_waypoints)
+            job = self.plan_job(msg, override_values(request.overrides,
+                                                     msg is request.waypoints), publish=False,
                                 interface=PLAN_INTERFACE)
         except ValueError as exc:
             outcome = self._rejected(f'{PLAN_INTERFACE} request rejected: {exc}',

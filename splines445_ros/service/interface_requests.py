@@ -31,13 +31,16 @@ def check_request_size(count, what='waypoints'):
                          'may carry')
 
 
-def override_values(overrides):
+def override_values(overrides, joint_request=False):
     """
     Return ``{parameter name: value}`` for the fields set in a PlanOverrides message.
 
     ``overrides`` may be None (nothing overridden).  Raises ValueError for an
     optional scalar given more than one value (a client that bypassed the
-    message's bound), since that value would silently be ignored.
+    message's bound), and with ``joint_request`` (joint waypoints, not tool
+    poses) for a tool limit or path deviation (:data:`SCALAR_FIELDS`): a
+    joint-space request has no tool path to hold it to.  Either would
+    silently be ignored.
     """
     values = {}
     if overrides is None:
@@ -54,6 +57,10 @@ def override_values(overrides):
         value = getattr(overrides, name)
         if len(value) > 1:
             raise ValueError(f'overrides.{name} takes at most one value, got {len(value)}')
+        if len(value) and joint_request:
+            raise ValueError(f'overrides.{name} applies to tool_waypoints requests only: '
+                             'joint waypoints have no tool path to hold it to (it would be '
+                             'ignored)')
         if len(value):
             values[name] = float(value[0])
     return values

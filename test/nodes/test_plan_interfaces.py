@@ -215,6 +215,12 @@ def test_overrides_hold_for_one_request_and_are_validated_like_parameters(system
     reason = refused.reason.split('rejected: ', 1)[1]
     assert reason in bad.message
     assert call(system, plan_request()).duration == default.duration
+    # A tool limit has no tool path to hold on joint waypoints: refused, not ignored.
+    for name in ('max_tool_speed', 'max_tool_angular_speed', 'max_tool_acceleration',
+                 'max_path_deviation'):
+        tool = call(system, plan_request(method='555', timing='optimal', **{name: [0.01]}))
+        assert not tool.success, name
+        assert f'overrides.{name} applies to tool_waypoints requests only' in tool.message
 
 
 def test_bad_service_requests_get_an_error_response(system):
@@ -701,6 +707,19 @@ def test_malformed_goals_are_rejected_with_the_reason(system):
     assert not send_goal(system, nan).accepted
     assert system.spin_until(lambda: any('waypoint 2: positions[0] is nan' in s.message
                                          for s in system.planner_status[n_status:]), 5.0)
+    # Overrides that a set_parameters would refuse, or that would be ignored, are refused
+    # with the goal (helper-62: accepted, then aborted).
+    for name, value, reason in (('method', 'xyz', 'method must be one of'),
+                                ('max_velocity', [1.0], 'max_velocity'),
+                                ('max_tool_speed', [0.1], 'applies to tool_waypoints')):
+        goal = FollowWaypoints.Goal()
+        goal.waypoints = waypoint_message(NAMES, W)
+        setattr(goal.overrides, name, value)
+        sent = system.action_client.send_goal_async(goal)
+        assert system.spin_until(sent.done, 10.0) and not sent.result().accepted, name
+        assert system.spin_until(lambda: any(
+            'goal rejected' in s.message and reason in s.message
+            for s in system.planner_status[n_status:]), 5.0), name
     # A goal whose plan fails is accepted, then aborted with the planner's error.
     handle = send_goal(system, HUGE)
     assert handle.accepted
