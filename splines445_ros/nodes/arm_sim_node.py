@@ -210,10 +210,12 @@ class ArmSimNode(Node):
                             f'{stamp * 1e-9:.3f} s): do both nodes use the same clock, '
                             'use_sim_time?')
         if late:
+            where = ('from where the arm is towards its first point'
+                     if trajectory.times[0] > late * 1e-9 else
+                     'part-way along its points: the arm jumps there')
             warnings.append(f'it arrived {late * 1e-9:.3f} s after its header.stamp and starts '
-                            'that far along, from where the arm is towards its first point not '
-                            'yet passed (its publisher must stamp it further ahead, as the '
-                            "planner's start_delay does)")
+                            f'that far along, {where} (its publisher must stamp it further '
+                            "ahead, as the planner's start_delay does)")
         if trajectory.velocities is not None and np.any(trajectory.velocities[-1] != 0.0):
             warnings.append('its last point has a non-zero velocity: the arm stops there at '
                             'once (joint_trajectory_controller rejects such a trajectory '

@@ -40,7 +40,8 @@ from rclpy.task import Future
 from splines445_interfaces.action import FollowWaypoints
 
 from .ros_conversions import joint_order, seconds_to_duration
-from ..service.interface_requests import override_values, request_message
+from ..robot.user_text import show_names
+from ..service.interface_requests import ARRAY_FIELDS, override_values, request_message
 
 ACTION = '~/follow_waypoints'
 # Period of the feedback and of the checks for cancel, preemption and the end [s].
@@ -87,6 +88,7 @@ class FollowWaypointsServer:
                 # Refused at once, as a set_parameters of them would be, not accepted and
                 # then aborted (the worker validates them again with the parameters then).
                 self._node.parameters.overridden(values)
+                _check_per_joint(values, self._node.planned_joint_names())
             if msg is goal.waypoints:
                 joint_order(msg.joint_names, self._node.planned_joint_names())
                 _check_finite(msg)
@@ -237,6 +239,19 @@ class FollowWaypointsServer:
         self._node.report(mark != run.handle.abort, f'{INTERFACE} goal: {message}',
                           {'interface': INTERFACE}, warn=warn)
         return result
+
+
+def _check_per_joint(values, names):
+    """
+    Refuse a per-joint override with another count than the planned joints (ValueError).
+
+    The parameters check it against ``joint_names``; with ``kinematics:
+    model`` and ``joint_names`` unset the planned joints are the robot's.
+    """
+    for name in ARRAY_FIELDS:
+        if name in values and len(values[name]) != len(names):
+            raise ValueError(f'overrides.{name} has {len(values[name])} values: it needs one '
+                             f'per planned joint ({len(names)}: {show_names(names)})')
 
 
 def _check_finite(msg):

@@ -805,6 +805,9 @@ class PlannerNode(Node):
             return self._rejected(f'stop rejected: planning took longer than replan_lead_time '
                                   f'({config.replan_lead_time} s); the running trajectory '
                                   'continues', {})
+        if planned_ns > switch:
+            # The hold of the end, stamped now: it lasts its full second from its arrival.
+            out.header.stamp = Time(nanoseconds=planned_ns).to_msg()
         self.trajectory_publisher.publish(out)
         self._published(traj, switch, names, config, now_ns)
         if traj is not None:

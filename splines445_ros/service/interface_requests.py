@@ -38,9 +38,9 @@ def override_values(overrides, joint_request=False):
     ``overrides`` may be None (nothing overridden).  Raises ValueError for an
     optional scalar given more than one value (a client that bypassed the
     message's bound), and with ``joint_request`` (joint waypoints, not tool
-    poses) for a tool limit or path deviation (:data:`SCALAR_FIELDS`): a
-    joint-space request has no tool path to hold it to.  Either would
-    silently be ignored.
+    poses) for a tool limit or path deviation (:data:`SCALAR_FIELDS`) other
+    than 0 ("no limit"): a joint-space request has no tool path to hold it
+    to.  Either would silently be ignored.
     """
     values = {}
     if overrides is None:
@@ -57,7 +57,7 @@ def override_values(overrides, joint_request=False):
         value = getattr(overrides, name)
         if len(value) > 1:
             raise ValueError(f'overrides.{name} takes at most one value, got {len(value)}')
-        if len(value) and joint_request:
+        if len(value) and joint_request and value[0] != 0.0:     # (0: no limit)
             raise ValueError(f'overrides.{name} applies to tool_waypoints requests only: '
                              'joint waypoints have no tool path to hold it to (it would be '
                              'ignored)')

@@ -221,6 +221,14 @@ def test_overrides_hold_for_one_request_and_are_validated_like_parameters(system
         tool = call(system, plan_request(method='555', timing='optimal', **{name: [0.01]}))
         assert not tool.success, name
         assert f'overrides.{name} applies to tool_waypoints requests only' in tool.message
+        # 0 is "no limit": nothing to ignore.
+        assert call(system, plan_request(**{name: [0.0]})).duration == default.duration
+    # With kinematics "model" and joint_names unset the parameters cannot count the
+    # joints: the goal checks per-joint overrides against the planned ones itself.
+    with pytest.raises(ValueError, match=r'max_velocity has 1 values: it needs one per '
+                                         r"planned joint \(2: \['a', 'b'\]\)"):
+        follow_waypoints._check_per_joint({'max_velocity': (1.0,)}, ('a', 'b'))
+    follow_waypoints._check_per_joint({'max_velocity': (1.0, 2.0), 'method': '555'}, ('a', 'b'))
 
 
 def test_bad_service_requests_get_an_error_response(system):
