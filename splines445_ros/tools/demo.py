@@ -28,6 +28,7 @@ from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory
 from visualization_msgs.msg import MarkerArray
 
+from .command_line import run_main
 from .figures import plot_joint_curves, plot_tool_path, plot_tracking
 from .in_process import InProcessSystem, stamp_ns, waypoint_message
 from .recording import McapRecording
@@ -97,6 +98,8 @@ def run_paper_example(runs=PAPER_RUNS, recording=None):
             # A run that fails, or Ctrl-C, still leaves a finished, readable file.
             if recorder is not None:
                 recorder.close()
+    if recorder is not None and recorder.error is not None:
+        raise OSError(f'{recording}: {recorder.error}')  # (the runs themselves went on)
     return results, ({} if recorder is None else dict(recorder.counts))
 
 
@@ -170,12 +173,14 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument('--out', default='out', help='folder for figures and tables')
     args = parser.parse_args(argv)
+    return run_main('demo', lambda: _run(args))
+
+
+def _run(args):
+    """Run the demo's stages and print its tables (main()'s body)."""
     os.makedirs(args.out, exist_ok=True)
     recording = os.path.join(args.out, RECORDING)
-    try:
-        results, counts = run_paper_example(recording=recording)
-    except KeyboardInterrupt:
-        return 130
+    results, counts = run_paper_example(recording=recording)
     metrics, paths = write_report(results, args.out)
     tool_table, tool_paths = run_tool_path_demo(args.out)
     seam_text, seam_paths = run_robot_seam_demo(args.out, 'ur5')

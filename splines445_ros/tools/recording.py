@@ -127,14 +127,30 @@ class McapRecording:
     """Record ``topics`` [(name, message class, QoS)] seen by ``node`` to ``path``."""
 
     def __init__(self, node, path, topics):
-        """Open ``path``, register the schemas and channels, and subscribe."""
+        """
+        Open ``path``, register the schemas and channels, and subscribe.
+
+        A write that fails later (a full disk) stops the recording with a
+        logged error, its reason in :attr:`error`; the executor goes on.
+        """
         self._node = node
+        self.error = None
+        self.subscriptions = []
         self._handle = open(path, 'wb')
+        try:
+            self._start(topics)
+        except BaseException:
+            self._handle.close()    # (no file handle left open by a failed start)
+            self._handle = None
+            raise
+
+    def _start(self, topics):
+        """Write the header, the schemas and the channels; subscribe to ``topics``."""
+        node = self._node
         self._writer = Writer(self._handle)
         self._writer.start(profile='ros2', library='splines445_ros')
         self._last_ns = 0
         self.counts = {}
-        self.subscriptions = []
         schemas = {}
         for topic, msg_type, qos in topics:
             name = type_name(msg_type)
@@ -151,23 +167,32 @@ class McapRecording:
 
     def _recorder(self, topic, channel):
         def record(data):
+            if self.error is not None:
+                return
             now = max(self._node.get_clock().now().nanoseconds, self._last_ns + 1)
             self._last_ns = now
-            self._writer.add_message(channel_id=channel, log_time=now, data=bytes(data),
-                                     publish_time=now, sequence=self.counts[topic])
+            try:
+                self._writer.add_message(channel_id=channel, log_time=now, data=bytes(data),
+                                         publish_time=now, sequence=self.counts[topic])
+            except OSError as exc:
+                self.error = f'recording stopped: {exc}'
+                self._node.get_logger().error(self.error)
+                return
             self.counts[topic] += 1
         return record
 
     def close(self):
-        """Stop recording and finish the file (its summary and index)."""
+        """Stop recording and finish the file (its summary and index); OSError if it cannot."""
         if self._handle is None:
             return
         for subscription in self.subscriptions:
             self._node.destroy_subscription(subscription)
         self.subscriptions = []
-        self._writer.finish()
-        self._handle.close()
-        self._handle = None
+        handle, self._handle = self._handle, None
+        try:
+            self._writer.finish()
+        finally:
+            handle.close()      # whatever the finish did (its own flush may fail too)
 
     def __enter__(self):
         """Use as a context manager."""

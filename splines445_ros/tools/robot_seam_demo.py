@@ -33,6 +33,7 @@ from geometry_msgs.msg import Pose, PoseArray
 import numpy as np
 
 from . import vendor_robots as vr
+from .command_line import run_main
 from .figures import plt
 from .in_process import InProcessSystem
 from ..cartesian.tool_paths import plan_tool_path
@@ -247,10 +248,13 @@ def main(argv=None):
     parser.add_argument('--out', default='out', help='folder for the figure and the table')
     parser.add_argument('--robot', default='ur5', choices=sorted(SEAM_ROBOTS))
     args = parser.parse_args(argv)
-    text, paths = run_robot_seam_demo(args.out, args.robot)
-    print(text)
-    print(f'written: {", ".join(paths)}')
-    return 0
+
+    def run():
+        text, paths = run_robot_seam_demo(args.out, args.robot)
+        print(text)
+        print(f'written: {", ".join(paths)}')
+        return 0
+    return run_main('robot_seam_demo', run)
 
 
 if __name__ == '__main__':

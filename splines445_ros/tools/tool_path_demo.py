@@ -21,6 +21,7 @@ import time
 
 import numpy as np
 
+from .command_line import run_main
 from .figures import plt
 from ..cartesian.tool_paths import plan_tool_path
 from ..planning import METHODS
@@ -159,10 +160,13 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument('--out', default='out', help='folder for the figure and the table')
     args = parser.parse_args(argv)
-    table, paths = run_tool_path_demo(args.out)
-    print(table)
-    print(f'written: {", ".join(paths)}')
-    return 0
+
+    def run():
+        table, paths = run_tool_path_demo(args.out)
+        print(table)
+        print(f'written: {", ".join(paths)}')
+        return 0
+    return run_main('tool_path_demo', run)
 
 
 if __name__ == '__main__':

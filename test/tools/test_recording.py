@@ -263,3 +263,26 @@ def test_definitions_are_found_without_an_ament_index(monkeypatch):
     indexed = message_definition(MarkerArray)
     monkeypatch.delenv('AMENT_PREFIX_PATH', raising=False)
     assert message_definition(MarkerArray) == indexed
+
+
+@pytest.mark.skipif(not os.path.exists('/dev/full'), reason='needs /dev/full (Linux)')
+def test_a_full_disk_stops_the_recording_not_the_executor():
+    """The write's OSError is logged and kept; close() raises it and still closes the file."""
+    with LocalRos() as ros:
+        node = ros.add(Node('full_recorder', context=ros.context))
+        publisher = node.create_publisher(String, 'filling', topics.REQUEST_QOS)
+        recording = McapRecording(node, '/dev/full', [('/filling', String, topics.REQUEST_QOS)])
+        assert ros.spin_until(lambda: publisher.get_subscription_count() >= 1, 10.0)
+        rng = np.random.default_rng(0)
+        for _ in range(40):    # 4 MB that compress poorly: far more than a chunk
+            publisher.publish(String(data=''.join(rng.choice(list('abcdefghij'), 100_000))))
+            ros.spin_for(0.01)
+        assert ros.spin_until(lambda: recording.error is not None, 10.0), recording.counts
+        assert 'No space left' in recording.error
+        stopped = recording.counts['/filling']
+        publisher.publish(String(data='after'))
+        ros.spin_for(0.2)       # the executor goes on; nothing more is written
+        assert recording.counts['/filling'] == stopped
+        with pytest.raises(OSError):
+            recording.close()
+        recording.close()       # closed: a second close does nothing
