@@ -348,7 +348,8 @@ def test_fuzzed_trajectories_never_break_the_dynamic_arm(dynamic_arm, case, huge
     answered = [s for s in dynamic_arm.status[n:] if 'tracking_rms_error' not in
                 status_values(s)]
     assert len(answered) == 1
-    assert (answered[0].level == DiagnosticStatus.OK) == good, answered[0].message
+    # Accepted: OK, or WARN (late, far ahead, or ending with a velocity); refused: ERROR.
+    assert (answered[0].level != DiagnosticStatus.ERROR) == good, answered[0].message
     dynamic_arm.ros.spin_for(0.02)
     node = dynamic_arm.node
     assert np.all(np.isfinite(node.position)) and np.all(np.isfinite(node.effort))
