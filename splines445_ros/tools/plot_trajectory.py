@@ -107,6 +107,11 @@ def samples_from_dict(message):
         raise ValueError('every point must be a mapping (positions, velocities, ...)')
     times = np.array([_seconds(p.get('time_from_start', {}), f'points[{k}].time_from_start')
                       for k, p in enumerate(points)])
+    back = np.flatnonzero(np.diff(times) <= 0.0)
+    if back.size:
+        k = int(back[0])
+        raise ValueError(f'time_from_start must increase strictly: points {k} and {k + 1} '
+                         f'are at {times[k]:.9g} and {times[k + 1]:.9g} s')
     columns = []
     for field in ('positions', 'velocities', 'accelerations'):
         rows = [_list(p.get(field) or [], f'points[{k}].{field}') for k, p in enumerate(points)]

@@ -33,7 +33,12 @@ BAD = [
     ('a NaN position', with_points(point(0.0, [0.0, float('nan')]), point(1.0, [0.0, 0.0])),
      'must be finite'),
     ('times going back', with_points(point(1.0, [0.0, 0.0]), point(0.5, [0.1, 0.0])),
-     'increas'),
+     'must increase strictly'),
+    ('a time repeated, positions only', with_points(
+        {'positions': [0, 0], 'time_from_start': {'sec': 1}},
+        {'positions': [1, 0], 'time_from_start': {'sec': 1}}), 'must increase strictly'),
+    ('names as one string', {'joint_names': 'ab', 'points': GOOD['points']},
+     'joint_names must be a list'),
     ('cut by ros2 topic echo', {'joint_names': ['a', 'b'], 'points': GOOD['points'] + ['...']},
      '--full-length'),
     ('a cut list of values', with_points(point(0.0, [0.0, '...'])), '--full-length'),
