@@ -634,6 +634,8 @@ class PlannerNode(Node):
                     if job.from_running and job.publish:
                         self._check_goal_start(config, request)
                     traj = plan_request(config, request, torque)
+            if isinstance(msg, PoseArray) and job.from_running and job.publish:
+                self._check_tool_start(config, traj)    # a goal's, as a joint goal's
             planned = time.perf_counter()
             samples = output_samples(config, traj)
         except ValueError as exc:
@@ -870,17 +872,36 @@ class PlannerNode(Node):
         ``joint_states`` would make the arm jump there.  Without
         ``joint_states`` of the planned joints there is nothing to check.
         """
+        self._check_start(config, request.waypoints[0], 'the first waypoint is',
+                          'start the waypoints where the arm is, or set '
+                          'start_from_current_state')
+
+    def _check_tool_start(self, config, traj):
+        """
+        Refuse a tool path whose first pose's joints are away from the arm at rest (ValueError).
+
+        The inverse kinematics chooses those joints (seeded from
+        ``joint_states`` with a model, the elbow's side on the planar arm),
+        not the user: where it chose others the arm would jump there
+        (helper-66: 0.9 rad on a UR5).  Goals only: on the topics a request
+        starts where its first waypoint is, as on joint_trajectory_controller.
+        """
+        self._check_start(config, traj.evaluate([0.0], 0)[0],
+                          "the tool path's first pose solves to joints",
+                          'start the tool poses where the tool is')
+
+    def _check_start(self, config, start, what, advice):
+        """Raise ValueError when ``start`` is beyond goal_position_tolerance of joint_states."""
         measured = self.measured_state(config.joint_names)
         if measured is None:
             return
-        gap = np.abs(request.waypoints[0] - measured[0])
+        gap = np.abs(np.asarray(start) - measured[0])
         j = int(np.argmax(gap))
         if gap[j] > config.goal_position_tolerance:
-            raise ValueError(f"the first waypoint is {gap[j]:.4g} from the arm's position on "
+            raise ValueError(f"{what} {gap[j]:.4g} from the arm's position on "
                              f'joint_states ({config.joint_names[j]}), more than '
                              f'goal_position_tolerance ({config.goal_position_tolerance:g}): '
-                             'the arm would jump; start the waypoints where the arm is, or set '
-                             'start_from_current_state')
+                             f'the arm would jump; {advice}')
 
     def _joint_state_start(self, config):
         """Position, velocity and zero acceleration from the latest joint_states."""

@@ -327,7 +327,9 @@ class PlannerConfig(ValidatedConfig):
         'corrections')
     goal_position_tolerance: float = parameter(
         DEFAULT_GOAL_POSITION_TOLERANCE, '`follow_waypoints` goals: the arm has reached the '
-        'end when every joint of `joint_states` is within this of it [rad or m].',
+        'end when every joint of `joint_states` is within this of it [rad or m]; a goal '
+        'whose start (a tool goal: the joints of its first pose) is further than this from '
+        'the arm at rest is aborted.',
         low=0.0, low_open=True)
     goal_velocity_tolerance: float = parameter(
         DEFAULT_GOAL_VELOCITY_TOLERANCE, '`follow_waypoints` goals: ... and every joint '

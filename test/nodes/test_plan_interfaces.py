@@ -670,6 +670,26 @@ def test_a_tool_goal_is_refused_while_a_topic_trajectory_runs(system):
                                          for s in system.planner_status[n_status:]), 5.0)
 
 
+def test_a_tool_goal_whose_first_pose_is_away_from_the_arm_is_aborted(system):
+    """As a joint goal's first waypoint (helper-66: a UR5 jumped 0.9 rad to a tool goal)."""
+    assert system.spin_until(lambda: len(system.joint_states) > 2, 5.0)
+    goal = FollowWaypoints.Goal()
+    goal.tool_waypoints.poses = [Pose(), Pose()]
+    for pose, (x, y) in zip(goal.tool_waypoints.poses, ((1.5, 0.3), (1.2, 0.6))):
+        pose.position.x, pose.position.y = x, y
+        pose.orientation.w = 1.0
+    # The arm rests at (0, 0, 0): its tool at (2, 0), far from (1.5, 0.3).
+    assert planar_tool([0.0, 0.0, 0.0]) == pytest.approx((2.0, 0.0))
+    n = len(system.trajectories)
+    sent = system.action_client.send_goal_async(goal)
+    assert system.spin_until(sent.done, 10.0) and sent.result().accepted
+    result = result_of(system, sent.result())
+    assert result.status == GoalStatus.STATUS_ABORTED
+    assert "the tool path's first pose solves to joints" in result.result.message
+    assert 'the arm would jump' in result.result.message
+    assert len(system.trajectories) == n      # nothing was sent to the arm
+
+
 def test_a_time_optimal_goal_preempts_from_the_moving_state_without_a_jump(system):
     """A goal overriding speed_profile: the third-order profile starts from the moving state."""
     first = send_goal(system, LONG)
