@@ -69,11 +69,17 @@ def _normalised(parameter, kind):
     Return ``parameter`` in its field's canonical type, or None when it is not a number.
 
     A number for a string field becomes its string (``-p method:=434``), an
-    integer for a double field a double (``-p waypoint_tolerance:=0``), and
+    integer for a double field a double (``-p waypoint_tolerance:=0``),
     integers (or an ``array.array`` from the parameter service) for a double
-    array field doubles (``-p max_velocity:=[2,2,2]``).
+    array field doubles (``-p max_velocity:=[2,2,2]``), and "not set" for a
+    double array field (``min_position: []`` in a params file) the empty
+    array.
     """
     value = parameter.value
+    if kind == 'double_array' and parameter.type_ == Parameter.Type.NOT_SET:
+        # An empty array from a params file or -p (rclpy types it as "not set"), or a
+        # `ros2 param delete`: the empty array, which the config accepts or refuses.
+        return Parameter(parameter.name, Parameter.Type.DOUBLE_ARRAY, [])
     if kind == 'string' and _is_number(value):
         return Parameter(parameter.name, Parameter.Type.STRING, str(value))
     if kind == 'double' and _is_number(value) and not isinstance(value, float):

@@ -171,3 +171,34 @@ def test_an_unexpected_error_applying_parameters_is_a_refusal_not_a_crash():
         assert node.get_parameter('publish_rate').value != 7.0
         assert node.set_parameters([Parameter('publish_rate', value=25.0)])[0].successful
         assert node.effective.publish_rate == 25.0
+
+
+@pytest.mark.parametrize('node_cls, name', [(PlannerNode, 'min_position'),
+                                            (PlannerNode, 'payload_inertia'),
+                                            (ArmSimNode, 'payload_inertia')])
+def test_an_empty_array_in_a_params_file_or_on_the_command_line_is_the_empty_array(
+        tmp_path, node_cls, name):
+    """An empty array comes as "not set" from rclpy: the documented default stopped the node."""
+    node_name = 'planner_node' if node_cls is PlannerNode else 'arm_sim_node'
+    path = os.path.join(tmp_path, 'params.yaml')
+    with open(path, 'w', encoding='utf-8') as handle:
+        handle.write(f'{node_name}:\n  ros__parameters:\n    {name}: []\n')
+    for cli in (['--params-file', path], ['-p', f'{name}:=[]']):
+        with LocalRos() as ros:
+            node = ros.add(node_cls(context=ros.context, cli_args=['--ros-args'] + cli))
+            assert getattr(node.parameters.config, name) == ()
+            assert list(node.get_parameter(name).value) == []
+
+
+def test_deleting_an_array_parameter_sets_it_empty():
+    """`ros2 param delete` (a "not set" value) was refused with "got None"."""
+    with LocalRos() as ros:
+        node = _planner(ros, ['-p', 'min_position:=[-1.0, -1.0, -1.0]',
+                              '-p', 'max_velocity:=[1.0, 1.0, 1.0]'])
+        result = node.set_parameters([Parameter('min_position')])[0]   # not set: a delete
+        assert result.successful, result.reason
+        assert node.parameters.config.min_position == ()
+        # Empty is "not set" for the limits: the planar arm's own again.
+        result = node.set_parameters([Parameter('max_velocity')])[0]
+        assert result.successful, result.reason
+        assert node.parameters.config.max_velocity == (pe.MAX_VELOCITY[0],) * 3
