@@ -129,7 +129,8 @@ class ArmSimConfig(ValidatedConfig):
     tool_frame: str = parameter(
         '', '`model_file`, dynamic: link, body or site whose pose is published on `tool_pose` '
         '(overrides `tool_site`). A `model_file` played with `simulation: kinematic` publishes '
-        'no `tool_pose`.')
+        'no `tool_pose`. Refused without `model_file`, as are `control_bandwidth` and '
+        '`control_damping_ratio` other than their defaults: the built-in arm would ignore them.')
     control_bandwidth: float = parameter(
         DEFAULT_BANDWIDTH, '`model_file`, dynamic: natural frequency [Hz] of the PD loop that '
         'sets `kp` and `kd` from the joint inertia at the initial pose when they are not '
@@ -200,6 +201,7 @@ class ArmSimConfig(ValidatedConfig):
 
     def validate(self):
         """Raise ValueError with the reason when any value is unusable."""
+        self._refuse_model_only()
         names = self.joint_names
         if self.all_model_joints:
             self._validate_model_file()
@@ -227,6 +229,26 @@ class ArmSimConfig(ValidatedConfig):
                 raise ValueError(f'{name} must be {n} values (one per joint), each {words}, '
                                  f'got {show(values)}')
         self._validate_discretisation()
+
+    def _refuse_model_only(self):
+        """
+        Refuse, without ``model_file``, the values only a model file uses (helper-65).
+
+        The built-in arm would ignore them: ``config/ur5.yaml`` loaded without
+        ``-p model_file:=...`` simulated the planar arm, silently.
+        """
+        if self.model_file:
+            return
+        if self.tool_frame:
+            raise ValueError(f'tool_frame {show(self.tool_frame)} needs model_file: the '
+                             "built-in arm's tool is its `tool` site (tool_site); set "
+                             'model_file, or leave tool_frame empty')
+        for name, default in (('control_bandwidth', DEFAULT_BANDWIDTH),
+                              ('control_damping_ratio', DEFAULT_DAMPING_RATIO)):
+            if getattr(self, name) != default:
+                raise ValueError(f'{name} = {show(getattr(self, name))} needs model_file: '
+                                 'the built-in arm has its own gains (kp, kd), and it would '
+                                 'be ignored')
 
     def _validate_common(self):
         # The bounds and choices of the parameter table: publish_rate, simulation,

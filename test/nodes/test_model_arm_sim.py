@@ -158,3 +158,9 @@ def test_the_shipped_ur5_config_is_valid():
                                   parameter_overrides=overrides(arm)))
         assert node.effective.joint_names == vr.UR5_JOINTS
         assert ArmSimConfig.from_values(arm).all_model_joints
+    # Without the model_file it asks for, it is refused, not played on the planar arm.
+    with pytest.raises(ValueError, match='tool_frame .tool0. needs model_file'):
+        ArmSimConfig.from_values(data['arm_sim_node']['ros__parameters'])
+    built_in = {'control_bandwidth': 5.0}
+    with pytest.raises(ValueError, match='control_bandwidth = 5.0 needs model_file'):
+        ArmSimConfig.from_values(built_in)
