@@ -24,6 +24,7 @@ idle; reports accepted and rejected trajectories on ``~/status``.
 """
 
 import math
+import traceback
 
 from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
@@ -347,6 +348,19 @@ class ArmSimNode(Node):
         self.position, self.velocity, self.effort = (arm.positions(), arm.velocities(),
                                                      arm.efforts())
 
+    def _drop_after(self, exc):
+        """Drop the trajectories after an unexpected error; the arm holds still where it is."""
+        self.get_logger().error(traceback.format_exc())
+        self._active = self._pending = self._settling = self._metrics = self._info = None
+        if self.dynamic is not None:
+            self._hold = self.dynamic.positions()
+            self.dynamic.set_state(self._hold, np.zeros(len(self._hold)))
+        self.velocity = np.zeros(len(self.position))
+        self.acceleration = np.zeros(len(self.position))
+        message = (f'internal error: {type(exc).__name__}: {exc}; the trajectory is dropped '
+                   'and the arm holds its position')
+        self.status_publisher.publish(status_message(self._status_name, False, message))
+
     def _unstable(self, exc, now):
         """Hold the state before the physics went unstable, drop the trajectories, say so."""
         self._hold = self.dynamic.positions()
@@ -429,11 +443,15 @@ class ArmSimNode(Node):
     def _on_timer(self):
         now = self._now_ns()
         self._follow_clock(now)
-        if self.dynamic is not None:
-            self._advance_dynamic(now)
-            now = self._sim_ns  # the physics time of the state (at most one step earlier)
-        else:
-            self._advance(now)
+        try:
+            if self.dynamic is not None:
+                self._advance_dynamic(now)
+                now = self._sim_ns  # the physics time of the state (at most one step earlier)
+            else:
+                self._advance(now)
+        except Exception as exc:  # noqa: B902 - a trajectory must never kill the node
+            self._drop_after(exc)
+            now = self._sim_ns if self.dynamic is not None else now
         stamp = Time(nanoseconds=now).to_msg()
         config = self.effective
         state = JointState()

@@ -72,6 +72,11 @@ class SampledTrajectory:
         at = max(float(at), 0.0)
         if self.times[0] <= at:
             return self
+        # The arm's own state, bounded as a message's values are: between two fuzzed points
+        # milliseconds apart it reached 1.3e6 rad/s^2, and the prepended point was refused
+        # inside the arm's timer (an exception out of the executor).
+        velocity, acceleration = (np.clip(np.asarray(v, dtype=float), -MAX_MAGNITUDE,
+                                          MAX_MAGNITUDE) for v in (velocity, acceleration))
         vel = None if self.velocities is None else np.vstack([velocity, self.velocities])
         acc = None if self.accelerations is None else np.vstack(
             [acceleration, self.accelerations])

@@ -10,6 +10,7 @@ from splines445_ros.nodes.diagnostics import status_values
 from splines445_ros.nodes.ros_conversions import duration_to_seconds, sampled_trajectory_from_msg
 from splines445_ros.planning import plan
 from splines445_ros.robot import paper_example as pe
+from splines445_ros.sim.playback import SampledTrajectory
 from splines445_ros.tools.in_process import InProcessSystem, overrides, stamp_ns, waypoint_message
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
@@ -283,6 +284,31 @@ def test_a_late_trajectory_goes_from_where_the_arm_is_to_its_first_point(system)
     assert np.max(steps) <= speed * (1 + 1e-6), (np.max(steps), speed)
     arrived = times[np.argmax(np.all(np.abs(positions - W[3]) <= 1e-12, axis=1))]
     assert arrived == pytest.approx(1e-9 * stamp + 1.0, abs=0.05)
+
+
+def test_an_unexpected_error_in_the_arms_playback_drops_the_trajectory_not_the_node(
+        system, monkeypatch):
+    """An exception in the timer went out of the executor (a fuzzed state, a fresh clone)."""
+    system.spin_until(lambda: len(system.joint_states) >= 2, 5.0)
+    held = np.array(system.joint_states[-1].position)
+
+    def broken(*args, **kwargs):
+        raise ValueError('broken for the test')
+    real = SampledTrajectory.with_start_state
+    monkeypatch.setattr(SampledTrajectory, 'with_start_state', broken)
+    n = len(system.arm_status)
+    system.trajectory_publisher.publish(raw_trajectory(pe.JOINT_NAMES, [0.3], [W[3]]))
+    assert system.spin_until(lambda: any('internal error' in m.message
+                                         for m in system.arm_status[n:]), 5.0)
+    error = next(m for m in system.arm_status[n:] if 'internal error' in m.message)
+    assert error.level == DiagnosticStatus.ERROR and 'broken for the test' in error.message
+    k = len(system.joint_states)
+    assert system.spin_until(lambda: len(system.joint_states) > k + 3, 5.0)
+    np.testing.assert_array_equal(system.joint_states[-1].position, held)
+    monkeypatch.setattr(SampledTrajectory, 'with_start_state', real)
+    system.trajectory_publisher.publish(raw_trajectory(pe.JOINT_NAMES, [0.2], [W[3]]))
+    assert system.spin_until(
+        lambda: np.allclose(system.joint_states[-1].position, W[3], atol=1e-12), 5.0)
 
 
 def test_the_arm_counts_a_trajectorys_points_before_reading_them(monkeypatch):

@@ -1,7 +1,7 @@
 """SampledTrajectory.with_start_state: where and when a new trajectory takes over."""
 
 import numpy as np
-from splines445_ros.sim.playback import SampledTrajectory
+from splines445_ros.sim.playback import MAX_MAGNITUDE, SampledTrajectory
 
 
 def line(first_time=1.0):
@@ -30,3 +30,14 @@ def test_a_take_over_after_the_first_point_starts_part_way_along():
         assert trajectory.with_start_state(np.ones(2), np.zeros(2), np.zeros(2),
                                            at) is trajectory
     assert line(0.5).with_start_state(np.ones(2), np.zeros(2), np.zeros(2), 0.7).times[0] == 0.5
+
+
+def test_a_start_state_beyond_the_bounds_of_a_message_is_bounded_not_refused():
+    """The arm's state between fuzzed points ms apart reached 1.3e6 rad/s^2 (a fresh clone)."""
+    both = SampledTrajectory(np.array([1.0]), np.array([[1.0, -2.0]]), np.zeros((1, 2)),
+                             np.zeros((1, 2)))
+    taken = both.with_start_state(np.zeros(2), np.array([3e6, 0.0]), np.array([0.0, -2e6]),
+                                  0.5)
+    assert taken.times[0] == 0.5
+    np.testing.assert_array_equal(taken.velocities[0], [MAX_MAGNITUDE, 0.0])
+    np.testing.assert_array_equal(taken.accelerations[0], [0.0, -MAX_MAGNITUDE])
