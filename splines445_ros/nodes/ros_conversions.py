@@ -14,7 +14,8 @@ Waypoint requests (``trajectory_msgs/JointTrajectory`` on ``waypoints``):
 
 Tool waypoint requests (``geometry_msgs/PoseArray`` on ``tool_waypoints``):
 one pose per tool waypoint, in the arm's base frame (``header.frame_id`` is
-not used); ``position.x``, ``position.y`` and the yaw of the orientation
+empty or the planar arm's base frame, :data:`PLANAR_FRAME`); ``position.x``,
+``position.y`` and the yaw of the orientation
 (a rotation about z; ``position.z`` must be finite and is ignored).
 """
 
@@ -25,10 +26,14 @@ from diagnostic_msgs.msg import KeyValue
 import numpy as np
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-from ..robot.user_text import show_names
+from ..robot.user_text import show, show_names
+from ..service.arm_sim_config import ArmSimConfig
 from ..service.interface_requests import check_request_size
 from ..service.request_planning import DEFAULT_MAX_TRAJECTORY_POINTS, WaypointRequest
 from ..sim.playback import SampledTrajectory
+
+# The planar arm's base frame: the simulated arm's frame_id (its tool_pose's).
+PLANAR_FRAME = ArmSimConfig.frame_id
 
 NANOS = 1_000_000_000
 # A tool orientation may tilt away from a rotation about z by this much [rad].
@@ -112,6 +117,12 @@ def parse_waypoint_request(msg, joint_names):
 def parse_tool_request(msg):
     """Turn a ``PoseArray`` of tool waypoints into an (N, 3) array of (x, y, yaw) (ValueError)."""
     check_request_size(len(msg.poses), 'tool_waypoints')
+    frame = msg.header.frame_id
+    if frame and frame != PLANAR_FRAME:
+        # Poses in another frame would be planned as if in the base frame: no tf lookup.
+        raise ValueError(f'tool_waypoints are in frame {show(frame)}, but the base frame of '
+                         f'the planar arm is {PLANAR_FRAME!r} (no tf lookup: send them in it, '
+                         'or with an empty frame_id)')
     if len(msg.poses) < 2:
         raise ValueError(f'need at least 2 tool waypoints, got {len(msg.poses)}')
     poses = np.empty((len(msg.poses), 3))
