@@ -35,6 +35,7 @@ from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory
 
 from . import topics
+from .clock_jumps import follow_clock_jumps, MAX_CATCH_UP
 from .diagnostics import format_vector, status_message
 from .node_main import run_node
 from .parameters import ConfigParameters
@@ -48,7 +49,6 @@ from ..sim.dynamic_sim import (
 from ..sim.mujoco_model import load_arm_model
 
 SETTLING_TIME = 0.5     # s after the end of a trajectory: settling_error
-MAX_CATCH_UP = 10.0     # s: a larger clock jump is not simulated across
 # Physics steps at most per callback (the rest at the next ones): at 20 kHz a
 # 9.9 s jump of a simulated clock took 4.5 s in one callback, and joint_states
 # stalled (helper-48); 10,000 take about 0.2 s.
@@ -82,6 +82,7 @@ class ArmSimNode(Node):
         self.dynamic = None      # DynamicArm when simulation is dynamic
         self._sim_ns = self._now_ns()
         self._last_ns = self._sim_ns   # the clock at the last callback: jumps (_follow_clock)
+        self._clock_jumps = follow_clock_jumps(self, self._on_clock_jump)
         self._frozen = False     # the physics went unstable: no steps until a new config
         if config.dynamic:
             self.dynamic = self._build_dynamic(config, self.position, self.velocity)
@@ -300,6 +301,20 @@ class ArmSimNode(Node):
         jump = now - last
         if 0 <= jump <= MAX_CATCH_UP * 1e9:
             return
+        self._shift_times(jump, warn=last > 0)
+
+    def _on_clock_jump(self, jump, _change):
+        """
+        Move the kept times by a jump the clock reports (:mod:`clock_jumps`), exactly.
+
+        The planner moves its own by the same amount; the reading of the last
+        callback moves too, so :meth:`_follow_clock` does not count it again.
+        """
+        self._shift_times(jump, warn=self._last_ns > 0)
+        self._last_ns += jump
+
+    def _shift_times(self, jump, warn):
+        """Move every time the node keeps by ``jump`` [ns] (see :meth:`_follow_clock`)."""
         if self._active is not None:
             self._active = (self._active[0], self._active[1] + jump)
         if self._pending is not None:
@@ -308,7 +323,7 @@ class ArmSimNode(Node):
             self._settling = self._settling[:3] + (self._settling[3] + jump,)
         if self.dynamic is not None:
             self._sim_ns += jump
-        if last > 0:    # (0: a simulated clock starting; what came before starts with it)
+        if warn:    # (not when a simulated clock starts: what came before starts with it)
             direction = 'back' if jump < 0 else 'ahead'
             self.get_logger().warning(
                 f'the clock jumped {direction} by {abs(jump) * 1e-9:.6g} s: the motion goes on '

@@ -163,6 +163,8 @@ class FollowWaypointsServer:
         config = node.parameters.config
         traj, names = outcome.trajectory, outcome.joint_names
         start_ns, end = outcome.start_ns, outcome.trajectory.duration
+        # A jump of the clock moves the start, as the planner and the arm move theirs.
+        start_ns -= node.clock_shift_ns
         final = traj.evaluate([traj.duration], 0)[0]
         while True:
             await self._tick()
@@ -176,7 +178,7 @@ class FollowWaypointsServer:
                                  '(a request on the waypoints topic)', names, final)
             if handle.is_cancel_requested:
                 return await self._stop(run, names, final)
-            t = 1e-9 * (node.get_clock().now().nanoseconds - start_ns)
+            t = 1e-9 * (node.get_clock().now().nanoseconds - start_ns - node.clock_shift_ns)
             measured = node.measured_state(names)
             planned = traj.evaluate([min(max(t, 0.0), end)], 0)[0]
             handle.publish_feedback(_feedback(t, end, names, measured, planned))
@@ -199,7 +201,8 @@ class FollowWaypointsServer:
             return self._end(run, run.handle.abort, f'cancel failed: {stop.message}', names,
                              final)
         config = node.parameters.config
-        end_ns = stop.start_ns or 0
+        # (Less the clock's jumps so far: each tick adds them back, see _follow.)
+        end_ns = (stop.start_ns or 0) - node.clock_shift_ns
         rest = final
         if stop.trajectory is not None:
             end_ns += int(stop.trajectory.duration * 1e9)
@@ -208,7 +211,7 @@ class FollowWaypointsServer:
             rest = np.asarray(stop.msg.points[-1].positions, dtype=float)
         while True:
             await self._tick()
-            now_ns = node.get_clock().now().nanoseconds
+            now_ns = node.get_clock().now().nanoseconds - node.clock_shift_ns
             if now_ns < end_ns:
                 continue
             measured = node.measured_state(names)

@@ -51,6 +51,7 @@ from trajectory_msgs.msg import JointTrajectory
 from visualization_msgs.msg import MarkerArray
 
 from . import topics
+from .clock_jumps import follow_clock_jumps
 from .diagnostics import format_vector, status_message
 from .follow_waypoints import FollowWaypointsServer
 from .node_main import run_node
@@ -229,6 +230,9 @@ class PlannerNode(Node):
         self._latest_joint_state = None
         self._active = None  # _Published: the last trajectory published to the arm
         self._previous = None   # _Published: the one before, while the last waits for its stamp
+        # The sum of the clock's jumps so far [ns] (clock_jumps): a goal's start moves by it.
+        self.clock_shift_ns = 0
+        self._clock_jumps = follow_clock_jumps(self, self._on_clock_jump)
         self._worker = threading.Thread(target=self._work, name='planner', daemon=True)
         self._worker.start()
         self.planned_path_publisher = self.create_publisher(
@@ -311,6 +315,24 @@ class PlannerNode(Node):
         if active is not None and active.start_ns > now_ns:
             return self._previous
         return active
+
+    def _on_clock_jump(self, jump, _change):
+        """
+        Move the starts of the trajectories published by a jump of the clock (clock_jumps).
+
+        ``arm_sim_node`` moves its own by the same amount, so the trajectory
+        goes on from where it was; a stop or a preemption then plans from
+        the state the arm is really in.
+        """
+        for name in ('_active', '_previous'):
+            record = getattr(self, name)
+            if record is not None:
+                setattr(self, name, replace(record, start_ns=record.start_ns + jump))
+        self.clock_shift_ns += jump
+        if self._active is not None:
+            self.get_logger().warning(
+                f'the clock jumped {"back" if jump < 0 else "ahead"} by {abs(jump) * 1e-9:.6g} '
+                's: the trajectory on the arm goes on from where it was')
 
     def _published(self, traj, start_ns, names, config, now_ns):
         """Record a trajectory just published; see :meth:`_base`."""
