@@ -44,6 +44,8 @@ from ..robot.user_text import show_names
 from ..service.interface_requests import ARRAY_FIELDS, override_values, request_message
 
 ACTION = '~/follow_waypoints'
+# [s]: joint_states stamped further than this from the node's clock come from another clock.
+CLOCK_GAP = 10.0
 # Period of the feedback and of the checks for cancel, preemption and the end [s].
 FEEDBACK_PERIOD = 0.05
 INTERFACE = 'follow_waypoints'
@@ -189,8 +191,8 @@ class FollowWaypointsServer:
                                  f'{end:.4f} s trajectory and settled', names, final,
                                  success=True, duration=end)
             if t > end + config.goal_time_tolerance:
-                return self._end(run, handle.abort, _not_settled(measured, final, config),
-                                 names, final, duration=end)
+                why = _not_settled(measured, final, config, node.joint_state_clock_gap())
+                return self._end(run, handle.abort, why, names, final, duration=end)
 
     async def _stop(self, run, names, final):
         """Stop the arm for a cancel; return the result once it has settled."""
@@ -221,7 +223,8 @@ class FollowWaypointsServer:
                 # arm still away from the stop's end did not stop as planned.
                 message = f'canceled: {stop.message}'
                 if not settled:
-                    message += f'; {_not_settled(measured, rest, config)}'
+                    message += '; ' + _not_settled(measured, rest, config,
+                                                   node.joint_state_clock_gap())
                 return self._end(run, run.handle.canceled, message, names, rest,
                                  warn=not settled)
 
@@ -292,11 +295,23 @@ def _settled(measured, final, config):
                      or np.max(np.abs(velocity)) <= config.goal_velocity_tolerance))
 
 
-def _not_settled(measured, final, config):
+def _not_settled(measured, final, config, clock_gap=0.0):
+    """
+    Say why the arm is not where the goal ends (``clock_gap`` [s]: joint_states' stamp - now).
+
+    A gap beyond :data:`CLOCK_GAP` is named too: the arm then runs on
+    another clock (``use_sim_time`` on one node only), and its errors say so
+    only on its own ``~/status`` (helper-68).
+    """
     if measured is None:
-        return (f'no joint_states of the planned joints within goal_time_tolerance '
+        text = (f'no joint_states of the planned joints within goal_time_tolerance '
                 f'({config.goal_time_tolerance:g} s) after the end: it cannot be confirmed')
-    error = float(np.max(np.abs(measured[0] - final)))
-    return (f'the arm did not settle within goal_time_tolerance ({config.goal_time_tolerance:g}'
-            f' s) after the end: position error {error:.4g} (goal_position_tolerance '
-            f'{config.goal_position_tolerance:g})')
+    else:
+        error = float(np.max(np.abs(measured[0] - final)))
+        text = (f'the arm did not settle within goal_time_tolerance '
+                f'({config.goal_time_tolerance:g} s) after the end: position error '
+                f'{error:.4g} (goal_position_tolerance {config.goal_position_tolerance:g})')
+    if abs(clock_gap) > CLOCK_GAP:
+        text += (f"; the arm's joint_states are stamped {clock_gap:.6g} s from this node's "
+                 'clock: do both nodes use the same clock (use_sim_time)?')
+    return text

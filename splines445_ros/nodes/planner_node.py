@@ -359,6 +359,14 @@ class PlannerNode(Node):
                     if len(state.velocity) == len(state.name) else None)
         return position, velocity
 
+    def joint_state_clock_gap(self):
+        """Return [s] the latest joint_states' stamp less this node's clock (0: none yet)."""
+        state = self._latest_joint_state
+        if state is None:
+            return 0.0
+        stamp = state.header.stamp.sec * 1_000_000_000 + state.header.stamp.nanosec
+        return 1e-9 * (stamp - self.get_clock().now().nanoseconds)
+
     def report(self, ok, message, values, warn=False):
         """Log ``message`` and publish it on ``~/status`` (see diagnostics.status_message)."""
         self._report(ok, message, values, warn)

@@ -372,6 +372,18 @@ def test_a_cancel_in_the_last_moments_of_a_goal_is_a_cancel(system, monkeypatch)
     assert_no_jump(times, positions, velocities)
 
 
+def test_a_goal_that_does_not_settle_names_a_clock_the_arm_does_not_share(system):
+    """With use_sim_time on one node only the abort said only "did not settle" (helper-68)."""
+    assert system.spin_until(lambda: len(system.joint_states) > 2, 5.0)
+    assert abs(system.planner.joint_state_clock_gap()) < 1.0     # one clock here
+    config = system.planner.parameters.config
+    measured = (np.zeros(3), np.zeros(3))
+    for gap, named in ((0.5, False), (-1.8e9, True), (40.0, True)):
+        text = follow_waypoints._not_settled(measured, np.ones(3), config, gap)
+        assert 'did not settle' in text
+        assert ('do both nodes use the same clock (use_sim_time)?' in text) == named, text
+
+
 def test_cancel_stops_the_arm_after_joint_names_changed_mid_goal(system):
     """The stop names the running trajectory's joints, not the new ones (helper-36)."""
     handle = send_goal(system, LONG)
