@@ -201,6 +201,7 @@ class ArmSimConfig(ValidatedConfig):
 
     def validate(self):
         """Raise ValueError with the reason when any value is unusable."""
+        self.check_table()      # a value outside its bounds is refused with them, first
         self._refuse_model_only()
         names = self.joint_names
         if self.all_model_joints:

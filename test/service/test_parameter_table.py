@@ -144,7 +144,8 @@ def test_values_on_the_bounds_are_accepted():
         config = PlannerConfig.from_values(values)
         assert all(getattr(config, k) == v for k, v in values.items())
     for values in ({'publish_rate': 0.001}, {'physics_rate': 20000.0},
-                   {'control_damping_ratio': 5.0}, {'spring_damping_ratio': 0.0}):
+                   {'control_damping_ratio': 5.0, 'model_file': 'arm.xml'},  # (model_file's)
+                   {'spring_damping_ratio': 0.0}):
         ArmSimConfig.from_values(values)
 
 
