@@ -93,6 +93,9 @@ MERGE_SHARE = 0.1
 # helper-46); merging within 0.1 of the checked side alone skipped poses 15 cm
 # or 60 degrees away (helper-42).
 UNCHECKED_MERGE = DEFAULT_WAYPOINT_TOLERANCE
+# Tool waypoints that together move the tool less than this [m, and rad] coincide:
+# no motion to plan (a nanometre, far below any deviation tolerance).
+COINCIDENT = 1e-9
 
 
 @dataclass(frozen=True)
@@ -339,6 +342,12 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
     """
     clock = RefinementClock(max_refinement_time)
     request = tool_pose_array(poses)
+    length, angle, _ = edge_geometry(request)
+    if not (np.sum(length) > COINCIDENT or np.sum(angle) > COINCIDENT):
+        # As plan() refuses joint waypoints that all coincide: the inverse kinematics'
+        # round-off made a plan of microseconds, with a misleading warning (helper-66).
+        raise ValueError(f'all {len(request)} tool waypoints coincide (within '
+                         f'{COINCIDENT:g} m and rad): the tool does not move')
     tol_position = _tolerance('max_deviation', max_deviation)
     tol_orientation = _tolerance('max_orientation_deviation', max_orientation_deviation)
     if (isinstance(max_inserted, bool) or not isinstance(max_inserted, numbers.Real)

@@ -125,6 +125,9 @@ def bad_tool_requests():
         ('unreachable', unreachable, 'tool waypoint 1 at (x, y, yaw) = (2.5, 0, 0) is '
                                      'unreachable'),
         ('through the base', through_base, 'line from tool waypoint 0 to 1 leaves the reach'),
+        # A plan of microseconds with a misleading warning before (helper-66).
+        ('identical poses', tool_waypoint_message([[1.0, 0.5, 0.3]] * 3),
+         'all 3 tool waypoints coincide'),
         # Another frame was planned as if it were the base frame (helper-66).
         ('another frame', tool_waypoint_message(TRIANGLE, 'camera_optical_frame'),
          "tool_waypoints are in frame 'camera_optical_frame', but the base frame of the "
