@@ -36,6 +36,7 @@ import math
 
 import numpy as np
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
+from rclpy.clock import Clock, ClockType
 from rclpy.task import Future
 from splines445_interfaces.action import FollowWaypoints
 
@@ -75,7 +76,10 @@ class FollowWaypointsServer:
             node, FollowWaypoints, ACTION, execute_callback=self._execute,
             goal_callback=self._on_goal, handle_accepted_callback=self._on_accepted,
             cancel_callback=self._on_cancel)
-        self._timer = node.create_timer(FEEDBACK_PERIOD, self._on_tick)
+        # On the steady clock: a cancel is acted on (its stop planned and sent) while a
+        # simulated clock is paused, not only once it resumes (helper-68).
+        self._timer = node.create_timer(FEEDBACK_PERIOD, self._on_tick,
+                                        clock=Clock(clock_type=ClockType.STEADY_TIME))
 
     def destroy(self):
         """Destroy the action server and its timer."""

@@ -105,3 +105,23 @@ def test_a_goal_after_a_reset_preempts_from_where_the_arm_is(system):
         result.result().result.message)
     assert_no_jump(system.joint_states[n - 1:])
     np.testing.assert_allclose(system.joint_states[-1].position, [0.2, -0.2, 0.1], atol=1e-6)
+
+
+def test_a_cancel_while_the_clock_is_paused_stops_the_arm_when_it_resumes(system):
+    """The stop is planned and sent during the pause (the action ticked on the paused clock)."""
+    run_clock(system, 100.0, 100.2)
+    handle = send_goal(system, LONG)
+    run_clock(system, 100.22, 101.5)
+    n_status = len(system.planner_status)
+    cancel = handle.cancel_goal_async()
+    # Paused at 101.5 s: wall time passes, simulated time does not.
+    assert system.spin_until(lambda: any('stopping: braking' in s.message
+                                         for s in system.planner_status[n_status:]), 5.0)
+    n = len(system.joint_states)
+    result = handle.get_result_async()
+    run_clock(system, 101.52, 104.0)
+    assert cancel.done()
+    assert result.done() and result.result().status == GoalStatus.STATUS_CANCELED, (
+        result.result().result.message)
+    assert_no_jump(system.joint_states[n - 1:])
+    np.testing.assert_array_equal(system.joint_states[-1].velocity, 0.0)
