@@ -132,7 +132,9 @@ class ArmSimNode(Node):
         same_joints = tuple(config.joint_names) == tuple(old.joint_names)
         if same_joints and tuple(config.initial_positions) != tuple(old.initial_positions):
             raise ValueError('initial_positions take effect at start-up, or with new '
-                             'joint_names in the same call: the arm stays where it is')
+                             'joint_names in the same set_parameters_atomically call (a '
+                             'plain set_parameters applies one parameter at a time): the arm '
+                             'stays where it is')
         if old.dynamic and not config.dynamic and self._active is not None:
             raise ValueError('simulation cannot switch to kinematic while a trajectory runs '
                              '(its playback would jump to the commanded state): wait for '
