@@ -32,6 +32,7 @@ Nothing here blocks the executor: the execute callback is a coroutine that
 waits on futures completed by the worker and by a timer.
 """
 
+import array
 import math
 
 import numpy as np
@@ -265,14 +266,31 @@ def _check_per_joint(values, names):
 
 
 def _check_finite(msg):
-    """Refuse a goal's joint waypoints with a value that is not finite (ValueError)."""
-    for k, point in enumerate(msg.points):
-        for field in ('positions', 'velocities', 'accelerations'):
-            values = np.asarray(getattr(point, field), dtype=float)
-            if not np.all(np.isfinite(values)):
-                j = int(np.flatnonzero(~np.isfinite(values))[0])
-                raise ValueError(f'waypoint {k}: {field}[{j}] is {values[j]}: values must be '
+    """
+    Refuse a goal's joint waypoints with a value that is not finite (ValueError).
+
+    All of a field's values at once (the messages' arrays are ``array('d')``,
+    read without a copy): one array per point took 65 ms for 10,000
+    waypoints in the goal callback (helper-70); the waypoint is looked up
+    only when one is not finite.
+    """
+    for field in ('positions', 'velocities', 'accelerations'):
+        values = np.frombuffer(b''.join(_buffer(getattr(p, field)) for p in msg.points))
+        if np.all(np.isfinite(values)):
+            continue
+        for k, point in enumerate(msg.points):
+            row = np.asarray(getattr(point, field), dtype=float)
+            if not np.all(np.isfinite(row)):
+                j = int(np.flatnonzero(~np.isfinite(row))[0])
+                raise ValueError(f'waypoint {k}: {field}[{j}] is {row[j]}: values must be '
                                  'finite')
+
+
+def _buffer(values):
+    """Return the bytes of float64 ``values`` (an ``array('d')``, or a sequence of numbers)."""
+    if isinstance(values, array.array) and values.typecode == 'd':
+        return values.tobytes()
+    return np.asarray(values, dtype=float).tobytes()
 
 
 def _feedback(t, end, names, measured, planned):
