@@ -354,6 +354,7 @@ def plan_tool_path(poses, kinematics, max_deviation=None, max_orientation_deviat
             or not math.isfinite(max_inserted) or int(max_inserted) != max_inserted
             or max_inserted < 0):
         raise ValueError(f'max_inserted = {max_inserted}: must be a non-negative integer')
+    max_inserted = int(max_inserted)    # (2.0 was accepted, then refused by range(): helper-69)
     speeds = (_speed_limit('max_tool_speed', max_tool_speed),
               _speed_limit('max_tool_angular_speed', max_tool_angular_speed),
               _speed_limit('max_tool_acceleration', max_tool_acceleration))

@@ -10,18 +10,23 @@ def _first_bad(mask):
 
 def real_array(name, value):
     """
-    Return ``value`` as a float array; ValueError if it is not numeric or is complex.
+    Return ``value`` as a float array; ValueError if it is not numeric, complex or boolean.
 
-    numpy would drop an imaginary part with only a ComplexWarning.
+    numpy would drop an imaginary part with only a ComplexWarning, and take
+    True for 1.
     """
     try:
         raw = np.asarray(value)
         if np.iscomplexobj(raw) or (raw.dtype == object and any(
                 isinstance(v, complex) for v in raw.reshape(-1))):
             raise ValueError(f'{name} must be real numbers, got complex values')
+        if raw.dtype == bool or (raw.dtype == object and any(
+                isinstance(v, (bool, np.bool_)) for v in raw.reshape(-1))):
+            # As the scalar options refuse them: True would be planned as 1 (helper-69).
+            raise ValueError(f'{name} must be real numbers, got booleans')
         return np.array(raw, dtype=float)
     except (TypeError, ValueError) as exc:
-        if 'complex' in str(exc) and str(exc).startswith(name):
+        if ('complex' in str(exc) or 'booleans' in str(exc)) and str(exc).startswith(name):
             raise
         raise ValueError(f'{name} must be numeric: {exc}') from None
 

@@ -369,3 +369,23 @@ def test_a_tool_waypoint_beyond_the_position_limits_is_named_at_once(side, metho
         plan_tool_path(poses, ARM, 1e-4, method=method, timing=timing,
                        max_velocity=[1.0] * 3, max_acceleration=[3.0] * 3,
                        min_position=low, max_position=high)
+
+
+def test_max_inserted_as_a_whole_float_is_the_integer_and_bad_values_are_refused():
+    """2.0 passed the check, then range() refused it with a TypeError (helper-69)."""
+    poses = np.column_stack([pe.triangle_points()[:3], np.zeros(3)])   # (x, y, yaw)
+    kwargs = {'max_velocity': [2.0] * 3, 'max_acceleration': [10.0] * 3}
+    as_float = plan_tool_path(poses, ARM, 1e-3, max_inserted=2000.0, **kwargs)
+    as_int = plan_tool_path(poses, ARM, 1e-3, max_inserted=2000, **kwargs)
+    assert as_float.trajectory.duration == as_int.trajectory.duration
+    for bad in (2.5, -1, True, float('nan')):
+        with pytest.raises(ValueError, match='max_inserted'):
+            plan_tool_path(poses, ARM, 1e-3, max_inserted=bad, **kwargs)
+
+
+def test_tool_waypoints_that_all_coincide_are_refused():
+    """As joint waypoints are: round-off made a plan of microseconds (helper-66)."""
+    pose = [1.0, 0.5, 0.3]     # (x, y, yaw)
+    with pytest.raises(ValueError, match='all 3 tool waypoints coincide'):
+        plan_tool_path([pose] * 3, ARM, 1e-3, max_velocity=[2.0] * 3,
+                       max_acceleration=[10.0] * 3)

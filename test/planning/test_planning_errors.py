@@ -61,6 +61,13 @@ CASES = [
     ('boolean method', {'method': True}, r'unknown method True'),
     ('complex waypoints', {'waypoints': W + 1e-3j}, r'waypoints must be real'),
     ('complex limit', {'max_velocity': [1.0 + 1j, 1.0]}, r'max_velocity must be real'),
+    # Planned as 1.0 before (helper-69); the scalar options refused booleans already.
+    ('boolean limits', {'max_velocity': [True, True]}, r'max_velocity must be real numbers, '
+                                                       r'got booleans'),
+    ('a boolean boundary value', {'start_velocity': np.array([True, False])},
+     r'start_velocity must be real numbers, got booleans'),
+    ('boolean waypoints', {'waypoints': np.ones((3, 2), dtype=bool)},
+     r'waypoints must be real numbers, got booleans'),
     ('timing as an array', {'timing': np.array(['uniform'])}, r'unknown timing'),
     ('position limit shape', {'max_position': [1.0]}, r'max_position must have one value'),
     ('NaN position limit', {'min_position': [np.nan, 0.0]}, r'min_position\[0\] is nan'),
