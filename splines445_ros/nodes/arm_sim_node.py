@@ -186,16 +186,14 @@ class ArmSimNode(Node):
             stamp = Time.from_msg(msg.header.stamp).nanoseconds
         except ValueError as exc:
             message = f'trajectory rejected: {exc}'
-            self.get_logger().error(message)
-            self.status_publisher.publish(status_message(self._status_name, False, message))
+            self._error(message)
             return
         if self._frozen:
             # It would be accepted and never run: refused, with what brings the arm back.
             message = ('trajectory rejected: the physics went unstable and the arm holds its '
                        'last sane state until its parameters change (set_parameters, with '
                        'gains or a physics step it can follow)')
-            self.get_logger().error(message)
-            self.status_publisher.publish(status_message(self._status_name, False, message))
+            self._error(message)
             return
         now = self._now_ns()
         self._follow_clock(now)
@@ -210,8 +208,7 @@ class ArmSimNode(Node):
                        f"s ago (header.stamp {stamp * 1e-9:.3f} s, this node's time "
                        f'{reached * 1e-9:.3f} s: do both nodes use the same clock, '
                        'use_sim_time?); the arm keeps its state')
-            self.get_logger().error(message)
-            self.status_publisher.publish(status_message(self._status_name, False, message))
+            self._error(message)
             return
         # Accepted all the same, with a WARN on ~/status: a monitor sees what the log says.
         warnings = []
@@ -372,13 +369,22 @@ class ArmSimNode(Node):
         self.position, self.velocity, self.effort = (arm.positions(), arm.velocities(),
                                                      arm.efforts())
 
-    def _drop_after(self, exc):
-        """Drop the trajectories after an unexpected error; the arm holds still where it is."""
-        self.get_logger().error(traceback.format_exc())
+    def _error(self, message):
+        """Log ``message`` as an error and publish it on ``~/status`` (ERROR)."""
+        self.get_logger().error(message)
+        self.status_publisher.publish(status_message(self._status_name, False, message))
+
+    def _drop_trajectories(self):
+        """Drop every trajectory; the dynamic arm holds its present pose, at rest."""
         self._active = self._pending = self._settling = self._metrics = self._info = None
         if self.dynamic is not None:
             self._hold = self.dynamic.positions()
             self.dynamic.set_state(self._hold, np.zeros(len(self._hold)))
+
+    def _drop_after(self, exc):
+        """Drop the trajectories after an unexpected error; the arm holds still where it is."""
+        self.get_logger().error(traceback.format_exc())
+        self._drop_trajectories()
         self.velocity = np.zeros(len(self.position))
         self.acceleration = np.zeros(len(self.position))
         message = (f'internal error: {type(exc).__name__}: {exc}; the trajectory is dropped '
@@ -387,15 +393,11 @@ class ArmSimNode(Node):
 
     def _unstable(self, exc, now):
         """Hold the state before the physics went unstable, drop the trajectories, say so."""
-        self._hold = self.dynamic.positions()
-        self.dynamic.set_state(self._hold, np.zeros(len(self._hold)))
-        self._active = self._pending = self._settling = self._metrics = self._info = None
+        self._drop_trajectories()
         self._sim_ns = now
         self._frozen = True
-        message = (f'{exc}; the arm holds its last sane state until its parameters change, '
-                   'the trajectory is dropped')
-        self.get_logger().error(message)
-        self.status_publisher.publish(status_message(self._status_name, False, message))
+        self._error(f'{exc}; the arm holds its last sane state until its parameters change, '
+                    'the trajectory is dropped')
 
     def _event_times(self):
         """Node times [ns] of the next switch, trajectory end and settling report."""
