@@ -170,8 +170,7 @@ class FollowWaypointsServer:
         config = node.parameters.config
         traj, names = outcome.trajectory, outcome.joint_names
         start_ns, end = outcome.start_ns, outcome.trajectory.duration
-        # A jump of the clock moves the start, as the planner and the arm move theirs.
-        start_ns -= node.clock_shift_ns
+        shift = node.clock_shift_ns     # the clock's jumps so far (_now_then)
         final = traj.evaluate([traj.duration], 0)[0]
         while True:
             await self._tick()
@@ -185,7 +184,7 @@ class FollowWaypointsServer:
                                  '(a request on the waypoints topic)', names, final)
             if handle.is_cancel_requested:
                 return await self._stop(run, names, final)
-            t = 1e-9 * (node.get_clock().now().nanoseconds - start_ns - node.clock_shift_ns)
+            t = 1e-9 * (_now_then(node, shift) - start_ns)
             measured = node.measured_state(names)
             planned = traj.evaluate([min(max(t, 0.0), end)], 0)[0]
             handle.publish_feedback(_feedback(t, end, names, measured, planned))
@@ -208,8 +207,8 @@ class FollowWaypointsServer:
             return self._end(run, run.handle.abort, f'cancel failed: {stop.message}', names,
                              final)
         config = node.parameters.config
-        # (Less the clock's jumps so far: each tick adds them back, see _follow.)
-        end_ns = (stop.start_ns or 0) - node.clock_shift_ns
+        shift = node.clock_shift_ns     # the clock's jumps so far (_now_then)
+        end_ns = stop.start_ns or 0
         rest = final
         if stop.trajectory is not None:
             end_ns += int(stop.trajectory.duration * 1e9)
@@ -218,7 +217,7 @@ class FollowWaypointsServer:
             rest = np.asarray(stop.msg.points[-1].positions, dtype=float)
         while True:
             await self._tick()
-            now_ns = node.get_clock().now().nanoseconds - node.clock_shift_ns
+            now_ns = _now_then(node, shift)
             if now_ns < end_ns:
                 continue
             measured = node.measured_state(names)
@@ -250,6 +249,17 @@ class FollowWaypointsServer:
         self._node.report(mark != run.handle.abort, f'{INTERFACE} goal: {message}',
                           {'interface': INTERFACE}, warn=warn)
         return result
+
+
+def _now_then(node, shift):
+    """
+    Return the clock now [ns] on the timeline of when ``node.clock_shift_ns`` was ``shift``.
+
+    A jump of the clock since then (a simulator reset) moved the planner's
+    and the arm's trajectory starts by the jump (:mod:`clock_jumps`): the
+    times a goal kept from then are compared with this.
+    """
+    return node.get_clock().now().nanoseconds - (node.clock_shift_ns - shift)
 
 
 def _check_per_joint(values, names):
