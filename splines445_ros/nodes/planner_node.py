@@ -833,11 +833,11 @@ class PlannerNode(Node):
         planned_ns = self.get_clock().now().nanoseconds
         if self._base(planned_ns) is not base:
             return None     # the waiting trajectory started meanwhile: from it
-        if planned_ns > switch and not ends_first:
-            return self._rejected(f'stop rejected: planning took longer than replan_lead_time '
-                                  f'({config.replan_lead_time} s); the running trajectory '
-                                  'continues', {})
         if planned_ns > switch:
+            if not ends_first:
+                return self._rejected(f'stop rejected: planning took longer than '
+                                      f'replan_lead_time ({config.replan_lead_time} s); the '
+                                      'running trajectory continues', {})
             # The hold of the end, stamped now: it lasts its full second from its arrival.
             out.header.stamp = Time(nanoseconds=planned_ns).to_msg()
         self.trajectory_publisher.publish(out)
