@@ -14,7 +14,7 @@ Waypoint requests (``trajectory_msgs/JointTrajectory`` on ``waypoints``):
 
 Tool waypoint requests (``geometry_msgs/PoseArray`` on ``tool_waypoints``):
 one pose per tool waypoint, in the arm's base frame (``header.frame_id`` is
-empty or the planar arm's base frame, :data:`PLANAR_FRAME`); ``position.x``,
+empty or the planar arm's base frame, :data:`planned_path.PLANAR_FRAME`); ``position.x``,
 ``position.y`` and the yaw of the orientation
 (a rotation about z; ``position.z`` must be finite and is ignored).
 """
@@ -26,14 +26,11 @@ from diagnostic_msgs.msg import KeyValue
 import numpy as np
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
+from .planned_path import PLANAR_FRAME
 from ..robot.user_text import show, show_names
-from ..service.arm_sim_config import ArmSimConfig
 from ..service.interface_requests import check_request_size
 from ..service.request_planning import DEFAULT_MAX_TRAJECTORY_POINTS, WaypointRequest
 from ..sim.playback import SampledTrajectory
-
-# The planar arm's base frame: the simulated arm's frame_id (its tool_pose's).
-PLANAR_FRAME = ArmSimConfig.frame_id
 
 NANOS = 1_000_000_000
 # A tool orientation may tilt away from a rotation about z by this much [rad].
