@@ -54,9 +54,6 @@ _LOADER = getattr(yaml, 'CSafeLoader', yaml.SafeLoader)
 
 def _number(value, where):
     """Return ``value`` as a finite float, or raise ValueError naming ``where``."""
-    if value == TRUNCATED:
-        raise ValueError(f"{where} is '...': the dump was cut by ros2 topic echo; save it "
-                         'with ros2 topic echo --once --full-length')
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ValueError(f'{where} must be a number, got {type(value).__name__}')
     if not math.isfinite(value):
@@ -215,6 +212,7 @@ def output_path(out):
 
 def main(argv=None):
     """Plot a trajectory from a dump or a topic; 0 on success, 1 on an error, 130 on Ctrl-C."""
+    from rclpy.exceptions import NameValidationException
     from rclpy.utilities import remove_ros_args
 
     full = list(sys.argv if argv is None else ['plot_trajectory', *argv])
@@ -246,15 +244,12 @@ def main(argv=None):
                      f'{times[-1]:.3f} s')
     except KeyboardInterrupt:
         return 130
-    except (OSError, ValueError, RuntimeError, TimeoutError, yaml.YAMLError) as exc:
-        # (RuntimeError: rcl's, such as a malformed --ros-args.)
+    except (OSError, ValueError, RuntimeError, TimeoutError, yaml.YAMLError,
+            NameValidationException) as exc:
+        # (RuntimeError: rcl's, such as a malformed --ros-args; NameValidationException:
+        # a --topic that is no topic name.)
         print(f'plot_trajectory: {exc}', file=sys.stderr)
         return 1
-    except Exception as exc:  # noqa: B902 - rclpy's name errors are plain Exceptions
-        if type(exc).__name__.endswith('NameException'):
-            print(f'plot_trajectory: {exc}', file=sys.stderr)
-            return 1
-        raise
     print(f'wrote {out}')
     return 0
 
