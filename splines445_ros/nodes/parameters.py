@@ -28,6 +28,7 @@ from dataclasses import fields
 from rcl_interfaces.msg import ParameterDescriptor, ParameterType, SetParametersResult
 from rclpy.parameter import Parameter
 
+from ..robot.user_text import show
 from ..service.parameter_table import constraint_text, declared_values, row_of
 
 
@@ -135,6 +136,7 @@ class ConfigParameters:
             node.set_parameters([p for p in typed if p is not None])
         self.config = config_cls.from_values(
             {name: node.get_parameter(name).value for name in self.names})
+        self._unused = self._say_unused(self.config, {})
         node.add_pre_set_parameters_callback(self._as_field_types)
         node.add_on_set_parameters_callback(self._on_set_parameters)
 
@@ -181,4 +183,18 @@ class ConfigParameters:
                 self._on_reject(reason, [p.name for p in parameters])
             return SetParametersResult(successful=False, reason=reason)
         self.config = new
+        self._unused = self._say_unused(new, self._unused, [p.name for p in parameters])
         return SetParametersResult(successful=True)
+
+    def _say_unused(self, config, before, names=()):
+        """
+        WARN of each value ``config`` ignores that ``before`` did not, or that was just set.
+
+        Returns ``config.unused()``, the next call's ``before``.
+        """
+        unused = config.unused()
+        for name, reason in unused.items():
+            if name not in before or name in names:
+                self._node.get_logger().warning(
+                    f'{name} = {show(getattr(config, name))} has no effect: {reason}')
+        return unused

@@ -251,6 +251,29 @@ class ArmSimConfig(ValidatedConfig):
                                  'the built-in arm has its own gains (kp, kd), and it would '
                                  'be ignored')
 
+    def unused(self):
+        """
+        Values the current mode ignores (:meth:`ValidatedConfig.unused`).
+
+        The kinematic arm plays the commanded state: every dynamic-only value
+        (physics, gains, torques, the built-in arm's masses, ``tool_site`` and
+        ``tool_frame``, whose pose only the physics publishes for a model
+        file) is ignored; with ``model_file``, so are the built-in arm's
+        links and physical values.
+        """
+        unused = self._unused_where(
+            ('link_lengths', 'gravity', 'link_masses', 'rotor_inertia', 'joint_damping',
+             'joint_friction', 'joint_stiffness', 'spring_damping_ratio'), self.model_file,
+            "model_file is set: the built-in arm's values are not used")
+        unused.update(self._unused_where(
+            ('tool_site', 'physics_rate', 'gravity', 'link_masses', 'rotor_inertia',
+             'joint_damping', 'joint_friction', 'joint_stiffness', 'spring_damping_ratio',
+             'torque_limits', 'actuator_time_constant', 'kp', 'kd', 'tool_frame',
+             'control_bandwidth', 'control_damping_ratio'), not self.dynamic,
+            'simulation is kinematic: it plays the commanded state, with no physics, '
+            'controller or tool_pose of a model'))
+        return unused
+
     def _validate_common(self):
         # The bounds and choices of the parameter table: publish_rate, simulation,
         # physics_rate, ..., control_damping_ratio (the fields, in order).

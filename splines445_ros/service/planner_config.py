@@ -565,6 +565,31 @@ class PlannerConfig(ValidatedConfig):
             return None if self.inner_knots == AUTO_INNER_KNOTS else self.inner_knots
         return 0
 
+    def unused(self):
+        """
+        Values the current mode ignores (:meth:`ValidatedConfig.unused`).
+
+        A goal's overrides may change ``output``, ``method`` or ``timing``, so
+        these are said, not refused (the tool limits, ``vibration_frequency``
+        and the model's values, which nothing could make hold, are refused).
+        """
+        unused = self._unused_where(
+            ('sample_period',), self.output == 'knots',
+            'output is knots: one point per knot of the spline')
+        unused.update(self._unused_where(
+            ('inner_knots',), self.method != '555' or self.timing != 'optimal',
+            f'inner knots are placed by method 555 with timing optimal only (method '
+            f'{self.method}, timing {self.timing})'))
+        unused.update(self._unused_where(
+            ('link_lengths',), self.kinematics != 'planar_3dof',
+            f"they are the planar_3dof arm's (kinematics {show(self.kinematics)})"))
+        unused.update(self._unused_where(
+            ('max_path_deviation', 'max_orientation_deviation', 'max_inserted_waypoints',
+             'max_refinement_time'), not self.kinematics,
+            'they bound tool_waypoints requests, which kinematics "" (joint space only) '
+            'refuses'))
+        return unused
+
     def has_inner_knots(self):
         """Whether plan() places inner knots: 555 optimal with ``inner_knots`` not 0."""
         return self.method == '555' and self.timing == 'optimal' and self.inner_knots != 0

@@ -57,6 +57,24 @@ class ValidatedConfig:
         """Raise ValueError with the reason when any value is unusable."""
         raise NotImplementedError
 
+    def unused(self):
+        """
+        Return ``{name: reason}`` for values away from their default that this mode ignores.
+
+        Valid, but without effect where they are (a dynamic-only gain on the
+        kinematic arm, a sample period with knot output): the nodes say so
+        with a WARN rather than refuse them, as another mode (or a goal's
+        overrides) may use them.  :meth:`_unused_where` builds it.
+        """
+        return {}
+
+    def _unused_where(self, names, ignored, reason):
+        """``{name: reason}`` for those of ``names`` away from their default, if ``ignored``."""
+        if not ignored:
+            return {}
+        defaults = {f.name: f.default for f in fields(type(self))}
+        return {name: reason for name in names if getattr(self, name) != defaults[name]}
+
     def check_table(self):
         """
         Raise ValueError unless every value is within its table row's bounds or choices.

@@ -202,3 +202,21 @@ def test_deleting_an_array_parameter_sets_it_empty():
         result = node.set_parameters([Parameter('max_velocity')])[0]
         assert result.successful, result.reason
         assert node.parameters.config.max_velocity == (pe.MAX_VELOCITY[0],) * 3
+
+
+def test_values_the_mode_ignores_are_warned_of_at_start_and_when_set(capfd):
+    with LocalRos() as ros:
+        node = ros.add(ArmSimNode(context=ros.context, cli_args=[
+            '--ros-args', '-p', 'kp:=[1.0, 2.0, 3.0]', '-p', 'publish_rate:=20.0']))
+        err = capfd.readouterr().err
+        assert 'kp = (1.0, 2.0, 3.0) has no effect: simulation is kinematic' in err, err
+        assert 'publish_rate' not in err  # used in every mode
+        assert node.set_parameters([Parameter('gravity', value=False)])[0].successful
+        err = capfd.readouterr().err
+        assert 'gravity = False has no effect' in err and 'kp =' not in err, err
+        # Dynamic: both are used; nothing more is said.
+        assert node.set_parameters([Parameter('simulation', value='dynamic')])[0].successful
+        assert 'has no effect' not in capfd.readouterr().err
+        planner = _planner(ros, ['-p', 'output:=knots', '-p', 'sample_period:=0.002'])
+        assert planner.parameters.config.output == 'knots'
+        assert 'sample_period = 0.002 has no effect: output is knots' in capfd.readouterr().err
