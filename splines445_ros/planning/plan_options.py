@@ -380,7 +380,8 @@ class PlanOptions:
                                      np.array(max_acceleration, dtype=float),
                                      np.full(n_joints, np.inf) if max_jerk is None
                                      else np.array(max_jerk, dtype=float))
-            check_boundary_feasible(limits, *boundary)
+            names = None if joint_names is None or len(joint_names) != n_joints else joint_names
+            check_boundary_feasible(limits, *boundary, names)
             low = high = None
             if min_position is not None or max_position is not None:
                 low = position_limit_vector('min_position', min_position, n_joints, -np.inf)

@@ -5,6 +5,7 @@ from hypothesis import given, settings, strategies as st
 import numpy as np
 import pytest
 from splines445_ros.planning import plan
+from splines445_ros.planning.plan_options import PlanOptions
 
 W = np.array([[0.0, 0.0], [1.0, 0.5], [2.0, -0.5], [2.5, 0.0]])
 LIM = {'max_velocity': [1.0, 1.0], 'max_acceleration': [2.0, 2.0]}
@@ -112,6 +113,11 @@ def test_a_boundary_value_a_hair_past_its_limit_is_refused_and_on_it_is_planned(
         past = on * np.array([1.0 + 1e-9, 1.0 - 1e-9])
         with pytest.raises(ValueError, match=rf'infeasible: \|{name}\[0\]\| = .* of joint 0$'):
             plan(W, '445', timing, durations=durations, **limits, **{name: past})
+        # The nodes' path names the joint too (helper-62: it said "joint 0" alone).
+        boundary = [on * (1.0 + 1e-9) if b == name else None for b in BOUNDARY_NAMES]
+        with pytest.raises(ValueError, match=rf'\|{name}\[0\]\| = .* of joint 0 \(elbow\)$'):
+            PlanOptions.from_validated(2, '445', timing, *limits.values(), boundary=boundary,
+                                       joint_names=('elbow', 'wrist'))
     traj = plan(W, '445', 'fixed', durations=[1.0, 1.0, 1.0], **limits, **{name: on})
     derivative = 1 if name.endswith('velocity') else 2
     time = 0.0 if name.startswith('start') else traj.duration

@@ -84,8 +84,13 @@ def binding_limit(ratios):
 
 
 def check_boundary_feasible(limits, start_velocity, start_acceleration,
-                            end_velocity, end_acceleration):
-    """Raise ValueError when a boundary value is above its joint's limit (infeasible)."""
+                            end_velocity, end_acceleration, joint_names=None):
+    """
+    Raise ValueError when a boundary value is above its joint's limit (infeasible).
+
+    The error names the joint by its index, and by its name from
+    ``joint_names`` when given (as ``planner.joint_label`` does).
+    """
     for name, value, bound in (
             ('start_velocity', start_velocity, limits.velocity),
             ('start_acceleration', start_acceleration, limits.acceleration),
@@ -94,5 +99,6 @@ def check_boundary_feasible(limits, start_velocity, start_acceleration,
         over = np.abs(value) > bound
         if np.any(over):
             i = int(np.argwhere(over)[0][0])
+            label = f'joint {i}' if joint_names is None else f'joint {i} ({joint_names[i]})'
             raise ValueError(f'infeasible: |{name}[{i}]| = {abs(value[i])} exceeds the '
-                             f'limit {bound[i]} of joint {i}')
+                             f'limit {bound[i]} of {label}')
