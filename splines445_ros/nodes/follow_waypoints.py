@@ -156,13 +156,21 @@ class FollowWaypointsServer:
                 self._run = None
 
     def _failed(self, run):
-        """Let the goal that ``run`` (no plan found) was to preempt run on, as the latest."""
-        previous = run.previous
+        """
+        Take ``run`` (no plan found) out of the chain of goals: the one it was to preempt runs on.
+
+        A goal accepted after it preempts that one instead, as the latest
+        (goals A, B, C back to back with B failing: A's end was reported as
+        replaced by a topic request, helper-72).
+        """
+        previous, successor = run.previous, run.successor
         if previous is not None and previous.successor is run:
-            previous.successor = None
+            previous.successor = successor
+        if successor is not None and successor.previous is run:
+            successor.previous = previous
         if self._run is run:
             self._run = previous
-        run.previous = None
+        run.previous = run.successor = None
 
     async def _follow(self, run, outcome):
         """Publish feedback until the arm settles at the end; return the result."""
@@ -217,6 +225,11 @@ class FollowWaypointsServer:
             rest = np.asarray(stop.msg.points[-1].positions, dtype=float)
         while True:
             await self._tick()
+            if run.preempted:
+                # A newer goal's plan took over from the stop: the arm follows it, not
+                # the stop's end (it was compared with that end, and WARNed of).
+                return self._end(run, run.handle.canceled, f'canceled: {stop.message}; a '
+                                 'newer goal took over before the stop ended', names, rest)
             now_ns = _now_then(node, shift)
             if now_ns < end_ns:
                 continue

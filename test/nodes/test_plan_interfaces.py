@@ -667,6 +667,51 @@ def test_a_new_goal_that_fails_to_plan_leaves_the_running_one_running(system):
     assert result.status == GoalStatus.STATUS_CANCELED, result.result.message
 
 
+def test_a_goal_after_one_that_fails_preempts_the_running_one(system):
+    """A runs; B (fails to plan) and C sent back to back: A ends preempted by C (helper-72)."""
+    first = send_goal(system, LONG)
+    assert first.accepted
+    system.spin_for(1.0)
+    goals = []
+    for waypoints in (HUGE, np.array([[0.0, 0.0, 0.0], [0.3, 0.2, 0.1]])):
+        goal = FollowWaypoints.Goal()
+        goal.waypoints = waypoint_message(NAMES, waypoints)
+        goals.append(system.action_client.send_goal_async(goal))  # not spun in between
+    assert system.spin_until(lambda: all(g.done() for g in goals), 10.0)
+    failed, third = (g.result() for g in goals)
+    assert failed.accepted and third.accepted
+    assert result_of(system, failed).status == GoalStatus.STATUS_ABORTED
+    result = result_of(system, first)
+    assert result.status == GoalStatus.STATUS_ABORTED
+    # It said "replaced (a request on the waypoints topic)": nothing was sent there.
+    assert result.result.message == 'preempted by a newer goal', result.result.message
+    assert result_of(system, third).status == GoalStatus.STATUS_SUCCEEDED
+
+
+def test_a_goal_sent_while_a_cancel_brakes_ends_the_cancel_at_once(system):
+    """The cancelled goal ends CANCELED when the new one takes over, not 2 s later (helper-72)."""
+    first = send_goal(system, LONG)
+    assert first.accepted
+    system.spin_for(1.0)
+    start_ns = system.client.get_clock().now().nanoseconds
+    cancel = first.cancel_goal_async()
+    assert system.spin_until(cancel.done, 5.0)
+    system.spin_for(0.1)  # braking: its stop lasts a few tenths of a second
+    second = send_goal(system, np.array([[0.0, 0.0, 0.0], [0.3, 0.2, 0.1]]))
+    assert second.accepted
+    result = result_of(system, first)
+    ended_ns = system.client.get_clock().now().nanoseconds
+    assert result.status == GoalStatus.STATUS_CANCELED
+    # It waited for the stop's end, then compared the arm, by then following the new
+    # goal, with it: "did not settle within goal_time_tolerance", 2.8 s after the cancel.
+    assert 'a newer goal took over before the stop ended' in result.result.message
+    assert 'did not settle' not in result.result.message
+    assert ended_ns - start_ns < 1.5e9
+    assert result_of(system, second).status == GoalStatus.STATUS_SUCCEEDED
+    times, positions, velocities = states_between(system, start_ns - int(0.2e9))
+    assert_no_jump(times, positions, velocities)
+
+
 def test_a_tool_goal_is_refused_while_a_topic_trajectory_runs(system):
     """It plans from rest: accepted while the arm moved, it jumped 42 rad/s (helper-36)."""
     n = len(system.arm_status)
