@@ -123,6 +123,13 @@ def offered_qos_profiles(qos):
     return yaml.safe_dump([profile], sort_keys=False, default_flow_style=False)
 
 
+# Messages are written to the file a chunk at a time: mcap's default 1 MiB held a whole
+# demo's recording in memory, so a process killed (SIGKILL) left an empty file; with 64
+# KiB every chunk but the last is on disk (``mcap recover`` reads them), for 1-2 % more
+# file (the chunks' indexes).
+CHUNK_BYTES = 64 * 1024
+
+
 class McapRecording:
     """Record ``topics`` [(name, message class, QoS)] seen by ``node`` to ``path``."""
 
@@ -147,7 +154,7 @@ class McapRecording:
     def _start(self, topics):
         """Write the header, the schemas and the channels; subscribe to ``topics``."""
         node = self._node
-        self._writer = Writer(self._handle)
+        self._writer = Writer(self._handle, chunk_size=CHUNK_BYTES)
         self._writer.start(profile='ros2', library='splines445_ros')
         self._last_ns = 0
         self.counts = {}

@@ -1,7 +1,12 @@
 """The demos' main(): an exit code with the reason, never a traceback, at any stage."""
 
+import os
+import signal
+import time
+
 import pytest
 from splines445_ros.tools import demo, robot_seam_demo, tool_path_demo
+from splines445_ros.tools.command_line import run_main
 
 
 @pytest.mark.parametrize('tool', [demo, tool_path_demo, robot_seam_demo],
@@ -24,3 +29,20 @@ def test_ctrl_c_at_a_late_stage_of_the_demo_exits_130(tmp_path, monkeypatch):
     assert demo.main(['--out', str(tmp_path / 'out')]) == 130
     monkeypatch.setattr(robot_seam_demo, 'run_robot_seam_demo', interrupted)
     assert robot_seam_demo.main(['--out', str(tmp_path / 'out')]) == 130
+
+
+def test_sigterm_exits_143_after_the_clean_up_and_the_handler_is_restored():
+    cleaned = []
+
+    def body():
+        try:
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(10.0)    # the handler raises in here
+            return 0
+        finally:
+            cleaned.append('finally')
+
+    before = signal.getsignal(signal.SIGTERM)
+    assert run_main('tool', body) == 143
+    assert cleaned == ['finally']
+    assert signal.getsignal(signal.SIGTERM) is before
