@@ -125,6 +125,17 @@ def planned_path_markers(path, waypoints, frame_id, stamp=None):
     return MarkerArray(markers=[clear, line, spheres])
 
 
+def cleared_markers():
+    """
+    Return the MarkerArray of a plan with no tool path: a DELETEALL alone.
+
+    The latched markers of an earlier plan would otherwise stay in RViz,
+    and be handed to any RViz started later, after ``kinematics`` became
+    "" or a plan's markers could not be drawn (helper-72).
+    """
+    return MarkerArray(markers=[_marker('', None, action=Marker.DELETEALL)])
+
+
 def _marker(frame_id, stamp, **fields):
     """Return a Marker with ``fields``, the header and an identity orientation."""
     marker = Marker(**fields)

@@ -56,7 +56,8 @@ from .diagnostics import format_vector, status_message
 from .follow_waypoints import FollowWaypointsServer
 from .node_main import run_node
 from .parameters import ConfigParameters
-from .planned_path import planned_path_markers, tool_path_points, tool_position_function
+from .planned_path import (cleared_markers, planned_path_markers, tool_path_points,
+                           tool_position_function)
 from .ros_conversions import (hold_message, lasting_at_rest, parse_tool_request,
                               parse_waypoint_request, plan_response, trajectory_to_msg)
 from ..robot.robot_model import check_description_file, MAX_DESCRIPTION_CHARS
@@ -235,6 +236,7 @@ class PlannerNode(Node):
         self._clock_jumps = follow_clock_jumps(self, self._on_clock_jump)
         self._worker = threading.Thread(target=self._work, name='planner', daemon=True)
         self._worker.start()
+        self._markers_shown = False     # the latched markers draw a plan
         self.planned_path_publisher = self.create_publisher(
             MarkerArray, topics.PLANNED_PATH, topics.LATCHED)
         self.create_service(Plan, PLAN_SERVICE, self._on_plan, qos_profile=topics.PLAN_QOS)
@@ -735,20 +737,32 @@ class PlannerNode(Node):
                            start_ns if job.publish else None)
 
     def _publish_planned_path(self, traj, config, robot):
-        """Publish the plan's tool path on ``~/planned_path`` (none without a tool)."""
+        """
+        Publish the plan's tool path on ``~/planned_path``.
+
+        Without a tool (or when it cannot be drawn) the markers of an earlier
+        plan, if any are shown, are cleared: they are not the latest plan's.
+        """
         tool = tool_position_function(config, robot)
-        if tool is None:
+        markers = None
+        if tool is not None:
+            forward, frame_id = tool
+            try:
+                path, waypoints = tool_path_points(traj, forward)
+            except (ValueError, ArithmeticError) as exc:  # the plan stands without them
+                self.get_logger().warning(f'planned_path: no markers: {exc}')
+            else:
+                # Stamped 0, RViz's "latest transform": the markers are latched, and an
+                # RViz started later would look the frame up at their publish time, which
+                # may have left its transform buffer.  The frame is fixed to the base.
+                markers = planned_path_markers(path, waypoints, frame_id)
+        if markers is None:
+            if self._markers_shown:
+                self.planned_path_publisher.publish(cleared_markers())
+                self._markers_shown = False
             return
-        forward, frame_id = tool
-        try:
-            path, waypoints = tool_path_points(traj, forward)
-        except (ValueError, ArithmeticError) as exc:  # the plan stands without its markers
-            self.get_logger().warning(f'planned_path: no markers: {exc}')
-            return
-        # Stamped 0, RViz's "latest transform": the markers are latched, and an
-        # RViz started later would look the frame up at their publish time, which
-        # may have left its transform buffer.  The frame is fixed to the base.
-        self.planned_path_publisher.publish(planned_path_markers(path, waypoints, frame_id))
+        self.planned_path_publisher.publish(markers)
+        self._markers_shown = True
 
     def _rejected(self, message, values):
         """Report a rejected request on ``~/status``; return its PlanOutcome."""

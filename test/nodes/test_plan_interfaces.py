@@ -868,6 +868,13 @@ def test_markers_follow_every_plan(system):
     first = system.markers[-1].markers[1].points[0]
     assert (first.x, first.y) == pytest.approx(planar_tool(W[-1]), abs=1e-9)
     assert status_values(system.planner_status[-1])['request']
+    # A plan with no tool to draw clears them, once: they stayed latched (helper-72).
+    assert system.set_planner_parameters({'kinematics': ''})[0].successful
+    for cleared in ([[Marker.DELETEALL]], []):
+        n = len(system.markers)
+        assert call(system, plan_request()).success
+        system.spin_for(0.3)
+        assert [[m.action for m in array.markers] for array in system.markers[n:]] == cleared
 
 
 def test_a_stop_that_fails_unexpectedly_leaves_the_node_serving(system, monkeypatch):
