@@ -5,8 +5,11 @@ The UR5 and the Franka Panda from example-robot-data's URDFs (see
 splines445_ros.tools.robot_seam_demo): deviation before and after (the
 refinement's maxima and an independent 1 kHz sampling through forward
 kinematics), inserted waypoints, durations and planning time (median of 5
-runs for uniform timing).  Target: 555 uniform on the UR5 seam within 200 ms.
-Exits 1 when a run misses the tolerance.
+runs for uniform timing).  The demo's seam, a fixed case: the tables show
+what ``make demo`` plans, not a target.  The targets (planning within 200
+ms, durations, tolerances) are ``bench_tool_lines.py``'s, on fresh random
+seams of every 6-7-joint arm of example-robot-data.  Exits 1 when a run
+misses the tolerance.
 """
 
 import os
@@ -33,7 +36,7 @@ def main():
                 print(f"NOT WITHIN TOLERANCE: {robot} {run['method']} {run['timing']}")
         uniform = next(r for r in runs if (r['method'], r['timing']) == ('555', 'uniform'))
         print(f"{robot} 555 uniform planning time: {1e3 * uniform['planning_time']:.1f} ms "
-              '(target 200 ms)')
+              "(the demo's seam; bench_tool_lines.py checks 200 ms on random seams)")
         print()
     return 1 if failed else 0
 

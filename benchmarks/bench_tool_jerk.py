@@ -51,7 +51,6 @@ from splines445_ros.tools import robot_seam_demo as rsd  # noqa: E402
 
 JERK_FACTORS = (1.0, 2.0, 5.0, np.inf)   # inf: no jerk limit (time_optimal only)
 SEAMS = 2
-SEAMS_STREAM = 41
 
 
 class TimedPaths:
@@ -115,10 +114,10 @@ def seam_row(arm, poses, factor, timed):
 def main():
     """Plan every arm's seams at every jerk factor and print the table."""
     seed, count, arms = bench_arms.start_run(SEAMS)
-    rng = bench_seeds.generator(SEAMS_STREAM)
     timed = TimedPaths()
     tool_lines.plan_along_path = timed
-    print(f'{count} random seams per arm (seed {seed}, stream {SEAMS_STREAM}), no tool speed '
+    print(f'{count} random seams per arm (seed {seed}, stream: the CRC of the arm name, as '
+          'bench_tool_lines draws them), no tool speed '
           'limit; each over dense IK + TOPP-RA (v/a, no jerk); median / worst')
     print("| arm | j / arm's j | j / a | ours | TOPP-RA along our path | v/a profile along "
           'our path | 4 Hz peak | time_optimal |')
@@ -126,7 +125,9 @@ def main():
     for arm in arms:
         ratio = float(np.median(np.asarray(arm.plan_limits()['max_jerk'], float)
                                 / np.asarray(arm.plan_limits()['max_acceleration'], float)))
-        seams = [poses for _, poses in lines.seams(arm, rng, count)]
+        # The arm's own stream: a seed repeats its seams whichever arms run with it.
+        own = bench_seeds.generator(arm.stream)
+        seams = [poses for _, poses in lines.seams(arm, own, count)]
         for factor in JERK_FACTORS:
             rows = []
             for poses in seams:

@@ -600,11 +600,16 @@ def row_name(row):
 
 
 def targets_table(rows):
-    """Return the Markdown table of the targets (met / checked, failing rows, range) and counts."""
+    """
+    Return the Markdown table of the targets (met / checked, failing rows, range) and counts.
+
+    Over the random seams only: the demo's fixed seams (UR5, Panda) are in
+    the tables above, but a target holds on data nothing was tuned on.
+    """
     lines = ['| target | met / checked | not met on | range over the rows |', '|---|---|---|---|']
     met = checked = 0
     for name, applies, value, test, fmt in TARGETS:
-        these = [r for r in rows if not r['failed'] and applies(r)]
+        these = [r for r in rows if not r['failed'] and r['seam'] != 'demo' and applies(r)]
         values = [value(r) for r in these]
         oks = [bool(test(x)) for x in values]
         met, checked = met + sum(oks), checked + len(oks)
@@ -679,7 +684,8 @@ def main():
     print(optimal_checks(every))
     print()
     table, met, checked = targets_table(every)
-    print("Issue 24's targets (ours; the rows named time_optimal: speed_profile='time_optimal'):")
+    print("Issue 24's targets on the random seams (ours; the rows named time_optimal: "
+          "speed_profile='time_optimal'):")
     print(table)
     print(f'{met} of {checked} met; run time {time.perf_counter() - started:.1f} s.')
     print()
