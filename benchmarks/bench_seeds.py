@@ -23,6 +23,8 @@ import numpy as np
 
 VARIABLE = 'SPLINES445_BENCH_SEED'
 CASES_VARIABLE = 'SPLINES445_BENCH_CASES'
+# The other variables that choose a run's cases (bench_arms reads the arms').
+CHOOSING = (CASES_VARIABLE, 'SPLINES445_BENCH_ARMS')
 SEED_BITS = 32
 _chosen = []
 
@@ -47,7 +49,12 @@ def run_seed():
     repository = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     script = (os.path.relpath(os.path.abspath(sys.argv[0]), repository)
               if sys.argv and sys.argv[0] else '')
-    print(f'Seed: {seed} ({origin}; repeat this run: {VARIABLE}={seed} python {script})')
+    # The settings that choose the cases too, when set: the command repeats this run.
+    chosen = ''.join(f'{name}={os.environ[name].strip()} ' for name in CHOOSING
+                     if os.environ.get(name, '').strip())
+    arguments = ''.join(f' {a}' for a in sys.argv[1:])
+    print(f'Seed: {seed} ({origin}; repeat this run: {VARIABLE}={seed} {chosen}python '
+          f'{script}{arguments})')
     sys.stdout.flush()
     return seed
 
