@@ -20,8 +20,14 @@ INTERRUPTED = 130
 TERMINATED = 143
 
 
-class Terminated(Exception):
-    """Raised in the main thread by SIGTERM, so that every clean-up on the way out runs."""
+class Terminated(BaseException):
+    """
+    Raised in the main thread by SIGTERM, so that every clean-up on the way out runs.
+
+    A BaseException, as KeyboardInterrupt is: the in-process nodes' callbacks
+    run in the main thread, and their ``except Exception`` (an error kept
+    from the executor) would swallow it (helper-73).
+    """
 
 
 def _terminate(signum, frame):
@@ -43,4 +49,5 @@ def run_main(name, body):
         return 1
     finally:
         if main_thread:
-            signal.signal(signal.SIGTERM, previous)
+            # (None: a handler installed from C, which cannot be put back: the default.)
+            signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)

@@ -36,8 +36,11 @@ def test_sigterm_exits_143_after_the_clean_up_and_the_handler_is_restored():
 
     def body():
         try:
-            os.kill(os.getpid(), signal.SIGTERM)
-            time.sleep(10.0)    # the handler raises in here
+            try:
+                os.kill(os.getpid(), signal.SIGTERM)
+                time.sleep(10.0)    # the handler raises in here
+            except Exception:   # noqa: B902 - as a node's callback keeps errors from the executor
+                return 0
             return 0
         finally:
             cleaned.append('finally')
