@@ -62,6 +62,8 @@ VIBRATION_FREQUENCY = 4.0
 OPTIMAL_JERK_RATIOS = (None, 20.0)
 # Random streams of the run's seed (bench_seeds.generator).
 CASES_STREAM, LARGE_STREAM, SMALL_STREAM = 0, 1, 2
+# The 4 Hz shaking peak's place in a row of bench_figures.NAMES.
+PEAK_4HZ = [name for name, _ in bench_figures.NAMES].index('shaking 4 Hz peak')
 # Rounds of a plan and TOPP-RA in turn, best of each (wall_time.timed_against).
 REPEATS = 3
 
@@ -158,7 +160,8 @@ def main():
     rng = bench_seeds.generator(CASES_STREAM)
     print(f'{n_cases} random requests (seed {seed}, stream {CASES_STREAM}): 555 optimal / '
           f'TOPP-RA, inner_knots=0 -> inner_knots={name} (planning time / TOPP-RA planning '
-          f'time), and inner_knots={name} / TOPP-RA along our own path')
+          f"time; 4 Hz shaking peak / TOPP-RA's), and inner_knots={name} / TOPP-RA along our "
+          'own path')
     print('| case | N x n | TOPP-RA [s] (planning [s]) | LB / TOPP-RA | '
           + ' | '.join(label(r) for r in JERK_RATIOS) + ' |')
     print(bench_figures.rule(4 + len(JERK_RATIOS)))
@@ -204,8 +207,9 @@ def main():
                 rows[row].append(plan_figures(traj, elapsed, t_top, case))
                 held[row] &= traj.within_limits(rtol=1e-9)
             before, after = rows[plans[0][0]][-1], rows[plans[1][0]][-1]
-            cells.append(f'{before[0]:.3f} ({before[-1]:.2f}) -> {after[0]:.3f} '
-                         f'({after[-1]:.2f}), own path {after[1]:.3f}')
+            cells.append(f'{before[0]:.3f} ({before[-1]:.2f}; {before[PEAK_4HZ]:.2f}) -> '
+                         f'{after[0]:.3f} ({after[-1]:.2f}; {after[PEAK_4HZ]:.2f}), own path '
+                         f'{after[1]:.3f}')
         print(f'| {index} | {len(waypoints)} x {waypoints.shape[1]} | {case.d_top:.2f} '
               f'({min(case.t_tops):.3f}) | {bounds[-1]:.3f} | ' + ' | '.join(cells) + ' |')
         sys.stdout.flush()
@@ -275,8 +279,9 @@ def small_requests(inner):
           f'per request the best of '
           f'{SMALL_REPEATS} calls of each planner, alternating; {SMALL_CASES} requests per size):')
     print('| N x n | TOPP-RA [ms] | 555 optimal [ms] | planning / TOPP-RA: median / worst '
-          '| duration / TOPP-RA: median / worst | plans with inner knots |')
-    print('|---|---|---|---|---|---|')
+          '| duration / TOPP-RA: median / worst | 4 Hz shaking peak / TOPP-RA: median / worst '
+          '| plans with inner knots |')
+    print('|---|---|---|---|---|---|---|')
     rng = bench_seeds.generator(SMALL_STREAM)
     for n_points, n_joints in SMALL_SIZES:
         rows = []
@@ -290,12 +295,15 @@ def small_requests(inner):
                 lambda: plan(waypoints, '555', 'optimal', inner_knots=inner, **kwargs),
                 SMALL_REPEATS)
             with_knots += traj.optimizer.get('inner_knots', 0) > 0
-            rows.append((best_top, best_ours, traj.duration / top.duration))
+            reference = shaking_figures(of_toppra(top), top.duration, amax)
+            rows.append((best_top, best_ours, traj.duration / top.duration,
+                         shaking_ratios(traj, reference, amax)[0]))
         rows = np.array(rows)
         ratio = rows[:, 1] / rows[:, 0]
         print(f'| {n_points} x {n_joints} | {1e3 * np.median(rows[:, 0]):.1f} '
               f'| {1e3 * np.median(rows[:, 1]):.1f} | {np.median(ratio):.2f} / {ratio.max():.2f} '
               f'| {np.median(rows[:, 2]):.3f} / {np.max(rows[:, 2]):.3f} '
+              f'| {np.median(rows[:, 3]):.2f} / {np.max(rows[:, 3]):.2f} '
               f'| {with_knots}/{SMALL_CASES} |')
         sys.stdout.flush()
 
