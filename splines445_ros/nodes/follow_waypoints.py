@@ -59,6 +59,7 @@ class _Run:
     def __init__(self, handle, previous=None):
         self.handle = handle
         self.preempted = False
+        self.ended = False      # its execution has returned
         # The goal this one preempts once its plan is on the arm, and the one that
         # will preempt this one (accepted, still planning).
         self.previous, self.successor = previous, None
@@ -152,6 +153,7 @@ class FollowWaypointsServer:
                 return self._end(run, handle.abort, 'preempted by a newer goal')
             return await self._follow(run, outcome)
         finally:
+            run.ended = True
             if self._run is run:
                 self._run = None
 
@@ -169,7 +171,9 @@ class FollowWaypointsServer:
         if successor is not None and successor.previous is run:
             successor.previous = previous
         if self._run is run:
-            self._run = previous
+            # The latest goal again, if it still runs (it may have ended while this one
+            # planned: then none runs, and a tool goal is not refused as if one did).
+            self._run = previous if previous is not None and not previous.ended else None
         run.previous = run.successor = None
 
     async def _follow(self, run, outcome):
@@ -185,12 +189,18 @@ class FollowWaypointsServer:
             replaced = node.active_trajectory() is not traj
             if run.preempted or (replaced and run.successor is not None):
                 # (A successor's plan can reach the arm a tick before it says so.)
+                if handle.is_cancel_requested:
+                    return self._end(run, handle.canceled, 'canceled: a newer goal took '
+                                     'over', names, final)
                 return self._end(run, handle.abort, 'preempted by a newer goal', names,
                                  final)
             if replaced:
                 return self._end(run, handle.abort, 'the trajectory on the arm was replaced '
                                  '(a request on the waypoints topic)', names, final)
-            if handle.is_cancel_requested:
+            if handle.is_cancel_requested and run.successor is None:
+                # With a newer goal still planning, its plan takes over (above), or it
+                # fails and leaves none: a stop queued now would be planned after it, from
+                # its trajectory, and brake the newer goal (helper-73).
                 return await self._stop(run, names, final)
             t = 1e-9 * (_now_then(node, shift) - start_ns)
             measured = node.measured_state(names)

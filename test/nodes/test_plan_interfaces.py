@@ -11,6 +11,7 @@ kinematics written out in the test.
 import math
 import os
 import re
+import threading
 import time
 
 from action_msgs.msg import GoalStatus
@@ -710,6 +711,71 @@ def test_a_goal_sent_while_a_cancel_brakes_ends_the_cancel_at_once(system):
     assert result_of(system, second).status == GoalStatus.STATUS_SUCCEEDED
     times, positions, velocities = states_between(system, start_ns - int(0.2e9))
     assert_no_jump(times, positions, velocities)
+
+
+class HeldPlanning:
+    """A planner's ``_serve`` (each job the worker plans) held until ``release`` is set."""
+
+    def __init__(self, real):
+        self.real, self.release, self.entered = real, threading.Event(), threading.Event()
+
+    def __call__(self, *args, **kwargs):
+        self.entered.set()
+        assert self.release.wait(10.0)
+        return self.real(*args, **kwargs)
+
+
+def test_a_cancel_while_a_newer_goal_plans_does_not_brake_the_newer_one(system, monkeypatch):
+    """B is cancelled while C plans: C takes over and B ends canceled (helper-73)."""
+    first = send_goal(system, LONG)
+    assert first.accepted
+    system.spin_for(1.0)
+    held = HeldPlanning(system.planner._serve)
+    monkeypatch.setattr(system.planner, '_serve', held)
+    end = np.array([0.3, 0.2, 0.1])
+    newer = send_goal(system, np.array([[0.0, 0.0, 0.0], end]))
+    assert newer.accepted and system.spin_until(held.entered.is_set, 5.0)
+    cancel = first.cancel_goal_async()
+    assert system.spin_until(cancel.done, 5.0)
+    system.spin_for(0.3)    # ticks of the cancelled goal while the newer one plans
+    held.release.set()
+    result = result_of(system, first)
+    assert result.status == GoalStatus.STATUS_CANCELED, result.result.message
+    assert result.result.message == 'canceled: a newer goal took over'
+    # A stop queued behind the newer plan was planned from it and braked it part-way,
+    # and the newer goal ended 'replaced (a request on the waypoints topic)'.
+    newer_result = result_of(system, newer)
+    assert newer_result.status == GoalStatus.STATUS_SUCCEEDED, newer_result.result.message
+    assert at(system, end)
+
+
+def test_a_goal_that_fails_after_the_one_it_would_preempt_ended_leaves_none_running(
+        system, monkeypatch):
+    """A tool goal is then accepted: none was refused 'a trajectory is running' (helper-73)."""
+    short = np.array([[0.0, 0.0, 0.0], [0.05, 0.05, 0.05]])
+    first = send_goal(system, short)
+    assert first.accepted and system.spin_until(system.planner.trajectory_running, 5.0)
+    held = HeldPlanning(system.planner._serve)
+    monkeypatch.setattr(system.planner, '_serve', held)
+    failing = send_goal(system, HUGE)
+    assert failing.accepted and system.spin_until(held.entered.is_set, 5.0)
+    assert result_of(system, first).status == GoalStatus.STATUS_SUCCEEDED
+    held.release.set()
+    assert result_of(system, failing).status == GoalStatus.STATUS_ABORTED
+    assert not system.planner.trajectory_running()
+    q = np.array(system.joint_states[-1].position)
+    goal = FollowWaypoints.Goal()
+    goal.tool_waypoints.header.frame_id = 'base_link'
+    for dx in (0.0, -0.05):
+        pose = Pose()
+        (pose.position.x, pose.position.y), yaw = planar_tool(q), float(np.sum(q))
+        pose.position.x += dx
+        pose.orientation.z, pose.orientation.w = math.sin(yaw / 2), math.cos(yaw / 2)
+        goal.tool_waypoints.poses.append(pose)
+    sent = system.action_client.send_goal_async(goal)
+    assert system.spin_until(sent.done, 10.0)
+    assert sent.result().accepted, [s.message for s in system.planner_status[-2:]]
+    assert result_of(system, sent.result()).status == GoalStatus.STATUS_SUCCEEDED
 
 
 def test_a_tool_goal_is_refused_while_a_topic_trajectory_runs(system):
