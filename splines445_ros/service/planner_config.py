@@ -567,22 +567,16 @@ class PlannerConfig(ValidatedConfig):
 
     def unused(self):
         """
-        Values the current mode ignores (:meth:`ValidatedConfig.unused`).
+        Values no request could use in the current mode (:meth:`ValidatedConfig.unused`).
 
-        A goal's overrides may change ``output``, ``method`` or ``timing``, so
-        these are said, not refused (the tool limits, ``vibration_frequency``
-        and the model's values, which nothing could make hold, are refused).
+        Not ``sample_period`` with ``output: knots`` nor ``inner_knots``
+        outside 555 optimal: a goal's overrides may change ``output``,
+        ``method`` or ``timing``, and stops and holds last ``sample_period``
+        when it is above 1 s.  ``kinematics`` is the node's alone.
         """
         unused = self._unused_where(
-            ('sample_period',), self.output == 'knots',
-            'output is knots: one point per knot of the spline')
-        unused.update(self._unused_where(
-            ('inner_knots',), self.method != '555' or self.timing != 'optimal',
-            f'inner knots are placed by method 555 with timing optimal only (method '
-            f'{self.method}, timing {self.timing})'))
-        unused.update(self._unused_where(
             ('link_lengths',), self.kinematics != 'planar_3dof',
-            f"they are the planar_3dof arm's (kinematics {show(self.kinematics)})"))
+            f"they are the planar_3dof arm's (kinematics {show(self.kinematics)})")
         unused.update(self._unused_where(
             ('max_path_deviation', 'max_orientation_deviation', 'max_inserted_waypoints',
              'max_refinement_time'), not self.kinematics,

@@ -217,6 +217,7 @@ def test_values_the_mode_ignores_are_warned_of_at_start_and_when_set(capfd):
         # Dynamic: both are used; nothing more is said.
         assert node.set_parameters([Parameter('simulation', value='dynamic')])[0].successful
         assert 'has no effect' not in capfd.readouterr().err
-        planner = _planner(ros, ['-p', 'output:=knots', '-p', 'sample_period:=0.002'])
-        assert planner.parameters.config.output == 'knots'
-        assert 'sample_period = 0.002 has no effect: output is knots' in capfd.readouterr().err
+        planner = _planner(ros, ['-p', 'link_lengths:=[1.0, 0.8]'])
+        assert planner.parameters.config.kinematics == ''
+        assert ("link_lengths = (1.0, 0.8) has no effect: they are the planar_3dof arm's"
+                in capfd.readouterr().err)
