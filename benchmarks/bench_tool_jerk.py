@@ -119,8 +119,9 @@ def main():
     seed, count, arms = bench_arms.start_run(SEAMS)
     timed = TimedPaths()
     tool_lines.plan_along_path = timed
-    print(f'{count} random seams per arm (seed {seed}, stream: the CRC of the arm name, as '
-          'bench_tool_lines draws them), no tool speed '
+    print(f'{count} random seams per arm and the demo seam on the UR5 and Panda (seed '
+          f'{seed}, stream: the CRC of the arm name, as bench_tool_lines draws them), no tool '
+          'speed '
           'limit; each over dense IK + TOPP-RA (v/a, no jerk); median / worst')
     print("| arm | j / arm's j | j / a | ours | TOPP-RA along our path | v/a profile along "
           'our path | 4 Hz peak | time_optimal | its 4 Hz peak |')
