@@ -475,8 +475,9 @@ def slow_plan_warning(traj):
     if torque_binds(traj):
         return None  # the torque limits set the time, which the bound does not know
     return (f'the uniform plan lasts {traj.duration:.4g} s, {traj.duration / bound:.3g} times '
-            f'the lower bound {bound:.4g} s (sum over segments of max |dq| / v): timing '
-            '"optimal" would be far shorter; near-duplicate waypoints above '
+            f'the lower bound {bound:.4g} s (duration_lower_bound: segments at top speed, '
+            "resting joints' rest-to-rest moves): timing \"optimal\" would be far shorter; "
+            'near-duplicate waypoints above '
             'waypoint_tolerance cause this too')
 
 

@@ -338,15 +338,45 @@ class Trajectory:
 
     def duration_lower_bound(self):
         """
-        Return a simple lower bound of the duration: sum over segments of max_j |dq_j| / v_j.
+        Return a lower bound of the duration: no trajectory through the waypoints is shorter.
 
-        No trajectory through the same waypoints within the velocity limits
-        is shorter; None without limits.
+        Within the velocity and acceleration limits; None without limits.
+        The larger of two bounds:
+
+        * every segment at its slowest joint's top speed: sum over segments
+          of max_j |dq_j| / v_j;
+        * each joint at rest at both ends reaches its highest position, at
+          least its highest waypoint M, and its lowest, at most its lowest
+          m, at rest there (an extremum, or an end), in one order or the
+          other: at least the rest-to-rest v/a times from its start q_0 to
+          M, M to m and m to its end q_N, or the same through m first, the
+          shorter of the two (a joint's 1-3 moves; 2 sqrt(d / a) for a
+          move too short to reach v).  Short moves, whose time the
+          acceleration sets, are far above the first bound (helper-74: a
+          0.1 rad move took 24 times it).
         """
         if self.limits is None:
             return None
-        steps = np.abs(np.diff(self.waypoints, axis=0)) / self.limits.velocity[None, :]
-        return float(np.sum(np.max(steps, axis=1)))
+        v, a = self.limits.velocity, self.limits.acceleration
+        steps = np.abs(np.diff(self.waypoints, axis=0)) / v[None, :]
+        cruise = float(np.sum(np.max(steps, axis=1)))
+        resting = (self.start_velocity == 0.0) & (self.end_velocity == 0.0)
+        if not np.any(resting):
+            return cruise
+        first, last = self.waypoints[0], self.waypoints[-1]
+        high, low = self.waypoints.max(axis=0), self.waypoints.min(axis=0)
+
+        def rest_to_rest(d):
+            # |v| <= v, |a| <= a from rest to rest over d >= 0 (a bang-bang profile).
+            with np.errstate(divide='ignore', invalid='ignore'):
+                reach = v * v / a
+                return np.where(d >= reach, d / v + np.where(np.isfinite(a), v / a, 0.0),
+                                2.0 * np.sqrt(d / a))
+        spread = rest_to_rest(high - low)
+        high_first = rest_to_rest(high - first) + spread + rest_to_rest(last - low)
+        low_first = rest_to_rest(first - low) + spread + rest_to_rest(high - last)
+        joints = np.where(resting, np.minimum(high_first, low_first), 0.0)
+        return max(cruise, float(np.max(joints)))
 
     def limit_ratios(self):
         """Peak / limit per segment, joint and quantity (S, n, 3); needs limits."""
