@@ -11,6 +11,7 @@ field, or the same error text.
 """
 
 import math
+import re
 
 from example_counts import examples
 from hypothesis import given, settings, strategies as st
@@ -130,6 +131,14 @@ def _from_arguments(config, n, boundary, torque):
         inverse_dynamics=None if torque is None else torque.inverse_dynamics)
 
 
+def _named(text, names, width):
+    """plan()'s text of an infeasible boundary value, with the joint's name the node adds."""
+    found = re.search(r'of joint (\d+)$', text)
+    if found is None or len(names) != width:
+        return text
+    return f'{text} ({names[int(found.group(1))]})'
+
+
 @settings(max_examples=examples(150), deadline=None)
 @given(data=st.data())
 def test_node_options_are_plans_own(data):
@@ -147,7 +156,7 @@ def test_node_options_are_plans_own(data):
     theirs = _outcome(lambda: _from_arguments(config, width, boundary, torque))
     assert ours[0] == theirs[0], (ours, theirs)
     if ours[0] == 'error':
-        assert ours[1] == theirs[1]
+        assert ours[1] == _named(theirs[1], config.joint_names, width)
     else:
         _assert_same_options(ours[1], theirs[1])
 
@@ -163,6 +172,7 @@ def test_infeasible_boundary_is_refused_with_plans_text():
         plan_options(config, 2, boundary)
     with pytest.raises(ValueError) as theirs:
         _from_arguments(config, 2, boundary, None)
-    assert str(ours.value) == str(theirs.value)
+    assert str(ours.value) == _named(str(theirs.value), config.joint_names, 2)
+    assert str(ours.value).endswith('of joint 0 (a)')
     assert 'velocity' in str(ours.value)
     assert math.isfinite(config.max_velocity[0])
