@@ -186,6 +186,11 @@ class ArmSimNode(Node):
             stamp = Time.from_msg(msg.header.stamp).nanoseconds
         except ValueError as exc:
             message = f'trajectory rejected: {exc}'
+            if config.built_in and ('this node controls' in str(exc)
+                                    or str(exc).startswith('missing joints')):
+                # The planner given a robot and the arm not (helper-74).
+                message += ("; this is the built-in planar arm: set model_file (the robot's "
+                            'URDF or MJCF) to simulate a robot')
             self._error(message)
             return
         if self._frozen:

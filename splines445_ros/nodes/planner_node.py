@@ -678,6 +678,12 @@ class PlannerNode(Node):
                 values.update(details)
                 exc = text
             return self._rejected(f'request {request_id} rejected: {exc}', values)
+        # A topic request planned from its first waypoint (not replanned), before it
+        # is published and counts as running itself.
+        start_warning = (self._topic_start_warning(config, traj,
+                                                   self.get_clock().now().nanoseconds)
+                         if job.publish and not job.from_running and switch_ns is None
+                         else None)
         out = trajectory_to_msg(samples, config.joint_names)
         # The clock is read once the message is built (thousands of points take
         # milliseconds, far more on a loaded machine), just before it is published.
@@ -727,7 +733,7 @@ class PlannerNode(Node):
         if switch_delay > 0.0:
             delayed = (f'; switching {switch_delay:.3f} s after now + replan_lead_time, '
                        'since no plan met the limits from the state there')
-        warning = plan_warnings(traj)
+        warning = '; '.join(w for w in (start_warning, plan_warnings(traj)) if w) or None
         message = (f'request {request_id}: {traj.method}/{traj.timing} through '
                    f'{through} in {traj.duration:.4f} s{delayed}'
                    + ('' if warning is None else f'; WARNING: {warning}'))
@@ -936,16 +942,45 @@ class PlannerNode(Node):
 
     def _check_start(self, config, start, what, advice):
         """Raise ValueError when ``start`` is beyond goal_position_tolerance of joint_states."""
+        gap = self._start_gap(config, start, what)
+        if gap is not None:
+            raise ValueError(f'{gap}: the arm would jump; {advice}')
+
+    def _start_gap(self, config, start, what):
+        """
+        Say how far ``start`` is from joint_states, when beyond goal_position_tolerance; else None.
+
+        None too without joint_states of the planned joints (nothing to compare).
+        """
         measured = self.measured_state(config.joint_names)
         if measured is None:
-            return
+            return None
         gap = np.abs(np.asarray(start) - measured[0])
         j = int(np.argmax(gap))
-        if gap[j] > config.goal_position_tolerance:
-            raise ValueError(f"{what} {gap[j]:.4g} from the arm's position on "
-                             f'joint_states ({config.joint_names[j]}), more than '
-                             f'goal_position_tolerance ({config.goal_position_tolerance:g}): '
-                             f'the arm would jump; {advice}')
+        if gap[j] <= config.goal_position_tolerance:
+            return None
+        return (f"{what} {gap[j]:.4g} from the arm's position on joint_states "
+                f'({config.joint_names[j]}), more than goal_position_tolerance '
+                f'({config.goal_position_tolerance:g})')
+
+    def _topic_start_warning(self, config, traj, now_ns):
+        """
+        Warn of a topic request that starts away from the arm at rest, or None.
+
+        Planned and published as sent, as joint_trajectory_controller takes a
+        trajectory (a goal is refused instead: :meth:`_check_goal_start`):
+        the arm jumps to its first point, and the dynamic arm's torque
+        saturates on the way, which was all it said (helper-74: a UR5 swung
+        1.9 rad).
+        """
+        if self._running_at(now_ns):
+            return None     # it starts where the running one is at its stamp
+        gap = self._start_gap(config, traj.evaluate([0.0], 0)[0], 'it starts')
+        if gap is None:
+            return None
+        return (f'{gap}: the arm jumps there (joint_trajectory_controller would too); start '
+                'the waypoints where the arm is, set start_from_current_state, or send a '
+                'follow_waypoints goal, which refuses this')
 
     def _joint_state_start(self, config):
         """Position, velocity and zero acceleration from the latest joint_states."""

@@ -248,6 +248,9 @@ def test_arm_rejects_bad_trajectories_and_keeps_its_state(system):
         status = system.arm_status[n]
         assert status.level == DiagnosticStatus.ERROR and reason in status.message
         assert len(status.message) < 1000
+        # Another robot's joints: the built-in arm says what simulates one (helper-74).
+        assert ('set model_file' in status.message) == ('this node controls' in reason
+                                                        or 'unknown joints' in reason)
     n = len(system.joint_states)
     system.spin_until(lambda: len(system.joint_states) > n + 3, 5.0)
     np.testing.assert_array_equal(system.joint_states[-1].position, held)
@@ -319,3 +322,20 @@ def test_the_arm_counts_a_trajectorys_points_before_reading_them(monkeypatch):
         ros_conversions.sampled_trajectory_from_msg(msg, pe.JOINT_NAMES)
     monkeypatch.setattr(ros_conversions, 'MAX_TRAJECTORY_POINTS', 3)
     assert ros_conversions.sampled_trajectory_from_msg(msg, pe.JOINT_NAMES).times.size == 3
+
+
+def test_a_topic_request_away_from_the_arm_at_rest_is_played_with_a_warn(system):
+    """As joint_trajectory_controller plays it, but said (helper-74: a UR5 swung 1.9 rad)."""
+    assert system.spin_until(lambda: system.joint_states, 5.0)
+    away = W.copy()
+    away[0, 1] += 0.3
+    status, traj = system.request(waypoint_message(pe.JOINT_NAMES, away[:3]))
+    assert status.level == DiagnosticStatus.WARN, status.message
+    assert traj is not None     # published all the same
+    assert ("it starts 0.3 from the arm's position on joint_states (joint2), more than "
+            'goal_position_tolerance (0.01): the arm jumps there') in status.message
+    assert system.spin_until(lambda: np.allclose(system.joint_states[-1].position, away[2],
+                                                 atol=1e-9), 10.0)
+    # From where the arm is: no warning.
+    status, traj = system.request(waypoint_message(pe.JOINT_NAMES, away[2::-1]))
+    assert status.level == DiagnosticStatus.OK, status.message
