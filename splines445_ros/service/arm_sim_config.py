@@ -265,6 +265,8 @@ class ArmSimConfig(ValidatedConfig):
             ('link_lengths', 'gravity', 'link_masses', 'rotor_inertia', 'joint_damping',
              'joint_friction', 'joint_stiffness', 'spring_damping_ratio'), self.model_file,
             "model_file is set: the built-in arm's values are not used")
+        unused.update(self._unused_where(('tool_site',), bool(self.tool_frame),
+                                         f'tool_frame {show(self.tool_frame)} overrides it'))
         unused.update(self._unused_where(
             ('tool_site', 'physics_rate', 'gravity', 'link_masses', 'rotor_inertia',
              'joint_damping', 'joint_friction', 'joint_stiffness', 'spring_damping_ratio',

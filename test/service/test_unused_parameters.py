@@ -98,3 +98,10 @@ def test_the_planner_says_which_values_its_mode_ignores(name, value, used, ignor
 def test_values_a_goal_may_use_are_not_said_to_be_unused(name, value, mode):
     # A goal's overrides may set output sampled, or method 555 with timing optimal.
     assert PlannerConfig.from_values({**mode, name: value}).unused() == {}
+
+
+def test_a_tool_site_under_a_tool_frame_is_said_to_be_unused():
+    model = {'simulation': 'dynamic', 'model_file': 'arm.xml', 'tool_site': 'tool'}
+    assert ArmSimConfig.from_values(model).unused() == {}
+    both = ArmSimConfig.from_values({**model, 'tool_frame': 'tool0'}).unused()
+    assert both == {'tool_site': "tool_frame 'tool0' overrides it"}
