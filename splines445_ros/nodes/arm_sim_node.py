@@ -186,9 +186,9 @@ class ArmSimNode(Node):
             stamp = Time.from_msg(msg.header.stamp).nanoseconds
         except ValueError as exc:
             message = f'trajectory rejected: {exc}'
-            if config.built_in and ('this node controls' in str(exc)
-                                    or str(exc).startswith('missing joints')):
-                # The planner given a robot and the arm not (helper-74).
+            if config.built_in and 'this node controls' in str(exc):
+                # Joints it does not have: the planner given a robot and the arm not
+                # (helper-74).  (Not a joint of its own left out.)
                 message += ("; this is the built-in planar arm: set model_file (the robot's "
                             'URDF or MJCF) to simulate a robot')
             self._error(message)

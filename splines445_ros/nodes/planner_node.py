@@ -679,7 +679,7 @@ class PlannerNode(Node):
                 exc = text
             return self._rejected(f'request {request_id} rejected: {exc}', values)
         # A topic request planned from its first waypoint (not replanned), before it
-        # is published and counts as running itself.
+        # is published and becomes the trajectory others take over from.
         start_warning = (self._topic_start_warning(config, traj,
                                                    self.get_clock().now().nanoseconds)
                          if job.publish and not job.from_running and switch_ns is None
@@ -946,41 +946,59 @@ class PlannerNode(Node):
         if gap is not None:
             raise ValueError(f'{gap}: the arm would jump; {advice}')
 
-    def _start_gap(self, config, start, what):
+    def _start_gap(self, config, start, what, reference=None,
+                   where="the arm's position on joint_states"):
         """
-        Say how far ``start`` is from joint_states, when beyond goal_position_tolerance; else None.
+        Say how far ``start`` is from ``reference`` beyond goal_position_tolerance; else None.
 
-        None too without joint_states of the planned joints (nothing to compare).
+        ``reference``: the latest joint_states when None (``where`` says
+        which); None too without them for the planned joints (nothing to
+        compare).
         """
-        measured = self.measured_state(config.joint_names)
-        if measured is None:
-            return None
-        gap = np.abs(np.asarray(start) - measured[0])
+        if reference is None:
+            measured = self.measured_state(config.joint_names)
+            if measured is None:
+                return None
+            reference = measured[0]
+        gap = np.abs(np.asarray(start) - reference)
         j = int(np.argmax(gap))
         if gap[j] <= config.goal_position_tolerance:
             return None
-        return (f"{what} {gap[j]:.4g} from the arm's position on joint_states "
-                f'({config.joint_names[j]}), more than goal_position_tolerance '
-                f'({config.goal_position_tolerance:g})')
+        return (f'{what} {gap[j]:.4g} from {where} ({config.joint_names[j]}), more than '
+                f'goal_position_tolerance ({config.goal_position_tolerance:g})')
 
     def _topic_start_warning(self, config, traj, now_ns):
         """
-        Warn of a topic request that starts away from the arm at rest, or None.
+        Warn of a topic request whose start is away from where the arm will be; else None.
 
         Planned and published as sent, as joint_trajectory_controller takes a
         trajectory (a goal is refused instead: :meth:`_check_goal_start`):
-        the arm jumps to its first point, and the dynamic arm's torque
-        saturates on the way, which was all it said (helper-74: a UR5 swung
-        1.9 rad).
+        the arm jumps to its first point when it starts, ``start_delay``
+        from now, and the dynamic arm's torque saturates on the way, which
+        was all it said (helper-74: a UR5 swung 1.9 rad).  Where the arm
+        will be: on the trajectory it takes over from (running or ended
+        by then) while that one runs now, else at rest on ``joint_states``
+        (helper-75: a request sent while an earlier one waited or ran was
+        not checked).
         """
-        if self._running_at(now_ns):
-            return None     # it starts where the running one is at its stamp
-        gap = self._start_gap(config, traj.evaluate([0.0], 0)[0], 'it starts')
+        at_ns = now_ns + int(round(config.start_delay * 1e9))
+        start = traj.evaluate([0.0], 0)[0]
+        base = self._base(now_ns)
+        # One still running (or about to): the arm follows it until this one starts.
+        running = (None if base is None or at_ns < base.start_ns
+                   or now_ns >= base.start_ns + int(base.traj.duration * 1e9)
+                   else running_in_order(base.traj, base.names, config.joint_names))
+        if running is not None:
+            t = min(1e-9 * (at_ns - base.start_ns), running.duration)
+            gap = self._start_gap(config, start, 'it starts', running.evaluate([t], 0)[0],
+                                  'where the trajectory it replaces has the arm then')
+        else:
+            gap = self._start_gap(config, start, 'it starts')
         if gap is None:
             return None
-        return (f'{gap}: the arm jumps there (joint_trajectory_controller would too); start '
-                'the waypoints where the arm is, set start_from_current_state, or send a '
-                'follow_waypoints goal, which refuses this')
+        return (f'{gap}: the arm jumps there; start the waypoints where the arm is, set '
+                'start_from_current_state, or send a follow_waypoints goal, which refuses '
+                'this')
 
     def _joint_state_start(self, config):
         """Position, velocity and zero acceleration from the latest joint_states."""

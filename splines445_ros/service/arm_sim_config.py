@@ -259,7 +259,8 @@ class ArmSimConfig(ValidatedConfig):
         (physics, gains, torques, the built-in arm's masses, ``tool_site`` and
         ``tool_frame``, whose pose only the physics publishes for a model
         file) is ignored; with ``model_file``, so are the built-in arm's
-        links and physical values.
+        links and physical values, and ``tool_site`` under a ``tool_frame``,
+        which overrides it.
         """
         unused = self._unused_where(
             ('link_lengths', 'gravity', 'link_masses', 'rotor_inertia', 'joint_damping',

@@ -8,6 +8,7 @@ planning library's own trajectory (planned here with the node's parameters).
 import os
 
 from diagnostic_msgs.msg import DiagnosticStatus
+from node_status import assert_planned
 import numpy as np
 from rclpy.time import Time
 from splines445_ros.nodes.diagnostics import status_values
@@ -65,7 +66,7 @@ def test_knots_through_both_nodes():
         # The paper's example (445, the params file's jerk limit): 12 knots, played exactly.
         n_arm_status = len(system.arm_status)
         status, msg = system.request(waypoint_message(pe.JOINT_NAMES, W, *BOUNDARY))
-        assert status.level == DiagnosticStatus.OK, status.message
+        assert_planned(status)
         reference = plan(W, '445', 'uniform', max_velocity=pe.MAX_VELOCITY,
                          max_acceleration=pe.MAX_ACCELERATION, max_jerk=[200.0] * 3,
                          start_velocity=BOUNDARY[0], start_acceleration=BOUNDARY[1],
@@ -92,7 +93,7 @@ def test_knots_through_both_nodes():
         xy = pe.triangle_points()
         poses = np.column_stack([xy, np.zeros(len(xy))])
         status, msg = system.request(tool_waypoint_message(poses))
-        assert status.level == DiagnosticStatus.OK, status.message
+        assert_planned(status)
         tool_path = plan_tool_request(system.planner.parameters.config, poses)
         assert tool_path.inserted > 0
         assert_knots_of(msg, tool_path.trajectory)

@@ -169,7 +169,7 @@ def test_the_short_form_plans_and_drives_every_actuated_joint(urdf, limits_file,
                        lower + 0.2 * span, upper - 0.2 * span)
         n_arm = len(system.arm_status)
         status, msg = system.request(waypoint_message(joints, [start, goal]))
-        assert status.level == DiagnosticStatus.OK, status.message
+        assert_planned(status)
         assert tuple(msg.joint_names) == joints
         values = status_values(status)
         # Limits from the URDF (velocity) and the limits file (acceleration).

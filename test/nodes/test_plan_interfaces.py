@@ -18,6 +18,7 @@ from action_msgs.msg import GoalStatus
 from action_msgs.srv import CancelGoal
 from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import Pose
+from node_status import assert_planned
 import numpy as np
 import pytest
 from rclpy.action import ActionClient
@@ -287,11 +288,13 @@ def test_a_goal_reports_feedback_and_succeeds_once_the_arm_has_settled(system):
         assert list(f.joint_names) == list(NAMES)
         if t < expected.duration:
             assert t + rest == pytest.approx(expected.duration, abs=1e-6)
-    # Kinematic arm: it is where the plan says, within one joint_states period of motion.
-    # (The latest joint_states against the plan now: a lag at full speed; a stall of the
-    # one process these nodes share can lengthen one.)
+    # Kinematic arm: it is where the plan says at the joint_states' stamp, which the
+    # feedback compares (the arm plays the published 10 ms samples: 4e-5 rad here; against
+    # the plan now, the latest joint_states lagged up to a period of motion: median 0.01 rad,
+    # helper-76).  A stall of the one process these nodes share can leave one older than
+    # MAX_STATE_AGE, compared with the plan now.
     errors = [f.max_tracking_error for _, f in feedback if not math.isnan(f.max_tracking_error)]
-    assert errors and np.median(errors) <= V * 0.05 and max(errors) <= V * 0.5
+    assert errors and np.median(errors) <= 1e-3 and max(errors) <= V * 0.5, errors
     assert at(system, W[-1])  # settled within the goal tolerance: then at the very end
 
 
@@ -440,7 +443,7 @@ def test_a_goal_preempting_a_topic_trajectory_switches_without_a_jump(system):
     """A topic trajectory is stamped too: the planner and the arm agree on its start."""
     sent = system.client.get_clock().now().nanoseconds
     status, first = system.request(waypoint_message(NAMES, LONG))
-    assert status.level == DiagnosticStatus.OK, status.message
+    assert_planned(status)
     received = system.client.get_clock().now().nanoseconds
     delay = int(IN_PROCESS_START_DELAY * 1e9)
     assert sent + delay <= stamp_ns(first) <= received + delay  # not 0
@@ -469,7 +472,7 @@ def test_a_trajectory_starts_start_delay_after_it_is_published(system):
         sent = system.client.get_clock().now().nanoseconds
         status, msg = system.request(waypoint_message(NAMES, waypoints))
         received = system.client.get_clock().now().nanoseconds
-        assert status.level == DiagnosticStatus.OK, status.message
+        assert_planned(status)
         values = accepted_status(system, n)
         assert 'started_late_by' not in values
         if delay:
@@ -500,7 +503,7 @@ def test_a_slowly_built_message_is_still_stamped_ahead_of_its_arrival(system, mo
     assert system.set_planner_parameters({'start_delay': 0.4})[0].successful
     n = len(system.arm_status)
     status, msg = system.request(waypoint_message(NAMES, W))
-    assert status.level == DiagnosticStatus.OK, status.message
+    assert_planned(status)
     values = accepted_status(system, n)
     assert 'started_late_by' not in values, values
     assert int(values['start_ns']) == stamp_ns(msg)
@@ -589,13 +592,13 @@ def test_a_request_in_the_last_lead_time_starts_where_the_running_one_ends(syste
     assert system.spin_until(lambda: len(system.joint_states) > 2, 5.0)
     goal = np.array([[0.0, 0.0, 0.0], [1.5, -1.0, 1.0]])
     status, first = system.request(waypoint_message(NAMES, goal))
-    assert status.level == DiagnosticStatus.OK, status.message
+    assert_planned(status)
     end_ns = stamp_ns(first) + int(duration_to_seconds(first.points[-1].time_from_start) * 1e9)
     assert system.spin_until(
         lambda: system.client.get_clock().now().nanoseconds >= end_ns - int(0.25e9), 20.0)
     assert np.max(np.abs(system.joint_states[-1].velocity)) > 0.1   # on its way still
     status, second = system.request(waypoint_message(NAMES, W))
-    assert status.level == DiagnosticStatus.OK, status.message
+    assert_planned(status)
     np.testing.assert_allclose(second.points[0].positions, goal[-1], rtol=0, atol=1e-12)
     np.testing.assert_allclose(second.points[0].velocities, 0.0, rtol=0, atol=1e-12)
     system.spin_for(0.8 + duration_to_seconds(second.points[-1].time_from_start))
@@ -609,10 +612,10 @@ def test_two_requests_closer_than_the_lead_time_switch_without_a_jump(system):
     assert system.spin_until(lambda: len(system.joint_states) > 2, 5.0)
     start_ns = system.client.get_clock().now().nanoseconds
     status, first = system.request(waypoint_message(NAMES, LONG[:2]))
-    assert status.level == DiagnosticStatus.OK, status.message
+    assert_planned(status)
     system.spin_for(0.1)
     status, second = system.request(waypoint_message(NAMES, W[::-1]))
-    assert status.level == DiagnosticStatus.OK, status.message
+    assert_planned(status)
     assert stamp_ns(second) - stamp_ns(first) < 1.5e9
     # It starts where the arm is: at rest at its first position, as the first never ran.
     np.testing.assert_array_equal(second.points[0].positions, [0.0, 0.0, 0.0])
@@ -630,7 +633,7 @@ def test_a_request_planned_while_the_waiting_one_starts_is_refused(system, monke
                                           'replan_lead_time': 2.0})[0].successful
     assert system.spin_until(lambda: len(system.joint_states) > 2, 5.0)
     status, first = system.request(waypoint_message(NAMES, LONG[:2]))
-    assert status.level == DiagnosticStatus.OK, status.message
+    assert_planned(status)
     real = planner_node.plan_request
 
     def slow(*args, **kwargs):  # planning outlasts the first's wait for its stamp

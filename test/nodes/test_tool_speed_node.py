@@ -119,7 +119,7 @@ def test_a_planar_tool_request_keeps_the_tool_speed(system):
 def test_the_angular_speed_of_a_turning_tool(system):
     status, msg = request_with(system, 'max_tool_angular_speed', ANGULAR_SPEED, 0.0,
                                tool_waypoint_message(TURNING))
-    assert status.level == DiagnosticStatus.OK, status.message
+    assert_planned(status)
     values = status_values(status)
     assert float(values['max_tool_angular_speed_reached']) <= ANGULAR_SPEED * (1 + SPEED_RTOL)
     assert float(values['max_tool_speed_reached']) <= SPEED * (1 + SPEED_RTOL)
@@ -133,7 +133,7 @@ def test_the_tool_acceleration_is_held_and_reported(system):
     """max_tool_acceleration 1 m/s² on the triangle, whose corners ask ~10 m/s² without it."""
     status, msg = request_with(system, 'max_tool_acceleration', 1.0, 0.0,
                                tool_waypoint_message(TRIANGLE))
-    assert status.level == DiagnosticStatus.OK, status.message
+    assert_planned(status)
     values = status_values(status)
     assert values['tool_construction'] == 'tool lines'
     reached = float(values['max_tool_acceleration_reached'])
@@ -166,13 +166,13 @@ def test_other_constructions_report_no_speed_and_joint_requests_ignore_it(system
             {'timing': 'optimal', 'max_tool_speed': SPEED}))
         assert result.successful, result.reason
     values = status_values(status)
-    assert status.level == DiagnosticStatus.OK, status.message
+    assert_planned(status)
     assert values['tool_construction'] == 'refined'
     assert not {'max_tool_speed_reached', 'max_tool_angular_speed_reached',
                 'tool_speed_share'} & set(values)
     # A joint-space request has no tool path: planned as ever, no tool keys.
     status, msg = system.request(waypoint_message(pe.JOINT_NAMES, pe.joint_waypoints()))
-    assert status.level == DiagnosticStatus.OK, status.message
+    assert_planned(status)
     assert msg is not None and 'tool_construction' not in status_values(status)
 
 
@@ -233,7 +233,7 @@ def test_integers_as_typed_are_accepted_and_the_node_serves_after_refusals(syste
     assert status.level == DiagnosticStatus.ERROR and msg is None
     assert 'internal error' not in status.message
     status, msg = system.request(tool_waypoint_message(TRIANGLE[:4]))
-    assert status.level == DiagnosticStatus.OK, status.message
+    assert_planned(status)
     check_reported_speed(status_values(status), SPEED)
     assert planar_speeds(msg)[0].max() <= SPEED * (1 + SPEED_RTOL)
     # Switching method with the limit cleared at once is accepted.
