@@ -51,7 +51,8 @@ def main():
     quick = os.environ.get('SPLINES445_BENCH_QUICK') == '1'
     rng = bench_seeds.generator()
     keys = [f'{m} {t}' for m in METHODS for t in ('uniform', 'optimal')]
-    print('Optimal timing vs TOPP-RA: duration ratio to TOPP-RA (planning time [ms])')
+    print('Optimal timing vs TOPP-RA: duration ratio to TOPP-RA (planning time [ms]; 4 Hz '
+          "shaking peak / TOPP-RA's)")
     print('| case | N x n | TOPP-RA [s] (ms) | ' + ' | '.join(keys) + ' |')
     print('|' + '---|' * (3 + len(keys)))
     ratios = {key: [] for key in keys}
@@ -77,7 +78,7 @@ def main():
             ratios[key].append(ratio)
             held[key] &= limits_held(traj)
             shaking[key].append(shaking_ratios(traj, reference, amax))
-            cells.append(f'{ratio:.2f} ({1e3 * elapsed:.0f})')
+            cells.append(f'{ratio:.2f} ({1e3 * elapsed:.0f}; {shaking[key][-1][0]:.2f})')
         print(f'| {case} | {n_points} x {n_joints} | {d_top:.2f} ({1e3 * min(t_tops):.0f}) | '
               + ' | '.join(cells) + ' |')
         sys.stdout.flush()
