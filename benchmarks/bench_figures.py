@@ -21,6 +21,8 @@ NAMES = (('duration / TOPP-RA', '{:.3f}'),
 NAMES += tuple((f'shaking {f:g} Hz {kind}', '{:.2f}') for f in FREQUENCIES
                for kind in ('peak', 'residual'))
 NAMES += (('planning / TOPP-RA', '{:.2f}'),)
+# The 4 Hz shaking peak's place in a row of NAMES (printed beside a duration).
+PEAK_4HZ = [name for name, _ in NAMES].index('shaking 4 Hz peak')
 
 
 def figures(duration, own_duration, rival_duration, shaking, planning, rival_planning):

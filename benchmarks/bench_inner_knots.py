@@ -62,8 +62,6 @@ VIBRATION_FREQUENCY = 4.0
 OPTIMAL_JERK_RATIOS = (None, 20.0)
 # Random streams of the run's seed (bench_seeds.generator).
 CASES_STREAM, LARGE_STREAM, SMALL_STREAM = 0, 1, 2
-# The 4 Hz shaking peak's place in a row of bench_figures.NAMES.
-PEAK_4HZ = [name for name, _ in bench_figures.NAMES].index('shaking 4 Hz peak')
 # Rounds of a plan and TOPP-RA in turn, best of each (wall_time.timed_against).
 REPEATS = 3
 
@@ -207,8 +205,9 @@ def main():
                 rows[row].append(plan_figures(traj, elapsed, t_top, case))
                 held[row] &= traj.within_limits(rtol=1e-9)
             before, after = rows[plans[0][0]][-1], rows[plans[1][0]][-1]
-            cells.append(f'{before[0]:.3f} ({before[-1]:.2f}; {before[PEAK_4HZ]:.2f}) -> '
-                         f'{after[0]:.3f} ({after[-1]:.2f}; {after[PEAK_4HZ]:.2f}), own path '
+            peak = bench_figures.PEAK_4HZ
+            cells.append(f'{before[0]:.3f} ({before[-1]:.2f}; {before[peak]:.2f}) -> '
+                         f'{after[0]:.3f} ({after[-1]:.2f}; {after[peak]:.2f}), own path '
                          f'{after[1]:.3f}')
         print(f'| {index} | {len(waypoints)} x {waypoints.shape[1]} | {case.d_top:.2f} '
               f'({min(case.t_tops):.3f}) | {bounds[-1]:.3f} | ' + ' | '.join(cells) + ' |')

@@ -293,6 +293,7 @@ def run_case(points, vmax, tau_max, dynamics, n):
     row += [np.max(peak_torque(ours_samples(optimal), torques, tau_max))]
     line = (f'{typical:.1f} | {top.duration:.3f} | {fine.duration:.3f} | {own_duration:.3f} '
             f'| {traj.duration:.3f} | {figures[0]:.3f} | {figures[1]:.3f} '
+            f'| {figures[bench_figures.PEAK_4HZ]:.2f} '
             f'| {slow_duration:.3f} | {1e3 * t_top:.0f} | {1e3 * t_ours:.0f} '
             f'| {knots_only.duration:.3f} | {ours_peak:.4f} / {knots_peak:.4f} '
             f'| {top_peak:.3f} / {fine_peak:.3f} / {own_peak:.3f} '
@@ -355,12 +356,13 @@ def main():
     print()
     print('| arm | payload [kg] | case | N | constant a [rad/s^2] | TOPP-RA [s] '
           '| TOPP-RA Interpolation [s] | TOPP-RA along our path [s] | ours [s] '
-          '| ours / TOPP-RA | ours / TOPP-RA along our path | constant a [s] '
+          "| ours / TOPP-RA | ours / TOPP-RA along our path | ours 4 Hz peak / TOPP-RA's "
+          '| constant a [s] '
           '| TOPP-RA planning [ms] | ours planning [ms] | ours inner_knots=0 [s] '
           '| ours peak torque (default / inner_knots=0) '
           '| TOPP-RA peak torque (Collocation / Interpolation / along our path) '
           f'| ours v / a / j ratios | ours at (>= {BINDS:g}) |')
-    print(bench_figures.rule(19))
+    print(bench_figures.rule(20))
     summary = []
     for arm in arms:
         _, _, vmax, tau_max = joint_limits(arm.robot, arm.joints)
