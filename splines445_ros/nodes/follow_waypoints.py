@@ -51,9 +51,6 @@ CLOCK_GAP = 10.0
 # Period of the feedback and of the checks for cancel, preemption and the end [s].
 FEEDBACK_PERIOD = 0.05
 INTERFACE = 'follow_waypoints'
-# [s]: the feedback compares joint_states with the plan at their stamp when they are at
-# most this old (older, or stamped ahead: another clock, the plan now).
-MAX_STATE_AGE = 0.5
 
 
 class _Run:
@@ -207,10 +204,13 @@ class FollowWaypointsServer:
                 return await self._stop(run, names, final)
             t = 1e-9 * (_now_then(node, shift) - start_ns)
             measured = node.measured_state(names)
-            # The plan where joint_states were taken: at 50 Hz they are up to 20 ms old,
-            # and against the plan now the error was 20 times the arm's (helper-76).
+            # The plan at the joint_states' stamp: at 50 Hz they are up to 20 ms old, and
+            # against the plan now the error was 20 times the arm's (helper-76).  An arm
+            # plays the trajectory on its own clock, so a stamp a little ahead (clock skew)
+            # or long behind (lagging physics) is still the time to compare with; one
+            # from another clock (CLOCK_GAP) is not.
             age = -node.joint_state_clock_gap()
-            taken = t - age if 0.0 <= age <= MAX_STATE_AGE else t
+            taken = t - age if abs(age) <= CLOCK_GAP else t
             planned = traj.evaluate([min(max(taken, 0.0), end)], 0)[0]
             handle.publish_feedback(_feedback(t, end, names, measured, planned))
             if t < end:

@@ -291,11 +291,23 @@ def test_a_goal_reports_feedback_and_succeeds_once_the_arm_has_settled(system):
     # Kinematic arm: it is where the plan says at the joint_states' stamp, which the
     # feedback compares (the arm plays the published 10 ms samples: 4e-5 rad here; against
     # the plan now, the latest joint_states lagged up to a period of motion: median 0.01 rad,
-    # helper-76).  A stall of the one process these nodes share can leave one older than
-    # MAX_STATE_AGE, compared with the plan now.
+    # helper-76).
     errors = [f.max_tracking_error for _, f in feedback if not math.isnan(f.max_tracking_error)]
     assert errors and np.median(errors) <= 1e-3 and max(errors) <= V * 0.5, errors
     assert at(system, W[-1])  # settled within the goal tolerance: then at the very end
+
+
+def test_feedback_compares_an_arm_whose_clock_runs_ahead_at_its_stamps(system, monkeypatch):
+    """An arm 25 ms ahead (NTP skew) plays on its own clock: its stamps are when to compare."""
+    arm_now = system.arm._now_ns
+    monkeypatch.setattr(system.arm, '_now_ns', lambda: arm_now() + 25_000_000)
+    feedback = []
+    handle = send_goal(system, W, feedback)
+    assert handle.accepted
+    assert result_of(system, handle).status == GoalStatus.STATUS_SUCCEEDED
+    errors = [f.max_tracking_error for _, f in feedback if not math.isnan(f.max_tracking_error)]
+    # Stamps from the future were compared with the plan now: median 0.018 rad (helper-77).
+    assert errors and np.median(errors) <= 1e-3, errors
 
 
 def test_cancel_stops_the_arm_within_its_limits(system):
