@@ -4,7 +4,7 @@ from diagnostic_msgs.msg import DiagnosticStatus
 
 # How the planner's WARN of a topic request away from the arm begins and ends.
 STARTS = 'it starts '
-STARTS_AWAY = 'send a follow_waypoints goal, which refuses this'
+STARTS_AWAY = 'refuses a start away from the arm at rest)'
 
 
 def other_warning(status):

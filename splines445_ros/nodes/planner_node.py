@@ -678,12 +678,9 @@ class PlannerNode(Node):
                 values.update(details)
                 exc = text
             return self._rejected(f'request {request_id} rejected: {exc}', values)
-        # A topic request planned from its first waypoint (not replanned), before it
-        # is published and becomes the trajectory others take over from.
-        start_warning = (self._topic_start_warning(config, traj,
-                                                   self.get_clock().now().nanoseconds)
-                         if job.publish and not job.from_running and switch_ns is None
-                         else None)
+        # A topic request planned from its first waypoint (not replanned): its start is
+        # checked against where the arm is at its stamp, once the message is built.
+        from_first_waypoint = job.publish and not job.from_running and switch_ns is None
         out = trajectory_to_msg(samples, config.joint_names)
         # The clock is read once the message is built (thousands of points take
         # milliseconds, far more on a loaded machine), just before it is published.
@@ -696,6 +693,10 @@ class PlannerNode(Node):
             switch_ns = now_ns + int(round(config.start_delay * 1e9))
         if switch_ns is not None:
             out.header.stamp = Time(nanoseconds=switch_ns).to_msg()
+        # (At the stamp the message has, read after it was built: before, a slow build
+        # moved the comparison by its time, 0.25 s hid a 0.225 rad jump; helper-77.)
+        start_warning = (self._topic_start_warning(config, traj, now_ns, switch_ns or now_ns)
+                         if from_first_waypoint else None)
         if planned_from is not False and self._base(now_ns) is not planned_from:
             return self._rejected(
                 f'request {request_id} rejected: the trajectory waiting for its stamp '
@@ -967,21 +968,20 @@ class PlannerNode(Node):
         return (f'{what} {gap[j]:.4g} from {where} ({config.joint_names[j]}), more than '
                 f'goal_position_tolerance ({config.goal_position_tolerance:g})')
 
-    def _topic_start_warning(self, config, traj, now_ns):
+    def _topic_start_warning(self, config, traj, now_ns, at_ns):
         """
         Warn of a topic request whose start is away from where the arm will be; else None.
 
         Planned and published as sent, as joint_trajectory_controller takes a
         trajectory (a goal is refused instead: :meth:`_check_goal_start`):
-        the arm jumps to its first point when it starts, ``start_delay``
-        from now, and the dynamic arm's torque saturates on the way, which
+        the arm jumps to its first point when it starts, at ``at_ns`` (its
+        stamp), and the dynamic arm's torque saturates on the way, which
         was all it said (helper-74: a UR5 swung 1.9 rad).  Where the arm
         will be: on the trajectory it takes over from (running or ended
         by then) while that one runs now, else at rest on ``joint_states``
         (helper-75: a request sent while an earlier one waited or ran was
         not checked).
         """
-        at_ns = now_ns + int(round(config.start_delay * 1e9))
         start = traj.evaluate([0.0], 0)[0]
         base = self._base(now_ns)
         # One still running (or about to): the arm follows it until this one starts.
@@ -996,9 +996,9 @@ class PlannerNode(Node):
             gap = self._start_gap(config, start, 'it starts')
         if gap is None:
             return None
-        return (f'{gap}: the arm jumps there; start the waypoints where the arm is, set '
-                'start_from_current_state, or send a follow_waypoints goal, which refuses '
-                'this')
+        return (f'{gap}: the arm jumps there; start the waypoints where the arm will be, '
+                'or set start_from_current_state (a follow_waypoints goal starts from a '
+                'running trajectory, and refuses a start away from the arm at rest)')
 
     def _joint_state_start(self, config):
         """Position, velocity and zero acceleration from the latest joint_states."""

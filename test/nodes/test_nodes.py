@@ -1,12 +1,13 @@
 """Both nodes and a test client in one process: the paper's example and bad input."""
 
 import os
+import time
 
 from diagnostic_msgs.msg import DiagnosticStatus
 from node_status import assert_planned
 import numpy as np
 import pytest
-from splines445_ros.nodes import ros_conversions
+from splines445_ros.nodes import planner_node, ros_conversions
 from splines445_ros.nodes.diagnostics import status_values
 from splines445_ros.nodes.ros_conversions import duration_to_seconds, sampled_trajectory_from_msg
 from splines445_ros.planning import plan
@@ -346,5 +347,30 @@ def test_a_topic_request_away_from_the_arm_at_rest_is_played_with_a_warn(system)
         lambda: np.max(np.abs(np.array(system.joint_states[-1].position) - away[2])) > 0.1,
         10.0)
     status, traj = system.request(waypoint_message(pe.JOINT_NAMES, away[2::-1]))
+    assert status.level == DiagnosticStatus.WARN, status.message
+    assert 'from where the trajectory it replaces has the arm then' in status.message
+
+
+def test_a_topic_request_is_checked_against_the_arm_at_its_stamp(system, monkeypatch):
+    """A slow message build moves the stamp, and the check with it (helper-77)."""
+    assert system.spin_until(lambda: system.joint_states, 5.0)
+    status, first = system.request(waypoint_message(pe.JOINT_NAMES, W))
+    assert status.level == DiagnosticStatus.OK, status.message
+    running = system.planner._active
+    assert system.spin_until(  # running (a waiting one would be dropped for the next)
+        lambda: system.client.get_clock().now().nanoseconds > running.start_ns + 2e8, 5.0)
+    real = planner_node.trajectory_to_msg
+
+    def slow(*args, **kwargs):
+        time.sleep(0.3)
+        return real(*args, **kwargs)
+    monkeypatch.setattr(planner_node, 'trajectory_to_msg', slow)
+    # Where the running trajectory has the arm start_delay from now: where a request
+    # built at once would start, not one built 0.3 s later, when the arm is further on.
+    delay = system.planner.parameters.config.start_delay
+    at = 1e-9 * (system.client.get_clock().now().nanoseconds - running.start_ns) + delay
+    assert at + 0.3 < running.traj.duration
+    there = running.traj.evaluate([at], 0)[0]
+    status, _ = system.request(waypoint_message(pe.JOINT_NAMES, [there, W[-1]]))
     assert status.level == DiagnosticStatus.WARN, status.message
     assert 'from where the trajectory it replaces has the arm then' in status.message
