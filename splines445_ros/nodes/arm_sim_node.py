@@ -62,6 +62,10 @@ CATCH_UP_CHUNK = 1000
 # A trajectory stamped further ahead than this [s] gets a WARN (a clock the publisher
 # does not share starts it decades later): the planner's lead times are at most this.
 FAR_AHEAD = MAX_LEAD_TIME
+# A last point's velocity above this [rad/s or m/s] is a moving end: joint_trajectory_
+# controller's own test (a float's epsilon).  A knot time rounded to the nanosecond leaves
+# 1e-18 on a plan that ends at rest, which was warned of (helper-78).
+END_VELOCITY_EPSILON = float(np.finfo(np.float32).eps)
 
 
 class ArmSimNode(Node):
@@ -228,7 +232,8 @@ class ArmSimNode(Node):
             warnings.append(f'it arrived {late * 1e-9:.3f} s after its header.stamp and starts '
                             f'that far along, {where} (its publisher must stamp it further '
                             "ahead, as the planner's start_delay does)")
-        if trajectory.velocities is not None and np.any(trajectory.velocities[-1] != 0.0):
+        if trajectory.velocities is not None and np.any(
+                np.abs(trajectory.velocities[-1]) > END_VELOCITY_EPSILON):
             warnings.append('its last point has a non-zero velocity: the arm stops there at '
                             'once (joint_trajectory_controller rejects such a trajectory '
                             'unless allow_nonzero_velocity_at_trajectory_end is set)')

@@ -135,3 +135,20 @@ def test_replanning_from_a_knots_trajectory_starts_from_its_exact_state():
         assert len(traj2.points) == int(status_values(status2)['waypoints'])
         _, final = system.wait_until_played(n_arm_status, arrays(traj2)[0][-1] * 1e-9)
         np.testing.assert_allclose(final.position, SECOND[-1], rtol=0, atol=1e-9)
+
+
+def test_a_knots_plan_that_ends_at_rest_is_not_warned_of_as_moving():
+    """Its last knot, at a time rounded to the nanosecond, carries 1e-18 rad/s (helper-78)."""
+    with InProcessSystem(planner_parameters={'output': 'knots'},
+                         arm_parameters={'initial_positions': [0.0, 0.0, 0.0],
+                                         'simulation': 'kinematic'},
+                         params_file=CONFIG) as system:
+        n = len(system.arm_status)
+        rest = np.array([[0.0, 0.0, 0.0], [0.5, 1.0, -0.5], [1.0, 0.5, 0.0]])
+        status, msg = system.request(waypoint_message(pe.JOINT_NAMES, rest))
+        assert_planned(status)
+        assert np.max(np.abs(msg.points[-1].velocities)) < 1e-9
+        assert system.spin_until(lambda: any('accepted' in s.message
+                                             for s in system.arm_status[n:]), 5.0)
+        accepted = next(s for s in system.arm_status[n:] if 'accepted' in s.message)
+        assert accepted.level == DiagnosticStatus.OK, accepted.message
