@@ -15,6 +15,7 @@ from rcl_interfaces.msg import Parameter as ParameterMsg, ParameterType, Paramet
 from rclpy.parameter import Parameter
 from splines445_ros.nodes.arm_sim_node import ArmSimNode
 from splines445_ros.nodes.diagnostics import status_values
+from splines445_ros.nodes.node_main import run_node
 from splines445_ros.nodes.planner_node import PlannerNode
 from splines445_ros.robot import paper_example as pe
 from splines445_ros.tools.in_process import InProcessSystem, LocalRos, waypoint_message
@@ -223,3 +224,13 @@ def test_values_the_mode_ignores_are_warned_of_at_start_and_when_set(capfd):
         assert planner.parameters.config.kinematics == ''
         assert ("link_lengths = (1.0, 0.8) has no effect: they are the planar_3dof arm's"
                 in capfd.readouterr().err)
+
+
+def test_a_value_of_another_type_at_start_up_exits_2_with_the_reason(capsys):
+    """The node exits 2 with the reason; rclpy refuses such a value itself (helper-78)."""
+    with pytest.raises(SystemExit) as exited:
+        run_node(PlannerNode, ['planner_node', '--ros-args', '-p',
+                               "max_trajectory_points:='5'"])
+    assert exited.value.code == 2
+    out = capsys.readouterr().out
+    assert 'PlannerNode: invalid parameters' in out and 'max_trajectory_points' in out, out
