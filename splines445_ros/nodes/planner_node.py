@@ -231,6 +231,9 @@ class PlannerNode(Node):
         self._latest_joint_state = None
         self._active = None  # _Published: the last trajectory published to the arm
         self._previous = None   # _Published: the one before, while the last waits for its stamp
+        # The stamp [ns] of the last hold published (a stop at rest: no trajectory), while
+        # it may still wait for it; None otherwise.
+        self._hold_ns = None
         # The sum of the clock's jumps so far [ns] (clock_jumps): a goal's start moves by it.
         self.clock_shift_ns = 0
         self._clock_jumps = follow_clock_jumps(self, self._on_clock_jump)
@@ -316,6 +319,11 @@ class PlannerNode(Node):
         active = self._active
         if active is not None and active.start_ns > now_ns:
             return self._previous
+        if active is None and self._hold_ns is not None and self._hold_ns > now_ns:
+            # A hold waiting for its stamp is dropped for a newer trajectory as well; the
+            # arm runs the one before it until then (helper-77: a request there was
+            # planned and checked from joint_states taken while the arm still moved).
+            return self._previous
         return active
 
     def _on_clock_jump(self, jump, _change):
@@ -330,6 +338,8 @@ class PlannerNode(Node):
             record = getattr(self, name)
             if record is not None:
                 setattr(self, name, replace(record, start_ns=record.start_ns + jump))
+        if self._hold_ns is not None:
+            self._hold_ns += jump
         self.clock_shift_ns += jump
         if self._active is not None:
             self.get_logger().warning(
@@ -338,8 +348,9 @@ class PlannerNode(Node):
 
     def _published(self, traj, start_ns, names, config, now_ns):
         """Record a trajectory just published; see :meth:`_base`."""
-        if self._active is None or self._active.start_ns <= now_ns:
+        if self._base(now_ns) is self._active:     # not one waiting for its stamp
             self._previous = self._active
+        self._hold_ns = start_ns if traj is None else None
         self._active = (None if traj is None
                         else _Published(traj, start_ns, tuple(names), config))
 

@@ -269,6 +269,32 @@ def test_a_hundred_concurrent_calls_are_all_answered(system):
     assert call(system, plan_request()).success
 
 
+def test_a_request_after_a_cancels_waiting_hold_is_planned_from_the_running_goal(system):
+    """The arm runs the cancelled goal until the request's stamp; its hold is dropped."""
+    handle = send_goal(system, W)
+    assert handle.accepted
+    assert system.spin_until(system.planner.trajectory_running, 5.0)
+    running = system.planner._active
+    end_ns = running.start_ns + int(running.traj.duration * 1e9)
+    assert system.spin_until(lambda: system.client.get_clock().now().nanoseconds
+                             >= end_ns - int(0.3e9), 30.0)
+    cancel_ns = system.client.get_clock().now().nanoseconds
+    n_status = len(system.planner_status)
+    cancel = handle.cancel_goal_async()
+    assert system.spin_until(cancel.done, 5.0)
+    # The hold of its end published, stamped replan_lead_time on: it waits.
+    assert system.spin_until(lambda: any('holding its end' in s.message
+                                         for s in system.planner_status[n_status:]), 5.0)
+    assert system.planner.active_trajectory() is None
+    # From the goal's end, where the arm is when this starts (0.4 s on): before, it was
+    # compared with joint_states taken while the arm still moved, a false WARN of
+    # 0.37 rad (and a request from there jumped unwarned; helper-77).
+    status, _ = system.request(waypoint_message(NAMES, W[::-1]))
+    assert status.level == DiagnosticStatus.OK, status.message
+    assert at(system, W[0], 10.0)
+    assert_no_jump(*states_between(system, cancel_ns - int(0.2e9)))
+
+
 def test_a_goal_reports_feedback_and_succeeds_once_the_arm_has_settled(system):
     feedback = []
     handle = send_goal(system, W, feedback)
