@@ -201,7 +201,7 @@ class FollowWaypointsServer:
                 # With a newer goal still planning, its plan takes over (above), or it
                 # fails and leaves none: a stop queued now would be planned after it, from
                 # its trajectory, and brake the newer goal (helper-73).
-                return await self._stop(run, names, final)
+                return await self._stop(run, names, final, traj)
             t = 1e-9 * (_now_then(node, shift) - start_ns)
             measured = node.measured_state(names)
             # The plan at the joint_states' stamp: at 50 Hz they are up to 20 ms old, and
@@ -223,13 +223,18 @@ class FollowWaypointsServer:
                 why = _not_settled(measured, final, config, node.joint_state_clock_gap())
                 return self._end(run, handle.abort, why, names, final, duration=end)
 
-    async def _stop(self, run, names, final):
-        """Stop the arm for a cancel; return the result once it has settled."""
+    async def _stop(self, run, names, final, traj):
+        """Stop the arm for a cancel of the goal's ``traj``; return the result once it settled."""
         node = self._node
-        stop = await node.submit(node.plan_job(None, {}, kind='stop', interface=INTERFACE))
+        stop = await node.submit(node.plan_job(None, {}, kind='stop', interface=INTERFACE,
+                                               stopping=traj))
         if not stop.ok:
             # The running trajectory continues: the goal cannot end canceled.
             return self._end(run, run.handle.abort, f'cancel failed: {stop.message}', names,
+                             final)
+        if stop.values.get('replaced'):
+            # A newer trajectory runs: nothing of this goal's is left to stop or settle.
+            return self._end(run, run.handle.canceled, f'canceled: {stop.message}', names,
                              final)
         config = node.parameters.config
         shift = node.clock_shift_ns     # the clock's jumps so far (_now_then)

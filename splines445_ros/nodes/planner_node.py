@@ -94,7 +94,9 @@ class PlanJob:
     running trajectory's state while one runs (goals, so that a preempting
     goal never jumps); ``done``: called on the worker with the PlanOutcome;
     ``interface``: named on ``~/status``; ``kind`` 'stop' stops the running
-    trajectory (a cancelled goal) instead.
+    trajectory (a cancelled goal) instead: ``stopping``, the goal's
+    Trajectory, when a newer one may have replaced it (then there is
+    nothing to stop).
     """
 
     msg: object = None
@@ -104,6 +106,7 @@ class PlanJob:
     done: Optional[Callable] = None
     interface: str = ''
     kind: str = 'plan'
+    stopping: object = None
 
 
 @dataclass
@@ -805,16 +808,23 @@ class PlannerNode(Node):
         planned from the one before it, the stop is planned again from it.
         """
         for _ in range(STOP_ATTEMPTS):
-            outcome = self._serve_stop_once()
+            outcome = self._serve_stop_once(job.stopping)
             if outcome is not None:
                 return outcome
         return self._rejected('stop rejected: the trajectory on the arm changed while the stop '
                               'was planned, every time; the running trajectory continues', {})
 
-    def _serve_stop_once(self):
+    def _serve_stop_once(self, stopping=None):
         """One attempt of :meth:`_serve_stop`: its PlanOutcome, or None to plan again."""
         lead = self.parameters.config.replan_lead_time
         now_ns = self.get_clock().now().nanoseconds
+        if stopping is not None and (self._active is None or self._active.traj is not stopping):
+            # A trajectory published since (a topic request planned while the cancel
+            # waited for the worker) replaced the goal's: stopping would replace it in
+            # turn (helper-77's race, found again by this stop's tests).
+            message = 'nothing to stop: a newer trajectory replaced the one cancelled'
+            self._report(True, message, {'replaced': 'true'})
+            return PlanOutcome(True, message, {'replaced': 'true'})
         base, waiting = self._base(now_ns), self._active
         if waiting is not None and waiting.start_ns <= now_ns:
             waiting = None

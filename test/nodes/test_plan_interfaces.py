@@ -790,6 +790,31 @@ def test_a_cancel_while_a_newer_goal_plans_does_not_brake_the_newer_one(system, 
     assert at(system, end)
 
 
+def test_a_topic_request_planned_before_a_cancels_stop_is_not_stopped(system, monkeypatch):
+    """A request served while the cancel waited for the worker replaces the goal: it runs."""
+    handle = send_goal(system, LONG)
+    assert handle.accepted
+    assert system.spin_until(system.planner.trajectory_running, 5.0)
+    system.spin_for(0.5)
+    held = HeldPlanning(system.planner._serve)
+    monkeypatch.setattr(system.planner, '_serve', held)
+    n_traj = len(system.trajectories)
+    system.waypoint_publisher.publish(waypoint_message(NAMES, LONG[:2]))
+    assert system.spin_until(held.entered.is_set, 5.0)
+    cancel = handle.cancel_goal_async()   # its stop is queued behind the request
+    assert system.spin_until(cancel.done, 5.0)
+    system.spin_for(0.2)
+    held.release.set()
+    result = result_of(system, handle)
+    assert result.status == GoalStatus.STATUS_CANCELED, result.result.message
+    assert 'a newer trajectory replaced' in result.result.message, result.result.message
+    # Only the request's trajectory was published: the stop did not replace it (it did,
+    # with a hold where it starts).
+    system.spin_for(0.3)
+    assert len(system.trajectories) == n_traj + 1
+    assert at(system, LONG[1], 15.0)
+
+
 def test_a_goal_that_fails_after_the_one_it_would_preempt_ended_leaves_none_running(
         system, monkeypatch):
     """A tool goal is then accepted: none was refused 'a trajectory is running' (helper-73)."""
