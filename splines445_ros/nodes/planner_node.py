@@ -253,8 +253,10 @@ class PlannerNode(Node):
                 self._apply_robot_config(config, compile_now=True)
             if self._robot is None:
                 self.get_logger().info('kinematics "model": waiting for robot_description')
+        # The joints planned: the robot's with kinematics "model" (joint_names not set
+        # showed [] after the model's joints were loaded; helper-78).
         self.get_logger().info(
-            f'planning {config.method}/{config.timing} for {list(config.joint_names)}')
+            f'planning {config.method}/{config.timing} for {list(self.planned_joint_names())}')
 
     async def _on_plan(self, request, response):
         """Serve ``~/plan``: plan (never publish to the arm), answer with the outcome."""

@@ -236,3 +236,12 @@ def test_a_typo_in_the_limits_file_and_absurd_limits_are_refused_when_set(tmp_pa
             assert not result.successful
             assert re.search(reason, result.reason), result.reason
         assert node.parameters.config.joint_limits_file.endswith('ur5_joint_limits.yaml')
+
+
+def test_the_start_up_log_names_the_models_joints(capfd):
+    """joint_names not set: the log showed [] after the model's joints were loaded (helper-78)."""
+    with LocalRos() as ros:
+        planner, _ = short_form(vr.ur5_urdf(), 'ur5_joint_limits.yaml')
+        ros.add(PlannerNode(context=ros.context, parameter_overrides=overrides(planner)))
+    err = capfd.readouterr().err
+    assert f'planning 445/uniform for {list(vr.UR5_JOINTS)}' in err, err
