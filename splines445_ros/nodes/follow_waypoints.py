@@ -51,6 +51,9 @@ CLOCK_GAP = 10.0
 # Period of the feedback and of the checks for cancel, preemption and the end [s].
 FEEDBACK_PERIOD = 0.05
 INTERFACE = 'follow_waypoints'
+# [s]: feedback compares joint_states with the plan at their stamp when it is at most this
+# far from the clock (either way), else with the plan now.
+MAX_STATE_AGE = 0.5
 
 
 class _Run:
@@ -195,8 +198,10 @@ class FollowWaypointsServer:
                 return self._end(run, handle.abort, 'preempted by a newer goal', names,
                                  final)
             if replaced:
-                return self._end(run, handle.abort, 'the trajectory on the arm was replaced '
-                                 '(a request on the waypoints topic)', names, final)
+                # Cancelled too: canceled, as when the stop finds it replaced (helper-79).
+                mark = handle.canceled if handle.is_cancel_requested else handle.abort
+                return self._end(run, mark, 'the trajectory on the arm was replaced (a '
+                                 'request on the waypoints topic)', names, final)
             if handle.is_cancel_requested and run.successor is None:
                 # With a newer goal still planning, its plan takes over (above), or it
                 # fails and leaves none: a stop queued now would be planned after it, from
@@ -205,12 +210,12 @@ class FollowWaypointsServer:
             t = 1e-9 * (_now_then(node, shift) - start_ns)
             measured = node.measured_state(names)
             # The plan at the joint_states' stamp: at 50 Hz they are up to 20 ms old, and
-            # against the plan now the error was 20 times the arm's (helper-76).  An arm
-            # plays the trajectory on its own clock, so a stamp a little ahead (clock skew)
-            # or long behind (lagging physics) is still the time to compare with; one
-            # from another clock (CLOCK_GAP) is not.
+            # against the plan now the error was 20 times the arm's (helper-76); a stamp a
+            # little ahead is an arm's clock skew (helper-77).  States further off are
+            # stale (a stream that stopped) or from another clock: against the plan now,
+            # the error grows as it should (at their stamp it read 0: helper-79).
             age = -node.joint_state_clock_gap()
-            taken = t - age if abs(age) <= CLOCK_GAP else t
+            taken = t - age if abs(age) <= MAX_STATE_AGE else t
             planned = traj.evaluate([min(max(taken, 0.0), end)], 0)[0]
             handle.publish_feedback(_feedback(t, end, names, measured, planned))
             if t < end:
@@ -252,6 +257,13 @@ class FollowWaypointsServer:
                 # the stop's end (it was compared with that end, and WARNed of).
                 return self._end(run, run.handle.canceled, f'canceled: {stop.message}; a '
                                  'newer goal took over before the stop ended', names, rest)
+            if (stop.msg is not None and run.successor is None
+                    and node.active_trajectory() is not stop.trajectory):
+                # A topic request replaced the stop (or its hold): the arm follows it, not
+                # the stop's end (it waited for it and WARNed "did not settle"; helper-79).
+                return self._end(run, run.handle.canceled, f'canceled: {stop.message}; the '
+                                 'stop was replaced by a request on the waypoints topic',
+                                 names, rest)
             now_ns = _now_then(node, shift)
             if now_ns < end_ns:
                 continue

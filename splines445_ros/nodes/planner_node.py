@@ -343,8 +343,9 @@ class PlannerNode(Node):
             record = getattr(self, name)
             if record is not None:
                 setattr(self, name, replace(record, start_ns=record.start_ns + jump))
-        if self._hold_ns is not None:
-            self._hold_ns += jump
+        hold = self._hold_ns    # (read once: the worker may clear it meanwhile)
+        if hold is not None:
+            self._hold_ns = hold + jump
         self.clock_shift_ns += jump
         if self._active is not None:
             self.get_logger().warning(

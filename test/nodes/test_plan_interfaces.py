@@ -336,6 +336,45 @@ def test_feedback_compares_an_arm_whose_clock_runs_ahead_at_its_stamps(system, m
     assert errors and np.median(errors) <= 1e-3, errors
 
 
+def test_feedback_shows_the_error_grow_when_joint_states_stop(system, monkeypatch):
+    """Stale states are compared with the plan now: at their stamp it read 0 (helper-79)."""
+    feedback = []
+    handle = send_goal(system, LONG, feedback)
+    assert handle.accepted
+    assert system.spin_until(lambda: len(feedback) > 10, 10.0)
+    monkeypatch.setattr(system.arm.joint_state_publisher, 'publish', lambda msg: None)
+    n = len(feedback)
+    system.spin_for(1.5)
+    late = [f.max_tracking_error for _, f in feedback[n:]]
+    assert late and max(late) > 0.1, late
+
+
+def test_a_cancel_and_a_topic_request_end_the_goal_canceled_in_either_order(system):
+    """Replaced before its stop, or its stop replaced: CANCELED, as asked (helper-79)."""
+    assert system.spin_until(lambda: system.joint_states, 5.0)
+    for wait_for_stop in (False, True):
+        start = np.array(system.joint_states[-1].position)
+        handle = send_goal(system, np.vstack([start, LONG[1:]]))
+        assert handle.accepted
+        assert system.spin_until(system.planner.trajectory_running, 5.0)
+        system.spin_for(0.5)
+        n_status = len(system.planner_status)
+        cancel = handle.cancel_goal_async()
+        assert system.spin_until(cancel.done, 5.0)
+        if wait_for_stop:   # the topic request replaces the braking stop
+            assert system.spin_until(lambda: any('braking' in s.message for s in
+                                                 system.planner_status[n_status:]), 5.0)
+        here = np.array(system.joint_states[-1].position)
+        system.waypoint_publisher.publish(waypoint_message(NAMES, [here, here + 0.05]))
+        sent_ns = system.client.get_clock().now().nanoseconds
+        result = result_of(system, handle)
+        assert result.status == GoalStatus.STATUS_CANCELED, result.result.message
+        assert 'did not settle' not in result.result.message, result.result.message
+        # At once, not goal_time_tolerance (2 s) after the stop's end.
+        assert system.client.get_clock().now().nanoseconds - sent_ns < 1.5e9
+        system.spin_for(1.5)
+
+
 def test_cancel_stops_the_arm_within_its_limits(system):
     handle = send_goal(system, LONG)
     assert handle.accepted
