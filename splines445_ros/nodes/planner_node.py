@@ -324,7 +324,8 @@ class PlannerNode(Node):
         active = self._active
         if active is not None and active.start_ns > now_ns:
             return self._previous
-        if active is None and self._hold_ns is not None and self._hold_ns > now_ns:
+        hold_ns = self._hold_ns  # (read once: the worker may clear it meanwhile)
+        if active is None and hold_ns is not None and hold_ns > now_ns:
             # A hold waiting for its stamp is dropped for a newer trajectory as well; the
             # arm runs the one before it until then (helper-77: a request there was
             # planned and checked from joint_states taken while the arm still moved).
