@@ -19,7 +19,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from ..spline.continuity_system import ContinuitySystem
-from ..spline.limits import limit_ratios
+from ..spline.limits import limit_ratios, rest_to_rest_times
 from ..spline.peaks import sampled_segment_peaks_of
 
 # Factors (relative to the rest-to-rest factor) scanned for a feasible one.
@@ -53,26 +53,9 @@ def rest_to_rest_durations(waypoints, limits):
     proportional to ``d`` (eq. 11), which a rest end turns into a swing;
     then :func:`graded`.
     """
-    d = np.abs(np.diff(waypoints, axis=0))
     v, a, j = (q[None, :] for q in (limits.velocity, limits.acceleration, limits.jerk))
-    ramp = a / j  # 0 without a jerk limit
-
-    def accelerate(peak):
-        # Time to reach the speed ``peak`` from rest (a full acceleration
-        # phase once peak >= a^2 / j; always without a jerk limit).
-        full = peak * j >= a * a
-        return np.where(full, peak / a + ramp, 2.0 * np.sqrt(peak / j))
-
-    with np.errstate(invalid='ignore', divide='ignore', over='ignore'):
-        time_to_v = accelerate(v)
-        cruising = d >= v * time_to_v
-        # Peak speed below v: with a full acceleration phase it solves
-        # peak^2 / a + peak * ramp = d, otherwise peak^1.5 * 2 / sqrt(j) = d.
-        peak_full = 0.5 * (-a * ramp + np.sqrt((a * ramp) ** 2 + 4.0 * a * d))
-        peak_short = np.cbrt((0.5 * d * np.sqrt(j)) ** 2)
-        peak = np.where(peak_full * j >= a * a, peak_full, peak_short)
-        times = np.where(cruising, time_to_v + d / v, 2.0 * accelerate(peak))
-    return graded(np.max(np.where(d > 0.0, times, 0.0), axis=1))
+    times = rest_to_rest_times(np.abs(np.diff(waypoints, axis=0)), v, a, j)
+    return graded(np.max(times, axis=1))
 
 
 def graded(durations, ratio=None):

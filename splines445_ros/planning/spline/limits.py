@@ -83,6 +83,36 @@ def binding_limit(ratios):
     return BindingLimit(int(joint), QUANTITIES[q], int(segment), float(ratios[segment, joint, q]))
 
 
+def rest_to_rest_times(distance, v, a, j):
+    """
+    Time of the fastest rest-to-rest move over ``distance`` (>= 0), arrays that broadcast.
+
+    Under the limits ``v``, ``a`` and ``j`` (jerk may be inf): the classic
+    jerk-limited profile (jerk ramps of ``a / j``, constant acceleration,
+    cruise); with no jerk limit the v/a one, ``2 sqrt(d / a)`` short of
+    ``v``, else ``d / v + v / a``; 0 for no move.
+    """
+    d = distance
+    ramp = a / j  # 0 without a jerk limit
+
+    def accelerate(peak):
+        # Time to reach the speed ``peak`` from rest (a full acceleration
+        # phase once peak >= a^2 / j; always without a jerk limit).
+        full = peak * j >= a * a
+        return np.where(full, peak / a + ramp, 2.0 * np.sqrt(peak / j))
+
+    with np.errstate(invalid='ignore', divide='ignore', over='ignore'):
+        time_to_v = accelerate(v)
+        cruising = d >= v * time_to_v
+        # Peak speed below v: with a full acceleration phase it solves
+        # peak^2 / a + peak * ramp = d, otherwise peak^1.5 * 2 / sqrt(j) = d.
+        peak_full = 0.5 * (-a * ramp + np.sqrt((a * ramp) ** 2 + 4.0 * a * d))
+        peak_short = np.cbrt((0.5 * d * np.sqrt(j)) ** 2)
+        peak = np.where(peak_full * j >= a * a, peak_full, peak_short)
+        times = np.where(cruising, time_to_v + d / v, 2.0 * accelerate(peak))
+    return np.where(d > 0.0, times, 0.0)
+
+
 def check_boundary_feasible(limits, start_velocity, start_acceleration,
                             end_velocity, end_acceleration, joint_names=None):
     """

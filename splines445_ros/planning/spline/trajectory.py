@@ -8,7 +8,7 @@ import numpy as np
 from scipy.interpolate import PPoly
 
 from .continuity_system import spline_coefficients
-from .limits import binding_limit, limit_ratios, QUANTITIES
+from .limits import binding_limit, limit_ratios, QUANTITIES, rest_to_rest_times
 from .peaks import position_extrema, segment_peaks
 from .segments import falling_factors
 
@@ -367,11 +367,7 @@ class Trajectory:
         high, low = self.waypoints.max(axis=0), self.waypoints.min(axis=0)
 
         def rest_to_rest(d):
-            # |v| <= v, |a| <= a from rest to rest over d >= 0 (a bang-bang profile).
-            with np.errstate(divide='ignore', invalid='ignore'):
-                reach = v * v / a
-                return np.where(d >= reach, d / v + np.where(np.isfinite(a), v / a, 0.0),
-                                2.0 * np.sqrt(d / a))
+            return rest_to_rest_times(d, v, a, np.inf)  # the v/a bang-bang profile
         spread = rest_to_rest(high - low)
         high_first = rest_to_rest(high - first) + spread + rest_to_rest(last - low)
         low_first = rest_to_rest(first - low) + spread + rest_to_rest(high - last)
