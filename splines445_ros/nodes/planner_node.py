@@ -138,9 +138,14 @@ class _Published:
     names: tuple
     config: object      # the PlannerConfig it was planned with (overrides, robot limits)
 
+    @property
+    def end_ns(self):
+        """When it ends [ns]."""
+        return self.start_ns + int(self.traj.duration * 1e9)
+
     def runs_at(self, ns):
         """Whether it has started at ``ns`` and not yet ended."""
-        return self.start_ns <= ns < self.start_ns + int(self.traj.duration * 1e9)
+        return self.start_ns <= ns < self.end_ns
 
 
 @dataclass(frozen=True)
@@ -1010,8 +1015,7 @@ class PlannerNode(Node):
         start = traj.evaluate([0.0], 0)[0]
         base = self._base(now_ns)
         # One still running (or about to): the arm follows it until this one starts.
-        running = (None if base is None or at_ns < base.start_ns
-                   or now_ns >= base.start_ns + int(base.traj.duration * 1e9)
+        running = (None if base is None or at_ns < base.start_ns or now_ns >= base.end_ns
                    else running_in_order(base.traj, base.names, config.joint_names))
         if running is not None:
             t = min(1e-9 * (at_ns - base.start_ns), running.duration)
