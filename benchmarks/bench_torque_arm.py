@@ -157,9 +157,11 @@ class ArmSimulator(smooth.Simulator):
         Return the peak |command| / limit the controller asked for before clipping.
 
         Rebuilt from the log (rigid joints, no friction compensation): the
-        feed-forward at the reference plus the PD terms on the measured state;
-        clipped it must give the logged command (the largest gap is kept).
+        feed-forward at the reference plus the PD terms on the measured state,
+        mapped through ``M diag(M)^-1`` at the reference (``M`` read here from
+        MuJoCo); clipped it must give the logged command (the largest gap is kept).
         """
+        import mujoco
         arm, log = self.arm.arm, self.arm.log
         t = np.arange(len(q)) * self.dt
         clamped = np.minimum(t, traj.duration)
@@ -168,9 +170,16 @@ class ArmSimulator(smooth.Simulator):
         moving = t <= traj.duration
         v[~moving] = 0.0
         a[~moving] = 0.0
-        forward = np.array([arm.feedforward(q[k], v[k], a[k]) for k in range(len(q))])
-        raw = (forward + arm.kp * (q - log['position'])
-               + arm.kd * (v - log['velocity']))
+        rigid, dofs = arm.arm.rigid, arm.arm.rigid_dof
+        full = np.zeros((rigid.nv, rigid.nv))
+        raw = np.empty_like(q)
+        for k in range(len(q)):
+            forward = arm.feedforward(q[k], v[k], a[k])
+            mujoco.mj_fullM(rigid, arm.rigid_data, full)
+            inertia = full[np.ix_(dofs, dofs)]
+            feedback = (arm.kp * (q[k] - log['position'][k])
+                        + arm.kd * (v[k] - log['velocity'][k]))
+            raw[k] = forward + inertia @ (feedback / np.diag(inertia))
         clipped = np.clip(raw, -self.limits, self.limits)
         self.clip_gap = max(self.clip_gap, float(np.abs(clipped - log['command']).max()))
         return float(np.max(np.abs(raw) / self.limits))

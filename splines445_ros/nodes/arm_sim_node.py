@@ -10,7 +10,7 @@ ros2_control's joint_trajectory_controller does.
 * ``simulation: kinematic``: the arm is the commanded state (exact playback).
 * ``simulation: dynamic``: MuJoCo simulates the arm (the paper's planar arm
   built from parameters, or ``model_file``) under a PD + inverse-dynamics
-  feed-forward joint controller with torque limits and a lagged feed-forward; the
+  feed-forward joint controller with torque limits and actuator lag; the
   physics steps at ``physics_rate`` to follow the node's clock
   (``use_sim_time`` works); ``payload_*`` is carried by the tool frame.
   At the end of every trajectory, and 0.5 s later

@@ -29,6 +29,8 @@ MAX_PHYSICS_RATE = 20000.0
 MAX_KP = 1e8
 MAX_KD = 1e7
 MAX_TIME_CONSTANT = 1.0
+# A step of the explicit PD loop must not overshoot: kd * dt / inertia below this.
+MAX_KD_STEP = 1.0
 # MuJoCo integrates the joint springs explicitly: omega * dt below this.
 MAX_SPRING_STEP = 1.0
 BUILT_IN = PlanarArmModel()
@@ -113,8 +115,8 @@ class ArmSimConfig(ValidatedConfig):
         + _from_model('from the model (actuator `forcerange`, `ctrlrange` × gear, URDF '
                       '`<limit effort>`)'))
     actuator_time_constant: float = parameter(
-        0.002, 'dynamic: first-order lag of the feed-forward torque behind the command '
-        '(the PD feedback acts at once) [s]; 0 = none.', low=0.0, high=MAX_TIME_CONSTANT, unit='s')
+        0.002, 'dynamic: first-order lag of the applied torque behind the command [s]; 0 = '
+        'none.', low=0.0, high=MAX_TIME_CONSTANT, unit='s')
     kp: Tuple[float, ...] = parameter(
         (90000.0, 16000.0, 1000.0), 'dynamic: position gain of the PD loop [N m/rad], in '
         f'[0, {MAX_KP:g}], {PER_JOINT}.'
@@ -351,16 +353,17 @@ class ArmSimConfig(ValidatedConfig):
                                  f'rotor_inertia must be positive, got {rotor}')
 
     def _validate_discretisation(self):
-        """
-        Reject springs the built-in arm's fixed-step physics cannot carry.
-
-        The PD loop's damping is implicit (any ``kd`` is stable); a ``kp`` the
-        step cannot carry is found when the physics goes unstable.
-        """
+        """Reject gains and springs the built-in arm's fixed-step physics cannot carry."""
         dt = self.timestep
         links = self.planar_model().link_inertias()
         for j in range(3):
             k, rotor = self.joint_stiffness[j], self.rotor_inertia[j]
+            inertia = rotor if k > 0.0 else rotor + links[j]
+            if self.kd[j] * dt > MAX_KD_STEP * inertia:
+                raise ValueError(
+                    f'kd[{j}] = {self.kd[j]:g} is too high for physics_rate '
+                    f'{self.physics_rate:g} Hz: kd * dt must stay below the driven '
+                    f'inertia {inertia:.3g} kg m^2 (raise physics_rate or lower kd)')
             if k > 0.0:
                 omega = math.sqrt(k * (1.0 / rotor + 1.0 / links[j]))
                 if omega * dt > MAX_SPRING_STEP:

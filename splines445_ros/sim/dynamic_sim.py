@@ -7,26 +7,39 @@ Control law, every physics step, for each driven joint::
     theta_d = q_d + (tau_ff - armature * a_d - damping * v_d) / k      (elastic joints;
               the motor leads the link by the spring's deflection; q_d when rigid)
     tau_f   = f tanh(v_d / v_f + (theta_d - theta) / e_f)             (dry friction)
-    tau     = clip(tau_ff + tau_f + kp (theta_d - theta) + kd (v_d - omega), -limit, limit)
+    tau     = clip(tau_ff + tau_f + C (kp (theta_d - theta) + kd (v_d - omega)), -limit, limit)
+    C       = M(q_d) diag(M(q_d))^-1    (a model file; the built-in arm: the identity)
 
 where theta, omega are the driven (motor) joint's position and velocity (the
-link's when rigid).  The actuator applies ``tau`` in two parts:
+link's when rigid).  ``tau`` is the actuator's control; the actuator follows
+it with a first-order lag (MuJoCo ``filterexact`` dynamics), so the applied
+torque (``effort``) lags the command.  MuJoCo integrates everything (the
+model's integrator): there is no integrator here.
 
-* the feed-forward ``tau_ff + tau_f`` is its control, followed with a
-  first-order lag (MuJoCo ``filterexact`` dynamics, ``actuator_time_constant``):
-  the drive's torque loop;
-* the PD feedback ``kp (theta_d - theta) + kd (v_d - omega)`` is its affine
-  bias (``-kp theta - kd omega`` plus the reference ``kp theta_d + kd v_d``,
-  set every step), without lag, so MuJoCo's ``implicitfast`` integrator
-  takes its damping implicitly, with the whole joint-space inertia;
+**Decoupling.**  The gains are per joint, designed on the joint's own
+inertia, the diagonal ``M_jj`` of the joint-space inertia matrix
+(:mod:`~splines445_ros.sim.model_drives`).  But coupled joints can feel far
+less: the inertia a joint feels is ``1 / (M^-1)_jj``, on a Panda with joint 2
+near 0 (shoulder joints 1 and 3 aligned) 0.04 of the diagonal, so a plain
+per-joint PD loop runs there 25 times faster than designed, beyond what the
+1 kHz step and the 2 ms lag carry: the dynamic Panda shook at rest at up to
+5.7 rad/s at 5 of 9 random poses, a UR5 at one.  ``C`` maps the per-joint
+corrections through the inertia matrix at the commanded pose (from the same
+``mj_inverse`` as ``tau_ff``), so the error dynamics are
+``e'' = -diag(M)^-1 (kp e + kd e')``: every joint at its designed bandwidth
+on ``M_jj``, at every pose, whatever the coupling (the computed-torque law,
+with the per-joint gains kept).  ``C`` has a unit diagonal: on an arm whose
+inertia matrix is diagonal the loop is the plain per-joint PD.  An elastic
+joint's motor is a rotor of its own, coupled only through its spring: its
+row and column of ``C`` are the identity's.
 
-and clamps their sum at the limit.  The loop is thereby stable whatever the
-inertia a joint feels at a pose: the gains come from the diagonal of the
-inertia matrix at the initial pose (:mod:`~splines445_ros.sim.model_drives`),
-and where coupled joints feel far less (a Panda's shoulder joints 1 and 3
-with joint 2 near 0: 0.04 of the diagonal), an explicit PD step behind the
-lag shook the arm at rest at up to 5 rad/s (1 kHz, 5 of 9 random poses),
-the implicit one settles at every pose.  There is no integrator here.
+The built-in arm keeps the plain per-joint loop (``C`` the identity), as it
+keeps its friction uncompensated: its gains are set by hand for its large
+rotor inertias (10, 4, 0.1 kg m^2, as large as its links'), it is stable
+there, and its figures and tests are those of that loop (decoupled, the
+friction that its light tool joint's loop holds would be carried into the
+shoulder's: 0.72 mrad of error on a slow move where the plain loop keeps
+0.26).
 
 **Dry friction.**  The rigid model leaves the joints' ``frictionloss`` ``f``
 out (its exact sign would step the command at every reversal); ``tau_f``
@@ -110,13 +123,15 @@ class UnstableSimulation(ValueError):
 class DynamicArm:
     """One simulated arm with its controller; ``run`` steps it along reference arrays."""
 
-    def __init__(self, arm_model, kp, kd, torque_limits, compensate_friction=None):
+    def __init__(self, arm_model, kp, kd, torque_limits, compensate_friction=None,
+                 decouple=None):
         """
         Create MuJoCo data for ``arm_model`` (:class:`ArmModel`) with PD gains (n,).
 
         ``compensate_friction``: put the driven joints' dry friction
-        (``frictionloss``) into the command; None: for a model file, not for
-        the built-in arm.
+        (``frictionloss``) into the command; ``decouple``: map the PD terms
+        through ``C`` (see the module docstring); None, for both: for a model
+        file, not for the built-in arm.
         """
         self.mujoco = _import_mujoco()
         self.arm = arm_model
@@ -130,6 +145,8 @@ class DynamicArm:
         self.limits = np.asarray(torque_limits, dtype=float)
         if compensate_friction is None:
             compensate_friction = arm_model.source != 'built-in'
+        #: Whether the PD terms go through ``C = M diag(M)^-1`` (else the identity).
+        self.decouple = arm_model.source != 'built-in' if decouple is None else bool(decouple)
         friction, speed = dry_friction(self.mujoco, self.model, arm_model.motor_dof)
         #: Dry friction (n,) put into the command [N m or N]; 0 = none.
         self.friction = friction if compensate_friction else np.zeros_like(friction)
@@ -143,6 +160,7 @@ class DynamicArm:
         self._inverse_k = np.where(self._elastic, 1.0 / safe, 0.0)
         self._same_layout = (self.model.nq == rigid.nq and self.model.nv == rigid.nv)
         self._act_adr = self.model.actuator_actadr[arm_model.actuators]
+        self._full_inertia = np.zeros((rigid.nv, rigid.nv))
         rigid_site = None
         if arm_model.tool_site is not None:
             name = self.mujoco.mj_id2name(self.model, self.mujoco.mjtObj.mjOBJ_SITE,
@@ -174,13 +192,27 @@ class DynamicArm:
         mj.mj_inverse(arm.rigid, rd)
         return rd.qfrc_inverse[arm.rigid_dof].copy()
 
-    def _set_feedback(self, target, v_d):
-        """Set the actuators' PD bias: ``kp (target - theta) + kd (v_d - omega)``."""
-        bias = self.model.actuator_biasprm
-        acts = self.arm.actuators
-        bias[acts, 0] = self.kp * target + self.kd * v_d
-        bias[acts, 1] = -self.kp
-        bias[acts, 2] = -self.kd
+    def coupling(self):
+        """
+        Return ``C = M diag(M)^-1`` (n, n) at the pose of the last :meth:`feedforward`.
+
+        ``M`` is the driven joints' block of the rigid model's inertia matrix
+        (MuJoCo computed it in ``mj_inverse``); an elastic joint's row and
+        column are the identity's; without :attr:`decouple`, the identity.
+        """
+        if not self.decouple:
+            return np.eye(self.n_joints)
+        arm, full = self.arm, self._full_inertia
+        self.mujoco.mj_fullM(arm.rigid, self.rigid_data, full)
+        dofs = arm.rigid_dof
+        inertia = full[np.ix_(dofs, dofs)]
+        coupling = inertia / np.diag(inertia)[None, :]
+        if np.any(self._elastic):
+            elastic = self._elastic
+            coupling[elastic, :] = 0.0
+            coupling[:, elastic] = 0.0
+            coupling[elastic, elastic] = 1.0
+        return coupling
 
     def friction_compensation(self, v_d, error):
         """Return ``tau_f`` (n,) at a commanded velocity and position error (motor side)."""
@@ -200,7 +232,6 @@ class DynamicArm:
             link = tau - self._armature * a - self._damping * v
             d.qpos[arm.motor_qpos[self._elastic]] = (q + link * self._inverse_k)[self._elastic]
             d.qvel[arm.motor_dof[self._elastic]] = v[self._elastic]
-        self._set_feedback(d.qpos[arm.motor_qpos], v)
         tau = np.clip(tau + self.friction_compensation(v, 0.0), -self.limits, self.limits)
         d.ctrl[arm.actuators] = tau
         valid = self._act_adr >= 0
@@ -279,15 +310,15 @@ class DynamicArm:
             else:
                 target = q_d[k]
             error = target - d.qpos[arm.motor_qpos]
+            feedback = kp * error + kd * (v_d[k] - d.qvel[arm.motor_dof])
+            raw = tau + (self.coupling() @ feedback if self.decouple else feedback)
             if compensate:
-                tau = tau + self.friction_compensation(v_d[k], error)
-            raw = tau + kp * error + kd * (v_d[k] - d.qvel[arm.motor_dof])
+                raw += self.friction_compensation(v_d[k], error)
             raw = np.nan_to_num(raw, nan=0.0, posinf=1e300, neginf=-1e300)
             saturated[k] = bool(np.any(np.abs(raw) > limits))
-            command[k] = np.clip(raw, -limits, limits)
-            # MuJoCo applies the same sum: the feed-forward through the lag, the feedback now.
-            self._set_feedback(np.nan_to_num(target), v_d[k])
-            d.ctrl[arm.actuators] = np.clip(np.nan_to_num(tau), -limits, limits)
+            tau = np.clip(raw, -limits, limits)
+            command[k] = tau
+            d.ctrl[arm.actuators] = tau
             mj.mj_step2(m, d)
             effort[k] = d.actuator_force[arm.actuators]
         if any(d.warning[w].number for w in warnings) or not (

@@ -18,14 +18,11 @@ The built-in arm (:func:`planar_arm_mjcf`) moves in the vertical x-y plane
 :func:`load_arm_model` compiles the built-in arm or a user's MJCF file with
 :class:`mujoco.MjSpec`, checks that every joint of ``joint_names`` exists as a
 hinge or slide, removes the file's own actuators on those joints and adds one
-torque actuator per joint (on the motor hinge when elastic): its control
-(the feed-forward) with first-order lag (``filterexact`` dynamics, time
-constant ``actuator_time_constant``), its affine bias the PD feedback that
-:class:`~splines445_ros.sim.dynamic_sim.DynamicArm` sets, the sum clamped at
-the torque limit.  The arm is integrated with ``implicitfast`` (a file's
-``implicit`` is kept), so the feedback's damping is implicit.  It also
-returns the rigid model the controller uses for inverse dynamics (the same
-file; for the built-in arm, the same arm with stiff joints).
+torque actuator per joint (on the motor hinge when elastic) with first-order
+lag (``filterexact`` dynamics, time constant ``actuator_time_constant``) and
+its control range at the torque limit.  It also returns the rigid model the
+controller uses for inverse dynamics (the same file; for the built-in arm,
+the same arm with stiff joints).
 """
 
 from dataclasses import dataclass
@@ -193,11 +190,6 @@ def _add_actuators(mujoco, spec, targets, torque_limits, time_constant):
         act.target = target
         act.trntype = mujoco.mjtTrn.mjTRN_JOINT
         act.gainprm[0] = 1.0
-        # The PD feedback (set by DynamicArm: -kp q - kd v + its reference) is the bias,
-        # so MuJoCo integrates its damping implicitly; the total is clamped at the limit.
-        act.biastype = mujoco.mjtBias.mjBIAS_AFFINE
-        act.forcelimited = 1
-        act.forcerange = [-float(limit), float(limit)]
         if time_constant > 0.0:
             act.dyntype = mujoco.mjtDyn.mjDYN_FILTEREXACT
             act.dynprm[0] = time_constant
@@ -275,11 +267,6 @@ def load_arm_model(joint_names, torque_limits, actuator_time_constant, timestep=
         tool_site = tool_site or TOOL_SITE
     for s in (spec, rigid_spec):
         s.option.timestep = timestep
-    # The controller's velocity feedback needs an implicit integrator (DynamicArm): a
-    # file's Euler or RK4 gives way to implicitfast, its implicit is kept.
-    implicit = (mujoco.mjtIntegrator.mjINT_IMPLICIT, mujoco.mjtIntegrator.mjINT_IMPLICITFAST)
-    if spec.option.integrator not in implicit:
-        spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     if model_file and tool_frame:
         tool_site = _add_tool_frame_site(mujoco, spec, tool_frame, where)
         _add_tool_frame_site(mujoco, rigid_spec, tool_frame, where)

@@ -192,6 +192,7 @@ def test_bad_parameters_and_model_files_are_rejected_and_the_arm_lives_on(tmp_pa
         ({'physics_rate': 500.0}, 'physics_rate'),
         ({'link_masses': [1.0, 0.0, 1.0]}, 'link_masses'),
         ({'joint_stiffness': [1e9, 0.0, 0.0]}, 'too stiff for physics_rate'),
+        ({'kd': [1e6, 700.0, 20.0]}, 'too high for physics_rate'),
         ({'actuator_time_constant': -0.1}, 'actuator_time_constant'),
         ({'link_lengths': [1.1, -0.9]}, 'link_lengths[1] = -0.9: must be positive'),
         ({'link_lengths': [1.1]}, 'link_lengths needs 2 values'),
