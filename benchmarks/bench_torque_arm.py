@@ -1,5 +1,5 @@
 """
-Torque limits and payload on the dynamic UR5 (issue 25): saturation, tool error, 434/445/555.
+Torque limits and payload on the dynamic UR5 and every vendor arm: saturation, errors, 434/445/555.
 
 The UR5 (example-robot-data's URDF) simulated as ``arm_sim_node`` simulates
 it (``simulation: dynamic``, ``model_file`` the URDF, ``tool_frame: tool0``,
@@ -45,7 +45,14 @@ after the end), peak |dtau/dt| of the applied torque and the largest jump
 of the commanded torque rate away from the ends, as
 ``bench_smoothness.py`` defines them (its ``Simulator.simulate``, reused).
 
-Run: ``make bench`` or ``python benchmarks/bench_torque_arm.py [--paths N]``.
+Then every 6-7-joint arm of example-robot-data (``bench_arms.py``), each
+built the same way from its URDF with ``bench_torque``'s payload (the rated
+one, or less where the URDF efforts do not hold it) and its ready pose as
+``initial_positions``: A and A100 on a few random walks of the arm's own
+stream of the run's seed, one row per arm (saturation, peak applied torque,
+the controller's demand, joint and tool error; :func:`every_arm`).
+
+Run: ``make bench`` or ``python benchmarks/bench_torque_arm.py [--paths N] [--arm-paths N]``.
 """
 
 import argparse
@@ -55,7 +62,8 @@ import time
 
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # no ROS here, but the rule holds
 
-import bench_seeds  # noqa: E402, I100
+import bench_arms  # noqa: E402, I100
+import bench_seeds  # noqa: E402
 import bench_smoothness as smooth  # noqa: E402
 import bench_torque  # noqa: E402
 import numpy as np  # noqa: E402, I100
@@ -125,13 +133,15 @@ class Recorder:
 
 
 class ArmSimulator(smooth.Simulator):
-    """The node's dynamic UR5 with the payload; ``bench_smoothness``'s figures plus the tool's."""
+    """A node's dynamic arm (the UR5) with a payload: ``bench_smoothness``' figures, the tool's."""
 
-    def __init__(self, kin):
+    def __init__(self, kin, model_file=None, joints=vr.UR5_JOINTS, initial=vr.UR5_READY,
+                 tool=TOOL, payload=PAYLOAD):
         """Build the arm as arm_sim_node does (model file, tool frame, payload)."""
-        config = ArmSimConfig(simulation='dynamic', model_file=vr.ur5_urdf(),
-                              joint_names=vr.UR5_JOINTS, initial_positions=vr.UR5_READY,
-                              tool_frame=TOOL, payload_mass=PAYLOAD,
+        config = ArmSimConfig(simulation='dynamic', model_file=model_file or vr.ur5_urdf(),
+                              joint_names=tuple(joints),
+                              initial_positions=tuple(float(v) for v in initial),
+                              tool_frame=tool, payload_mass=float(payload),
                               payload_center_of_mass=PAYLOAD_OFFSET)
         config, self.sources = resolve_model_config(config)
         model = load_arm_model(config.joint_names, config.torque_limits,
@@ -142,7 +152,8 @@ class ArmSimulator(smooth.Simulator):
         self.model = model
         self.config = config
         self.limits = np.array(config.torque_limits)
-        self.arm = Recorder(DynamicArm(model, config.kp, config.kd, config.torque_limits))
+        self.arm = Recorder(DynamicArm(model, config.kp, config.kd, config.torque_limits,
+                                       design_pose=config.initial_positions))
         self.kin = kin
         self.dt = config.timestep
         self.wall = 0.0
@@ -158,8 +169,10 @@ class ArmSimulator(smooth.Simulator):
 
         Rebuilt from the log (rigid joints, no friction compensation): the
         feed-forward at the reference plus the PD terms on the measured state,
-        mapped through ``M diag(M)^-1`` at the reference (``M`` read here from
-        MuJoCo); clipped it must give the logged command (the largest gap is kept).
+        mapped through ``M diag(M_0)^-1`` (``M`` at the reference, ``M_0`` at
+        the initial pose, both read here from MuJoCo; a saturated joint's
+        correction its own only); clipped it must give the logged command
+        (the largest gap is kept).
         """
         import mujoco
         arm, log = self.arm.arm, self.arm.log
@@ -172,6 +185,11 @@ class ArmSimulator(smooth.Simulator):
         a[~moving] = 0.0
         rigid, dofs = arm.arm.rigid, arm.arm.rigid_dof
         full = np.zeros((rigid.nv, rigid.nv))
+        data = mujoco.MjData(rigid)
+        data.qpos[arm.arm.rigid_qpos] = self.config.initial_positions
+        mujoco.mj_forward(rigid, data)
+        mujoco.mj_fullM(rigid, data, full)
+        design = np.diag(full)[dofs].copy()
         raw = np.empty_like(q)
         for k in range(len(q)):
             forward = arm.feedforward(q[k], v[k], a[k])
@@ -179,7 +197,12 @@ class ArmSimulator(smooth.Simulator):
             inertia = full[np.ix_(dofs, dofs)]
             feedback = (arm.kp * (q[k] - log['position'][k])
                         + arm.kd * (v[k] - log['velocity'][k]))
-            raw[k] = forward + inertia @ (feedback / np.diag(inertia))
+            coupling = inertia / design
+            raw[k] = forward + coupling @ feedback
+            out = np.abs(raw[k]) > self.limits
+            if np.any(out):     # a saturated joint's correction stays its own
+                raw[k] = (forward + coupling @ np.where(out, 0.0, feedback)
+                          + np.where(out, np.diag(coupling) * feedback, 0.0))
         clipped = np.clip(raw, -self.limits, self.limits)
         self.clip_gap = max(self.clip_gap, float(np.abs(clipped - log['command']).max()))
         return float(np.max(np.abs(raw) / self.limits))
@@ -206,18 +229,23 @@ class ArmSimulator(smooth.Simulator):
         return row
 
 
+def torque_limits(points, dynamics, vmax, tau_max):
+    """Return (the path's typical acceleration, plan()'s torque-limited keywords at the limits)."""
+    n = points.shape[1]
+    typical, _ = bench_torque.bisected_acceleration(points, vmax, dynamics.torques, tau_max)
+    return typical, {'max_velocity': vmax, 'max_acceleration': np.full(n, NO_ACCELERATION_LIMIT),
+                     'max_jerk': np.full(n, JERK_RATIO * typical),
+                     'max_torque': tau_max, 'inverse_dynamics': dynamics.torques}
+
+
 class Case:
     """One path and its plans."""
 
     def __init__(self, points, dynamics, vmax, tau_max, config_limits):
         """Plan A, B and C on ``points``."""
-        n = points.shape[1]
         self.points = points
         torques = dynamics.torques
-        self.typical, _ = bench_torque.bisected_acceleration(points, vmax, torques, tau_max)
-        limits = {'max_velocity': vmax, 'max_acceleration': np.full(n, NO_ACCELERATION_LIMIT),
-                  'max_jerk': np.full(n, JERK_RATIO * self.typical),
-                  'max_torque': tau_max, 'inverse_dynamics': torques}
+        self.typical, limits = torque_limits(points, dynamics, vmax, tau_max)
         started = time.perf_counter()
         self.plans = {'A': plan(points, '555', 'optimal',
                                 **dict(limits, max_torque=SHARE * tau_max))}
@@ -233,6 +261,75 @@ class Case:
             samples = bench_torque.ours_samples(traj)
             self.plan_ratio[id(traj)] = float(np.max(bench_torque.peak_torque(
                 samples, torques, tau_max)))
+
+
+ARM_PATHS = 3                   # random paths per arm in the every-arm table
+ARM_STREAM_OFFSET = 25          # bench_torque's streams of an arm are its CRC + 0 and + 1
+
+
+def every_arm(paths_per_arm):
+    """
+    Plan A and A100 on every vendor arm with its payload, play them; print a row per arm.
+
+    As for the UR5 above: each arm as ``arm_sim_node`` builds it from its URDF
+    (the model's limits and inertia gains, ``tool_frame`` the bench tool,
+    ``initial_positions`` the ready pose), carrying ``bench_torque``'s payload
+    (the rated one, or less where the URDF efforts do not hold it), on random
+    walks of the arm's own stream of the run's seed.
+    """
+    arms, _ = bench_arms.vendor_arms()
+    print(f'\nEvery arm ({paths_per_arm} random paths each): A at {SHARE:g} x and A100 at the '
+          'URDF efforts, played on the dynamic arm with the payload (saturated steps: sum '
+          'over the paths; the rest: the largest)')
+    print('| arm | payload [kg] | plans | A saturating paths (steps) | A peak |tau|/limit | '
+          'A demand | A max joint err [mrad] | A tool err [mm] | A100 saturating paths (steps) '
+          '| A100 peak |tau|/limit | A100 demand | duration A / A100 (median) |')
+    print('|' + '---|' * 12)
+    rows = []
+    for arm in arms:
+        paths = bench_torque.arm_paths(arm, paths_per_arm, ARM_STREAM_OFFSET)
+        payload, _ = bench_torque.bench_payload(arm, paths)
+        dynamics = ArmDynamics(arm.robot, arm.joints, arm.tool, payload_mass=payload,
+                               payload_center_of_mass=PAYLOAD_OFFSET)
+        _, _, vmax, tau_max = bench_torque.joint_limits(arm.robot, arm.joints)
+        sim = ArmSimulator(arm.kinematics(), os.path.join(bench_arms.robots_folder(), arm.file),
+                           arm.joints, arm.ready, arm.tool, payload)
+        played = {'A': [], 'A100': []}
+        ratios = []
+        for points in paths:
+            try:
+                _, limits = torque_limits(points, dynamics, vmax, tau_max)
+                plans = {'A': plan(points, '555', 'optimal',
+                                   **dict(limits, max_torque=SHARE * tau_max)),
+                         'A100': plan(points, '555', 'optimal', **limits)}
+            except (ValueError, RuntimeError):
+                continue    # bench_torque reports the refusals
+            for name, traj in plans.items():
+                played[name].append(sim.run(traj))
+            ratios.append(plans['A'].duration / plans['A100'].duration)
+        if not ratios:
+            print(f'| {arm.name} | {payload:.2f} | 0 | every path refused |' + ' |' * 8)
+            continue
+
+        def figures(name):
+            found = played[name]
+            demand = max(r['demand'] for r in found)
+            return (f'{sum(r["sat"] > 0 for r in found)} ({sum(r["sat"] for r in found):.0f})',
+                    f'{max(r["ratio"] for r in found):.3f}',
+                    'n/a' if np.isnan(demand) else f'{demand:.3f}')
+        a_sat, a_peak, a_demand = figures('A')
+        b_sat, b_peak, b_demand = figures('A100')
+        rows.append((arm.name, played))
+        print(f'| {arm.name} | {payload:.2f} | {len(ratios)} | {a_sat} | {a_peak} | {a_demand} | '
+              f'{1e3 * max(r["max"] for r in played["A"]):.3g} | '
+              f'{1e3 * max(r["tool_fk"] for r in played["A"]):.3g} | {b_sat} | {b_peak} | '
+              f'{b_demand} | {np.median(ratios):.3f} |')
+        sys.stdout.flush()
+    saturating = [name for name, played in rows if any(r['sat'] > 0 for r in played['A'])]
+    names = ': ' + ', '.join(saturating) if saturating else ''
+    print(f"* A (the node's default headroom) saturates on {len(saturating)} of {len(rows)} "
+          f"arms{names} (demand n/a: the arm's friction is compensated, which the rebuild "
+          'leaves out)')
 
 
 def cells(row):
@@ -257,6 +354,8 @@ def main(argv=None):
     """Plan, play and print the tables."""
     parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument('--paths', type=int, default=N_PATHS, help='random paths')
+    parser.add_argument('--arm-paths', type=int, default=ARM_PATHS,
+                        help='random paths per arm in the every-arm table (0: none)')
     args = parser.parse_args(argv)
     started = time.perf_counter()
     print(__doc__.strip().splitlines()[0])
@@ -340,6 +439,8 @@ def main(argv=None):
             print(line)
             verdicts.append(f'{mode}: {line}')
         sys.stdout.flush()
+    if args.arm_paths > 0:
+        every_arm(args.arm_paths)
     print(f'Demand rebuilt from the log, clipped, against the logged command: largest '
           f'difference {sim.clip_gap:.3g} N m')
     print(f"Tool error by kin.forward against the simulator's own tool-site error while "

@@ -124,7 +124,8 @@ class ArmSimNode(Node):
                                planar=config.planar_model(), model_file=config.model_file,
                                tool_site=config.tool_site, tool_frame=config.tool_frame)
         add_payload(model, config)
-        arm = DynamicArm(model, config.kp, config.kd, config.torque_limits)
+        arm = DynamicArm(model, config.kp, config.kd, config.torque_limits,
+                         design_pose=config.initial_positions)
         arm.set_state(position, velocity)
         return arm
 

@@ -8,7 +8,7 @@ Control law, every physics step, for each driven joint::
               the motor leads the link by the spring's deflection; q_d when rigid)
     tau_f   = f tanh(v_d / v_f + (theta_d - theta) / e_f)             (dry friction)
     tau     = clip(tau_ff + tau_f + C (kp (theta_d - theta) + kd (v_d - omega)), -limit, limit)
-    C       = M(q_d) diag(M(q_d))^-1    (a model file; the built-in arm: the identity)
+    C       = M(q_d) diag(M_0)^-1       (a model file; the built-in arm: the identity)
 
 where theta, omega are the driven (motor) joint's position and velocity (the
 link's when rigid).  ``tau`` is the actuator's control; the actuator follows
@@ -17,21 +17,30 @@ torque (``effort``) lags the command.  MuJoCo integrates everything (the
 model's integrator): there is no integrator here.
 
 **Decoupling.**  The gains are per joint, designed on the joint's own
-inertia, the diagonal ``M_jj`` of the joint-space inertia matrix
-(:mod:`~splines445_ros.sim.model_drives`).  But coupled joints can feel far
-less: the inertia a joint feels is ``1 / (M^-1)_jj``, on a Panda with joint 2
-near 0 (shoulder joints 1 and 3 aligned) 0.04 of the diagonal, so a plain
-per-joint PD loop runs there 25 times faster than designed, beyond what the
-1 kHz step and the 2 ms lag carry: the dynamic Panda shook at rest at up to
-5.7 rad/s at 5 of 9 random poses, a UR5 at one.  ``C`` maps the per-joint
+inertia ``I_j``, the diagonal of the joint-space inertia matrix ``M_0`` at
+the initial pose (:mod:`~splines445_ros.sim.model_drives`).  A plain
+per-joint loop ``kp e + kd e'`` runs at that bandwidth only there.  Coupled
+joints can feel far less: the inertia a joint feels is ``1 / (M^-1)_jj``,
+on a Panda with joint 2 near 0 (shoulder joints 1 and 3 aligned) 0.04 of the
+diagonal; and the diagonal itself changes with the pose (a Kinova's first
+joint: 0.022 kg m^2 folded, 0.24 at the ready pose).  There the loop runs
+several times faster than designed, beyond what the 1 kHz step and the 2 ms
+lag carry: the dynamic Panda shook at rest at up to 5.7 rad/s at 5 of 9
+random poses, a UR5 and a Kinova at one each.  ``C`` maps the per-joint
 corrections through the inertia matrix at the commanded pose (from the same
 ``mj_inverse`` as ``tau_ff``), so the error dynamics are
-``e'' = -diag(M)^-1 (kp e + kd e')``: every joint at its designed bandwidth
-on ``M_jj``, at every pose, whatever the coupling (the computed-torque law,
-with the per-joint gains kept).  ``C`` has a unit diagonal: on an arm whose
-inertia matrix is diagonal the loop is the plain per-joint PD.  An elastic
-joint's motor is a rotor of its own, coupled only through its spring: its
-row and column of ``C`` are the identity's.
+``e'' = -diag(M_0)^-1 (kp e + kd e')``: every joint at its designed
+bandwidth at every pose, whatever the coupling (the computed-torque law,
+with the per-joint gains kept).  At the initial pose of an arm whose
+inertia matrix is diagonal ``C`` is the identity: the plain per-joint loop.
+An elastic joint's motor is a rotor of its own, coupled only through its
+spring: its row and column of ``C`` are the identity's.  On a step where the
+decoupled command exceeds a joint's limit, that joint keeps its own
+correction only and the other joints' commands leave its correction out: a
+saturated joint cannot follow, and chasing its error would drag the others
+off their paths (an xArm7, whose plans leave out its joints' damping: a
+saturated joint 3 pulled joint 6 29 mrad off; 2.6 mrad so, 1.6 with the
+per-joint loop).
 
 The built-in arm keeps the plain per-joint loop (``C`` the identity), as it
 keeps its friction uncompensated: its gains are set by hand for its large
@@ -124,14 +133,16 @@ class DynamicArm:
     """One simulated arm with its controller; ``run`` steps it along reference arrays."""
 
     def __init__(self, arm_model, kp, kd, torque_limits, compensate_friction=None,
-                 decouple=None):
+                 decouple=None, design_pose=None):
         """
         Create MuJoCo data for ``arm_model`` (:class:`ArmModel`) with PD gains (n,).
 
         ``compensate_friction``: put the driven joints' dry friction
         (``frictionloss``) into the command; ``decouple``: map the PD terms
         through ``C`` (see the module docstring); None, for both: for a model
-        file, not for the built-in arm.
+        file, not for the built-in arm.  ``design_pose``: the pose (n,) whose
+        inertia diagonal ``M_0`` the gains were designed on (the initial
+        pose); None: the pose of the first :meth:`reset` or :meth:`set_state`.
         """
         self.mujoco = _import_mujoco()
         self.arm = arm_model
@@ -145,7 +156,7 @@ class DynamicArm:
         self.limits = np.asarray(torque_limits, dtype=float)
         if compensate_friction is None:
             compensate_friction = arm_model.source != 'built-in'
-        #: Whether the PD terms go through ``C = M diag(M)^-1`` (else the identity).
+        #: Whether the PD terms go through ``C = M diag(M_0)^-1`` (else the identity).
         self.decouple = arm_model.source != 'built-in' if decouple is None else bool(decouple)
         friction, speed = dry_friction(self.mujoco, self.model, arm_model.motor_dof)
         #: Dry friction (n,) put into the command [N m or N]; 0 = none.
@@ -161,6 +172,9 @@ class DynamicArm:
         self._same_layout = (self.model.nq == rigid.nq and self.model.nv == rigid.nv)
         self._act_adr = self.model.actuator_actadr[arm_model.actuators]
         self._full_inertia = np.zeros((rigid.nv, rigid.nv))
+        self._design_inertia = None
+        if design_pose is not None:
+            self._design_inertia = self._inertia_diagonal(design_pose)
         rigid_site = None
         if arm_model.tool_site is not None:
             name = self.mujoco.mj_id2name(self.model, self.mujoco.mjtObj.mjOBJ_SITE,
@@ -192,21 +206,31 @@ class DynamicArm:
         mj.mj_inverse(arm.rigid, rd)
         return rd.qfrc_inverse[arm.rigid_dof].copy()
 
-    def coupling(self):
-        """
-        Return ``C = M diag(M)^-1`` (n, n) at the pose of the last :meth:`feedforward`.
-
-        ``M`` is the driven joints' block of the rigid model's inertia matrix
-        (MuJoCo computed it in ``mj_inverse``); an elastic joint's row and
-        column are the identity's; without :attr:`decouple`, the identity.
-        """
-        if not self.decouple:
-            return np.eye(self.n_joints)
+    def _inertia_matrix(self):
+        """Return the driven joints' block (n, n) of the rigid model's inertia matrix now."""
         arm, full = self.arm, self._full_inertia
         self.mujoco.mj_fullM(arm.rigid, self.rigid_data, full)
         dofs = arm.rigid_dof
-        inertia = full[np.ix_(dofs, dofs)]
-        coupling = inertia / np.diag(inertia)[None, :]
+        return full[np.ix_(dofs, dofs)]
+
+    def _inertia_diagonal(self, pose):
+        """Return the inertia diagonal (n,) at a pose of the driven joints."""
+        pose = np.asarray(pose, dtype=float)
+        self.feedforward(pose, np.zeros_like(pose), np.zeros_like(pose))
+        return np.diag(self._inertia_matrix()).copy()
+
+    def coupling(self):
+        """
+        Return ``C = M diag(M_0)^-1`` (n, n) at the pose of the last :meth:`feedforward`.
+
+        ``M`` is the driven joints' block of the rigid model's inertia matrix
+        (MuJoCo computed it in ``mj_inverse``), ``M_0`` the one at the
+        design pose; an elastic joint's row and column are the identity's;
+        without :attr:`decouple`, the identity.
+        """
+        if not self.decouple:
+            return np.eye(self.n_joints)
+        coupling = self._inertia_matrix() / self._design_inertia[None, :]
         if np.any(self._elastic):
             elastic = self._elastic
             coupling[elastic, :] = 0.0
@@ -224,6 +248,8 @@ class DynamicArm:
         q = np.asarray(positions, dtype=float)
         v = np.zeros_like(q) if velocities is None else np.asarray(velocities, dtype=float)
         a = np.zeros_like(q) if accelerations is None else np.asarray(accelerations, dtype=float)
+        if self.decouple and self._design_inertia is None:
+            self._design_inertia = self._inertia_diagonal(q)
         mj.mj_resetData(self.model, d)
         d.qpos[arm.qpos] = q
         d.qvel[arm.dof] = v
@@ -311,7 +337,15 @@ class DynamicArm:
                 target = q_d[k]
             error = target - d.qpos[arm.motor_qpos]
             feedback = kp * error + kd * (v_d[k] - d.qvel[arm.motor_dof])
-            raw = tau + (self.coupling() @ feedback if self.decouple else feedback)
+            if self.decouple:
+                coupling = self.coupling()
+                raw = tau + coupling @ feedback
+                out = np.abs(raw) > limits
+                if np.any(out):     # no joint chases a saturated one's error
+                    kept = np.where(out, 0.0, feedback)
+                    raw = tau + coupling @ kept + np.where(out, np.diag(coupling) * feedback, 0.0)
+            else:
+                raw = tau + feedback
             if compensate:
                 raw += self.friction_compensation(v_d[k], error)
             raw = np.nan_to_num(raw, nan=0.0, posinf=1e300, neginf=-1e300)
