@@ -28,7 +28,8 @@ a ``<collision>`` mesh is kept only when its file is found (absolute path,
 ``file://``, relative to the URDF's folder, or ``package://pkg/rest`` as
 ``rest`` below one of the URDF's parent folders) and MuJoCo can read its
 format (STL, OBJ, MSH).  What was dropped is said once, in
-:attr:`RobotModel.notes` and on the Python log.
+:attr:`RobotModel.notes` and on the Python log (there once per process,
+however often the file is read).
 
 A revolute or prismatic joint's ``<limit lower upper>`` must be finite
 numbers with ``lower <= upper`` (MuJoCo would drop an upside-down range and
@@ -70,6 +71,19 @@ MAX_INCLUDE_DEPTH = 10          # MJCF <include> levels
 MAX_ASSET_BYTES = 100_000_000   # one mesh, texture, height field or skin file (MJCF)
 MESH_FORMATS = ('.stl', '.obj', '.msh')
 _LOG = logging.getLogger('splines445_ros.robot_model')
+# Notes already logged: a file read again (the planner's model, the arm's model and
+# its controller's rigid copy, every reload) is not noted again.  Bounded.
+_LOGGED_NOTES = set()
+MAX_LOGGED_NOTES = 1000
+
+
+def _log_note(note):
+    """Log a note about a description on the Python log once per process."""
+    if note in _LOGGED_NOTES:
+        return
+    if len(_LOGGED_NOTES) < MAX_LOGGED_NOTES:
+        _LOGGED_NOTES.add(note)
+    _LOG.warning(note)
 
 
 @dataclass(frozen=True)
@@ -688,7 +702,7 @@ def _from_urdf(mujoco, text, where, base_dir, source):
     except Exception as exc:  # mujoco raises ValueError or its own errors
         raise ValueError(f'MuJoCo cannot load {where}: {_mujoco_error(exc)}') from None
     for note in description.notes:
-        _LOG.warning(note)
+        _log_note(note)
     return RobotModel(model, 'urdf', source, description.limits, description.mimic,
                       description.notes, description.held, description.joint_names)
 
@@ -710,7 +724,7 @@ def _from_mjcf(mujoco, path, where):
             raise ValueError(f'cannot compile MJCF {where}: {_mujoco_error(first)}') from None
         notes.append(f'{where}: {dropped} mesh geom(s) dropped since the model did not '
                      f'compile with them ({_mujoco_error(first)})')
-        _LOG.warning(notes[-1])
+        _log_note(notes[-1])
     return RobotModel(model, 'mjcf', path, notes=notes)
 
 
@@ -737,7 +751,7 @@ def urdf_spec(mujoco, path, text=None):
         return None
     description = _UrdfDescription(text, where, os.path.dirname(os.path.abspath(path)))
     for note in description.notes:
-        _LOG.warning(note)
+        _log_note(note)
     try:
         spec = mujoco.MjSpec.from_string(description.text)
     except Exception as exc:  # mujoco raises ValueError or its own errors

@@ -16,9 +16,10 @@ from hypothesis import assume, given, settings, strategies as st
 import numpy as np
 import pytest
 from splines445_ros.robot.inverse_kinematics import KinematicsError, ModelKinematics
+from splines445_ros.robot import robot_model
 from splines445_ros.robot.kinematics import PlanarArm
 from splines445_ros.robot.robot_model import load_robot_model, MAX_DESCRIPTION_CHARS
-from splines445_ros.sim.mujoco_model import planar_arm_mjcf, PlanarArmModel
+from splines445_ros.sim.mujoco_model import load_arm_model, planar_arm_mjcf, PlanarArmModel
 from splines445_ros.tools import vendor_robots as vr
 
 
@@ -319,6 +320,8 @@ MINIMAL = """<robot name="two">
 
 
 def test_missing_meshes_are_dropped_and_said_once(caplog):
+    # Said once per process: another test may have said it already.
+    getattr(robot_model, '_LOGGED_NOTES', set()).clear()
     with caplog.at_level(logging.WARNING):
         robot = load_robot_model(urdf_string=MINIMAL.format(velocity=1.5))
     assert robot.joint_names == ('j1',) and robot.joints[0].velocity == 1.5
@@ -326,6 +329,25 @@ def test_missing_meshes_are_dropped_and_said_once(caplog):
     assert sum('dropped' in r.getMessage() for r in caplog.records) == 1
     kin = ModelKinematics(robot, 'tip')
     np.testing.assert_allclose(kin.forward(np.array([math.pi / 2]))[:3], [0, 1, 0], atol=1e-12)
+
+
+def test_a_file_read_again_is_not_noted_again(tmp_path, caplog):
+    """The arm reads a file three times (planner, simulation, controller): one note on the log."""
+    getattr(robot_model, '_LOGGED_NOTES', set()).clear()
+    path = tmp_path / 'two.urdf'
+    path.write_text(MINIMAL.format(velocity=1.5))
+    with caplog.at_level(logging.WARNING):
+        for _ in range(2):
+            assert len(load_robot_model(str(path)).notes) == 1
+        load_arm_model(('j1',), (9.0,), 0.002, model_file=str(path))
+    dropped = [r.getMessage() for r in caplog.records if 'dropped' in r.getMessage()]
+    assert len(dropped) == 1 and 'arm.stl' in dropped[0]
+    # Another file's note is its own.
+    other = tmp_path / 'other.urdf'
+    other.write_text(MINIMAL.format(velocity=2.5))
+    with caplog.at_level(logging.WARNING):
+        load_robot_model(str(other))
+    assert sum('other.urdf' in r.getMessage() for r in caplog.records) == 1
 
 
 @pytest.mark.parametrize('text, match', [
