@@ -15,8 +15,8 @@ from example_counts import examples
 from hypothesis import assume, given, settings, strategies as st
 import numpy as np
 import pytest
-from splines445_ros.robot.inverse_kinematics import KinematicsError, ModelKinematics
 from splines445_ros.robot import robot_model
+from splines445_ros.robot.inverse_kinematics import KinematicsError, ModelKinematics
 from splines445_ros.robot.kinematics import PlanarArm
 from splines445_ros.robot.robot_model import load_robot_model, MAX_DESCRIPTION_CHARS
 from splines445_ros.sim.mujoco_model import load_arm_model, planar_arm_mjcf, PlanarArmModel
