@@ -37,7 +37,8 @@ import numpy as np  # noqa: E402, I100
 import own_path  # noqa: E402, I100
 from scipy.interpolate import CubicSpline  # noqa: E402
 
-from shaking import of_toppra, shaking_figures, shaking_header, shaking_ratios  # noqa: E402
+from shaking import (of_toppra, of_trajectory, shaking_figures, shaking_header,  # noqa: E402
+                     shaking_ratios)
 from splines445_ros.planning import chord_durations, plan  # noqa: E402
 from splines445_ros.robot import paper_example as pe  # noqa: E402
 # toppra imported here, with this module: no timed call pays for the import.
@@ -122,6 +123,7 @@ def main():
         print(f'| {n_points} x {n_joints} | {cells} | {1e3 * tfit:.2f} | {top} '
               f'| {times["555"] / tfit:.1f}x | {top_ratio} | {durations} | {top_duration} |')
         sys.stdout.flush()
+    print('(The shaking beside these durations: the next table, on the requests TOPP-RA ran.)')
     print()
     print('Speed and shaking on the same requests: uniform timing / TOPP-RA (duration; a '
           'lightly damped mode on every joint, benchmarks/shaking.py)')
@@ -134,10 +136,17 @@ def main():
     kwargs = pe.plan_kwargs()
     waypoints = pe.joint_waypoints()
     print()
-    print("Paper's example (12 x 3, non-zero boundary values, factor searched):")
-    for method in METHODS:
-        elapsed, traj = best_of(lambda: plan(waypoints, method, **kwargs), 50)
-        print(f'  {method} uniform: {1e3 * elapsed:.2f} ms, duration {traj.duration:.4f} s')
+    print("Paper's example (12 x 3, non-zero boundary values, factor searched); shaking / "
+          "434's (Ho and Cook's, the paper's baseline): " + shaking_header())
+    found = {m: best_of(lambda method=m: plan(waypoints, method, **kwargs), 50)
+             for m in METHODS}
+    amax = np.asarray(kwargs['max_acceleration'], dtype=float)
+    baseline = found['434'][1]
+    reference = shaking_figures(of_trajectory(baseline), baseline.duration, amax)
+    for method, (elapsed, traj) in found.items():
+        shaking = ', '.join(f'{x:.2f}' for x in shaking_ratios(traj, reference, amax))
+        print(f'  {method} uniform: {1e3 * elapsed:.2f} ms, duration {traj.duration:.4f} s, '
+              f'shaking {shaking}')
     return 0
 
 
