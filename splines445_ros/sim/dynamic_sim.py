@@ -35,12 +35,13 @@ with the per-joint gains kept).  At the initial pose of an arm whose
 inertia matrix is diagonal ``C`` is the identity: the plain per-joint loop.
 An elastic joint's motor is a rotor of its own, coupled only through its
 spring: its row and column of ``C`` are the identity's.  On a step where the
-decoupled command exceeds a joint's limit, that joint keeps its own
-correction only and the other joints' commands leave its correction out: a
-saturated joint cannot follow, and chasing its error would drag the others
-off their paths (an xArm7, whose plans leave out its joints' damping: a
-saturated joint 3 pulled joint 6 29 mrad off; 2.6 mrad so, 1.6 with the
-per-joint loop).
+decoupled command exceeds a joint's limit, that joint gives its limit and
+the others are commanded what gives them their own loops' accelerations
+with it (:meth:`DynamicArm.decoupled_command`): clipped alone, the others
+would chase the saturated joint's error (an xArm7, whose plans leave out
+its joints' damping: a saturated joint 3 pulled joint 6 29 mrad off), and
+leaving its terms out of theirs alone made a coupled pair's commands jump
+between their limits from step to step.
 
 The built-in arm keeps the plain per-joint loop (``C`` the identity), as it
 keeps its friction uncompensated: its gains are set by hand for its large
@@ -48,7 +49,7 @@ rotor inertias (10, 4, 0.1 kg m^2, as large as its links'), it is stable
 there, and its figures and tests are those of that loop (decoupled, the
 friction that its light tool joint's loop holds would be carried into the
 shoulder's: 0.72 mrad of error on a slow move where the plain loop keeps
-0.26).
+0.31).
 
 **Dry friction.**  The rigid model leaves the joints' ``frictionloss`` ``f``
 out (its exact sign would step the command at every reversal); ``tau_f``
@@ -238,6 +239,48 @@ class DynamicArm:
             coupling[elastic, elastic] = 1.0
         return coupling
 
+    def decoupled_command(self, forward, feedback):
+        """
+        Return the decoupled command (n,) and whether it saturated: ``forward + C feedback``.
+
+        Written as ``forward + C D u`` with ``D = diag(M_0)`` and ``u = feedback / D`` the
+        acceleration each joint's loop asks for.  Where that exceeds a joint's limit, the
+        joint gives its limit (in the direction asked for), and the other joints are
+        commanded what gives *them* ``u`` with the saturated joints' torques fixed:
+        with ``A = C D``, free joints F and saturated S, the saturated joints'
+        acceleration is ``x_S = A_SS^-1 (tau_S - forward_S - A_SF u_F)`` and
+        ``tau_F = forward_F + A_FF u_F + A_FS x_S`` (repeated while a free joint
+        goes over its limit).  So no joint chases a saturated one, and none is left
+        to a per-joint loop either.
+        """
+        limits = self.limits
+        design = self._design_inertia
+        inertia = self.coupling() * design[None, :]
+        wanted = feedback / design
+        command = np.nan_to_num(forward + inertia @ wanted, nan=0.0, posinf=1e300,
+                                neginf=-1e300)
+        out = np.abs(command) > limits
+        if not np.any(out):
+            return command, False
+        command = command.copy()
+        while True:
+            free = ~out
+            command[out] = np.sign(command[out]) * limits[out]
+            if not np.any(free):
+                return command, True
+            fixed = command[out] - forward[out] - inertia[np.ix_(out, free)] @ wanted[free]
+            try:
+                moved = np.linalg.solve(inertia[np.ix_(out, out)], fixed)
+            except np.linalg.LinAlgError:
+                moved = np.zeros(int(np.count_nonzero(out)))
+            command[free] = (forward[free] + inertia[np.ix_(free, free)] @ wanted[free]
+                             + inertia[np.ix_(free, out)] @ moved)
+            command = np.nan_to_num(command, nan=0.0, posinf=1e300, neginf=-1e300)
+            over = free & (np.abs(command) > limits)
+            if not np.any(over):
+                return command, True
+            out = out | over
+
     def friction_compensation(self, v_d, error):
         """Return ``tau_f`` (n,) at a commanded velocity and position error (motor side)."""
         return self.friction * np.tanh(v_d / self._friction_v + error / self._friction_e)
@@ -308,6 +351,8 @@ class DynamicArm:
         mj, m, d, arm = self.mujoco, self.model, self.data, self.arm
         K, n = q_d.shape
         before = self.positions(), self.velocities()
+        if self.decouple and self._design_inertia is None:    # run before any reset
+            self._design_inertia = self._inertia_diagonal(before[0])
         warnings = self._unstable_warnings
         for w in warnings:
             d.warning[w].number = 0
@@ -337,19 +382,13 @@ class DynamicArm:
                 target = q_d[k]
             error = target - d.qpos[arm.motor_qpos]
             feedback = kp * error + kd * (v_d[k] - d.qvel[arm.motor_dof])
-            if self.decouple:
-                coupling = self.coupling()
-                raw = tau + coupling @ feedback
-                out = np.abs(raw) > limits
-                if np.any(out):     # no joint chases a saturated one's error
-                    kept = np.where(out, 0.0, feedback)
-                    raw = tau + coupling @ kept + np.where(out, np.diag(coupling) * feedback, 0.0)
-            else:
-                raw = tau + feedback
             if compensate:
-                raw += self.friction_compensation(v_d[k], error)
-            raw = np.nan_to_num(raw, nan=0.0, posinf=1e300, neginf=-1e300)
-            saturated[k] = bool(np.any(np.abs(raw) > limits))
+                tau = tau + self.friction_compensation(v_d[k], error)
+            if self.decouple:
+                raw, saturated[k] = self.decoupled_command(tau, feedback)
+            else:
+                raw = np.nan_to_num(tau + feedback, nan=0.0, posinf=1e300, neginf=-1e300)
+                saturated[k] = bool(np.any(np.abs(raw) > limits))
             tau = np.clip(raw, -limits, limits)
             command[k] = tau
             d.ctrl[arm.actuators] = tau
