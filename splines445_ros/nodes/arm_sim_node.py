@@ -35,7 +35,7 @@ from rclpy.time import Time
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory
 
-from . import topics
+from . import raw_messages, ros_conversions, topics
 from .clock_jumps import follow_clock_jumps, MAX_CATCH_UP
 from .diagnostics import format_vector, status_message
 from .node_main import run_node
@@ -103,8 +103,9 @@ class ArmSimNode(Node):
                                                     topics.STATE_QOS)
         self.status_publisher = self.create_publisher(DiagnosticStatus, topics.STATUS,
                                                       topics.STATUS_QOS)
+        # Raw: a message larger than any accepted one is refused before it is read.
         self.create_subscription(JointTrajectory, topics.JOINT_TRAJECTORY,
-                                 self._on_trajectory, topics.LATCHED)
+                                 self._on_raw_trajectory, topics.LATCHED, raw=True)
         self._timer = self.create_timer(1.0 / config.publish_rate, self._on_timer)
 
     def _effective(self, config):
@@ -182,6 +183,21 @@ class ArmSimNode(Node):
 
     def _now_ns(self):
         return self.get_clock().now().nanoseconds
+
+    def _on_raw_trajectory(self, data):
+        """Bound a received trajectory's size before reading it, then take it."""
+        limit = raw_messages.joint_trajectory_bytes(ros_conversions.MAX_TRAJECTORY_POINTS,
+                                                    len(self.effective.joint_names))
+        reason = raw_messages.too_large(data, limit, 'trajectory')
+        if reason is None:
+            try:
+                msg = raw_messages.read(data, JointTrajectory)
+            except ValueError as exc:
+                reason = f'trajectory rejected: {exc}'
+        if reason is not None:
+            self._error(reason)
+            return
+        self._on_trajectory(msg)
 
     def _on_trajectory(self, msg):
         config = self.effective

@@ -50,7 +50,7 @@ from std_msgs.msg import String
 from trajectory_msgs.msg import JointTrajectory
 from visualization_msgs.msg import MarkerArray
 
-from . import topics
+from . import raw_messages, topics
 from .clock_jumps import follow_clock_jumps
 from .diagnostics import format_vector, status_message
 from .follow_waypoints import FollowWaypointsServer
@@ -61,7 +61,8 @@ from .planned_path import (cleared_markers, planned_path_markers, tool_path_poin
 from .ros_conversions import (hold_message, lasting_at_rest, parse_tool_request,
                               parse_waypoint_request, plan_response, trajectory_to_msg)
 from ..robot.robot_model import check_description_file, MAX_DESCRIPTION_CHARS
-from ..service.interface_requests import override_values, request_message
+from ..service.interface_requests import (MAX_REQUEST_WAYPOINTS, override_values,
+                                          request_message)
 from ..service.model_planning import (build_robot_setup, description_source, load_model,
                                       plan_model_tool_request, robot_fields,
                                       tool_poses_from_message)
@@ -127,6 +128,14 @@ class _Compile:
 
     def __init__(self, source):
         self.source = source
+
+
+class _Unread:
+    """A worker job: a serialized message of a raw subscription, read on the worker."""
+
+    def __init__(self, data, msg_type, what, refused=None):
+        self.data, self.msg_type, self.what = data, msg_type, what
+        self.refused = refused      # why it is not read (too large), or None
 
 
 @dataclass(frozen=True)
@@ -227,15 +236,17 @@ class PlannerNode(Node):
             JointTrajectory, topics.JOINT_TRAJECTORY, topics.LATCHED)
         self.status_publisher = self.create_publisher(
             DiagnosticStatus, topics.STATUS, topics.STATUS_QOS)
+        # Requests and descriptions arrive raw: bounded before they are read, and read on
+        # the worker, in order, so a large one never holds the executor.
         self.create_subscription(JointTrajectory, topics.WAYPOINTS, self._on_waypoints,
-                                 topics.REQUEST_QOS)
+                                 topics.REQUEST_QOS, raw=True)
         # Always subscribed: a tool request while kinematics is "" gets an ERROR, not silence.
-        self.create_subscription(PoseArray, topics.TOOL_WAYPOINTS, self._on_waypoints,
-                                 topics.REQUEST_QOS)
+        self.create_subscription(PoseArray, topics.TOOL_WAYPOINTS, self._on_tool_waypoints,
+                                 topics.REQUEST_QOS, raw=True)
         self.create_subscription(JointState, topics.JOINT_STATES, self._on_joint_state,
                                  topics.STATE_QOS)
         self.create_subscription(String, ROBOT_DESCRIPTION, self._on_description,
-                                 topics.LATCHED)
+                                 topics.LATCHED, raw=True)
         self._latest_joint_state = None
         self._active = None  # _Published: the last trajectory published to the arm
         self._previous = None   # _Published: the one before, while the last waits for its stamp
@@ -396,12 +407,25 @@ class PlannerNode(Node):
         """Log ``message`` and publish it on ``~/status`` (see diagnostics.status_message)."""
         self._report(ok, message, values, warn)
 
-    def _on_waypoints(self, msg):
-        self._requests.put(msg)
+    def _take_raw(self, data, msg_type, limit, what):
+        """Queue a serialized message for the worker (to be refused unread when too large)."""
+        reason = raw_messages.too_large(data, limit, what)
+        self._requests.put(_Unread(data if reason is None else b'', msg_type, what, reason))
 
-    def _on_description(self, msg):
+    def _on_waypoints(self, data):
+        joints = max(1, len(self.planned_joint_names()))
+        self._take_raw(data, JointTrajectory,
+                       raw_messages.joint_trajectory_bytes(MAX_REQUEST_WAYPOINTS, joints),
+                       'waypoints')
+
+    def _on_tool_waypoints(self, data):
+        self._take_raw(data, PoseArray, raw_messages.pose_array_bytes(MAX_REQUEST_WAYPOINTS),
+                       'tool_waypoints')
+
+    def _on_description(self, data):
         # Loaded by the worker, in order with the requests.
-        self._requests.put(msg)
+        self._take_raw(data, String, raw_messages.string_bytes(MAX_DESCRIPTION_CHARS),
+                       'robot_description')
 
     def _on_config_change(self, config):
         """
@@ -585,6 +609,20 @@ class PlannerNode(Node):
                 return
             if job is _WAKE:
                 continue
+            if isinstance(job, _Unread):
+                reason = job.refused
+                if reason is None:
+                    try:
+                        job = raw_messages.read(job.data, job.msg_type)
+                    except ValueError as exc:
+                        reason = f'{job.what} rejected: {exc}'
+                if reason is not None:
+                    values = {}
+                    if job.msg_type is not String:  # a request: counted as one
+                        self._request_count += 1
+                        values['request'] = self._request_count
+                    self._report(False, reason, values)
+                    continue
             if isinstance(job, (String, _Compile)):
                 try:
                     if isinstance(job, String):

@@ -7,7 +7,7 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from node_status import assert_planned
 import numpy as np
 import pytest
-from splines445_ros.nodes import planner_node, ros_conversions
+from splines445_ros.nodes import planner_node, raw_messages, ros_conversions
 from splines445_ros.nodes.diagnostics import status_values
 from splines445_ros.nodes.ros_conversions import duration_to_seconds, sampled_trajectory_from_msg
 from splines445_ros.planning import plan
@@ -109,8 +109,8 @@ def bad_requests():
     ragged.points[5].positions = [0.0, 1.0]
     too_fast = waypoint_message(pe.JOINT_NAMES, W, start_velocity=[3.0, 0.0, 0.0])
     bad_boundary = waypoint_message(pe.JOINT_NAMES, W, end_acceleration=[1.0])
-    # 100,000 names, a duplicate among them: refused by their count, before they are read
-    # (counting duplicates pairwise took seconds on 10,000), with a short message.
+    # 100,000 names, a duplicate among them: refused by the message's size, before it is
+    # read (counting duplicates pairwise took seconds on 10,000), with a short message.
     crowd = JointTrajectory()
     crowd.joint_names = [f'j{k % 99_999}' for k in range(100_000)]
     return [
@@ -120,7 +120,7 @@ def bad_requests():
         ('unknown joint', unknown, "unknown joints ['elbow']"),
         ('duplicate joint', duplicate, 'duplicate joint names'),
         ('missing joint', missing, "missing joints ['joint3']"),
-        ('too many joints', crowd, 'the message names 100000 joints; this node controls 3'),
+        ('too many joints', crowd, 'waypoints rejected unread: the message has'),
         ('ragged point', ragged, 'point 5 has 2 positions for 3 joints'),
         ('infeasible boundary', too_fast, 'infeasible'),
         ('short boundary', bad_boundary, 'point 11 has 1 accelerations for 3 joints'),
@@ -324,6 +324,33 @@ def test_the_arm_counts_a_trajectorys_points_before_reading_them(monkeypatch):
         ros_conversions.sampled_trajectory_from_msg(msg, pe.JOINT_NAMES)
     monkeypatch.setattr(ros_conversions, 'MAX_TRAJECTORY_POINTS', 3)
     assert ros_conversions.sampled_trajectory_from_msg(msg, pe.JOINT_NAMES).times.size == 3
+
+
+def test_the_arm_refuses_a_trajectory_larger_than_any_accepted_before_reading_it(
+        system, monkeypatch):
+    """Bounded by its bytes: rclpy never builds the points (1 million took 13 s to read)."""
+    monkeypatch.setattr(ros_conversions, 'MAX_TRAJECTORY_POINTS', 20)
+    assert system.spin_until(lambda: system.joint_states, 5.0)
+    reads = []
+    real_read = raw_messages.read
+
+    def counted(data, msg_type):
+        reads.append(len(data))
+        return real_read(data, msg_type)
+    monkeypatch.setattr(raw_messages, 'read', counted)
+    times = 0.1 + 0.01 * np.arange(3000)    # beyond the bound of 20 points
+    n = len(system.arm_status)
+    system.trajectory_publisher.publish(raw_trajectory(pe.JOINT_NAMES, times, [W[3]] * 3000))
+    assert system.spin_until(lambda: len(system.arm_status) > n, 5.0)
+    refused = system.arm_status[n]
+    assert refused.level == DiagnosticStatus.ERROR
+    assert 'trajectory rejected unread: the message has' in refused.message, refused.message
+    assert reads == []
+    # The next one, within the bound, is read and played.
+    system.trajectory_publisher.publish(raw_trajectory(pe.JOINT_NAMES, [0.2], [W[3]]))
+    assert system.spin_until(
+        lambda: np.allclose(system.joint_states[-1].position, W[3], atol=1e-12), 5.0)
+    assert len(reads) == 1
 
 
 def test_a_topic_request_away_from_the_arm_at_rest_is_played_with_a_warn(system):
