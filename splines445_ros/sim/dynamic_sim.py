@@ -35,13 +35,14 @@ with the per-joint gains kept).  At the initial pose of an arm whose
 inertia matrix is diagonal ``C`` is the identity: the plain per-joint loop.
 An elastic joint's motor is a rotor of its own, coupled only through its
 spring: its row and column of ``C`` are the identity's.  On a step where the
-decoupled command exceeds a joint's limit, that joint gives its limit and
-the others are commanded what gives them their own loops' accelerations
-with it (:meth:`DynamicArm.decoupled_command`): clipped alone, the others
-would chase the saturated joint's error (an xArm7, whose plans leave out
-its joints' damping: a saturated joint 3 pulled joint 6 29 mrad off), and
-leaving its terms out of theirs alone made a coupled pair's commands jump
-between their limits from step to step.
+decoupled command exceeds a limit, the command is the one within the limits
+nearest to it in the inertia's norm (:meth:`DynamicArm.decoupled_command`):
+joints at a limit give it, every other joint gets its own loop's
+acceleration.  Clipped alone, the others would chase the saturated joint's
+error (an xArm7, whose plans leave out its joints' damping: a saturated
+joint 3 pulled joint 6 29 mrad off), and leaving the saturated joint's terms
+out of theirs made a coupled pair's commands jump between their limits from
+step to step (helper-82, helper-83).
 
 The built-in arm keeps the plain per-joint loop (``C`` the identity), as it
 keeps its friction uncompensated: its gains are set by hand for its large
@@ -243,15 +244,19 @@ class DynamicArm:
         """
         Return the decoupled command (n,) and whether it saturated: ``forward + C feedback``.
 
-        Written as ``forward + C D u`` with ``D = diag(M_0)`` and ``u = feedback / D`` the
-        acceleration each joint's loop asks for.  Where that exceeds a joint's limit, the
-        joint gives its limit (in the direction asked for), and the other joints are
-        commanded what gives *them* ``u`` with the saturated joints' torques fixed:
-        with ``A = C D``, free joints F and saturated S, the saturated joints'
-        acceleration is ``x_S = A_SS^-1 (tau_S - forward_S - A_SF u_F)`` and
-        ``tau_F = forward_F + A_FF u_F + A_FS x_S`` (repeated while a free joint
-        goes over its limit).  So no joint chases a saturated one, and none is left
-        to a per-joint loop either.
+        Written as ``forward + A u`` with ``A = C diag(M_0)`` (the inertia matrix ``M``
+        at the commanded pose, its elastic rows and columns the identity's) and
+        ``u = feedback / diag(M_0)`` the acceleration each joint's loop asks for.
+        Where that exceeds a limit, the command is the one within the limits whose
+        accelerations ``x = A^-1 (tau - forward)`` come nearest to ``u`` in the inertia's
+        norm, ``(x - u)^T A (x - u)`` (a small box-constrained problem, solved by active
+        sets): the joints at a limit give it, and every other joint gets exactly its own
+        loop's acceleration, ``tau_F = forward_F + A_FF u_F + A_FS x_S`` with
+        ``x_S = A_SS^-1 (tau_S - forward_S - A_SF u_F)``.  A joint at a limit is let go
+        when that gives it more acceleration than its loop asks (``(x_j - u_j)`` of its
+        limit's sign), a free joint over its limit is held at it, one at a time.  So no
+        joint chases a saturated one, and coupled joints at their limits do not push
+        each other the wrong way.
         """
         limits = self.limits
         design = self._design_inertia
@@ -259,27 +264,41 @@ class DynamicArm:
         wanted = feedback / design
         command = np.nan_to_num(forward + inertia @ wanted, nan=0.0, posinf=1e300,
                                 neginf=-1e300)
-        out = np.abs(command) > limits
-        if not np.any(out):
+        if not np.any(np.abs(command) > limits):
             return command, False
-        command = command.copy()
-        while True:
-            free = ~out
-            command[out] = np.sign(command[out]) * limits[out]
-            if not np.any(free):
-                return command, True
-            fixed = command[out] - forward[out] - inertia[np.ix_(out, free)] @ wanted[free]
+        n = len(command)
+        held = np.zeros(n)              # -1 / +1 at the lower / upper limit, 0 free
+        over = np.abs(command) / limits
+        first = int(np.argmax(over))
+        held[first] = np.sign(command[first])
+        best = np.clip(command, -limits, limits)
+        for _ in range(4 * n):
+            at = held != 0.0
+            free = ~at
+            tau = np.where(at, held * limits, 0.0)
             try:
-                moved = np.linalg.solve(inertia[np.ix_(out, out)], fixed)
+                fixed = tau[at] - forward[at] - inertia[np.ix_(at, free)] @ wanted[free]
+                moved = np.linalg.solve(inertia[np.ix_(at, at)], fixed)
             except np.linalg.LinAlgError:
-                moved = np.zeros(int(np.count_nonzero(out)))
-            command[free] = (forward[free] + inertia[np.ix_(free, free)] @ wanted[free]
-                             + inertia[np.ix_(free, out)] @ moved)
-            command = np.nan_to_num(command, nan=0.0, posinf=1e300, neginf=-1e300)
-            over = free & (np.abs(command) > limits)
-            if not np.any(over):
-                return command, True
-            out = out | over
+                return best, True
+            tau[free] = (forward[free] + inertia[np.ix_(free, free)] @ wanted[free]
+                         + inertia[np.ix_(free, at)] @ moved)
+            if not np.all(np.isfinite(tau)):
+                return best, True
+            best = np.clip(tau, -limits, limits)
+            ratio = np.where(free, np.abs(tau) / limits, 0.0)
+            if np.max(ratio) > 1.0:
+                j = int(np.argmax(ratio))
+                held[j] = np.sign(tau[j])
+                continue
+            # A held joint let go where its limit gives it more than its loop asks.
+            push = np.zeros(n)
+            push[at] = held[at] * (moved - wanted[at])
+            if np.max(push) > 0.0 and np.count_nonzero(at) > 0:
+                held[int(np.argmax(push))] = 0.0
+                continue
+            return tau, True
+        return best, True
 
     def friction_compensation(self, v_d, error):
         """Return ``tau_f`` (n,) at a commanded velocity and position error (motor side)."""
