@@ -23,7 +23,10 @@ and the applied torques as ``effort`` when dynamic) and the tool pose
 idle; reports accepted and rejected trajectories on ``~/status``.
 """
 
+import collections
 import math
+import queue
+import threading
 import time
 import traceback
 
@@ -66,6 +69,9 @@ FAR_AHEAD = MAX_LEAD_TIME
 # controller's own test (a float's epsilon).  A knot time rounded to the nanosecond leaves
 # 1e-18 on a plan that ends at rest, which was warned of (helper-78).
 END_VELOCITY_EPSILON = float(np.finfo(np.float32).eps)
+# A trajectory message larger than this [bytes] is read on the reader thread: about
+# 5,000 points of 7 joints, some 60 ms of reading and converting here.
+READ_ON_EXECUTOR_BYTES = 1_000_000
 
 
 class ArmSimNode(Node):
@@ -103,7 +109,15 @@ class ArmSimNode(Node):
                                                     topics.STATE_QOS)
         self.status_publisher = self.create_publisher(DiagnosticStatus, topics.STATUS,
                                                       topics.STATUS_QOS)
-        # Raw: a message larger than any accepted one is refused before it is read.
+        # Raw: a message larger than any accepted one is refused before it is read, and a
+        # large one is read on the reader thread (200,000 points of 7 joints: 3.6 s).
+        self._reads = queue.SimpleQueue()
+        self._read_done = collections.deque()
+        self._reads_pending = 0     # queued for the reader and not yet taken (executor's)
+        self._read_ready = self.create_guard_condition(self._on_reads_done)
+        self._reader = threading.Thread(target=self._read_trajectories,
+                                        name='trajectory reader', daemon=True)
+        self._reader.start()
         self.create_subscription(JointTrajectory, topics.JOINT_TRAJECTORY,
                                  self._on_raw_trajectory, topics.LATCHED, raw=True)
         self._timer = self.create_timer(1.0 / config.publish_rate, self._on_timer)
@@ -185,24 +199,76 @@ class ArmSimNode(Node):
         return self.get_clock().now().nanoseconds
 
     def _on_raw_trajectory(self, data):
-        """Bound a received trajectory's size before reading it, then take it."""
+        """
+        Bound a received trajectory's size before reading it, then take it.
+
+        A small one is read here; a larger one (more than :data:`READ_ON_EXECUTOR_BYTES`)
+        is read and converted on the reader thread, and so is every one received while
+        a read is pending, so they are taken in the order they came.
+        """
+        joints = self.effective.joint_names
         limit = raw_messages.joint_trajectory_bytes(ros_conversions.MAX_TRAJECTORY_POINTS,
-                                                    len(self.effective.joint_names))
-        reason = raw_messages.too_large(data, limit, 'trajectory')
-        if reason is None:
-            try:
-                msg = raw_messages.read(data, JointTrajectory)
-            except ValueError as exc:
-                reason = f'trajectory rejected: {exc}'
+                                                    len(joints))
+        reason = raw_messages.too_large(data, limit)
         if reason is not None:
-            self._error(reason)
+            self._error(f'trajectory rejected unread: {reason}')
+            return
+        if self._reads_pending or len(data) > READ_ON_EXECUTOR_BYTES:
+            self._reads_pending += 1
+            self._reads.put((data, joints))
+            return
+        try:
+            msg = raw_messages.read(data, JointTrajectory)
+        except ValueError as exc:
+            self._error(f'trajectory rejected: {exc}')
             return
         self._on_trajectory(msg)
 
-    def _on_trajectory(self, msg):
+    def _read_trajectories(self):
+        """Read and convert the queued messages (the reader thread); hand them to the executor."""
+        while True:
+            job = self._reads.get()
+            if job is None:
+                return
+            data, joints = job
+            try:
+                msg = raw_messages.read(data, JointTrajectory)
+                try:
+                    parsed = (joints, sampled_trajectory_from_msg(msg, joints))
+                except ValueError as exc:
+                    parsed = (joints, exc)
+                result = (msg, parsed, None)
+            except ValueError as exc:
+                result = (None, None, f'trajectory rejected: {exc}')
+            except Exception as exc:  # noqa: B902 - reported on the executor
+                result = (None, None, f'trajectory rejected: internal error: '
+                                      f'{type(exc).__name__}: {exc}')
+            self._read_done.append(result)
+            try:
+                self._read_ready.trigger()
+            except Exception:  # noqa: B902 - the node is being destroyed
+                return
+
+    def _on_reads_done(self):
+        """Take the trajectories the reader thread has read, in the order they came."""
+        while self._read_done:
+            msg, parsed, error = self._read_done.popleft()
+            self._reads_pending -= 1
+            if error is not None:
+                self._error(error)
+            else:
+                self._on_trajectory(msg, parsed)
+
+    def _on_trajectory(self, msg, parsed=None):
+        """Take a trajectory; ``parsed``: (joint names, its conversion or the ValueError)."""
         config = self.effective
         try:
-            trajectory = sampled_trajectory_from_msg(msg, config.joint_names)
+            if parsed is not None and tuple(parsed[0]) == tuple(config.joint_names):
+                if isinstance(parsed[1], ValueError):
+                    raise parsed[1]
+                trajectory = parsed[1]
+            else:
+                trajectory = sampled_trajectory_from_msg(msg, config.joint_names)
             # A negative stamp is refused by rclpy's Time (ValueError) as well.
             stamp = Time.from_msg(msg.header.stamp).nanoseconds
         except ValueError as exc:
@@ -537,6 +603,12 @@ class ArmSimNode(Node):
             pose.pose.orientation.z = math.sin(0.5 * yaw)
             pose.pose.orientation.w = math.cos(0.5 * yaw)
         self.pose_publisher.publish(pose)
+
+    def destroy_node(self):
+        """Stop the trajectory reader, then destroy the node."""
+        self._reads.put(None)
+        self._reader.join(timeout=10.0)
+        return super().destroy_node()
 
 
 def main(args=None):

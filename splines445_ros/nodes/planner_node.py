@@ -80,6 +80,9 @@ PLAN_INTERFACE = 'plan service'
 STOP_ATTEMPTS = 3
 
 _STOP = object()
+# A waypoints message is bounded on receipt as for at least this many joints (the
+# robot it is for may still be compiling), and by its robot's joints before it is read.
+RECEIPT_JOINTS = 64
 _WAKE = object()    # wakes the worker for a stop job (PlannerNode._stops)
 
 
@@ -408,15 +411,31 @@ class PlannerNode(Node):
         self._report(ok, message, values, warn)
 
     def _take_raw(self, data, msg_type, limit, what):
-        """Queue a serialized message for the worker (to be refused unread when too large)."""
-        reason = raw_messages.too_large(data, limit, what)
+        """Queue a serialized message for the worker (refused unread beyond ``limit``)."""
+        reason = raw_messages.too_large(data, limit)
         self._requests.put(_Unread(data if reason is None else b'', msg_type, what, reason))
 
+    def _waypoints_bytes(self, known_only=False):
+        """
+        Return the most bytes a waypoints request takes: its joints' (None when not known).
+
+        On the executor (``known_only`` False) the robot may still be compiling for a
+        description queued before the request, so the bound is for at least
+        :data:`RECEIPT_JOINTS` joints; the worker checks the robot's own before reading.
+        """
+        config = self.parameters.config
+        if config.kinematics == 'model' and self._robot is None:
+            joints = None
+        else:
+            joints = len(self.planned_joint_names())
+        if known_only:
+            return None if not joints else raw_messages.joint_trajectory_bytes(
+                MAX_REQUEST_WAYPOINTS, joints)
+        return raw_messages.joint_trajectory_bytes(MAX_REQUEST_WAYPOINTS,
+                                                   max(RECEIPT_JOINTS, joints or 0))
+
     def _on_waypoints(self, data):
-        joints = max(1, len(self.planned_joint_names()))
-        self._take_raw(data, JointTrajectory,
-                       raw_messages.joint_trajectory_bytes(MAX_REQUEST_WAYPOINTS, joints),
-                       'waypoints')
+        self._take_raw(data, JointTrajectory, self._waypoints_bytes(), 'waypoints')
 
     def _on_tool_waypoints(self, data):
         self._take_raw(data, PoseArray, raw_messages.pose_array_bytes(MAX_REQUEST_WAYPOINTS),
@@ -426,6 +445,37 @@ class PlannerNode(Node):
         # Loaded by the worker, in order with the requests.
         self._take_raw(data, String, raw_messages.string_bytes(MAX_DESCRIPTION_CHARS),
                        'robot_description')
+
+    def _read_unread(self, job):
+        """
+        Return the message of an ``_Unread`` job (on the worker), or None when refused.
+
+        A request is measured against the joints planned now (the robot of every
+        description and model file queued before it is set up by then), counted and
+        refused with its number; a description is refused keeping the last good robot.
+        """
+        reason = job.refused
+        if reason is None and job.msg_type is JointTrajectory:
+            limit = self._waypoints_bytes(known_only=True)
+            if limit is not None:
+                reason = raw_messages.too_large(job.data, limit)
+        unread = reason is not None
+        if not unread:
+            try:
+                return raw_messages.read(job.data, job.msg_type)
+            except ValueError as exc:
+                reason = str(exc)
+        how = 'rejected unread' if unread else 'rejected'
+        if job.msg_type is String:
+            kept = (f'; keeping the last good robot, of {self._robot.source}'
+                    if self._robot is not None else '; no robot to plan with')
+            self._report(False, f'robot_description {how}: {reason}{kept}',
+                         {'robot_description_bytes': len(job.data)})
+            return None
+        self._request_count += 1
+        self._report(False, f'request {self._request_count} {how} ({job.what}): {reason}',
+                     {'request': self._request_count})
+        return None
 
     def _on_config_change(self, config):
         """
@@ -610,18 +660,8 @@ class PlannerNode(Node):
             if job is _WAKE:
                 continue
             if isinstance(job, _Unread):
-                reason = job.refused
-                if reason is None:
-                    try:
-                        job = raw_messages.read(job.data, job.msg_type)
-                    except ValueError as exc:
-                        reason = f'{job.what} rejected: {exc}'
-                if reason is not None:
-                    values = {}
-                    if job.msg_type is not String:  # a request: counted as one
-                        self._request_count += 1
-                        values['request'] = self._request_count
-                    self._report(False, reason, values)
+                job = self._read_unread(job)
+                if job is None:
                     continue
             if isinstance(job, (String, _Compile)):
                 try:

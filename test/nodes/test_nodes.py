@@ -1,13 +1,14 @@
 """Both nodes and a test client in one process: the paper's example and bad input."""
 
 import os
+import threading
 import time
 
 from diagnostic_msgs.msg import DiagnosticStatus
 from node_status import assert_planned
 import numpy as np
 import pytest
-from splines445_ros.nodes import planner_node, raw_messages, ros_conversions
+from splines445_ros.nodes import arm_sim_node, planner_node, raw_messages, ros_conversions
 from splines445_ros.nodes.diagnostics import status_values
 from splines445_ros.nodes.ros_conversions import duration_to_seconds, sampled_trajectory_from_msg
 from splines445_ros.planning import plan
@@ -109,8 +110,8 @@ def bad_requests():
     ragged.points[5].positions = [0.0, 1.0]
     too_fast = waypoint_message(pe.JOINT_NAMES, W, start_velocity=[3.0, 0.0, 0.0])
     bad_boundary = waypoint_message(pe.JOINT_NAMES, W, end_acceleration=[1.0])
-    # 100,000 names, a duplicate among them: refused by the message's size, before it is
-    # read (counting duplicates pairwise took seconds on 10,000), with a short message.
+    # 100,000 names, a duplicate among them: refused by their count, before they are read
+    # (counting duplicates pairwise took seconds on 10,000), with a short message.
     crowd = JointTrajectory()
     crowd.joint_names = [f'j{k % 99_999}' for k in range(100_000)]
     return [
@@ -120,7 +121,7 @@ def bad_requests():
         ('unknown joint', unknown, "unknown joints ['elbow']"),
         ('duplicate joint', duplicate, 'duplicate joint names'),
         ('missing joint', missing, "missing joints ['joint3']"),
-        ('too many joints', crowd, 'waypoints rejected unread: the message has'),
+        ('too many joints', crowd, 'the message names 100000 joints; this node controls 3'),
         ('ragged point', ragged, 'point 5 has 2 positions for 3 joints'),
         ('infeasible boundary', too_fast, 'infeasible'),
         ('short boundary', bad_boundary, 'point 11 has 1 accelerations for 3 joints'),
@@ -351,6 +352,76 @@ def test_the_arm_refuses_a_trajectory_larger_than_any_accepted_before_reading_it
     assert system.spin_until(
         lambda: np.allclose(system.joint_states[-1].position, W[3], atol=1e-12), 5.0)
     assert len(reads) == 1
+
+
+def test_the_planner_refuses_a_request_larger_than_any_accepted_before_reading_it(
+        system, monkeypatch):
+    """
+    Bounded on receipt (as for 64 joints) and by its own joints on the worker, then read.
+
+    Both refusals are requests: counted, refused with their numbers; the next is served.
+    """
+    monkeypatch.setattr(planner_node, 'MAX_REQUEST_WAYPOINTS', 20)
+    reads = []
+    real_read = raw_messages.read
+
+    def counted(data, msg_type):
+        reads.append(len(data))
+        return real_read(data, msg_type)
+    monkeypatch.setattr(raw_messages, 'read', counted)
+    first = system.planner._request_count
+    # Beyond what 20 points of the 3 joints take, within 20 points of 64 joints: refused by
+    # the worker; beyond that too: refused on receipt.  Neither is read.
+    for points in (1500, 5000):
+        times = 0.1 * np.arange(1, points + 1)
+        status, traj = system.request(waypoint_message(pe.JOINT_NAMES, np.tile(W[1], (points, 1)),
+                                                       times=times))
+        assert status.level == DiagnosticStatus.ERROR and traj is None
+        assert 'rejected unread (waypoints): the message has' in status.message, status.message
+    assert reads == []
+    status, traj = system.request(waypoint_message(pe.JOINT_NAMES, W))
+    assert_planned(status)
+    assert status_values(status)['request'] == str(first + 3)
+
+
+def test_a_large_trajectory_is_read_off_the_executor_and_taken_in_order(system, monkeypatch):
+    """
+    Read on the reader thread, and a small one sent after it waits its turn.
+
+    The large one (made slow to read here) replaced by the small one: the arm
+    ends where the small one goes, whichever was quicker to read.
+    """
+    assert system.spin_until(lambda: system.joint_states, 5.0)
+    monkeypatch.setattr(arm_sim_node, 'READ_ON_EXECUTOR_BYTES', 5000)
+    threads = []
+    real_read = raw_messages.read
+
+    def slow(data, msg_type):
+        threads.append((len(data), threading.current_thread().name))
+        if len(data) > 5000:
+            time.sleep(0.3)
+        return real_read(data, msg_type)
+    monkeypatch.setattr(raw_messages, 'read', slow)
+    n = len(system.arm_status)
+    times = 0.5 + 0.01 * np.arange(300)
+    system.trajectory_publisher.publish(raw_trajectory(pe.JOINT_NAMES, times, [W[2]] * 300))
+    # (The topic keeps one message: the next is sent once the arm has this one.)
+    assert system.spin_until(lambda: threads, 5.0)
+    system.trajectory_publisher.publish(raw_trajectory(pe.JOINT_NAMES, [0.2], [W[4]]))
+    assert system.spin_until(
+        lambda: sum('trajectory accepted' in m.message for m in system.arm_status[n:]) == 2,
+        5.0)
+    accepted = [m.message for m in system.arm_status[n:] if 'trajectory accepted' in m.message]
+    assert accepted[0].startswith('trajectory accepted: 300 points'), accepted
+    assert accepted[1].startswith('trajectory accepted: 1 points'), accepted
+    assert [name for _, name in threads] == ['trajectory reader'] * 2
+    assert system.spin_until(
+        lambda: np.allclose(system.joint_states[-1].position, W[4], atol=1e-12), 5.0)
+    # With nothing pending, a small one is read on the executor again.
+    system.trajectory_publisher.publish(raw_trajectory(pe.JOINT_NAMES, [0.2], [W[3]]))
+    assert system.spin_until(
+        lambda: np.allclose(system.joint_states[-1].position, W[3], atol=1e-12), 5.0)
+    assert threads[-1][1] != 'trajectory reader'
 
 
 def test_a_topic_request_away_from_the_arm_at_rest_is_played_with_a_warn(system):

@@ -13,10 +13,12 @@ from splines445_ros.nodes import raw_messages
 from std_msgs.msg import String
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
+FIELDS = ('positions', 'velocities', 'accelerations', 'effort')
 
-def trajectory(points, joints, name_length, fields):
+
+def trajectory(points, joints, name_length, fields, frame_length=200):
     msg = JointTrajectory()
-    msg.header.frame_id = 'f' * 200
+    msg.header.frame_id = 'f' * frame_length
     msg.joint_names = [f'{k:0{name_length}d}'[-name_length:] for k in range(joints)]
     for k in range(points):
         values = [0.1 * k] * joints
@@ -25,33 +27,36 @@ def trajectory(points, joints, name_length, fields):
 
 
 @settings(max_examples=examples(40), deadline=None)
-@given(points=st.integers(1, 300), joints=st.integers(1, 12), name_length=st.integers(1, 255),
-       fields=st.sampled_from([('positions',), ('positions', 'velocities'),
-                               ('positions', 'velocities', 'accelerations')]))
+@given(points=st.one_of(st.integers(1, 300), st.integers(2000, 4000)),
+       joints=st.integers(1, 12), name_length=st.integers(1, 255),
+       frame_length=st.integers(0, 60_000), fields=st.sets(st.sampled_from(FIELDS)))
 def test_every_trajectory_within_the_counts_is_within_the_bound(points, joints, name_length,
-                                                                fields):
-    size = len(serialize_message(trajectory(points, joints, name_length, fields)))
-    assert size <= raw_messages.joint_trajectory_bytes(points, joints)
+                                                                frame_length, fields):
+    msg = trajectory(points, joints, name_length, sorted(fields), frame_length)
+    assert len(serialize_message(msg)) <= raw_messages.joint_trajectory_bytes(points, joints)
 
 
-def test_the_trajectory_bound_bites_on_the_points():
-    """Beyond the header's allowance it is tight: ten times the points are refused."""
-    full = len(serialize_message(trajectory(1000, 7, 20, ('positions', 'velocities',
-                                                          'accelerations'))))
-    bound = raw_messages.joint_trajectory_bytes(1000, 7)
-    allowance = raw_messages.NAMES_BYTES + 7 * raw_messages.NAME_BYTES
-    assert full <= bound <= full + allowance
-    ten_times = serialize_message(trajectory(10_000, 7, 20, ('positions',)))
-    reason = raw_messages.too_large(ten_times, bound, 'trajectory')
-    assert reason is not None and reason.startswith('trajectory rejected unread')
+def test_the_trajectory_bound_is_tight_per_point_and_bites_beyond():
+    """Its points part is the full points' own, to the padding; ten times the points fail."""
+    joints, points = 7, 5000
+    full = len(serialize_message(trajectory(points, joints, 20, FIELDS, frame_length=0)))
+    bound = raw_messages.joint_trajectory_bytes(points, joints)
+    fixed = raw_messages.joint_trajectory_bytes(0, joints)
+    assert full <= bound
+    assert (bound - fixed) - full <= 4 * 4 * points    # at most the padding of 4 sequences
+    ten_times = serialize_message(trajectory(10 * points, joints, 20, ('positions',)))
+    reason = raw_messages.too_large(ten_times, bound)
+    assert reason is not None and reason.startswith('the message has')
 
 
 def test_pose_arrays_and_strings_within_their_bounds():
     poses = PoseArray(poses=[Pose() for _ in range(500)])
-    poses.header.frame_id = 'base_link'
+    poses.header.frame_id = 'b' * 60_000
     assert len(serialize_message(poses)) <= raw_messages.pose_array_bytes(500)
+    poses.header.frame_id = ''
     assert len(serialize_message(poses)) > (raw_messages.pose_array_bytes(400)
-                                            - raw_messages.NAMES_BYTES)
-    text = 'é' * 1000     # two bytes each in UTF-8
-    assert len(serialize_message(String(data=text))) <= raw_messages.string_bytes(1000)
-    assert raw_messages.too_large(b'x' * 10, 10, 'it') is None
+                                            - raw_messages.HEADER_BYTES)
+    for character in ('a', 'é', '€', '😀'):   # one to four bytes in UTF-8
+        text = character * 1000
+        assert len(serialize_message(String(data=text))) <= raw_messages.string_bytes(1000)
+    assert raw_messages.too_large(b'x' * 10, 10) is None
