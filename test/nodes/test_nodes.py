@@ -327,11 +327,8 @@ def test_the_arm_counts_a_trajectorys_points_before_reading_them(monkeypatch):
     assert ros_conversions.sampled_trajectory_from_msg(msg, pe.JOINT_NAMES).times.size == 3
 
 
-def test_the_arm_refuses_a_trajectory_larger_than_any_accepted_before_reading_it(
-        system, monkeypatch):
-    """Bounded by its bytes: rclpy never builds the points (1 million took 13 s to read)."""
-    monkeypatch.setattr(ros_conversions, 'MAX_TRAJECTORY_POINTS', 20)
-    assert system.spin_until(lambda: system.joint_states, 5.0)
+def counted_reads(monkeypatch):
+    """Return the list of the sizes of the messages the nodes read from now on."""
     reads = []
     real_read = raw_messages.read
 
@@ -339,6 +336,15 @@ def test_the_arm_refuses_a_trajectory_larger_than_any_accepted_before_reading_it
         reads.append(len(data))
         return real_read(data, msg_type)
     monkeypatch.setattr(raw_messages, 'read', counted)
+    return reads
+
+
+def test_the_arm_refuses_a_trajectory_larger_than_any_accepted_before_reading_it(
+        system, monkeypatch):
+    """Bounded by its bytes: rclpy never builds the points (1 million took 13 s to read)."""
+    monkeypatch.setattr(ros_conversions, 'MAX_TRAJECTORY_POINTS', 20)
+    assert system.spin_until(lambda: system.joint_states, 5.0)
+    reads = counted_reads(monkeypatch)
     times = 0.1 + 0.01 * np.arange(3000)    # beyond the bound of 20 points
     n = len(system.arm_status)
     system.trajectory_publisher.publish(raw_trajectory(pe.JOINT_NAMES, times, [W[3]] * 3000))
@@ -362,13 +368,7 @@ def test_the_planner_refuses_a_request_larger_than_any_accepted_before_reading_i
     Both refusals are requests: counted, refused with their numbers; the next is served.
     """
     monkeypatch.setattr(planner_node, 'MAX_REQUEST_WAYPOINTS', 20)
-    reads = []
-    real_read = raw_messages.read
-
-    def counted(data, msg_type):
-        reads.append(len(data))
-        return real_read(data, msg_type)
-    monkeypatch.setattr(raw_messages, 'read', counted)
+    reads = counted_reads(monkeypatch)
     first = system.planner._request_count
     # Beyond what 20 points of the 3 joints take, within 20 points of 64 joints: refused by
     # the worker; beyond that too: refused on receipt.  Neither is read.

@@ -63,23 +63,34 @@ def test_every_unsaturated_joint_gets_its_own_loops_acceleration(seed, spread):
         assert np.any(np.abs(forward + inertia @ wanted) > limits) and np.any(held)
 
 
-def test_two_coupled_joints_at_their_limits_come_to_rest_without_chatter():
-    """Joints 1 and 3, nearly aligned, both 5 N m above what holds them, kicked together."""
+def kicked_at_the_coupled_pose(limited, kick, margin=5.0, steps=2000):
+    """
+    Hold the Panda at its coupled pose for ``steps``, the ``limited`` joints kicked by ``kick``.
+
+    Their limits are ``margin`` above what holds them there.  Returns the held
+    references (steps, n), the log and the lowered limits.
+    """
     config, arm = panda()
     n = arm.n_joints
     pose = np.array(PANDA_COUPLED_POSE)
     hold = arm.feedforward(pose, np.zeros(n), np.zeros(n))
     limits = np.array(config.torque_limits, dtype=float)
-    arm.limits = limits.copy()
-    arm.limits[[0, 2]] = np.abs(hold[[0, 2]]) + 5.0
+    lowered = limits.copy()
+    lowered[limited] = np.abs(hold[limited]) + margin
+    arm.limits = lowered
     try:
-        arm.set_state(pose, (np.eye(n)[0] + np.eye(n)[2]) * 0.3)
-        steps = 2000
+        arm.set_state(pose, np.eye(n)[limited].sum(axis=0) * kick)
         held = np.tile(pose, (steps, 1))
         log = arm.run(held, np.zeros_like(held), np.zeros_like(held))
-        lowered = arm.limits.copy()
     finally:
         arm.limits = limits
+    return held, log, lowered
+
+
+def test_two_coupled_joints_at_their_limits_come_to_rest_without_chatter():
+    """Joints 1 and 3, nearly aligned, both 5 N m above what holds them, kicked together."""
+    held, log, lowered = kicked_at_the_coupled_pose([0, 2], 0.3)
+    steps = len(held)
     assert log['saturated'].any()
     jumps = np.abs(np.diff(log['command'], axis=0)).max(axis=0)
     assert np.all(jumps < lowered), jumps      # never from one limit to the other
@@ -96,20 +107,9 @@ def test_a_saturated_joint_does_not_drag_the_others_or_make_them_chatter():
     the saturated joint's terms out of the others' commands made a coupled
     pair's commands jump between their limits from one step to the next.
     """
-    config, arm = panda()
-    n = arm.n_joints
-    pose = np.array(PANDA_COUPLED_POSE)
-    hold = arm.feedforward(pose, np.zeros(n), np.zeros(n))
-    limits = np.array(config.torque_limits, dtype=float)
-    arm.limits = limits.copy()
-    arm.limits[0] = abs(hold[0]) + 5.0
-    try:
-        arm.set_state(pose, np.eye(n)[0] * 0.3)
-        steps = 2000
-        held = np.tile(pose, (steps, 1))
-        log = arm.run(held, np.zeros_like(held), np.zeros_like(held))
-    finally:
-        arm.limits = limits
+    held, log, lowered = kicked_at_the_coupled_pose([0], 0.3)
+    steps = len(held)
+    limits = np.array(panda()[0].torque_limits, dtype=float)
     assert log['saturated'].any()
     error = np.abs(held - log['position']).max(axis=0)
     assert np.all(error[1:] < 1e-3), error
