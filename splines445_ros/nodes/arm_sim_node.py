@@ -114,6 +114,7 @@ class ArmSimNode(Node):
         self._reads = queue.SimpleQueue()
         self._read_done = collections.deque()
         self._reads_pending = 0     # queued for the reader and not yet taken (executor's)
+        self._generation = 0        # counts the configs applied (a read belongs to one)
         self._read_ready = self.create_guard_condition(self._on_reads_done)
         self._reader = threading.Thread(target=self._read_trajectories,
                                         name='trajectory reader', daemon=True)
@@ -191,6 +192,7 @@ class ArmSimNode(Node):
         self.dynamic = dynamic
         self._frozen = False
         self.effective = config
+        self._generation = getattr(self, '_generation', 0) + 1
         self.effort = None if dynamic is None else dynamic.efforts()
         if dynamic is not None and self._active is not None and self._metrics is None:
             self._start_metrics()
@@ -211,11 +213,14 @@ class ArmSimNode(Node):
                                                     len(joints))
         reason = raw_messages.too_large(data, limit)
         if reason is not None:
-            self._error(f'trajectory rejected unread: {reason}')
-            return
-        if self._reads_pending or len(data) > READ_ON_EXECUTOR_BYTES:
+            reason = f'trajectory rejected unread: {reason}'
+            if not self._reads_pending:
+                self._error(reason)
+                return
+            data = b''      # said after the ones being read
+        if self._reads_pending or len(data) > READ_ON_EXECUTOR_BYTES or reason is not None:
             self._reads_pending += 1
-            self._reads.put((data, joints))
+            self._reads.put((data, joints, self._generation, reason))
             return
         try:
             msg = raw_messages.read(data, JointTrajectory)
@@ -230,30 +235,44 @@ class ArmSimNode(Node):
             job = self._reads.get()
             if job is None:
                 return
-            data, joints = job
+            data, joints, generation, refused = job
+            if refused is not None:
+                self._read_done.append((None, None, generation, refused))
+                self._trigger_read_ready()
+                continue
             try:
                 msg = raw_messages.read(data, JointTrajectory)
                 try:
                     parsed = (joints, sampled_trajectory_from_msg(msg, joints))
                 except ValueError as exc:
                     parsed = (joints, exc)
-                result = (msg, parsed, None)
+                result = (msg, parsed, generation, None)
             except ValueError as exc:
-                result = (None, None, f'trajectory rejected: {exc}')
+                result = (None, None, generation, f'trajectory rejected: {exc}')
             except Exception as exc:  # noqa: B902 - reported on the executor
-                result = (None, None, f'trajectory rejected: internal error: '
-                                      f'{type(exc).__name__}: {exc}')
+                result = (None, None, generation, f'trajectory rejected: internal error: '
+                                                  f'{type(exc).__name__}: {exc}')
             self._read_done.append(result)
-            try:
-                self._read_ready.trigger()
-            except Exception:  # noqa: B902 - the node is being destroyed
+            if not self._trigger_read_ready():
                 return
+
+    def _trigger_read_ready(self):
+        """Wake the executor for the reads done; False once the node is destroyed."""
+        try:
+            self._read_ready.trigger()
+        except Exception:  # noqa: B902 - the node is being destroyed
+            return False
+        return True
 
     def _on_reads_done(self):
         """Take the trajectories the reader thread has read, in the order they came."""
         while self._read_done:
-            msg, parsed, error = self._read_done.popleft()
+            msg, parsed, generation, error = self._read_done.popleft()
             self._reads_pending -= 1
+            if error is None and generation != self._generation:
+                # Received under the parameters before: not taken under others.
+                error = ('trajectory rejected: the parameters changed while it was being '
+                         'read (it came before the change): send it again')
             if error is not None:
                 self._error(error)
             else:
@@ -605,7 +624,12 @@ class ArmSimNode(Node):
         self.pose_publisher.publish(pose)
 
     def destroy_node(self):
-        """Stop the trajectory reader, then destroy the node."""
+        """Stop the trajectory reader (dropping the reads not begun), then destroy the node."""
+        try:
+            while True:
+                self._reads.get_nowait()
+        except queue.Empty:
+            pass
         self._reads.put(None)
         self._reader.join(timeout=10.0)
         return super().destroy_node()

@@ -467,8 +467,9 @@ class PlannerNode(Node):
                 reason = str(exc)
         how = 'rejected unread' if unread else 'rejected'
         if job.msg_type is String:
-            kept = (f'; keeping the last good robot, of {self._robot.source}'
-                    if self._robot is not None else '; no robot to plan with')
+            robot = self._robot     # once: the executor may replace it
+            kept = (f'; keeping the last good robot, of {robot.source}'
+                    if robot is not None else '; no robot to plan with')
             self._report(False, f'robot_description {how}: {reason}{kept}',
                          {'robot_description_bytes': len(job.data)})
             return None
@@ -626,8 +627,9 @@ class PlannerNode(Node):
                 self._requests.put(_Compile(source))
 
     def _report_kept(self, what, exc, source):
-        kept = (f'; keeping the last good robot, of {self._robot.source}'
-                if self._robot is not None else '; no robot to plan with')
+        robot = self._robot     # once: the executor may replace it
+        kept = (f'; keeping the last good robot, of {robot.source}'
+                if robot is not None else '; no robot to plan with')
         values = ({'robot_description_characters': len(source[1])}
                   if source[0] == 'robot_description' else {'model_file': source[1]})
         self._report(False, f'{what} rejected: {exc}{kept}', values)

@@ -127,6 +127,28 @@ UNSTABLE_WARNINGS = ('mjWARN_BADQPOS', 'mjWARN_BADQVEL', 'mjWARN_BADQACC', 'mjWA
 MAX_STATE = 1e6
 
 
+def _nearest_within(inertia, command, limits):
+    """
+    Return the torque within ``+-limits`` nearest to ``command`` in the norm of ``inertia^-1``.
+
+    ``(tau - command)^T inertia^-1 (tau - command)`` as a bounded least-squares
+    problem (scipy's BVLS, exact for these few joints); the clipped command where
+    the inertia is not positive definite or the solve fails.
+    """
+    clipped = np.clip(command, -limits, limits)
+    try:
+        from scipy.optimize import lsq_linear
+        weight = np.linalg.cholesky(np.linalg.inv(inertia)).T     # weight^T weight = A^-1
+        with np.errstate(all='ignore'):
+            target = weight @ command
+        found = lsq_linear(weight, target, bounds=(-limits, limits), method='bvls', tol=1e-12)
+    except (np.linalg.LinAlgError, ValueError):
+        return clipped
+    if not found.success or not np.all(np.isfinite(found.x)):
+        return clipped
+    return np.clip(found.x, -limits, limits)
+
+
 class UnstableSimulation(ValueError):
     """The physics went unstable during a run; the arm is back at its state before it."""
 
@@ -256,7 +278,10 @@ class DynamicArm:
         when that gives it more acceleration than its loop asks (``(x_j - u_j)`` of its
         limit's sign), a free joint over its limit is held at it, one at a time.  So no
         joint chases a saturated one, and coupled joints at their limits do not push
-        each other the wrong way.
+        each other the wrong way.  Those steps can cycle on an ill-conditioned inertia
+        (helper-84: about once in 13,000 random cases of condition 1.5e3-2.5e3; a
+        Kinova reaches 2e4): after ``4 n`` of them the problem is solved as a bounded
+        least-squares one (scipy's BVLS, ``||R (tau - tau*)||`` with ``R^T R = A^-1``).
         """
         limits = self.limits
         design = self._design_inertia
@@ -271,7 +296,6 @@ class DynamicArm:
         over = np.abs(command) / limits
         first = int(np.argmax(over))
         held[first] = np.sign(command[first])
-        best = np.clip(command, -limits, limits)
         for _ in range(4 * n):
             at = held != 0.0
             free = ~at
@@ -280,12 +304,11 @@ class DynamicArm:
                 fixed = tau[at] - forward[at] - inertia[np.ix_(at, free)] @ wanted[free]
                 moved = np.linalg.solve(inertia[np.ix_(at, at)], fixed)
             except np.linalg.LinAlgError:
-                return best, True
+                break
             tau[free] = (forward[free] + inertia[np.ix_(free, free)] @ wanted[free]
                          + inertia[np.ix_(free, at)] @ moved)
             if not np.all(np.isfinite(tau)):
-                return best, True
-            best = np.clip(tau, -limits, limits)
+                break
             ratio = np.where(free, np.abs(tau) / limits, 0.0)
             if np.max(ratio) > 1.0:
                 j = int(np.argmax(ratio))
@@ -294,11 +317,11 @@ class DynamicArm:
             # A held joint let go where its limit gives it more than its loop asks.
             push = np.zeros(n)
             push[at] = held[at] * (moved - wanted[at])
-            if np.max(push) > 0.0 and np.count_nonzero(at) > 0:
+            if np.max(push) > 0.0:
                 held[int(np.argmax(push))] = 0.0
                 continue
             return tau, True
-        return best, True
+        return _nearest_within(inertia, command, limits), True
 
     def friction_compensation(self, v_d, error):
         """Return ``tau_f`` (n,) at a commanded velocity and position error (motor side)."""

@@ -8,7 +8,9 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from node_status import assert_planned
 import numpy as np
 import pytest
+from rclpy.serialization import serialize_message
 from splines445_ros.nodes import arm_sim_node, planner_node, raw_messages, ros_conversions
+from splines445_ros.nodes.arm_sim_node import ArmSimNode
 from splines445_ros.nodes.diagnostics import status_values
 from splines445_ros.nodes.ros_conversions import duration_to_seconds, sampled_trajectory_from_msg
 from splines445_ros.planning import plan
@@ -422,6 +424,62 @@ def test_a_large_trajectory_is_read_off_the_executor_and_taken_in_order(system, 
     assert system.spin_until(
         lambda: np.allclose(system.joint_states[-1].position, W[3], atol=1e-12), 5.0)
     assert threads[-1][1] != 'trajectory reader'
+
+
+def test_a_trajectory_read_across_a_parameter_change_is_refused(system, monkeypatch):
+    """Received under the parameters before, it is not taken under others (helper-84)."""
+    assert system.spin_until(lambda: system.joint_states, 5.0)
+    monkeypatch.setattr(arm_sim_node, 'READ_ON_EXECUTOR_BYTES', 5000)
+    started = []
+    real_read = raw_messages.read
+
+    def slow(data, msg_type):
+        started.append(len(data))
+        time.sleep(0.5)
+        return real_read(data, msg_type)
+    monkeypatch.setattr(raw_messages, 'read', slow)
+    before = np.array(system.joint_states[-1].position)
+    n = len(system.arm_status)
+    times = 0.5 + 0.01 * np.arange(300)
+    system.trajectory_publisher.publish(raw_trajectory(pe.JOINT_NAMES, times, [W[2]] * 300))
+    assert system.spin_until(lambda: started, 5.0)
+    assert system.arm.set_parameters(overrides({'publish_rate': 40.0}))[0].successful
+    assert system.spin_until(lambda: len(system.arm_status) > n, 5.0)
+    refused = system.arm_status[n]
+    assert refused.level == DiagnosticStatus.ERROR
+    assert 'the parameters changed while it was being read' in refused.message
+    system.spin_for(0.6)
+    np.testing.assert_array_equal(system.joint_states[-1].position, before)
+
+
+def test_destroying_the_arm_drops_the_reads_not_begun():
+    """Its reader stops after the read it is in, not after every queued one (helper-84)."""
+    from splines445_ros.tools.in_process import LocalRos
+    reads = []
+    with LocalRos() as ros:
+        arm = ArmSimNode(context=ros.context, parameter_overrides=overrides(
+            {'simulation': 'kinematic', 'initial_positions': W[0].tolist()}))
+        real_read = raw_messages.read
+        gate = threading.Event()
+
+        def held(data, msg_type):
+            reads.append(len(data))
+            gate.wait(5.0)
+            return real_read(data, msg_type)
+        try:
+            raw_messages.read = held
+            data = serialize_message(raw_trajectory(pe.JOINT_NAMES, [0.2], [W[1]]))
+            for _ in range(5):
+                arm._reads_pending += 1
+                arm._reads.put((data, arm.effective.joint_names, arm._generation, None))
+            while not reads:
+                time.sleep(0.01)
+            gate.set()
+            arm.destroy_node()
+        finally:
+            raw_messages.read = real_read
+        assert not arm._reader.is_alive()
+        assert len(reads) == 1
 
 
 def test_a_topic_request_away_from_the_arm_at_rest_is_played_with_a_warn(system):

@@ -13,10 +13,14 @@ computes the deviation from MuJoCo's inertia matrix, read here, not from the
 arm's code.
 """
 
+import itertools
+import types
+
 from example_counts import examples
 from hypothesis import given, settings, strategies as st
 import numpy as np
 import pytest
+from splines445_ros.sim.dynamic_sim import DynamicArm
 from splines445_ros.tools import vendor_robots as vr
 from test_model_drive_settling import dynamic_arm, inertia_matrix, PANDA, PANDA_COUPLED_POSE
 
@@ -116,3 +120,56 @@ def test_a_saturated_joint_does_not_drag_the_others_or_make_them_chatter():
     jumps = np.abs(np.diff(log['command'], axis=0)).max(axis=0)
     assert np.all(jumps < 0.1 * limits), jumps
     assert np.abs(log['velocity'][-steps // 4:]).max() < 1e-4
+
+
+def enumerated(inertia, forward, wanted, limits):
+    """Return the optimum found by its conditions over every free / lower / upper (3^n)."""
+    n = len(forward)
+    for held in itertools.product((-1.0, 0.0, 1.0), repeat=n):
+        held = np.array(held)
+        at, free = held != 0.0, held == 0.0
+        tau = np.where(at, held * limits, 0.0)
+        moved = np.linalg.solve(inertia[np.ix_(at, at)], tau[at] - forward[at]
+                                - inertia[np.ix_(at, free)] @ wanted[free]) if at.any() else []
+        tau[free] = (forward[free] + inertia[np.ix_(free, free)] @ wanted[free]
+                     + inertia[np.ix_(free, at)] @ moved)
+        scale = 1e-9 * (1.0 + np.max(np.abs(wanted)))
+        if (np.all(np.abs(tau[free]) <= limits[free] * (1 + 1e-12))
+                and np.all(held[at] * (moved - wanted[at]) <= scale)):
+            return tau
+    raise AssertionError('no assignment meets the conditions')
+
+
+def solved(inertia, forward, wanted, limits):
+    """Call DynamicArm.decoupled_command on an arm whose inertia is ``inertia`` everywhere."""
+    design = np.diag(inertia).copy()
+    arm = types.SimpleNamespace(coupling=lambda: inertia / design[None, :],
+                                _design_inertia=design, limits=limits)
+    return DynamicArm.decoupled_command(arm, forward, wanted * design)[0]
+
+
+def test_an_ill_conditioned_inertia_still_gets_the_nearest_command():
+    """helper-84's case (condition 1.5e3): the steps cycled and sent joint 2 the wrong way."""
+    inertia = np.array([[319.36642, 323.454616, -140.123893],
+                        [323.454616, 599.927746, -755.815771],
+                        [-140.123893, -755.815771, 1457.765736]])
+    limits = np.array([1.829572, 3.451719, 0.838074])
+    forward = np.array([2.67945, 4.473882, -0.300886])
+    wanted = np.array([0.004191, 0.003457, 0.000598])
+    np.testing.assert_allclose(solved(inertia, forward, wanted, limits),
+                               enumerated(inertia, forward, wanted, limits), atol=1e-7)
+
+
+@settings(max_examples=examples(100), deadline=None)
+@given(seed=st.integers(0, 2 ** 32 - 1), n=st.integers(2, 5),
+       condition=st.sampled_from([10.0, 1e3, 2e3, 1e4]))
+def test_the_command_is_the_enumerated_optimum_on_random_inertias(seed, n, condition):
+    rng = np.random.default_rng(seed)
+    basis, _ = np.linalg.qr(rng.normal(size=(n, n)))
+    inertia = basis @ np.diag(np.exp(rng.uniform(0.0, np.log(condition), n))) @ basis.T
+    limits = rng.uniform(0.5, 5.0, n)
+    forward = rng.uniform(-1.5, 1.5, n) * limits
+    wanted = np.linalg.solve(inertia, rng.normal(0.0, 2.0, n) * limits)
+    np.testing.assert_allclose(solved(inertia, forward, wanted, limits),
+                               enumerated(inertia, forward, wanted, limits),
+                               atol=1e-6 * np.max(limits))
