@@ -192,7 +192,7 @@ class ArmSimNode(Node):
         self.dynamic = dynamic
         self._frozen = False
         self.effective = config
-        self._generation = getattr(self, '_generation', 0) + 1
+        self._generation += 1
         self.effort = None if dynamic is None else dynamic.efforts()
         if dynamic is not None and self._active is not None and self._metrics is None:
             self._start_metrics()
@@ -214,20 +214,21 @@ class ArmSimNode(Node):
         reason = raw_messages.too_large(data, limit)
         if reason is not None:
             reason = f'trajectory rejected unread: {reason}'
-            if not self._reads_pending:
+        if not self._reads_pending:
+            if reason is not None:
                 self._error(reason)
                 return
-            data = b''      # said after the ones being read
-        if self._reads_pending or len(data) > READ_ON_EXECUTOR_BYTES or reason is not None:
-            self._reads_pending += 1
-            self._reads.put((data, joints, self._generation, reason))
-            return
-        try:
-            msg = raw_messages.read(data, JointTrajectory)
-        except ValueError as exc:
-            self._error(f'trajectory rejected: {exc}')
-            return
-        self._on_trajectory(msg)
+            if len(data) <= READ_ON_EXECUTOR_BYTES:
+                try:
+                    msg = raw_messages.read(data, JointTrajectory)
+                except ValueError as exc:
+                    self._error(f'trajectory rejected: {exc}')
+                    return
+                self._on_trajectory(msg)
+                return
+        # Behind the reads pending (a refusal too: said after them), or a large one.
+        self._reads_pending += 1
+        self._reads.put((b'' if reason else data, joints, self._generation, reason))
 
     def _read_trajectories(self):
         """Read and convert the queued messages (the reader thread); hand them to the executor."""
@@ -243,9 +244,9 @@ class ArmSimNode(Node):
             try:
                 msg = raw_messages.read(data, JointTrajectory)
                 try:
-                    parsed = (joints, sampled_trajectory_from_msg(msg, joints))
+                    parsed = sampled_trajectory_from_msg(msg, joints)
                 except ValueError as exc:
-                    parsed = (joints, exc)
+                    parsed = exc
                 result = (msg, parsed, generation, None)
             except ValueError as exc:
                 result = (None, None, generation, f'trajectory rejected: {exc}')
@@ -279,15 +280,18 @@ class ArmSimNode(Node):
                 self._on_trajectory(msg, parsed)
 
     def _on_trajectory(self, msg, parsed=None):
-        """Take a trajectory; ``parsed``: (joint names, its conversion or the ValueError)."""
+        """
+        Take a trajectory; ``parsed``: its conversion (or the ValueError) by the reader.
+
+        The reader converted it for the joints of the config it came under, which is
+        still the one in force (:meth:`_on_reads_done` refuses it otherwise).
+        """
         config = self.effective
         try:
-            if parsed is not None and tuple(parsed[0]) == tuple(config.joint_names):
-                if isinstance(parsed[1], ValueError):
-                    raise parsed[1]
-                trajectory = parsed[1]
-            else:
-                trajectory = sampled_trajectory_from_msg(msg, config.joint_names)
+            if isinstance(parsed, ValueError):
+                raise parsed
+            trajectory = (parsed if parsed is not None
+                          else sampled_trajectory_from_msg(msg, config.joint_names))
             # A negative stamp is refused by rclpy's Time (ValueError) as well.
             stamp = Time.from_msg(msg.header.stamp).nanoseconds
         except ValueError as exc:

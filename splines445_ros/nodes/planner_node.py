@@ -415,27 +415,20 @@ class PlannerNode(Node):
         reason = raw_messages.too_large(data, limit)
         self._requests.put(_Unread(data if reason is None else b'', msg_type, what, reason))
 
-    def _waypoints_bytes(self, known_only=False):
-        """
-        Return the most bytes a waypoints request takes: its joints' (None when not known).
-
-        On the executor (``known_only`` False) the robot may still be compiling for a
-        description queued before the request, so the bound is for at least
-        :data:`RECEIPT_JOINTS` joints; the worker checks the robot's own before reading.
-        """
-        config = self.parameters.config
-        if config.kinematics == 'model' and self._robot is None:
-            joints = None
-        else:
-            joints = len(self.planned_joint_names())
-        if known_only:
-            return None if not joints else raw_messages.joint_trajectory_bytes(
-                MAX_REQUEST_WAYPOINTS, joints)
-        return raw_messages.joint_trajectory_bytes(MAX_REQUEST_WAYPOINTS,
-                                                   max(RECEIPT_JOINTS, joints or 0))
+    def _known_joint_count(self):
+        """Return how many joints the node plans now; None while its robot is not compiled."""
+        if self.parameters.config.kinematics == 'model' and self._robot is None:
+            return None
+        return len(self.planned_joint_names())
 
     def _on_waypoints(self, data):
-        self._take_raw(data, JointTrajectory, self._waypoints_bytes(), 'waypoints')
+        # The robot this request is for may still be compiling (a description queued
+        # before it): on receipt the bound is for at least RECEIPT_JOINTS joints, and
+        # the worker checks the robot's own before reading (_read_unread).
+        joints = max(RECEIPT_JOINTS, self._known_joint_count() or 0)
+        self._take_raw(data, JointTrajectory,
+                       raw_messages.joint_trajectory_bytes(MAX_REQUEST_WAYPOINTS, joints),
+                       'waypoints')
 
     def _on_tool_waypoints(self, data):
         self._take_raw(data, PoseArray, raw_messages.pose_array_bytes(MAX_REQUEST_WAYPOINTS),
@@ -455,10 +448,10 @@ class PlannerNode(Node):
         refused with its number; a description is refused keeping the last good robot.
         """
         reason = job.refused
-        if reason is None and job.msg_type is JointTrajectory:
-            limit = self._waypoints_bytes(known_only=True)
-            if limit is not None:
-                reason = raw_messages.too_large(job.data, limit)
+        joints = self._known_joint_count() if job.msg_type is JointTrajectory else None
+        if reason is None and joints:
+            reason = raw_messages.too_large(
+                job.data, raw_messages.joint_trajectory_bytes(MAX_REQUEST_WAYPOINTS, joints))
         unread = reason is not None
         if not unread:
             try:
@@ -467,10 +460,7 @@ class PlannerNode(Node):
                 reason = str(exc)
         how = 'rejected unread' if unread else 'rejected'
         if job.msg_type is String:
-            robot = self._robot     # once: the executor may replace it
-            kept = (f'; keeping the last good robot, of {robot.source}'
-                    if robot is not None else '; no robot to plan with')
-            self._report(False, f'robot_description {how}: {reason}{kept}',
+            self._report(False, f'robot_description {how}: {reason}{self._kept_robot()}',
                          {'robot_description_bytes': len(job.data)})
             return None
         self._request_count += 1
@@ -626,13 +616,16 @@ class PlannerNode(Node):
                 self._pending = source
                 self._requests.put(_Compile(source))
 
-    def _report_kept(self, what, exc, source):
+    def _kept_robot(self):
+        """Say which robot the node keeps planning with after a refused one."""
         robot = self._robot     # once: the executor may replace it
-        kept = (f'; keeping the last good robot, of {robot.source}'
+        return (f'; keeping the last good robot, of {robot.source}'
                 if robot is not None else '; no robot to plan with')
+
+    def _report_kept(self, what, exc, source):
         values = ({'robot_description_characters': len(source[1])}
                   if source[0] == 'robot_description' else {'model_file': source[1]})
-        self._report(False, f'{what} rejected: {exc}{kept}', values)
+        self._report(False, f'{what} rejected: {exc}{self._kept_robot()}', values)
 
     def _load_description(self, msg):
         """Take a robot_description (on the worker): compile it when the config uses it."""

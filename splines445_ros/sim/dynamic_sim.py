@@ -243,6 +243,11 @@ class DynamicArm:
         self.feedforward(pose, np.zeros_like(pose), np.zeros_like(pose))
         return np.diag(self._inertia_matrix()).copy()
 
+    def _default_design(self, pose):
+        """Take ``pose`` as the design pose when none was given (the first reset or run)."""
+        if self.decouple and self._design_inertia is None:
+            self._design_inertia = self._inertia_diagonal(pose)
+
     def coupling(self):
         """
         Return ``C = M diag(M_0)^-1`` (n, n) at the pose of the last :meth:`feedforward`.
@@ -333,8 +338,7 @@ class DynamicArm:
         q = np.asarray(positions, dtype=float)
         v = np.zeros_like(q) if velocities is None else np.asarray(velocities, dtype=float)
         a = np.zeros_like(q) if accelerations is None else np.asarray(accelerations, dtype=float)
-        if self.decouple and self._design_inertia is None:
-            self._design_inertia = self._inertia_diagonal(q)
+        self._default_design(q)
         mj.mj_resetData(self.model, d)
         d.qpos[arm.qpos] = q
         d.qvel[arm.dof] = v
@@ -393,8 +397,7 @@ class DynamicArm:
         mj, m, d, arm = self.mujoco, self.model, self.data, self.arm
         K, n = q_d.shape
         before = self.positions(), self.velocities()
-        if self.decouple and self._design_inertia is None:    # run before any reset
-            self._design_inertia = self._inertia_diagonal(before[0])
+        self._default_design(before[0])     # run before any reset
         warnings = self._unstable_warnings
         for w in warnings:
             d.warning[w].number = 0
