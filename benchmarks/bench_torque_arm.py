@@ -162,6 +162,7 @@ class ArmSimulator(smooth.Simulator):
         self.site_gap = 0.0
         self.compensation_free = not np.any(self.arm.arm.friction > 0.0)
         self.clip_gap = 0.0
+        self.design = None      # the inertia diagonal at the initial pose (demand)
 
     def demand(self, q, traj):
         """
@@ -184,11 +185,13 @@ class ArmSimulator(smooth.Simulator):
         a[~moving] = 0.0
         rigid, dofs = arm.arm.rigid, arm.arm.rigid_dof
         full = np.zeros((rigid.nv, rigid.nv))
-        data = mujoco.MjData(rigid)
-        data.qpos[arm.arm.rigid_qpos] = self.config.initial_positions
-        mujoco.mj_forward(rigid, data)
-        mujoco.mj_fullM(rigid, data, full)
-        design = np.diag(full)[dofs].copy()
+        if self.design is None:     # M_0, once
+            data = mujoco.MjData(rigid)
+            data.qpos[arm.arm.rigid_qpos] = self.config.initial_positions
+            mujoco.mj_forward(rigid, data)
+            mujoco.mj_fullM(rigid, data, full)
+            self.design = np.diag(full)[dofs].copy()
+        design = self.design
         raw = np.empty_like(q)
         for k in range(len(q)):
             forward = arm.feedforward(q[k], v[k], a[k])
@@ -444,7 +447,7 @@ def main(argv=None):
         sys.stdout.flush()
     gaps = every_arm(args.arm_paths) if args.arm_paths > 0 else []
     print(f'Demand rebuilt from the log against the logged command where it did not '
-          f'saturate: largest difference {max(sim.clip_gap, *gaps):.3g} N m')
+          f'saturate: largest difference {max([sim.clip_gap, *gaps]):.3g} N m')
     print(f"Tool error by kin.forward against the simulator's own tool-site error while "
           f'moving: largest difference {1e6 * sim.site_gap:.3g} um')
     print(f'Real-time factor: {sim.simulated:.0f} s simulated in {sim.wall:.1f} s of stepping; '
