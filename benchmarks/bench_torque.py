@@ -18,7 +18,11 @@ joint); jerk :data:`JERK_RATIO` times a typical acceleration (below).
 The inverse dynamics is :class:`splines445_ros.robot.dynamics.
 ArmDynamics` (MuJoCo RNE, payload included), the same for both planners:
 ours is given the ArmDynamics itself (its torques, and its ``gravity``
-pass for the torques at rest), TOPP-RA its ``torques``.
+pass for the torques at rest), TOPP-RA its ``torques``.  The rigid-body
+torque alone on both sides (``include_damping`` False, unlike the planner
+node's default ``torque_counts_friction``): TOPP-RA's canonical form has no
+term in the path speed itself, where the joints' damping ``D q' sdot`` is;
+``bench_torque_arm.py`` plans with it.
 
 * Today's practice: one constant acceleration limit ``a`` common to all
   joints (jerk :data:`JERK_RATIO` times it), the largest (bisection over

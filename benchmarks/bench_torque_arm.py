@@ -10,7 +10,8 @@ the simulated model and into the controller's rigid model (its feed-forward
 knows it), by ``arm_sim_model.add_payload`` as the node does; the gains are
 those of the arm with its payload (``resolve_model_config``).  The planner's
 inverse dynamics is :class:`splines445_ros.robot.dynamics.ArmDynamics` with
-the same payload.
+the same payload and, as ``planner_node``'s default ``torque_counts_friction``,
+the joints' damping and dry friction (``include_damping``).
 
 Paths (a fresh seed every run): random walks from the ready pose, 5 to 15 waypoints,
 steps uniform in +-0.3 rad per joint, clipped to the joint ranges less
@@ -236,7 +237,7 @@ def torque_limits(points, dynamics, vmax, tau_max):
     typical, _ = bench_torque.bisected_acceleration(points, vmax, dynamics.torques, tau_max)
     return typical, {'max_velocity': vmax, 'max_acceleration': np.full(n, NO_ACCELERATION_LIMIT),
                      'max_jerk': np.full(n, JERK_RATIO * typical),
-                     'max_torque': tau_max, 'inverse_dynamics': dynamics.torques}
+                     'max_torque': tau_max, 'inverse_dynamics': dynamics}
 
 
 class Case:
@@ -293,7 +294,7 @@ def every_arm(paths_per_arm):
         paths = bench_torque.arm_paths(arm, paths_per_arm, ARM_STREAM_OFFSET)
         payload, _ = bench_torque.bench_payload(arm, paths)
         dynamics = ArmDynamics(arm.robot, arm.joints, arm.tool, payload_mass=payload,
-                               payload_center_of_mass=PAYLOAD_OFFSET)
+                               payload_center_of_mass=PAYLOAD_OFFSET, include_damping=True)
         _, _, vmax, tau_max = bench_torque.joint_limits(arm.robot, arm.joints)
         sim = ArmSimulator(arm.kinematics(), os.path.join(bench_arms.robots_folder(), arm.file),
                            arm.joints, arm.ready, arm.tool, payload)
@@ -370,7 +371,7 @@ def main(argv=None):
     joints = vr.UR5_JOINTS
     lower, upper, vmax, tau_max = bench_torque.joint_limits(robot, joints, RANGE_MARGIN)
     dynamics = ArmDynamics(robot, joints, TOOL, payload_mass=PAYLOAD,
-                           payload_center_of_mass=PAYLOAD_OFFSET)
+                           payload_center_of_mass=PAYLOAD_OFFSET, include_damping=True)
     sim = ArmSimulator(kin)
     print(f'UR5, payload {PAYLOAD:g} kg at {PAYLOAD_OFFSET} m in {TOOL} (simulated model and '
           'controller feed-forward, by arm_sim_model.add_payload; planner: ArmDynamics); '

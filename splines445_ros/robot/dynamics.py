@@ -46,7 +46,11 @@ needs.  With ``include_damping=True`` the linear viscous damping
 ``dof_damping * qd`` and the rotor inertia ``dof_armature * qdd`` of the
 description are added (carried through joint couplings like the rest);
 MuJoCo 4's higher-order damping (``dof_dampingpoly``) and actuator damping
-are not.
+are not.  The damping alone is then :meth:`ArmDynamics.viscous` (a torque
+limit slowed down uniformly needs it apart: it falls as ``1 / f``, the rest
+of the motion's torque as ``1 / f**2``), and the dry friction a moving
+joint's motor overcomes, ``|tau_f| <= frictionloss`` whatever the speed,
+:meth:`ArmDynamics.dry_friction` (a driven joint's carried by ``|dq/dp|``).
 
 Cost: below :attr:`ArmDynamics.vectorised_from` (50) samples, and at
 any size for a model with a free or ball joint or a mocap body, one
@@ -184,7 +188,8 @@ class ArmDynamics:
         (3,) principal moments or (6,) ``[ixx iyy izz ixy ixz iyz]``
         [kg m^2] about the payload's centre of mass in the tool frame's
         axes.  ``include_damping``: add the joints' viscous damping and
-        rotor inertia (armature).
+        rotor inertia (armature), and give :meth:`viscous` and
+        :meth:`dry_friction` (else both are None).
         """
         mujoco = import_mujoco()
         self.mujoco = mujoco
@@ -213,6 +218,7 @@ class ArmDynamics:
         model = copy.deepcopy(robot.model)
         self._damping = np.array(model.dof_damping, dtype=float)
         self._armature = np.array(model.dof_armature, dtype=float)
+        self._friction = np.array(model.dof_frictionloss, dtype=float)
         # mj_rne counts none of these; zeroed so the copy says what it computes.
         model.dof_damping[:] = 0.0
         model.dof_armature[:] = 0.0
@@ -240,6 +246,13 @@ class ArmDynamics:
         #: Whether batches of :attr:`vectorised_from` samples or more take the vectorised
         #: Newton-Euler (not for a free or ball joint, or a mocap body: MuJoCo's throughout).
         self.vectorised = self._vectorised is not None
+        if not self.include_damping:
+            #: ``include_damping``: the joints' viscous damping torques ``viscous(q, qd)``
+            #: ((N, n), part of :meth:`torques`); else None.
+            self.viscous = None
+            #: ``include_damping``: the dry friction ``dry_friction(q)`` (N, n) a moving
+            #: joint overcomes (not part of :meth:`torques`); else None.
+            self.dry_friction = None
 
     def _couplings(self):
         """
@@ -393,6 +406,50 @@ class ArmDynamics:
         for rows in self._chunks(count):
             self._vectorised.gravity(qpos[rows], force[rows])
         return self._planned(force, slopes, single)
+
+    def passive(self):
+        """Return the planned joints' own (damping, frictionloss, armature), each (n,)."""
+        return self._damping[self._dof], self._friction[self._dof], self._armature[self._dof]
+
+    def viscous(self, q, qd):
+        """
+        Return the joints' viscous damping torques (N, n) (or (n,)): the ``dof_damping`` part.
+
+        ``dof_damping * qd`` of every moving dof, driven joints' carried to
+        their parents as :meth:`torques` carries them; it is part of
+        :meth:`torques` (``include_damping``), and is given apart because a
+        uniform slow-down divides it by ``f`` where the rest of the motion's
+        torque falls by ``f**2``.
+        """
+        single = np.ndim(q) == 1
+        q = self._check(q, 'q')
+        qd = self._check(qd, 'qd')
+        _, slopes, _ = self._positions(q, 'C')
+        qvel = np.zeros((len(q), self.model.nv))
+        qvel[:, self._dof] = qd
+        for (_, dof, _, _, parent_dof, _, _), slope in zip(self._coupled, slopes):
+            qvel[:, dof] = slope * qvel[:, parent_dof]
+        return self._planned(self._damping * qvel, slopes, single)
+
+    def dry_friction(self, q):
+        """
+        Return the dry friction (N, n) (or (n,)) each planned joint's motor overcomes moving.
+
+        A joint's ``frictionloss`` plus, for every joint it drives (a URDF
+        ``<mimic>``), that joint's times ``|dq/dp|`` at ``q``: the most the
+        motion can meet, whichever way each joint turns.  Not part of
+        :meth:`torques`: its sign is the velocity's, and at rest it is
+        anything within it.
+        """
+        single = np.ndim(q) == 1
+        q = self._check(q, 'q')
+        _, slopes, _ = self._positions(q, 'C')
+        force = np.broadcast_to(self._friction, (len(q), self.model.nv)).copy()
+        for (_, dof, _, _, parent_dof, _, _), slope in zip(reversed(self._coupled),
+                                                           reversed(slopes)):
+            force[:, parent_dof] += np.abs(slope) * force[:, dof]
+        out = np.ascontiguousarray(force[:, self._dof])
+        return out[0] if single else out
 
     def _chunks(self, count):
         """Return the slices of ``count`` samples the vectorised passes take at a time."""

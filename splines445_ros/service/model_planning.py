@@ -45,11 +45,12 @@ from ..robot.user_text import show, show_names
 ROBOT_FIELDS = ('kinematics', 'model_file', 'tool_frame', 'base_frame', 'joint_names',
                 'max_velocity', 'max_acceleration', 'max_jerk', 'joint_limits_file',
                 'min_position', 'max_position', 'limit_torque', 'max_effort',
-                'payload_mass', 'payload_center_of_mass', 'payload_inertia')
+                'payload_mass', 'payload_center_of_mass', 'payload_inertia',
+                'torque_counts_friction')
 # The fields a torque setup is built from: planning with another one's would
 # hold the wrong limits or payload.
 TORQUE_FIELDS = ('limit_torque', 'max_effort', 'payload_mass', 'payload_center_of_mass',
-                 'payload_inertia', 'tool_frame')
+                 'payload_inertia', 'tool_frame', 'torque_counts_friction')
 # Source of an acceleration limit that limit_torque stood in for (ResolvedLimits.report).
 STAND_IN = 'limit_torque'
 
@@ -87,6 +88,12 @@ class TorqueSetup:
             center = ', '.join(f'{v:.6g}' for v in dynamics.payload_center_of_mass)
             values['payload'] = (f'{dynamics.payload_mass:.6g} kg at [{center}] m in '
                                  f'{dynamics.tool_frame}')
+        if dynamics.include_damping:
+            counted = [f'{name}={d:.6g}/{f:.6g}/{a:.6g}' for name, d, f, a in zip(
+                joint_names, *dynamics.passive()) if d or f or a]
+            values['torque_counts_friction'] = (
+                'damping [N m s/rad] / friction [N m] / armature [kg m^2]: '
+                + (', '.join(counted) if counted else 'none in the description'))
         return values
 
 
@@ -294,7 +301,7 @@ def build_torque_setup(config, robot, joints, tool_frame, tool_problem=''):
                 f'or actuatorfrcrange): set max_effort, one value per joint of '
                 f'{show_names(names)} (0 = from the description, inf = no limit)') from None
         limits[i], sources[i] = value[0], kind[0]
-    dynamics = ArmDynamics(robot, names, tool_frame, **config.torque_payload())
+    dynamics = ArmDynamics(robot, names, tool_frame, **config.dynamics_arguments())
     return TorqueSetup(limits, tuple(sources), dynamics)
 
 

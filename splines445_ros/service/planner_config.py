@@ -291,7 +291,8 @@ class PlannerConfig(ValidatedConfig):
         '380 joints).')
     limit_torque: bool = parameter(
         False, '`kinematics: model` (refused without it): keep the rigid-body torque of every '
-        'planned joint, the payload included, within `max_effort`, checked every 1 ms (within '
+        'planned joint, the payload included (and, with `torque_counts_friction`, the '
+        "joints' damping and friction), within `max_effort`, checked every 1 ms (within "
         '0.5 %); rest to rest only. Tool requests hold it too: 555 optimal times the tool '
         'lines with the torque as one more constraint (with `max_tool_speed` / '
         '`max_tool_angular_speed` when set), the other methods and timings are refined, every '
@@ -325,6 +326,13 @@ class PlannerConfig(ValidatedConfig):
         '`limit_torque` unless at its default.', low=0.0, high=MAX_TORQUE_HEADROOM,
         high_open=True, note="the share of every torque limit left to the controller's "
         'corrections')
+    torque_counts_friction: bool = parameter(
+        True, "`limit_torque`: the robot description's joint damping, dry friction and rotor "
+        'inertia (URDF `<dynamics damping friction>`; MJCF `damping`, `frictionloss`, '
+        '`armature`) count against the torque limit, as the motor gives them too (the dynamic '
+        '`arm_sim_node` applies them); a moving joint keeps its limit less its friction. '
+        "False: the links' rigid-body torque alone (the plan then exceeds the limit on a "
+        'damped arm by the damping). Refused without `limit_torque` unless at its default.')
     goal_position_tolerance: float = parameter(
         DEFAULT_GOAL_POSITION_TOLERANCE, '`follow_waypoints` goals: the arm has reached the '
         'end when every joint of `joint_states` is within this of it [rad or m]; a goal '
@@ -516,7 +524,8 @@ class PlannerConfig(ValidatedConfig):
             for name, used in (('max_effort', any(self.max_effort)),
                                ('payload_mass', self.payload_mass > 0.0),
                                ('torque_headroom',
-                                self.torque_headroom != DEFAULT_TORQUE_HEADROOM)):
+                                self.torque_headroom != DEFAULT_TORQUE_HEADROOM),
+                               ('torque_counts_friction', not self.torque_counts_friction)):
                 if used:
                     raise ValueError(f'{name} is set but limit_torque is false: it only '
                                      'matters to the torque limits (set limit_torque:=true, '
@@ -543,11 +552,12 @@ class PlannerConfig(ValidatedConfig):
                                      f'"model" (set kinematics:=model with it, in one '
                                      f'set_parameters_atomically, or leave {name} empty)')
 
-    def torque_payload(self):
-        """Return the payload as ArmDynamics keyword arguments (inertia None when not set)."""
+    def dynamics_arguments(self):
+        """Return the payload and what else counts as ArmDynamics keyword arguments."""
         return {'payload_mass': self.payload_mass,
                 'payload_center_of_mass': self.payload_center_of_mass,
-                'payload_inertia': self.payload_inertia or None}
+                'payload_inertia': self.payload_inertia or None,
+                'include_damping': self.torque_counts_friction}
 
     def tool_kinematics(self):
         """Return the kinematics object of ``kinematics`` (with ``link_lengths``), or None."""

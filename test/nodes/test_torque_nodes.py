@@ -388,3 +388,55 @@ def test_a_tool_request_with_torque_limits_on_an_arm_whose_tool_frame_is_its_cha
     rows = np.array([start, start + [0.05, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]])
     tool_path = plan_model_tool_request(setup, rows, None, setup.effective(config), torque)
     assert np.all(tool_path.trajectory.torque_ratios <= 1.005)
+
+
+# The UR5 with its joints damped and with dry friction, per joint [N m s/rad], [N m].
+DAMPING = np.array([8.0, 8.0, 8.0, 1.0, 1.0, 1.0])
+FRICTION = np.array([3.0, 3.0, 3.0, 0.5, 0.5, 0.5])
+
+
+def damped_ur5(folder):
+    """Write the UR5's URDF with DAMPING and FRICTION in its <dynamics> tags; return its path."""
+    with open(vr.ur5_urdf(), encoding='utf-8') as file:
+        text = file.read()
+    parts = text.split('<dynamics damping="0.0" friction="0.0"/>')
+    assert len(parts) == 7
+    out = parts[0]
+    for d, f, part in zip(DAMPING, FRICTION, parts[1:]):
+        out += f'<dynamics damping="{d}" friction="{f}"/>' + part
+    path = folder / 'ur5_damped.urdf'
+    path.write_text(out, encoding='utf-8')
+    return str(path)
+
+
+def motor_ratios(msg, model_file):
+    """Return per joint the peak of the motor's torque, damping and friction, over its limit."""
+    q, qd, qdd = points(msg)
+    rigid = ArmDynamics(load_robot_model(model_file), vr.UR5_JOINTS, 'tool0').torques(q, qd, qdd)
+    motor = np.abs(rigid + DAMPING * qd) + np.where(qd != 0.0, FRICTION, 0.0)
+    return np.max(motor, axis=0) / (SHARE * EFFORT)
+
+
+def test_a_damped_arms_damping_and_friction_count_against_its_efforts(tmp_path):
+    model_file = damped_ur5(tmp_path)
+    with Planner({**PLANNER, 'model_file': model_file}, namespace='damped') as planner:
+        loaded = next(s for s in planner.status if 'robot' in status_values(s))
+        counted = status_values(loaded)['torque_counts_friction']
+        assert 'shoulder_pan_joint=8/3/0' in counted and 'wrist_3_joint=1/0.5/0' in counted
+        status, msg = planner.request([READY, GOAL])
+        assert_planned(status)
+        ratios = motor_ratios(msg, model_file)
+        assert np.all(ratios <= 1.005), ratios
+        assert np.max(ratios) >= 0.99, ratios
+        np.testing.assert_allclose(numbers(status_values(status)['peak_torque_ratio']), ratios,
+                                   atol=5e-3)
+        # Counting the rigid-body torque alone: faster, and beyond the efforts.
+        assert planner.configure({'torque_counts_friction': False}).successful
+        status, rigid_msg = planner.request([READY, GOAL])
+        assert_planned(status)
+        assert duration(rigid_msg) < duration(msg)
+        assert np.max(motor_ratios(rigid_msg, model_file)) > 1.02
+        # Without limit_torque it is refused, not silently ignored.
+        result = planner.configure({'limit_torque': False})
+        assert not result.successful
+        assert 'torque_counts_friction is set but limit_torque is false' in result.reason

@@ -884,3 +884,42 @@ def test_bad_samples_refused(vendor):
             ([['a'] * 6], good, good, 'numbers')]:
         with pytest.raises(ValueError, match=message):
             dynamics.torques(q, qd, qdd)
+
+
+@pytest.mark.parametrize('quadratic', [False, True])
+def test_the_damping_part_and_the_dry_friction_with_a_driven_joint(quadratic):
+    """
+    ``viscous`` and ``dry_friction`` on the mimic arm, its driven joint ``c`` damped too.
+
+    Joint ``c = 0.3 - 0.7 b (+ 0.25 b**2)`` follows ``b``: its damping
+    ``D_c qd_c`` reaches ``b`` times ``dc/db``, its friction times
+    ``|dc/db|``; written out here from the coupling's coefficients.
+    """
+    spec = mujoco.MjSpec.from_string(strip_meshes(MIMIC_URDF))
+    model = spec.compile()
+    for equality in spec.equalities:
+        if quadratic and mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT,
+                                           model.eq_obj1id[equality.id]) == 'c':
+            equality.data[2] = 0.25
+    own = {'a': (0.0, 0.4), 'b': (0.5, 0.2), 'c': (0.8, 0.3), 's': (1.5, 2.0)}
+    for name, (damping, friction) in own.items():
+        spec.joint(name).damping = [damping, 0.0, 0.0]
+        spec.joint(name).frictionloss = friction
+    robot = RobotModel(spec.compile(), 'mjcf', 'mimic arm, damped')
+    rng = np.random.default_rng(21)
+    q, qd, qdd = random_states(rng, 80, *bounds(robot, MIMIC_PLANNED))
+    dynamics = ArmDynamics(robot, MIMIC_PLANNED, include_damping=True)
+    b_joint = robot.select(['b'])[0].joint_id
+    b = q[:, 1] - float(robot.model.qpos0[robot.model.jnt_qposadr[b_joint]])
+    slope = -0.7 + (0.5 if quadratic else 0.0) * b
+    expected = np.stack([np.zeros(len(q)), (0.5 + 0.8 * slope * slope) * qd[:, 1],
+                         1.5 * qd[:, 2]], axis=1)
+    check_close(dynamics.viscous(q, qd), expected)
+    friction = np.stack([np.full(len(q), 0.4), 0.2 + 0.3 * np.abs(slope),
+                         np.full(len(q), 2.0)], axis=1)
+    np.testing.assert_allclose(dynamics.dry_friction(q), friction, rtol=1e-12)
+    # The damping part is part of the torques: they differ from the rigid ones by it alone.
+    plain = ArmDynamics(robot, MIMIC_PLANNED).torques(q, qd, qdd)
+    check_close(dynamics.torques(q, qd, qdd) - plain, expected)
+    assert ArmDynamics(robot, MIMIC_PLANNED).viscous is None
+    assert ArmDynamics(robot, MIMIC_PLANNED).dry_friction is None

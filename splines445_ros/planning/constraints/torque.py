@@ -22,6 +22,17 @@ and the smallest common factor is the largest of those (:meth:`TorqueLimit.
 time_factor`).  A pose where gravity alone exceeds a limit holds it at no
 speed: :class:`constraints.GravityOverload`.
 
+Joint damping and dry friction, when the inverse dynamics counts them
+(callable attributes ``viscous(q, qd)``, the damping part of its torques,
+and ``dry_friction(q)``, the friction a moving joint overcomes: ArmDynamics
+with ``include_damping``): the damping ``v`` falls as ``1 / f`` only, so the
+torque is ``g + v / f + d / f**2``, and with ``y = 1 / f`` each side of the
+limit is a quadratic ``v y + d y**2 <= room``; the slow-down a sample needs
+is ``1 / y`` at its first positive root (every slower ``f`` holds too),
+``y = 2 room / (v + sqrt(v**2 + 4 d room))``.  Dry friction, whose sign is
+the velocity's, lowers a moving joint's limit by its size at that sample
+(at rest it holds the joint, and gravity there keeps the whole limit).
+
 The check of a finished trajectory samples it every :data:`CHECK_PERIOD`
 (1 kHz; :data:`MIN_CHECK_SAMPLES` times at least).  Between two samples the
 torque is a smooth function of time; the largest it can exceed the larger
@@ -86,6 +97,14 @@ class TorqueLimit:
         gravity = getattr(inverse_dynamics, 'gravity', None)
         #: ``inverse_dynamics.gravity`` (q -> the torques at rest) when callable, else None.
         self.gravity = gravity if callable(gravity) else None
+        viscous = getattr(inverse_dynamics, 'viscous', None)
+        #: ``inverse_dynamics.viscous`` ((q, qd) -> the damping part of its torques) when
+        #: callable, else None (no damping counted).
+        self.viscous = viscous if callable(viscous) else None
+        friction = getattr(inverse_dynamics, 'dry_friction', None)
+        #: ``inverse_dynamics.dry_friction`` (q -> the dry friction a moving joint
+        #: overcomes) when callable, else None (none counted).
+        self.friction = friction if callable(friction) else None
         self.n_joints = n_joints
 
     def constraint(self, interpolated=False):
@@ -93,9 +112,36 @@ class TorqueLimit:
         Return the path-velocity constraint object (:class:`constraints.JointTorque`).
 
         ``interpolated``: its rows also hold at the end of every grid step.
+        The damping is in the rows at the path's own speed
+        (:class:`JointTorque`); the plan's checks hold it in full.
         """
         return JointTorque(self.max_torque, self._torques, interpolated,
-                           None if self.gravity is None else self._gravity)
+                           None if self.gravity is None else self._gravity,
+                           None if self.friction is None else self._friction)
+
+    def _viscous(self, q, qd):
+        """Return the damping part (N, n) of the torques at ``q``, ``qd`` (N, n)."""
+        return _checked(self.viscous(q, qd), q, 'inverse_dynamics.viscous')
+
+    def _friction(self, q):
+        """Return the dry friction (N, n) a moving joint overcomes at ``q`` (N, n)."""
+        friction = _checked(self.friction(q), q, 'inverse_dynamics.dry_friction')
+        if np.any(friction < 0.0):
+            raise ValueError('inverse_dynamics.dry_friction returned negative friction')
+        return friction
+
+    def _parts(self, q, qd, gravity, tau):
+        """
+        Return (viscous, limits) of samples: the damping part (None: not counted), the limits.
+
+        The limits (N, n) (or (n,) without friction) are ``max_torque`` less
+        the dry friction of every joint moving at the sample.
+        """
+        viscous = None if self.viscous is None else self._viscous(q, qd)
+        limit = np.broadcast_to(self.max_torque, gravity.shape)
+        if self.friction is not None:
+            limit = limit - np.where(qd != 0.0, self._friction(q), 0.0)
+        return viscous, limit
 
     def _torques(self, q, qd, qdd):
         return _checked(self.inverse_dynamics(q, qd, qdd), q, 'inverse_dynamics')
@@ -142,11 +188,13 @@ class TorqueLimit:
         else:
             gravity = self._gravity(q)
             tau = self._whole(q, qd, qdd, gravity)
-        limit = np.broadcast_to(self.max_torque, gravity.shape)
+        full = np.broadcast_to(self.max_torque, gravity.shape)
         if refuse:
-            refuse_gravity_overload(q, gravity, limit)
-        need = _squared_needs(gravity, tau - gravity, limit)
-        return need if refuse else np.where(np.abs(gravity) > limit * (1.0 + GRAVITY_RTOL),
+            refuse_gravity_overload(q, gravity, full)
+        viscous, limit = self._parts(q, qd, gravity, tau)
+        dynamic = tau - gravity if viscous is None else tau - gravity - viscous
+        need = _squared_needs(gravity, dynamic, limit, viscous)
+        return need if refuse else np.where(np.abs(gravity) > full * (1.0 + GRAVITY_RTOL),
                                             np.inf, need)
 
     def piece_factors(self, coeffs, pieces):
@@ -188,7 +236,9 @@ class TorqueLimit:
         q, qd, qdd, steps = _samples(traj, period, spacing=True)
         gravity = self._gravity(q)
         refuse_gravity_overload(q, gravity, np.broadcast_to(self.max_torque, gravity.shape))
-        return TorqueCheck(gravity, self._whole(q, qd, qdd, gravity), self.max_torque, steps)
+        tau = self._whole(q, qd, qdd, gravity)
+        viscous, limit = self._parts(q, qd, gravity, tau)
+        return TorqueCheck(gravity, tau, self.max_torque, steps, viscous, limit)
 
     def factor_at_least(self, traj, period=COARSE_PERIOD):
         """
@@ -232,21 +282,71 @@ def _bend(tau, steps=None):
     return bend
 
 
-def _squared_needs(gravity, dynamic, limit):
+def _squared_needs(gravity, dynamic, limit, viscous=None):
     """
     Return per sample and joint the squared slow-down ``|g + d / f**2| <= limit`` needs.
 
     No room (gravity at the limit, or beyond a ``limit`` lowered by an
     excess between samples, on either side: slowed down, the torque tends
     to ``g``) and motion: no slow-down holds the torque there (infinite
-    need).
+    need).  With the damping part ``viscous`` (not None), the torque is
+    ``g + v / f + d / f**2``: :func:`_viscous_needs`.
     """
+    if viscous is not None:
+        return _viscous_needs(gravity, viscous, dynamic, limit)
     room = np.where(dynamic >= 0.0, limit - gravity, -limit - gravity)
     some = np.where(dynamic >= 0.0, room > 0.0, room < 0.0) & \
         (np.abs(gravity) <= limit * (1.0 + GRAVITY_RTOL))
     with np.errstate(divide='ignore', invalid='ignore'):
         need = np.where(some, dynamic / room, np.inf)
     return np.where(dynamic == 0.0, 0.0, need)
+
+
+def _viscous_needs(gravity, viscous, dynamic, limit, bend_viscous=0.0, bend_dynamic=0.0):
+    """
+    Return per sample and joint the squared slow-down ``|g + v / f + d / f**2| <= limit`` needs.
+
+    ``bend_viscous`` and ``bend_dynamic`` (>= 0): the excesses between
+    samples of the two parts at ``f = 1``, added on either side (``v / f``'s
+    falls as ``1 / f``, ``d / f**2``'s as ``1 / f**2``).  With ``y = 1 / f``
+    each side is ``p(y) = v y + d y**2 <= room`` (the lower side with ``-v``,
+    ``-d``; each with its excesses): :func:`_first_root` gives the first
+    ``y > 0`` where it fails, and the need is ``1 / y**2`` at the smaller
+    of the two sides' (0 when neither side ever fails).  A side whose room
+    is gone (gravity at or beyond a ``limit`` lowered by friction or an
+    excess between samples; within :data:`GRAVITY_RTOL` of the limit counts
+    as at it) fails at once wherever the motion pushes into it: infinite
+    need.
+    """
+    limit = np.broadcast_to(limit, gravity.shape)
+    slack = GRAVITY_RTOL * np.abs(limit)
+    need = np.zeros(gravity.shape)
+    for room, v, d in ((limit - gravity, viscous + bend_viscous, dynamic + bend_dynamic),
+                       (limit + gravity, bend_viscous - viscous, bend_dynamic - dynamic)):
+        room = np.where((room < 0.0) & (room >= -slack), 0.0, room)
+        need = np.maximum(need, _first_root(room, v, d))
+    return need
+
+
+def _first_root(room, v, d):
+    """
+    Return ``1 / y**2`` for the first ``y > 0`` with ``v y + d y**2 > room`` beyond it (0: none).
+
+    ``y = 2 room / (v + sqrt(v**2 + 4 d room))`` (the root nearer 0, in the
+    form that stays exact for ``d`` near 0), so the squared need is
+    ``((v + sqrt(v**2 + 4 d room)) / (2 room))**2``; it exists where the
+    discriminant is not negative and ``v + sqrt(...) > 0``.  Infinite where
+    ``room <= 0`` and the motion pushes into it (``v > 0``, or ``v = 0 < d``;
+    ``room < 0`` and any motion at all).
+    """
+    with np.errstate(invalid='ignore', divide='ignore'):
+        disc = v * v + 4.0 * d * room
+        s = v + np.sqrt(np.maximum(disc, 0.0))
+        need = np.where((disc >= 0.0) & (s > 0.0), (s / (2.0 * room)) ** 2, 0.0)
+    pushes = (v > 0.0) | ((v == 0.0) & (d > 0.0))
+    moves = (v != 0.0) | (d != 0.0)
+    gone = ((room == 0.0) & pushes) | ((room < 0.0) & moves)
+    return np.where(gone, np.inf, np.where(room > 0.0, need, 0.0))
 
 
 class TorqueCheck:
@@ -259,14 +359,22 @@ class TorqueCheck:
     dynamics.  Their spacing is then ``f`` times the period, and the excess
     between them ``h**2 / 8`` times the second time derivative of ``g`` and
     of ``d / f**2``, each of which is this check's divided by ``f**2``: at most
-    the gravity's excess plus the dynamic part's over ``f**2``.
+    the gravity's excess plus the dynamic part's over ``f**2``.  With the
+    damping part ``viscous`` (the torque ``g + v / f + d / f**2``) its excess
+    is this check's over ``f``, and ``limits`` (N, n), when given, are the
+    limits less the friction of the joints moving at each sample (the peak
+    ratios count that friction as torque).
     """
 
-    def __init__(self, gravity, tau, limit, steps=None):
+    def __init__(self, gravity, tau, limit, steps=None, viscous=None, limits=None):
         """Keep the samples' gravity and whole torques (N, n), the limits (n,), the spacing."""
         self.gravity, self.tau, self.limit = gravity, tau, limit
         self.steps = steps      # (N - 1,) where the samples are not evenly spaced
-        self.dynamic = tau - gravity
+        self.viscous = viscous
+        self.dynamic = tau - gravity if viscous is None else tau - gravity - viscous
+        # The limits each sample holds, and the friction counted as torque in the ratios.
+        self.limits = np.broadcast_to(limit, tau.shape) if limits is None else limits
+        self.friction = limit - self.limits
         self._split = None
 
     def needs(self, factor=1.0):
@@ -274,23 +382,31 @@ class TorqueCheck:
         Return (factor, ratios) of the trajectory slowed down by ``factor``: as ``time_factor``.
 
         At ``factor`` 1 the excess between samples is that of the torque
-        itself; slowed down, the two parts' excesses bound it (class
-        docstring), and every squared need is the split one over
-        ``factor**2``: the factor is :meth:`slow_down` over ``factor``.
+        itself; slowed down, the parts' excesses bound it (class
+        docstring), and the factor is :meth:`slow_down` over ``factor``.
         """
-        bend_gravity, bend_dynamic, split = self._split_needs()
+        bend_gravity, bend_viscous, bend_dynamic, split = self._split_needs()
         if factor == 1.0:
             bend = _bend(self.tau, self.steps)
-            need = _squared_needs(self.gravity, self.dynamic + np.sign(self.dynamic) * bend,
-                                  self.limit)
+            if self.viscous is None:
+                need = _squared_needs(self.gravity, self.dynamic + np.sign(self.dynamic) * bend,
+                                      self.limits)
+            else:
+                # At f = 1 the whole torque's excess, exact there.
+                need = _viscous_needs(self.gravity, self.viscous, self.dynamic, self.limits,
+                                      0.0, bend)
             # Where gravity with its own excess between samples leaves no room
             # (on either side), no slow-down holds the torque: none does here.
             need = np.where(np.isinf(split), np.inf, need)
-            ratios = np.max((np.abs(self.tau) + bend) / self.limit, axis=0)
+            ratios = np.max((np.abs(self.tau) + bend + self.friction) / self.limit, axis=0)
             return math.sqrt(float(np.max(need))), ratios
         scale = 1.0 / (factor * factor)
-        ratios = np.max((np.abs(self.gravity + self.dynamic * scale) + bend_gravity
-                         + bend_dynamic * scale) / self.limit, axis=0)
+        tau = self.gravity + self.dynamic * scale
+        bend = bend_gravity + bend_dynamic * scale
+        if self.viscous is not None:
+            tau = tau + self.viscous / factor
+            bend = bend + bend_viscous / factor
+        ratios = np.max((np.abs(tau) + bend + self.friction) / self.limit, axis=0)
         return self.slow_down() / factor, ratios
 
     def slow_down(self):
@@ -299,7 +415,7 @@ class TorqueCheck:
 
         Infinite where gravity plus its excess between samples leaves no room.
         """
-        return math.sqrt(float(np.max(self._split_needs()[2])))
+        return math.sqrt(float(np.max(self._split_needs()[3])))
 
     def slow_down_with(self, factor=1.0, torque_need=None):
         """
@@ -320,21 +436,28 @@ class TorqueCheck:
         """Return :meth:`slow_down`, or raise ValueError naming the joint when it is infinite."""
         slow = self.slow_down()
         if not math.isfinite(slow):
-            j = int(np.argmax(np.any(np.isinf(self._split_needs()[2]), axis=0)))
-            raise ValueError(f'joint {j}: gravity uses its whole torque limit where the plan '
-                             'moves (with its change between 1 ms samples): no speed holds it '
-                             '(lower the payload or raise the limit)')
+            j = int(np.argmax(np.any(np.isinf(self._split_needs()[3]), axis=0)))
+            friction = ' with its dry friction' if np.any(self.friction[:, j]) else ''
+            raise ValueError(f'joint {j}: gravity{friction} uses its whole torque limit where '
+                             'the plan moves (with its change between 1 ms samples): no speed '
+                             'holds it (lower the payload or raise the limit)')
         return slow
 
     def _split_needs(self):
-        """Return the excesses of gravity and of the dynamic part, and the needs they bound."""
+        """Return the excesses of gravity, damping and the rest, and the needs they bound."""
         if self._split is None:
             bend_gravity = _bend(self.gravity, self.steps)
             bend_dynamic = _bend(self.dynamic, self.steps)
-            need = _squared_needs(self.gravity,
-                                  self.dynamic + np.sign(self.dynamic) * bend_dynamic,
-                                  self.limit - bend_gravity)
-            self._split = (bend_gravity, bend_dynamic, need)
+            if self.viscous is None:
+                bend_viscous = None
+                need = _squared_needs(self.gravity,
+                                      self.dynamic + np.sign(self.dynamic) * bend_dynamic,
+                                      self.limits - bend_gravity)
+            else:
+                bend_viscous = _bend(self.viscous, self.steps)
+                need = _viscous_needs(self.gravity, self.viscous, self.dynamic,
+                                      self.limits - bend_gravity, bend_viscous, bend_dynamic)
+            self._split = (bend_gravity, bend_viscous, bend_dynamic, need)
         return self._split
 
 
