@@ -26,20 +26,25 @@ class JointTorque(AccelerationConstraint):
     with ``c = D q'``: not linear in ``x``), enters the rows as ``c x``, as
     ``b`` takes it from ``ID(q, q', q'')``: exact at ``sdot = 1``, the
     path's own timing (rest-to-rest v/a durations), whose speeds the
-    profile's are near.  The rows are the speed profile's reference: the
-    plan's own torque, damping in full (``1 / f`` under a slow-down), is
-    checked after and the plan slowed where it needs
-    (:class:`~.torque.TorqueLimit`).  On the damped vendor arms this gave
-    shorter plans (bench_torque's random walks, 12 an arm, seed 31, at 0.9 of the
-    efforts) than the damping's chord up to the velocity limits (median
-    1.037 against 1.045 times the rigid-body plan, xArm7; 1.106 against 1.174,
-    TALOS arm) or no damping in the rows (1.095, 1.201).  Dry friction, when
-    ``dry_friction(q)`` is given, lowers the limits of the joints that move
-    at a grid point (as far as rest stays allowed there).
+    profile's are near.  On the damped vendor arms this gave the default
+    profile shorter plans (bench_torque's random walks, 12 an arm, seed 31,
+    at 0.9 of the efforts) than the damping's chord up to the velocity
+    limits (median 1.037 against 1.045 times the rigid-body plan, xArm7;
+    1.106 against 1.174, TALOS arm) or no damping in the rows (1.095,
+    1.201).  :meth:`speed_terms` gives ``c`` itself (with ``viscous``),
+    which the sequential LPs of :mod:`~..speed_profile.smooth_profile`
+    linearise at each profile instead (``time_optimal``: 1.060 and 1.132
+    times its rigid-body plan, against 1.141 and 1.309 with ``c x``).  The
+    rows are the speed profile's reference: the plan's own torque, damping
+    in full (``1 / f`` under a slow-down), is checked after and the plan
+    slowed where it needs (:class:`~.torque.TorqueLimit`).  Dry friction,
+    when ``dry_friction(q)`` is given, lowers the limits of the joints that
+    move at a grid point or next to it (:func:`moving_near`; as far as rest
+    stays allowed there).
     """
 
     def __init__(self, max_torque, inverse_dynamics, interpolated=False, gravity=None,
-                 dry_friction=None):
+                 dry_friction=None, viscous=None):
         """Take the torque limit per joint (n,), the vectorised inverse dynamics and g(q)."""
         self.max_torque = np.asarray(max_torque, float)
         self.inverse_dynamics = inverse_dynamics
@@ -48,6 +53,7 @@ class JointTorque(AccelerationConstraint):
             gravity = getattr(inverse_dynamics, 'gravity', None)
         self.gravity = gravity if callable(gravity) else None
         self.dry_friction = dry_friction
+        self.viscous = viscous
 
     def rows(self, path):
         """Return ``(a, b, -tau_max - g, tau_max - g)``; refuse a pose gravity alone overloads."""
@@ -68,10 +74,36 @@ class JointTorque(AccelerationConstraint):
         limit = np.broadcast_to(self.max_torque, gravity.shape)
         refuse_gravity_overload(q, gravity, limit)
         if self.dry_friction is not None:
-            moving = first != 0.0
-            limit = np.where(moving, np.maximum(limit - self.dry_friction(q), np.abs(gravity)),
-                             limit)
+            limit = np.where(moving_near(first),
+                             np.maximum(limit - self.dry_friction(q), np.abs(gravity)), limit)
         return a, b, -limit - gravity, limit - gravity
+
+    def speed_terms(self, path):
+        """
+        Return ``c`` (M + 1, n) of the rows' term ``c sdot`` (the damping ``viscous(q, q')``).
+
+        None without ``viscous``.  :meth:`rows` holds it in ``b``, as ``c x``.
+        """
+        if self.viscous is None:
+            return None
+        return self.viscous(path.positions, path.first)
+
+
+def moving_near(qd):
+    """
+    Return where (N, n) a joint moves at a sample or at a neighbour (samples in order).
+
+    A joint that starts (or stops) moving at a sample needs its friction
+    there too: the torque just after the start is the one at rest plus the
+    friction, a jump no sample after it sees (1 kHz: 0.7 % of a limit
+    missed, a test's case).  A joint still at a sample and at both its
+    neighbours is held by its friction.
+    """
+    moving = qd != 0.0
+    near = moving.copy()
+    near[1:] |= moving[:-1]
+    near[:-1] |= moving[1:]
+    return near
 
 
 # Gravity is refused only beyond its limit by more than this (relative): a

@@ -30,8 +30,10 @@ torque is ``g + v / f + d / f**2``, and with ``y = 1 / f`` each side of the
 limit is a quadratic ``v y + d y**2 <= room``; the slow-down a sample needs
 is ``1 / y`` at its first positive root (every slower ``f`` holds too),
 ``y = 2 room / (v + sqrt(v**2 + 4 d room))``.  Dry friction, whose sign is
-the velocity's, lowers a moving joint's limit by its size at that sample
-(at rest it holds the joint, and gravity there keeps the whole limit).
+the velocity's, lowers a moving joint's limit by its size at that sample,
+and at the samples where it starts or stops moving (breaking away from
+rest it needs gravity plus its friction); a joint still there and at both
+neighbours is held by its friction, and keeps the whole limit.
 
 The check of a finished trajectory samples it every :data:`CHECK_PERIOD`
 (1 kHz; :data:`MIN_CHECK_SAMPLES` times at least).  Between two samples the
@@ -47,7 +49,8 @@ import math
 
 import numpy as np
 
-from .joint_torque import GRAVITY_RTOL, GravityOverload, JointTorque, refuse_gravity_overload
+from .joint_torque import (GRAVITY_RTOL, GravityOverload, JointTorque, moving_near,
+                           refuse_gravity_overload)
 from ..spline.segments import sample_segments
 
 # Period [s] of the dense checks of a plan: the torque here, the tool speed in
@@ -112,12 +115,13 @@ class TorqueLimit:
         Return the path-velocity constraint object (:class:`constraints.JointTorque`).
 
         ``interpolated``: its rows also hold at the end of every grid step.
-        The damping is in the rows at the path's own speed
-        (:class:`JointTorque`); the plan's checks hold it in full.
+        The damping is in the rows at the path's own speed, and apart
+        (:meth:`JointTorque.speed_terms`); the plan's checks hold it in full.
         """
         return JointTorque(self.max_torque, self._torques, interpolated,
                            None if self.gravity is None else self._gravity,
-                           None if self.friction is None else self._friction)
+                           None if self.friction is None else self._friction,
+                           None if self.viscous is None else self._viscous)
 
     def _viscous(self, q, qd):
         """Return the damping part (N, n) of the torques at ``q``, ``qd`` (N, n)."""
@@ -135,12 +139,13 @@ class TorqueLimit:
         Return (viscous, limits) of samples: the damping part (None: not counted), the limits.
 
         The limits (N, n) (or (n,) without friction) are ``max_torque`` less
-        the dry friction of every joint moving at the sample.
+        the dry friction of every joint moving at the sample or next to it
+        (:func:`moving_near`: the samples are in time order).
         """
         viscous = None if self.viscous is None else self._viscous(q, qd)
         limit = np.broadcast_to(self.max_torque, gravity.shape)
         if self.friction is not None:
-            limit = limit - np.where(qd != 0.0, self._friction(q), 0.0)
+            limit = limit - np.where(moving_near(qd), self._friction(q), 0.0)
         return viscous, limit
 
     def _torques(self, q, qd, qdd):

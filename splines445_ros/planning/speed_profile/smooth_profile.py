@@ -533,7 +533,7 @@ class SmoothProfile:
         # Jerk rows for the joints with a jerk limit (inf: none).
         joints = np.isfinite(self.jerk)
         jerk = jerk[np.repeat(joints, n)]
-        more, more_bound = self._constraint_rows(points, x, x1)
+        more, more_bound, self._speed = self._constraint_rows(points, x, x1)
         rows = sp.vstack([x, -x, acc, -acc] + more + [jerk, -jerk], format='csr')
         jerk_bound = np.tile(np.repeat(self.jerk[joints], n), 2)
         bound = np.concatenate([np.zeros(2 * n), np.tile(np.repeat(self.acceleration, n), 2)]
@@ -565,22 +565,56 @@ class SmoothProfile:
 
         ``lo <= a u + b x <= hi`` with ``u = x'/2``: ``+-(a x'/2 + b x)``
         below ``hi`` and ``-lo``; rows whose bound is infinite are left out.
+        A constraint with a term in the path speed itself, ``c sdot``
+        (``speed_terms``: the joint torque's damping), has it out of ``b``
+        (``b - c``: ``rows`` gives it at ``sdot = 1``) and its rows apart
+        (the third return: per row block its rows without the term, the row
+        points, ``+-c`` and the bound), linearised anew each LP
+        (:meth:`_speed_rows`).
         """
-        rows, bounds = [], []
+        rows, bounds, speed = [], [], []
         if not any(c.order == 2 for c in self.constraints):
-            return rows, bounds
+            return rows, bounds, speed
         gridded = GriddedPath.of_ppoly(self.path, points)
         for constraint in self.constraints:
             if constraint.order != 2:
                 continue
             a, b, lo, hi = constraint.rows(gridded)
+            terms = getattr(constraint, 'speed_terms', None)
+            c = None if terms is None else terms(gridded)
+            if c is not None:
+                b = b - c
             for k in range(a.shape[1]):
                 row = sp.diags(0.5 * a[:, k]) @ x1 + sp.diags(b[:, k]) @ x
                 for sign, limit in ((1.0, hi[:, k]), (-1.0, -lo[:, k])):
-                    finite = np.isfinite(limit)
-                    if finite.any():
-                        rows.append(sign * row[np.flatnonzero(finite)])
+                    finite = np.flatnonzero(np.isfinite(limit))
+                    if not finite.size:
+                        continue
+                    if c is not None and np.any(c[finite, k]):
+                        speed.append((sign * row[finite], finite, sign * c[finite, k],
+                                      limit[finite]))
+                    else:
+                        rows.append(sign * row[finite])
                         bounds.append(limit[finite])
+        return rows, bounds, speed
+
+    def _speed_rows(self, x, x_q):
+        """
+        Return the rows and bounds with a ``c sdot`` term, linearised at ``x_q`` (row points).
+
+        ``c sqrt(x)`` by its tangent at ``x_q``: ``c x / (2 sqrt(x_q)) + c
+        sqrt(x_q) / 2``, exact at ``x_q`` (above ``c sqrt(x)`` elsewhere for
+        ``c > 0``: the damping that brakes, conservative; below it for ``c < 0``,
+        where it helps).  ``x_q`` is at most ``(bound / |c|)**2`` at a row, so
+        the row still allows rest (the tangent's constant at most half the
+        bound).  The plan's own torque is checked after, damping in full.
+        """
+        rows, bounds = [], []
+        for base, at, c, limit in self._speed:
+            room = np.where(limit > 0.0, (limit / np.maximum(np.abs(c), 1e-300)) ** 2, x_q[at])
+            root = np.sqrt(np.minimum(x_q[at], room))
+            rows.append(base + sp.diags(0.5 * c / root) @ x[at])
+            bounds.append(limit - 0.5 * c * root)
         return rows, bounds
 
     def _solve(self, grid, steps):
@@ -618,13 +652,18 @@ class SmoothProfile:
             bound[n:2 * n] = 0.0 if residual is None else -RESIDUAL_FLOOR * x_p
             bound[bound.size - jerk.size:] = 1.5 * jerk / np.sqrt(x_r)
             cost = -(x.T @ (width / x_q ** 1.5))
-            work = rows @ z_p > (FIRST_KEEP if first_lp else KEEP) * bound
+            every_row, every_bound = rows, bound
+            if self._speed:     # a fixed count of rows, after the others: the basis holds
+                speed_rows, speed_bound = self._speed_rows(x, x_q)
+                every_row = sp.vstack([rows] + speed_rows, format='csr')
+                every_bound = np.concatenate([bound] + speed_bound)
+            work = every_row @ z_p > (FIRST_KEEP if first_lp else KEEP) * every_bound
             work[:n:DENSE] = True       # x <= cap about once a grid step: a bounded LP
             if residual is None:
-                return self._generate(cost, rows, bound, work, bounds, warm)
+                return self._generate(cost, every_row, every_bound, work, bounds, warm)
             more, more_bound = residual     # few dense rows, all in the working set
-            return self._generate(cost, sp.vstack([rows, more], format='csr'),
-                                  np.concatenate([bound, more_bound]),
+            return self._generate(cost, sp.vstack([every_row, more], format='csr'),
+                                  np.concatenate([every_bound, more_bound]),
                                   np.concatenate([work, np.ones(more_bound.size, bool)]),
                                   bounds, warm)
 
