@@ -70,6 +70,7 @@ import bench_torque  # noqa: E402
 import numpy as np  # noqa: E402, I100
 from scipy.spatial import cKDTree  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
+from splines445_ros.planning.constraints.joint_torque import moving_near  # noqa: E402
 from splines445_ros.robot.dynamics import ArmDynamics  # noqa: E402
 from splines445_ros.service.arm_sim_config import ArmSimConfig  # noqa: E402
 from splines445_ros.service.arm_sim_model import add_payload, resolve_model_config  # noqa: E402
@@ -246,7 +247,6 @@ class Case:
     def __init__(self, points, dynamics, vmax, tau_max, config_limits):
         """Plan A, B and C on ``points``."""
         self.points = points
-        torques = dynamics.torques
         self.typical, limits = torque_limits(points, dynamics, vmax, tau_max)
         started = time.perf_counter()
         self.plans = {'A': plan(points, '555', 'optimal',
@@ -260,9 +260,23 @@ class Case:
         self.uniform = {'own duration': own, 'same duration': same}
         self.plan_ratio = {}
         for traj in [*self.plans.values(), *own.values(), *same.values()]:
-            samples = bench_torque.ours_samples(traj)
-            self.plan_ratio[id(traj)] = float(np.max(bench_torque.peak_torque(
-                samples, torques, tau_max)))
+            self.plan_ratio[id(traj)] = motor_peak(bench_torque.ours_samples(traj), dynamics,
+                                                   tau_max)
+
+
+def motor_peak(samples, dynamics, tau_max):
+    """
+    Return the largest |tau| / limit over 1 kHz ``samples``: the motors' torque.
+
+    ``dynamics``' torques (its damping with them when it counts it) plus
+    the dry friction of the joints moving at a sample or next to it
+    (``dry_friction``, when it gives one), as the planner counts them.
+    """
+    q, qd, _ = samples
+    motor = np.abs(dynamics.torques(*samples))
+    if dynamics.dry_friction is not None:
+        motor += np.where(moving_near(qd), dynamics.dry_friction(q), 0.0)
+    return float(np.max(motor / tau_max))
 
 
 ARM_PATHS = 3                   # random paths per arm in the every-arm table

@@ -19,7 +19,8 @@ reliable and transient-local like robot_state_publisher's): tool poses are
 description or parameter that does not give a working robot is reported on
 ``~/status`` (a parameter change is rejected) and the last good robot stays.
 With ``limit_torque`` every plan also keeps the rigid-body torque of the
-planned joints (with ``payload_*`` held by the tool frame) within
+planned joints (with ``payload_*`` held by the tool frame, and with
+``torque_counts_friction`` the joints' damping and dry friction) within
 ``max_effort`` or the description's effort limits (rest to rest).
 
 Planning runs on a worker thread, so a large request never blocks the node's

@@ -39,7 +39,7 @@ decoupled command exceeds a limit, the command is the one within the limits
 nearest to it in the inertia's norm (:meth:`DynamicArm.decoupled_command`):
 joints at a limit give it, every other joint gets its own loop's
 acceleration.  Clipped alone, the others would chase the saturated joint's
-error (an xArm7, whose plans leave out its joints' damping: a saturated
+error (an xArm7 on a plan that left out its joints' damping: a saturated
 joint 3 pulled joint 6 29 mrad off), and leaving the saturated joint's terms
 out of theirs made a coupled pair's commands jump between their limits from
 step to step (helper-82, helper-83).

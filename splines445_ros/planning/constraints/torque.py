@@ -134,19 +134,19 @@ class TorqueLimit:
             raise ValueError('inverse_dynamics.dry_friction returned negative friction')
         return friction
 
-    def _parts(self, q, qd, gravity, tau):
+    def _parts(self, q, qd, gravity):
         """
-        Return (viscous, limits) of samples: the damping part (None: not counted), the limits.
+        Return (viscous, friction) of samples: the damping part, the friction counted.
 
-        The limits (N, n) (or (n,) without friction) are ``max_torque`` less
-        the dry friction of every joint moving at the sample or next to it
-        (:func:`moving_near`: the samples are in time order).
+        Either None when not counted; the friction (N, n) is that of every
+        joint moving at the sample or next to it (:func:`moving_near`: the
+        samples are in time order), 0 elsewhere.
         """
         viscous = None if self.viscous is None else self._viscous(q, qd)
-        limit = np.broadcast_to(self.max_torque, gravity.shape)
+        friction = None
         if self.friction is not None:
-            limit = limit - np.where(moving_near(qd), self._friction(q), 0.0)
-        return viscous, limit
+            friction = np.where(moving_near(qd), self._friction(q), 0.0)
+        return viscous, friction
 
     def _torques(self, q, qd, qdd):
         return _checked(self.inverse_dynamics(q, qd, qdd), q, 'inverse_dynamics')
@@ -196,7 +196,8 @@ class TorqueLimit:
         full = np.broadcast_to(self.max_torque, gravity.shape)
         if refuse:
             refuse_gravity_overload(q, gravity, full)
-        viscous, limit = self._parts(q, qd, gravity, tau)
+        viscous, friction = self._parts(q, qd, gravity)
+        limit = full if friction is None else full - friction
         dynamic = tau - gravity if viscous is None else tau - gravity - viscous
         need = _squared_needs(gravity, dynamic, limit, viscous)
         return need if refuse else np.where(np.abs(gravity) > full * (1.0 + GRAVITY_RTOL),
@@ -242,8 +243,8 @@ class TorqueLimit:
         gravity = self._gravity(q)
         refuse_gravity_overload(q, gravity, np.broadcast_to(self.max_torque, gravity.shape))
         tau = self._whole(q, qd, qdd, gravity)
-        viscous, limit = self._parts(q, qd, gravity, tau)
-        return TorqueCheck(gravity, tau, self.max_torque, steps, viscous, limit)
+        viscous, friction = self._parts(q, qd, gravity)
+        return TorqueCheck(gravity, tau, self.max_torque, steps, viscous, friction)
 
     def factor_at_least(self, traj, period=COARSE_PERIOD):
         """
@@ -340,18 +341,22 @@ def _first_root(room, v, d):
     ``y = 2 room / (v + sqrt(v**2 + 4 d room))`` (the root nearer 0, in the
     form that stays exact for ``d`` near 0), so the squared need is
     ``((v + sqrt(v**2 + 4 d room)) / (2 room))**2``; it exists where the
-    discriminant is not negative and ``v + sqrt(...) > 0``.  Infinite where
-    ``room <= 0`` and the motion pushes into it (``v > 0``, or ``v = 0 < d``;
-    ``room < 0`` and any motion at all).
+    discriminant is not negative and ``v + sqrt(...) > 0``.  With no room
+    (``room = 0``) the root is ``y = -v / d`` where the damping pulls away
+    and the rest pushes in (``v < 0 < d``); infinite where the motion pushes
+    into it at once (``v > 0``, or ``v = 0 < d``), and where ``room < 0``
+    and anything moves.  No limit (``room`` infinite): 0.
     """
     with np.errstate(invalid='ignore', divide='ignore'):
         disc = v * v + 4.0 * d * room
         s = v + np.sqrt(np.maximum(disc, 0.0))
         need = np.where((disc >= 0.0) & (s > 0.0), (s / (2.0 * room)) ** 2, 0.0)
+        later = np.where((v < 0.0) & (d > 0.0), (d / v) ** 2, 0.0)
     pushes = (v > 0.0) | ((v == 0.0) & (d > 0.0))
     moves = (v != 0.0) | (d != 0.0)
     gone = ((room == 0.0) & pushes) | ((room < 0.0) & moves)
-    return np.where(gone, np.inf, np.where(room > 0.0, need, 0.0))
+    need = np.where(np.isinf(room), 0.0, np.where(room > 0.0, need, 0.0))
+    return np.where(gone, np.inf, np.where(room == 0.0, later, need))
 
 
 class TorqueCheck:
@@ -366,20 +371,20 @@ class TorqueCheck:
     of ``d / f**2``, each of which is this check's divided by ``f**2``: at most
     the gravity's excess plus the dynamic part's over ``f**2``.  With the
     damping part ``viscous`` (the torque ``g + v / f + d / f**2``) its excess
-    is this check's over ``f``, and ``limits`` (N, n), when given, are the
-    limits less the friction of the joints moving at each sample (the peak
-    ratios count that friction as torque).
+    is this check's over ``f``, and ``friction`` (N, n), when given, the dry
+    friction of the joints moving at each sample, lowers their limits there
+    (the peak ratios count it as torque).
     """
 
-    def __init__(self, gravity, tau, limit, steps=None, viscous=None, limits=None):
+    def __init__(self, gravity, tau, limit, steps=None, viscous=None, friction=None):
         """Keep the samples' gravity and whole torques (N, n), the limits (n,), the spacing."""
         self.gravity, self.tau, self.limit = gravity, tau, limit
         self.steps = steps      # (N - 1,) where the samples are not evenly spaced
         self.viscous = viscous
         self.dynamic = tau - gravity if viscous is None else tau - gravity - viscous
-        # The limits each sample holds, and the friction counted as torque in the ratios.
-        self.limits = np.broadcast_to(limit, tau.shape) if limits is None else limits
-        self.friction = limit - self.limits
+        # The friction counted as torque, and the limits each sample holds.
+        self.friction = np.zeros(tau.shape) if friction is None else friction
+        self.limits = np.broadcast_to(limit, tau.shape) - self.friction
         self._split = None
 
     def needs(self, factor=1.0):
@@ -404,14 +409,20 @@ class TorqueCheck:
             # (on either side), no slow-down holds the torque: none does here.
             need = np.where(np.isinf(split), np.inf, need)
             ratios = np.max((np.abs(self.tau) + bend + self.friction) / self.limit, axis=0)
+            if self.viscous is not None:
+                # A sample within its limit at f = 1 needs no slow-down, though a
+                # slower plan might not hold it (a gap: slow_down() is past it).
+                within = np.abs(self.tau) + bend <= self.limits
+                need = np.where(within, np.minimum(need, 1.0), need)
             return math.sqrt(float(np.max(need))), ratios
         scale = 1.0 / (factor * factor)
-        tau = self.gravity + self.dynamic * scale
-        bend = bend_gravity + bend_dynamic * scale
-        if self.viscous is not None:
-            tau = tau + self.viscous / factor
-            bend = bend + bend_viscous / factor
-        ratios = np.max((np.abs(tau) + bend + self.friction) / self.limit, axis=0)
+        if self.viscous is None:
+            peak = (np.abs(self.gravity + self.dynamic * scale) + bend_gravity
+                    + bend_dynamic * scale)
+        else:
+            peak = (np.abs(self.gravity + self.viscous / factor + self.dynamic * scale)
+                    + bend_gravity + bend_viscous / factor + bend_dynamic * scale)
+        ratios = np.max((peak + self.friction) / self.limit, axis=0)
         return self.slow_down() / factor, ratios
 
     def slow_down(self):

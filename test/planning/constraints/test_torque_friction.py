@@ -17,7 +17,7 @@ from hypothesis import given, settings, strategies as st
 import numpy as np
 import pytest
 from splines445_ros.planning import plan
-from splines445_ros.planning.constraints.torque import TorqueLimit
+from splines445_ros.planning.constraints.torque import TorqueCheck, TorqueLimit
 from test_path_constraints import two_link_torques
 from test_torque_limits import random_request
 
@@ -138,26 +138,49 @@ def test_a_single_joints_slow_down_is_the_root_of_its_quadratic():
     """
     One joint, one sample: ``g + v / f + d / f**2 = L`` solved here for ``f``.
 
-    With ``v`` and ``d`` of either sign, against the smallest ``f`` from
-    which every slower one holds, found by scanning.
+    With ``v`` and ``d`` of either sign, gravity anywhere within the limit
+    and exactly at it (no room: the damping may pull away first), against
+    the smallest ``f`` from which every slower one holds, found by
+    scanning; and at ``f = 1`` a sample within its limit needs no slow-down
+    even where a slower plan would not hold it.
     """
     rng = np.random.default_rng(4)
-    from splines445_ros.planning.constraints.torque import TorqueCheck
-    for _ in range(300):
+    y = np.linspace(1e-6, 1.0, 200001)      # 1 / f
+    for case in range(600):
         limit = rng.uniform(1.0, 10.0)
-        gravity = rng.uniform(-0.9, 0.9) * limit
+        gravity = rng.uniform(-0.9, 0.9) * limit if case % 4 else rng.choice([-1.0, 1.0]) * limit
         v, d = rng.uniform(-3.0, 3.0, 2) * limit
         check = TorqueCheck(np.full((1, 1), gravity), np.full((1, 1), gravity + v + d),
                             np.array([limit]), viscous=np.full((1, 1), v))
-        y = np.linspace(1e-6, 1.0, 200001)      # 1 / f
         torque = gravity + v * y + d * y * y
-        bad = np.flatnonzero(np.abs(torque) > limit)
-        expected = 1.0 / y[bad[0]] if bad.size else 0.0
+        bad = np.flatnonzero(np.abs(torque) > limit * (1.0 + 1e-12))
         found = check.slow_down()
-        if expected <= 1.0:
-            assert found <= 1.0 + 1e-6, (gravity, v, d, limit, found)
+        case_text = (gravity, v, d, limit, found)
+        if not bad.size or 1.0 / y[bad[0]] <= 1.0:
+            assert found <= 1.0 + 1e-6, case_text
+        elif bad[0] == 0:       # pushed past the limit at once
+            assert found >= 1e5, case_text
         else:
-            assert found == pytest.approx(expected, rel=2e-4), (gravity, v, d, limit)
+            assert found == pytest.approx(1.0 / y[bad[0]], rel=2e-4), case_text
+        assert (check.needs()[0] <= 1.0) == (abs(gravity + v + d) <= limit), case_text
+
+
+def test_a_joint_without_a_limit_leaves_the_others_checked():
+    """An infinite limit (no limit on that joint) with damping: the others are still held."""
+    rng = np.random.default_rng(8)
+    for _ in range(6):
+        points, limit, arm = damped_request(rng)
+        limit = np.array([limit[0], np.inf])
+        try:
+            traj = plan(points, '555', 'uniform', max_torque=limit, inverse_dynamics=arm,
+                        **LIMITS)
+        except ValueError as exc:
+            assert 'gravity' in str(exc)
+            continue
+        peak = motor_peaks(traj, arm, limit)
+        assert peak[0] <= 1.0 + TORQUE_RTOL and peak[1] == 0.0, peak
+        assert np.all(np.isfinite(traj.torque_ratios)) and traj.torque_ratios[1] == 0.0
+        np.testing.assert_allclose(traj.torque_ratios, peak, rtol=2e-2, atol=1e-3)
 
 
 def test_gravity_a_moving_joints_friction_leaves_no_room_for_is_refused_with_the_joint():
