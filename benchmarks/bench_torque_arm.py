@@ -162,7 +162,8 @@ class ArmSimulator(smooth.Simulator):
         self.simulated = 0.0
         self.played = {}
         self.site_gap = 0.0
-        self.compensation_free = not np.any(self.arm.arm.friction > 0.0)
+        # The rebuild knows rigid joints only (an elastic joint's target moves with its link).
+        self.rebuildable = not np.any(self.arm.arm._elastic)
         self.clip_gap = 0.0
         self.design = None      # the inertia diagonal at the initial pose (demand)
 
@@ -170,11 +171,13 @@ class ArmSimulator(smooth.Simulator):
         """
         Return the peak |command| / limit the controller asked for before clipping.
 
-        Rebuilt from the log (rigid joints, no friction compensation): the
-        feed-forward at the reference plus the PD terms on the measured state,
-        mapped through ``M diag(M_0)^-1`` (``M`` at the reference, ``M_0`` at
-        the initial pose, both read here from MuJoCo); on every step that did
-        not saturate it must be the logged command (the largest gap is kept).
+        Rebuilt from the log (rigid joints): the feed-forward at the reference
+        and the arm's friction compensation (``DynamicArm.friction_compensation``
+        of the reference velocity and the position error) plus the PD terms
+        on the measured state, mapped through ``M diag(M_0)^-1`` (``M`` at the
+        reference, ``M_0`` at the initial pose, both read here from MuJoCo);
+        on every step that did not saturate it must be the logged command
+        (the largest gap is kept).
         """
         import mujoco
         arm, log = self.arm.arm, self.arm.log
@@ -195,12 +198,15 @@ class ArmSimulator(smooth.Simulator):
             self.design = np.diag(full)[dofs].copy()
         design = self.design
         raw = np.empty_like(q)
+        compensate = bool(np.any(arm.friction > 0.0))
         for k in range(len(q)):
             forward = arm.feedforward(q[k], v[k], a[k])
             mujoco.mj_fullM(rigid, arm.rigid_data, full)
             inertia = full[np.ix_(dofs, dofs)]
-            feedback = (arm.kp * (q[k] - log['position'][k])
-                        + arm.kd * (v[k] - log['velocity'][k]))
+            error = q[k] - log['position'][k]
+            if compensate:
+                forward = forward + arm.friction_compensation(v[k], error)
+            feedback = arm.kp * error + arm.kd * (v[k] - log['velocity'][k])
             raw[k] = forward + inertia @ (feedback / design)
         # Where it saturated the arm shares the limits out (DynamicArm.decoupled_command):
         # the rebuild is checked on the other steps.
@@ -225,7 +231,7 @@ class ArmSimulator(smooth.Simulator):
         moving = t <= traj.duration
         self.site_gap = max(self.site_gap, float(np.abs(tool[moving]
                                                         - log['tool_error'][moving]).max()))
-        row.update({'demand': self.demand(q, traj) if self.compensation_free else np.nan,
+        row.update({'demand': self.demand(q, traj) if self.rebuildable else np.nan,
                     'ratio': float(np.max(np.abs(log['effort']) / self.limits)),
                     'sat': row['saturated'], 'tool_fk': float(tool.max()),
                     'off_path': float(off_path.max())})
@@ -348,8 +354,7 @@ def every_arm(paths_per_arm):
     gaps = [sim.clip_gap for sim in simulators]
     names = ': ' + ', '.join(saturating) if saturating else ''
     print(f"* A (the node's default headroom) saturates on {len(saturating)} of {len(rows)} "
-          f"arms{names} (demand n/a: the arm's friction is compensated, which the rebuild "
-          'leaves out)')
+          f'arms{names} (demand n/a: elastic joints, which the rebuild leaves out)')
     return gaps
 
 
