@@ -714,8 +714,14 @@ class PlannerNode(Node):
                 return robot
             return build_robot_setup(config, self._description, robot.robot)
 
-    def _serve(self, job, request_id):
-        """Plan one request, report it on ``~/status``, publish it if asked: a PlanOutcome."""
+    def _serve(self, job, request_id, again=True):
+        """
+        Plan one request, report it on ``~/status``, publish it if asked: a PlanOutcome.
+
+        A replanned request whose trajectory to take over from changed while
+        it was planned (the one waiting for its stamp started, or a stop's
+        hold took over) is planned ``again`` once, from the new one.
+        """
         msg = job.msg
         config = self.parameters.config
         started = time.perf_counter()
@@ -795,10 +801,18 @@ class PlannerNode(Node):
         start_warning = (self._topic_start_warning(config, traj, now_ns, switch_ns or now_ns)
                          if from_first_waypoint else None)
         if planned_from is not False and self._base(now_ns) is not planned_from:
+            held = self._active is None     # a stop's hold, not a trajectory, took over
+            what = ('the stop waiting for its stamp took hold' if held
+                    else 'the trajectory waiting for its stamp started')
+            if again:
+                self.get_logger().info(f'request {request_id}: {what} while it was planned '
+                                       'from the one before it: planned again')
+                return self._serve(job, request_id, again=False)
             return self._rejected(
-                f'request {request_id} rejected: the trajectory waiting for its stamp '
-                'started while this request was planned from the one before it; the running '
-                'trajectory continues (send the request again)', values)
+                f'request {request_id} rejected: {what} while this request was planned from '
+                'the one before it, twice; ' + ('the arm holds' if held else
+                                                'the running trajectory continues')
+                + ' (send the request again)', values)
         if switch_ns is not None and now_ns > switch_ns:
             return self._rejected(
                 f'request {request_id} rejected: planning took '

@@ -1,5 +1,7 @@
 """Replanning from a moving arm: no jump in position, velocity or acceleration."""
 
+import time
+
 from diagnostic_msgs.msg import DiagnosticStatus
 import numpy as np
 import pytest
@@ -105,6 +107,44 @@ def test_a_missed_switch_time_is_rejected_and_the_old_trajectory_continues(lead)
         status, traj = system.request(waypoint_message(pe.JOINT_NAMES, W))
         assert status.level == DiagnosticStatus.ERROR and traj is None
         assert 'longer than replan_lead_time' in status.message
+
+
+def test_a_request_planned_while_the_waiting_trajectory_starts_is_planned_again_from_it():
+    """
+    Request B is planned from the arm at rest while A waits for its stamp; A starts meanwhile.
+
+    B's planning is held (a wrapped ``_replan``, first call only) until A
+    has started: B's plan would start from the wrong state, so it is
+    planned again from A, and takes over from A without a jump (it was
+    rejected: "send the request again").
+    """
+    lead = 0.4
+    with InProcessSystem(planner_parameters={'start_from_current_state': True,
+                                             'replan_lead_time': lead},
+                         arm_parameters={'initial_positions': W[0].tolist()}) as system:
+        assert system.spin_until(lambda: len(system.joint_states) > 2, 5.0)
+        node = system.planner
+        original, calls = node._replan, []
+
+        def held(*args):
+            calls.append(args[-1])      # the trajectory it is planned from
+            if len(calls) == 2:         # B's first planning: until A has started
+                time.sleep(lead + 0.2)
+            return original(*args)
+
+        node._replan = held
+        status_a, traj_a = system.request(waypoint_message(pe.JOINT_NAMES, W))
+        assert status_a.level == DiagnosticStatus.OK, status_a.message
+        status_b, traj_b = system.request(waypoint_message(pe.JOINT_NAMES, SECOND))
+        assert status_b.level == DiagnosticStatus.OK, status_b.message
+        assert len(calls) == 3 and calls[1] is None and calls[2] is not None
+        first = sampled_trajectory_from_msg(traj_a, pe.JOINT_NAMES)
+        switch = (Time.from_msg(traj_b.header.stamp).nanoseconds
+                  - Time.from_msg(traj_a.header.stamp).nanoseconds) * 1e-9
+        assert 0.0 < switch < first.duration
+        p, v, _ = first.state_at(switch)
+        np.testing.assert_allclose(traj_b.points[0].positions, p, atol=1e-6)
+        np.testing.assert_allclose(traj_b.points[0].velocities, v, atol=1e-5)
 
 
 def test_replanning_from_malformed_joint_states_is_a_clear_error():
