@@ -353,8 +353,10 @@ def every_arm(paths_per_arm):
     saturating = [name for name, played in rows if any(r['sat'] > 0 for r in played['A'])]
     gaps = [sim.clip_gap for sim in simulators]
     names = ': ' + ', '.join(saturating) if saturating else ''
+    unknown = any(np.isnan(r['demand']) for _, played in rows for r in played['A'])
     print(f"* A (the node's default headroom) saturates on {len(saturating)} of {len(rows)} "
-          f'arms{names} (demand n/a: elastic joints, which the rebuild leaves out)')
+          f'arms{names}' + (' (demand n/a: elastic joints, which the rebuild leaves out)'
+                            if unknown else ''))
     return gaps
 
 
