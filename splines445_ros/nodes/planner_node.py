@@ -69,7 +69,8 @@ from ..service.model_planning import (build_robot_setup, description_source, loa
                                       tool_poses_from_message)
 from ..service.planner_config import PlannerConfig
 from ..service.request_planning import (ends_at_rest, gravity_overload, gravity_overload_report,
-                                        output_samples, plan_from_running, plan_from_state_at,
+                                        no_room_report, NoRoomToMove, output_samples,
+                                        plan_from_running, plan_from_state_at,
                                         plan_request, plan_stop, plan_tool_request,
                                         plan_warnings, running_in_order, start_from_state,
                                         summary_values, tool_summary_values)
@@ -775,9 +776,16 @@ class PlannerNode(Node):
             samples = output_samples(config, traj)
         except ValueError as exc:
             overload = gravity_overload(exc)
+            no_room = gravity_overload(exc, NoRoomToMove)
             if overload is not None:
                 text, details = gravity_overload_report(overload, config.joint_names,
                                                         config.torque_headroom)
+                values.update(details)
+                exc = text
+            elif no_room is not None:
+                text, details = no_room_report(no_room, config.joint_names,
+                                               config.torque_headroom,
+                                               config.torque_counts_friction)
                 values.update(details)
                 exc = text
             return self._rejected(f'request {request_id} rejected: {exc}', values)

@@ -94,6 +94,10 @@ class TorqueSetup:
             values['torque_counts_friction'] = (
                 'damping [N m s/rad] / friction [N m] / armature [kg m^2]: '
                 + (', '.join(counted) if counted else 'none in the description'))
+        else:
+            values['torque_counts_friction'] = ('false: the rigid-body torque alone (the '
+                                                "description's damping and friction not "
+                                                'counted)')
         return values
 
 

@@ -13,6 +13,7 @@ import numpy as np
 
 from ..cartesian.tool_paths import plan_tool_path
 from ..planning.constraints import GravityOverload
+from ..planning.constraints.torque import NoRoomToMove  # noqa: F401 - for the nodes
 from ..planning.plan_options import BOUNDARY_NAMES, PlanOptions
 from ..planning.planner import LEAVES_POSITION_LIMITS, NO_INNER_KNOT_SPLINE, plan_with_options
 from ..planning.validation import waypoint_array
@@ -599,15 +600,36 @@ def torque_binds(traj):
     return traj.limits is None or float(np.max(ratios)) > traj.binding.ratio
 
 
-def gravity_overload(exc):
-    """Return the :class:`GravityOverload` ``exc`` is or was raised from, else None."""
+def gravity_overload(exc, kind=GravityOverload):
+    """Return the ``kind`` (:class:`GravityOverload`) ``exc`` is or was raised from, else None."""
     seen = set()
     while exc is not None and id(exc) not in seen:
-        if isinstance(exc, GravityOverload):
+        if isinstance(exc, kind):
             return exc
         seen.add(id(exc))
         exc = exc.__cause__ or exc.__context__
     return None
+
+
+def no_room_report(refusal, joint_names, headroom=0.0, counts_friction=True):
+    """
+    Return (message, status values) of a :class:`NoRoomToMove`, the joint named.
+
+    ``headroom`` (``torque_headroom``) and ``counts_friction``
+    (``torque_counts_friction``) are said in the advice when they apply.
+    """
+    j = refusal.joint
+    name = joint_names[j] if 0 <= j < len(joint_names) else f'column {j}'
+    advice = ['lower the payload', 'raise max_effort']
+    if headroom:
+        advice.append(f'lower torque_headroom ({headroom:g})')
+    if refusal.friction and counts_friction:
+        advice.append('set torque_counts_friction false if the description overstates the '
+                      'friction')
+    advice[-1] = 'or ' + advice[-1]
+    message = (f'joint {name!r}: {refusal.what()} uses its whole torque limit where the plan '
+               'moves it: no speed along this path holds it (' + ', '.join(advice) + ')')
+    return message, {'overloaded_joint': name}
 
 
 def gravity_overload_report(overload, joint_names, headroom=0.0):

@@ -449,14 +449,11 @@ class TorqueCheck:
         return uniform_slow_down(factor)
 
     def required_slow_down(self):
-        """Return :meth:`slow_down`, or raise ValueError naming the joint when it is infinite."""
+        """Return :meth:`slow_down`, or raise :class:`NoRoomToMove` when it is infinite."""
         slow = self.slow_down()
         if not math.isfinite(slow):
             j = int(np.argmax(np.any(np.isinf(self._split_needs()[3]), axis=0)))
-            friction = ' with its dry friction' if np.any(self.friction[:, j]) else ''
-            raise ValueError(f'joint {j}: gravity{friction} uses its whole torque limit where '
-                             'the plan moves (with its change between 1 ms samples): no speed '
-                             'holds it (lower the payload or raise the limit)')
+            raise NoRoomToMove(j, bool(np.any(self.friction[:, j])))
         return slow
 
     def _split_needs(self):
@@ -475,6 +472,21 @@ class TorqueCheck:
                                       self.limits - bend_gravity, bend_viscous, bend_dynamic)
             self._split = (bend_gravity, bend_viscous, bend_dynamic, need)
         return self._split
+
+
+class NoRoomToMove(ValueError):
+    """Gravity (with a moving joint's dry friction) leaves a joint no torque to move with."""
+
+    def __init__(self, joint, friction):
+        """Record the joint's column and whether its friction was counted there."""
+        self.joint, self.friction = joint, friction
+        super().__init__(f'joint {joint}: {self.what()} uses its whole torque limit where the '
+                         'plan moves (with its change between 1 ms samples): no speed holds it '
+                         '(lower the payload or raise the limit)')
+
+    def what(self):
+        """Return what uses the limit: 'gravity', or 'gravity with its dry friction'."""
+        return 'gravity with its dry friction' if self.friction else 'gravity'
 
 
 def uniform_slow_down(factor):
@@ -523,5 +535,5 @@ def check_times(duration, period, what):
                        max(MIN_CHECK_SAMPLES, int(math.ceil(duration / period))) + 1)
 
 
-__all__ = ['check_times', 'CHECK_PERIOD', 'GravityOverload', 'SLOW_DOWN_ROUNDOFF', 'TorqueCheck',
-           'TorqueLimit', 'uniform_slow_down']
+__all__ = ['check_times', 'CHECK_PERIOD', 'GravityOverload', 'NoRoomToMove', 'SLOW_DOWN_ROUNDOFF',
+           'TorqueCheck', 'TorqueLimit', 'uniform_slow_down']

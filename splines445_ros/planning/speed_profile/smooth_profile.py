@@ -405,6 +405,24 @@ class _WarmHighs:
         return OptimizeResult(status=2, x=None, message=self.highs.modelStatusToString(status))
 
 
+class _WithoutSpeedTerm:
+    """A second-order constraint's rows without their term in the path speed (``c sdot``)."""
+
+    order = 2
+
+    def __init__(self, constraint):
+        """Wrap ``constraint`` (``rows`` hold the term as ``c x``, ``speed_terms`` give ``c``)."""
+        self.constraint = constraint
+        self.interpolated = constraint.interpolated
+
+    def rows(self, path):
+        """Return the constraint's rows with ``b - c`` (as they are without a speed term)."""
+        a, b, lo, hi = self.constraint.rows(path)
+        terms = getattr(self.constraint, 'speed_terms', None)
+        c = None if terms is None else terms(path)
+        return a, (b if c is None else b - c), lo, hi
+
+
 class SmoothProfile:
     """
     ``x(s) = sdot**2`` along ``path``, C2 in ``s``, at rest or moving at each end; see the module.
@@ -622,9 +640,19 @@ class SmoothProfile:
         every = self._points(grid, steps)
         # x_max: the fastest v/a profile on the row points; it holds the velocity.
         gridded = GriddedPath.of_ppoly(self.path, every)
-        x_max = _lift_isolated_stops(PathLimits(gridded, (
-            JointVelocity(self.velocity), JointAcceleration(self.acceleration))
-            + self.constraints).profile(np.ones(every.size), *self.ends))[1:-1]
+        joint_limits = (JointVelocity(self.velocity), JointAcceleration(self.acceleration))
+        x_max = x_start = _lift_isolated_stops(PathLimits(
+            gridded, joint_limits + self.constraints).profile(
+                np.ones(every.size), *self.ends))[1:-1]
+        if any(getattr(c, 'speed_terms', None) for c in self.constraints):
+            # A term in the path speed itself (the damping) is the speed rows', not the
+            # cap's: the rows hold it as c x, which overstates it beyond sdot = 1 and
+            # capped the damped arms' profiles below what the speed rows allow
+            # (helper-86).  The first LP is still linearised at the profile with it.
+            x_max = np.maximum(x_start, _lift_isolated_stops(PathLimits(
+                gridded, joint_limits + tuple(_WithoutSpeedTerm(c) if c.order == 2 else c
+                                              for c in self.constraints))
+                .profile(np.ones(every.size), *self.ends))[1:-1])
         width = np.zeros(every.size)                # trapezoid weights of the time
         width[:-1] += 0.5 * np.diff(every)
         width[1:] += 0.5 * np.diff(every)
@@ -638,7 +666,7 @@ class SmoothProfile:
         # The first LP's working set: the rows violated at x_max's least-squares fit.
         free = np.array([bound == (None, None) for bound in bounds])
         z_best = np.array([0.0 if bound[0] is None else bound[0] for bound in bounds])
-        z_best[free] = _least_squares(x[:, free], x_max)
+        z_best[free] = _least_squares(x[:, free], x_start)
         warm = _WarmHighs(bounds) if HIGHSPY else None
 
         def solve(x_p, z_p, growth, first_lp=False, residual=None):
@@ -647,7 +675,7 @@ class SmoothProfile:
             x_r = np.tile(x_q, jerk.size // n)
             # The tangent of j / sqrt(x) at x_q: conservative for every x > 0.
             rows.data[first:] = jerk_data + (0.5 * jerk * x_r ** -1.5)[row_of_entry] * x_data
-            bound[:n] = x_max if first_lp else np.minimum(
+            bound[:n] = x_p if first_lp else np.minimum(
                 x_max, np.maximum(growth * x_p, (growth - 1.0) * RESTART_SHARE * x_max))
             bound[n:2 * n] = 0.0 if residual is None else -RESIDUAL_FLOOR * x_p
             bound[bound.size - jerk.size:] = 1.5 * jerk / np.sqrt(x_r)
@@ -667,7 +695,7 @@ class SmoothProfile:
                                   np.concatenate([work, np.ones(more_bound.size, bool)]),
                                   bounds, warm)
 
-        x_p, z_feasible, last_time, message = x_max.copy(), None, None, ''
+        x_p, z_feasible, last_time, message = x_start.copy(), None, None, ''
         for iteration, growth in enumerate(GROWTH):
             try:
                 result = solve(x_p, z_best, growth, first_lp=iteration == 0)

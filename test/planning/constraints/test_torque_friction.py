@@ -17,7 +17,8 @@ from hypothesis import given, settings, strategies as st
 import numpy as np
 import pytest
 from splines445_ros.planning import plan
-from splines445_ros.planning.constraints.torque import TorqueCheck, TorqueLimit
+from splines445_ros.planning.constraints.torque import NoRoomToMove, TorqueCheck, TorqueLimit
+from splines445_ros.service.request_planning import no_room_report
 from test_path_constraints import two_link_torques
 from test_torque_limits import random_request
 
@@ -189,8 +190,13 @@ def test_gravity_a_moving_joints_friction_leaves_no_room_for_is_refused_with_the
     rigid = two_link_torques(points, 0 * points, 0 * points)
     limit = np.max(np.abs(rigid), axis=0) * np.array([1.02, 3.0])
     arm = DampedArm([0.0, 0.0], [0.05 * limit[0], 0.0])
-    with pytest.raises(ValueError, match='joint 0: gravity with its dry friction'):
+    with pytest.raises(NoRoomToMove, match='joint 0: gravity with its dry friction') as info:
         plan(points, '555', 'uniform', max_torque=limit, inverse_dynamics=arm, **LIMITS)
+    # The nodes name the joint, and say what to change.
+    message, values = no_room_report(info.value, ['shoulder', 'elbow'], 0.1)
+    assert message.startswith("joint 'shoulder': gravity with its dry friction uses")
+    assert 'torque_headroom (0.1)' in message and 'torque_counts_friction false' in message
+    assert values == {'overloaded_joint': 'shoulder'}
     # Without the friction the same request is planned.
     plan(points, '555', 'uniform', max_torque=limit, inverse_dynamics=DampedArm([0, 0], [0, 0]),
          **LIMITS)
