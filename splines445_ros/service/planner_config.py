@@ -330,9 +330,10 @@ class PlannerConfig(ValidatedConfig):
         True, "`limit_torque`: the robot description's joint damping, dry friction and rotor "
         'inertia (URDF `<dynamics damping friction>`; MJCF `damping`, `frictionloss`, '
         '`armature`) count against the torque limit, as the motor gives them too (the dynamic '
-        '`arm_sim_node` applies them); a moving joint keeps its limit less its friction. '
-        "False: the links' rigid-body torque alone (the plan then exceeds the limit on a "
-        'damped arm by the damping). Refused without `limit_torque` unless at its default.')
+        "`arm_sim_node` applies them); the friction adds to a moving joint's torque the way "
+        "it moves. False: the links' rigid-body torque alone (the plan then exceeds the limit "
+        'on a damped arm by the damping). Refused without `limit_torque` unless at its '
+        'default.')
     goal_position_tolerance: float = parameter(
         DEFAULT_GOAL_POSITION_TOLERANCE, '`follow_waypoints` goals: the arm has reached the '
         'end when every joint of `joint_states` is within this of it [rad or m]; a goal '

@@ -28,19 +28,21 @@ class JointTorque(AccelerationConstraint):
     path's own timing (rest-to-rest v/a durations), whose speeds the
     profile's are near.  On the damped vendor arms this gave the default
     profile shorter plans (bench_torque's random walks, 12 an arm, seed 31,
-    at 0.9 of the efforts) than the damping's chord up to the velocity
-    limits (median 1.037 against 1.045 times the rigid-body plan, xArm7;
-    1.106 against 1.174, TALOS arm) or no damping in the rows (1.095,
-    1.201).  :meth:`speed_terms` gives ``c`` itself (with ``viscous``),
-    which the sequential LPs of :mod:`~..speed_profile.smooth_profile`
-    linearise at each profile instead (``time_optimal``: 1.060 and 1.132
-    times its rigid-body plan, against 1.141 and 1.309 with ``c x``).  The
+    at 0.9 of the efforts, the friction then counted on both sides) than
+    the damping's chord up to the velocity limits (median 1.037 against
+    1.045 times the rigid-body plan, xArm7; 1.106 against 1.174, TALOS arm)
+    or no damping in the rows (1.095, 1.201).  :meth:`speed_terms` gives
+    ``c`` itself (with ``viscous``), which the sequential LPs of
+    :mod:`~..speed_profile.smooth_profile` linearise at each profile
+    instead (``time_optimal``, the same walks: 1.060 and 1.132 times its
+    rigid-body plan, against 1.141 and 1.309 with ``c x``).  The
     rows are the speed profile's reference: the plan's own torque, damping
     in full (``1 / f`` under a slow-down), is checked after and the plan
     slowed where it needs (:class:`~.torque.TorqueLimit`).  Dry friction,
-    when ``dry_friction(q)`` is given, lowers the limits of the joints that
-    move at a grid point or next to it (:func:`moving_near`; as far as rest
-    stays allowed there).
+    when ``dry_friction(q)`` is given, adds to a moving joint's torque the
+    way it moves, and lowers its limit on both sides where it reverses
+    (:func:`friction_sides`, with the sign of ``q'``; as far as rest stays
+    allowed there).
     """
 
     def __init__(self, max_torque, inverse_dynamics, interpolated=False, gravity=None,
@@ -73,10 +75,16 @@ class JointTorque(AccelerationConstraint):
             b[still & ~np.any(second, axis=1)] = 0.0
         limit = np.broadcast_to(self.max_torque, gravity.shape)
         refuse_gravity_overload(q, gravity, limit)
-        if self.dry_friction is not None:
-            limit = np.where(moving_near(first),
-                             np.maximum(limit - self.dry_friction(q), np.abs(gravity)), limit)
-        return a, b, -limit - gravity, limit - gravity
+        if self.dry_friction is None:
+            return a, b, -limit - gravity, limit - gravity
+        # The friction the motor overcomes: one way with the motion, both where it reverses.
+        sign, both = friction_sides(first)
+        friction = self.dry_friction(q)
+        gravity = gravity + sign * friction
+        limit = limit - np.where(both, friction, 0.0)
+        # As far as rest stays allowed (a joint the friction leaves no room is refused
+        # by the plan's own check).
+        return a, b, np.minimum(-limit - gravity, 0.0), np.maximum(limit - gravity, 0.0)
 
     def speed_terms(self, path):
         """
@@ -89,21 +97,27 @@ class JointTorque(AccelerationConstraint):
         return self.viscous(path.positions, path.first)
 
 
-def moving_near(qd):
+def friction_sides(qd):
     """
-    Return where (N, n) a joint moves at a sample or at a neighbour (samples in order).
+    Return (sign, both) (N, n): the way each joint moves at a sample or next to it.
 
-    A joint that starts (or stops) moving at a sample needs its friction
-    there too: the torque just after the start is the one at rest plus the
-    friction, a jump no sample after it sees (1 kHz: 0.7 % of a limit
-    missed, a test's case).  A joint still at a sample and at both its
-    neighbours is held by its friction.
+    Dry friction opposes the motion, so the motor gives ``F sign(qd)`` more:
+    like gravity a constant torque on a stretch of motion one way (it does
+    not scale with a slow-down).  ``sign`` is +-1 where the joint moves one
+    way at the sample or at a neighbour (samples in time order: a joint
+    breaking away from rest needs it at its start, a jump no later sample
+    sees), 0 elsewhere; ``both`` where it moves both ways among the three
+    (it reverses there, and the friction turns over between two samples:
+    counted on both sides of the limit).
     """
-    moving = qd != 0.0
-    near = moving.copy()
-    near[1:] |= moving[:-1]
-    near[:-1] |= moving[1:]
-    return near
+    ahead, back = qd > 0.0, qd < 0.0
+    near_ahead, near_back = ahead.copy(), back.copy()
+    for near, moving in ((near_ahead, ahead), (near_back, back)):
+        near[1:] |= moving[:-1]
+        near[:-1] |= moving[1:]
+    both = near_ahead & near_back
+    sign = np.where(both, 0.0, near_ahead.astype(float) - near_back.astype(float))
+    return sign, both
 
 
 # Gravity is refused only beyond its limit by more than this (relative): a

@@ -29,11 +29,14 @@ with ``include_damping``): the damping ``v`` falls as ``1 / f`` only, so the
 torque is ``g + v / f + d / f**2``, and with ``y = 1 / f`` each side of the
 limit is a quadratic ``v y + d y**2 <= room``; the slow-down a sample needs
 is ``1 / y`` at its first positive root (every slower ``f`` holds too),
-``y = 2 room / (v + sqrt(v**2 + 4 d room))``.  Dry friction, whose sign is
-the velocity's, lowers a moving joint's limit by its size at that sample,
-and at the samples where it starts or stops moving (breaking away from
-rest it needs gravity plus its friction); a joint still there and at both
-neighbours is held by its friction, and keeps the whole limit.
+``y = 2 room / (v + sqrt(v**2 + 4 d room))``.  Dry friction opposes the
+motion: the motor gives ``F`` more the way the joint moves, a constant
+torque on a stretch of motion like gravity (it does not scale either), so
+it is added to gravity's ``g`` there, from the sample where the joint
+breaks away from rest (it needs ``g + F`` to start) to the one where it
+stops; where the joint reverses (a sample and its neighbours moving both
+ways) it is counted on both sides of the limit; a joint still there and at
+both neighbours is held by its friction, and keeps the whole limit.
 
 The check of a finished trajectory samples it every :data:`CHECK_PERIOD`
 (1 kHz; :data:`MIN_CHECK_SAMPLES` times at least).  Between two samples the
@@ -49,7 +52,7 @@ import math
 
 import numpy as np
 
-from .joint_torque import (GRAVITY_RTOL, GravityOverload, JointTorque, moving_near,
+from .joint_torque import (friction_sides, GRAVITY_RTOL, GravityOverload, JointTorque,
                            refuse_gravity_overload)
 from ..spline.segments import sample_segments
 
@@ -134,19 +137,22 @@ class TorqueLimit:
             raise ValueError('inverse_dynamics.dry_friction returned negative friction')
         return friction
 
-    def _parts(self, q, qd, gravity):
+    def _parts(self, q, qd):
         """
-        Return (viscous, friction) of samples: the damping part, the friction counted.
+        Return (viscous, shift, both) of samples: the damping part and the friction counted.
 
-        Either None when not counted; the friction (N, n) is that of every
-        joint moving at the sample or next to it (:func:`moving_near`: the
-        samples are in time order), 0 elsewhere.
+        Each None when not counted.  ``shift`` (N, n): the friction the way
+        each joint moves at the sample or next to it, a constant torque like
+        gravity; ``both``: the friction where it reverses there, counted on
+        both sides of the limit (:func:`friction_sides`: the samples are in
+        time order).
         """
         viscous = None if self.viscous is None else self._viscous(q, qd)
-        friction = None
-        if self.friction is not None:
-            friction = np.where(moving_near(qd), self._friction(q), 0.0)
-        return viscous, friction
+        if self.friction is None:
+            return viscous, None, None
+        sign, reverses = friction_sides(qd)
+        friction = self._friction(q)
+        return viscous, sign * friction, np.where(reverses, friction, 0.0)
 
     def _torques(self, q, qd, qdd):
         return _checked(self.inverse_dynamics(q, qd, qdd), q, 'inverse_dynamics')
@@ -196,10 +202,12 @@ class TorqueLimit:
         full = np.broadcast_to(self.max_torque, gravity.shape)
         if refuse:
             refuse_gravity_overload(q, gravity, full)
-        viscous, friction = self._parts(q, qd, gravity)
-        limit = full if friction is None else full - friction
+        viscous, shift, both = self._parts(q, qd)
         dynamic = tau - gravity if viscous is None else tau - gravity - viscous
-        need = _squared_needs(gravity, dynamic, limit, viscous)
+        if shift is None:
+            need = _squared_needs(gravity, dynamic, full, viscous)
+        else:
+            need = _squared_needs(gravity + shift, dynamic, full - both, viscous)
         return need if refuse else np.where(np.abs(gravity) > full * (1.0 + GRAVITY_RTOL),
                                             np.inf, need)
 
@@ -243,8 +251,7 @@ class TorqueLimit:
         gravity = self._gravity(q)
         refuse_gravity_overload(q, gravity, np.broadcast_to(self.max_torque, gravity.shape))
         tau = self._whole(q, qd, qdd, gravity)
-        viscous, friction = self._parts(q, qd, gravity)
-        return TorqueCheck(gravity, tau, self.max_torque, steps, viscous, friction)
+        return TorqueCheck(gravity, tau, self.max_torque, steps, *self._parts(q, qd))
 
     def factor_at_least(self, traj, period=COARSE_PERIOD):
         """
@@ -371,20 +378,29 @@ class TorqueCheck:
     of ``d / f**2``, each of which is this check's divided by ``f**2``: at most
     the gravity's excess plus the dynamic part's over ``f**2``.  With the
     damping part ``viscous`` (the torque ``g + v / f + d / f**2``) its excess
-    is this check's over ``f``, and ``friction`` (N, n), when given, the dry
-    friction of the joints moving at each sample, lowers their limits there
-    (the peak ratios count it as torque).
+    is this check's over ``f``.  The dry friction (module docstring), when
+    given: ``shift`` (N, n), the friction the way each joint moves, a
+    constant torque added to gravity's (its excess between samples is
+    gravity's alone: it is constant where it is counted one way), and
+    ``both``, the friction where a joint reverses, which lowers the limit on
+    both sides there; the peak ratios count them as torque.
     """
 
-    def __init__(self, gravity, tau, limit, steps=None, viscous=None, friction=None):
+    def __init__(self, gravity, tau, limit, steps=None, viscous=None, shift=None, both=None):
         """Keep the samples' gravity and whole torques (N, n), the limits (n,), the spacing."""
         self.gravity, self.tau, self.limit = gravity, tau, limit
         self.steps = steps      # (N - 1,) where the samples are not evenly spaced
         self.viscous = viscous
         self.dynamic = tau - gravity if viscous is None else tau - gravity - viscous
-        # The friction counted as torque, and the limits each sample holds.
-        self.friction = np.zeros(tau.shape) if friction is None else friction
+        # The constant torque (gravity, and the friction one way), the motor's whole
+        # torque, the friction counted on both sides and the limits each sample holds.
+        self.friction = np.zeros(tau.shape) if both is None else both
+        self.hold = gravity if shift is None else gravity + shift
+        self.motor = tau if shift is None else tau + shift
         self.limits = np.broadcast_to(limit, tau.shape) - self.friction
+        # Per joint: whether its friction was counted anywhere (said in a refusal).
+        self.counts_friction = (np.zeros(tau.shape[1], bool) if shift is None
+                                else np.any(shift, axis=0) | np.any(self.friction, axis=0))
         self._split = None
 
     def needs(self, factor=1.0):
@@ -399,28 +415,28 @@ class TorqueCheck:
         if factor == 1.0:
             bend = _bend(self.tau, self.steps)
             if self.viscous is None:
-                need = _squared_needs(self.gravity, self.dynamic + np.sign(self.dynamic) * bend,
+                need = _squared_needs(self.hold, self.dynamic + np.sign(self.dynamic) * bend,
                                       self.limits)
             else:
                 # At f = 1 the whole torque's excess, exact there.
-                need = _viscous_needs(self.gravity, self.viscous, self.dynamic, self.limits,
+                need = _viscous_needs(self.hold, self.viscous, self.dynamic, self.limits,
                                       0.0, bend)
             # Where gravity with its own excess between samples leaves no room
             # (on either side), no slow-down holds the torque: none does here.
             need = np.where(np.isinf(split), np.inf, need)
-            ratios = np.max((np.abs(self.tau) + bend + self.friction) / self.limit, axis=0)
+            ratios = np.max((np.abs(self.motor) + bend + self.friction) / self.limit, axis=0)
             if self.viscous is not None:
                 # A sample within its limit at f = 1 needs no slow-down, though a
                 # slower plan might not hold it (a gap: slow_down() is past it).
-                within = np.abs(self.tau) + bend <= self.limits
+                within = np.abs(self.motor) + bend <= self.limits
                 need = np.where(within, np.minimum(need, 1.0), need)
             return math.sqrt(float(np.max(need))), ratios
         scale = 1.0 / (factor * factor)
         if self.viscous is None:
-            peak = (np.abs(self.gravity + self.dynamic * scale) + bend_gravity
+            peak = (np.abs(self.hold + self.dynamic * scale) + bend_gravity
                     + bend_dynamic * scale)
         else:
-            peak = (np.abs(self.gravity + self.viscous / factor + self.dynamic * scale)
+            peak = (np.abs(self.hold + self.viscous / factor + self.dynamic * scale)
                     + bend_gravity + bend_viscous / factor + bend_dynamic * scale)
         ratios = np.max((peak + self.friction) / self.limit, axis=0)
         return self.slow_down() / factor, ratios
@@ -453,7 +469,7 @@ class TorqueCheck:
         slow = self.slow_down()
         if not math.isfinite(slow):
             j = int(np.argmax(np.any(np.isinf(self._split_needs()[3]), axis=0)))
-            raise NoRoomToMove(j, bool(np.any(self.friction[:, j])))
+            raise NoRoomToMove(j, bool(np.any(self.counts_friction[j])))
         return slow
 
     def _split_needs(self):
@@ -463,12 +479,12 @@ class TorqueCheck:
             bend_dynamic = _bend(self.dynamic, self.steps)
             if self.viscous is None:
                 bend_viscous = None
-                need = _squared_needs(self.gravity,
+                need = _squared_needs(self.hold,
                                       self.dynamic + np.sign(self.dynamic) * bend_dynamic,
                                       self.limits - bend_gravity)
             else:
                 bend_viscous = _bend(self.viscous, self.steps)
-                need = _viscous_needs(self.gravity, self.viscous, self.dynamic,
+                need = _viscous_needs(self.hold, self.viscous, self.dynamic,
                                       self.limits - bend_gravity, bend_viscous, bend_dynamic)
             self._split = (bend_gravity, bend_viscous, bend_dynamic, need)
         return self._split

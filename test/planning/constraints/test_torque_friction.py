@@ -54,15 +54,22 @@ class DampedArm:
 
 
 def motor_peaks(traj, arm, limit, rate=10000.0):
-    """Return per joint the peak of ``|tau + D qd| + F`` (where it moves) over its limit."""
+    """
+    Return per joint the peak of the motor's torque over its limit.
+
+    Moving, ``|tau + D qd + F sign(qd)|`` (the friction opposes the
+    motion); at rest the friction holds up to ``F`` of the rest,
+    ``max(|tau| - F, 0)``.
+    """
     t = np.linspace(0.0, traj.duration, int(traj.duration * rate) + 2)
     q, qd, qdd = (traj.evaluate(t, d) for d in range(3))
     # The ends of a rest-to-rest plan are at rest exactly (round-off there is not motion).
     qd[[0, -1]] = 0.0
     qdd[[0, -1]] = 0.0
     tau = two_link_torques(q, qd, qdd) + arm.damping * qd
-    friction = np.where(qd != 0.0, arm.friction, 0.0)
-    return np.max(np.abs(tau) + friction, axis=0) / limit
+    motor = np.where(qd != 0.0, np.abs(tau + arm.friction * np.sign(qd)),
+                     np.maximum(np.abs(tau) - arm.friction, 0.0))
+    return np.max(motor, axis=0) / limit
 
 
 def damped_request(rng):
@@ -211,3 +218,28 @@ def test_a_joint_at_rest_keeps_its_whole_limit_against_gravity():
     arm = DampedArm([0.0, 0.5], [0.2 * limit[0], 0.5])
     traj = plan(points, '555', 'optimal', max_torque=limit, inverse_dynamics=arm, **LIMITS)
     assert np.all(motor_peaks(traj, arm, limit) <= 1.0 + TORQUE_RTOL)
+
+
+def test_friction_helps_a_joint_moving_the_way_gravity_pulls_it():
+    """
+    Friction opposes the motion: moving the way gravity pulls, it takes torque off the motor.
+
+    Gravity on joint 0 is within half its friction of the limit: moved the
+    way gravity pulls it, the joint needs ``|g| - F`` at most (planned, and
+    held); the other way it needs ``|g| + F`` from its start (refused).
+    Counting the friction on both sides refused both.
+    """
+    line = np.array([[0.3, 0.0], [0.55, 0.0], [0.8, 0.0]])
+    gravity = two_link_torques(line, 0 * line, 0 * line)[:, 0]
+    assert np.all(np.sign(gravity) == np.sign(gravity[0]))
+    heaviest = np.max(np.abs(gravity))
+    friction = 0.2 * heaviest
+    limit = np.array([heaviest + 0.5 * friction, 1e3])
+    arm = DampedArm([0.0, 0.0], [friction, 0.0])
+    # Gravity pulls joint 0 towards -sign(g) (the motor holds +g): that way is "with" it.
+    with_gravity = line if np.sign(gravity[0]) < 0 else line[::-1]
+    traj = plan(with_gravity, '555', 'optimal', max_torque=limit, inverse_dynamics=arm, **LIMITS)
+    assert np.all(motor_peaks(traj, arm, limit) <= 1.0 + TORQUE_RTOL)
+    with pytest.raises(NoRoomToMove, match='joint 0: gravity with its dry friction'):
+        plan(with_gravity[::-1], '555', 'optimal', max_torque=limit, inverse_dynamics=arm,
+             **LIMITS)
