@@ -627,8 +627,7 @@ def no_room_report(refusal, joint_names, headroom=0.0, counts_friction=True):
         advice.append('set torque_counts_friction false if the description overstates the '
                       'friction')
     advice[-1] = 'or ' + advice[-1]
-    message = (f'joint {name!r}: {refusal.what()} uses its whole torque limit where the plan '
-               'moves it: no speed along this path holds it (' + ', '.join(advice) + ')')
+    message = (f'joint {name!r}: {refusal.what()} {refusal.how()} (' + ', '.join(advice) + ')')
     return message, {'overloaded_joint': name}
 
 

@@ -251,7 +251,8 @@ class TorqueLimit:
         gravity = self._gravity(q)
         refuse_gravity_overload(q, gravity, np.broadcast_to(self.max_torque, gravity.shape))
         tau = self._whole(q, qd, qdd, gravity)
-        return TorqueCheck(gravity, tau, self.max_torque, steps, *self._parts(q, qd))
+        return TorqueCheck(gravity, tau, self.max_torque, steps, *self._parts(q, qd),
+                           duration=traj.duration)
 
     def factor_at_least(self, traj, period=COARSE_PERIOD):
         """
@@ -386,9 +387,11 @@ class TorqueCheck:
     both sides there; the peak ratios count them as torque.
     """
 
-    def __init__(self, gravity, tau, limit, steps=None, viscous=None, shift=None, both=None):
+    def __init__(self, gravity, tau, limit, steps=None, viscous=None, shift=None, both=None,
+                 duration=None):
         """Keep the samples' gravity and whole torques (N, n), the limits (n,), the spacing."""
         self.gravity, self.tau, self.limit = gravity, tau, limit
+        self.duration = duration    # the trajectory's [s], when known
         self.steps = steps      # (N - 1,) where the samples are not evenly spaced
         self.viscous = viscous
         self.dynamic = tau - gravity if viscous is None else tau - gravity - viscous
@@ -465,11 +468,23 @@ class TorqueCheck:
         return uniform_slow_down(factor)
 
     def required_slow_down(self):
-        """Return :meth:`slow_down`, or raise :class:`NoRoomToMove` when it is infinite."""
+        """
+        Return :meth:`slow_down`, or raise :class:`NoRoomToMove` where none holds the torque.
+
+        None holds it where the need is infinite, nor where the plan slowed
+        down would last longer than a check takes (an hour): gravity and
+        friction leave a joint almost no room (a 6e6 s plan was returned,
+        helper-86).
+        """
         slow = self.slow_down()
+        need = self._split_needs()[3]
         if not math.isfinite(slow):
-            j = int(np.argmax(np.any(np.isinf(self._split_needs()[3]), axis=0)))
-            raise NoRoomToMove(j, bool(np.any(self.counts_friction[j])))
+            j = int(np.argmax(np.any(np.isinf(need), axis=0)))
+            raise NoRoomToMove(j, bool(self.counts_friction[j]))
+        longest = MAX_CHECK_SAMPLES * CHECK_PERIOD
+        if self.duration is not None and self.duration * slow > longest:
+            j = int(np.argmax(np.max(need, axis=0)))
+            raise NoRoomToMove(j, bool(self.counts_friction[j]), self.duration * slow, longest)
         return slow
 
     def _split_needs(self):
@@ -493,12 +508,25 @@ class TorqueCheck:
 class NoRoomToMove(ValueError):
     """Gravity (with a moving joint's dry friction) leaves a joint no torque to move with."""
 
-    def __init__(self, joint, friction):
-        """Record the joint's column and whether its friction was counted there."""
+    def __init__(self, joint, friction, duration=None, longest=None):
+        """
+        Record the joint's column and whether its friction was counted there.
+
+        ``duration``: what the slowed-down plan would last [s], when that is
+        beyond ``longest`` (else None: no speed holds it at all).
+        """
         self.joint, self.friction = joint, friction
-        super().__init__(f'joint {joint}: {self.what()} uses its whole torque limit where the '
-                         'plan moves (with its change between 1 ms samples): no speed holds it '
-                         '(lower the payload or raise the limit)')
+        self.duration, self.longest = duration, longest
+        super().__init__(f'joint {joint}: {self.what()} {self.how()} (lower the payload or raise '
+                         'the limit)')
+
+    def how(self):
+        """Return how little room it leaves: none, or too little for a plan within the hour."""
+        if self.duration is None:
+            return ('uses its whole torque limit where the plan moves (with its change between '
+                    '1 ms samples): no speed holds it')
+        return (f'leaves it almost no torque to move with: the plan would last '
+                f'{self.duration:.4g} s, more than {self.longest:g} s')
 
     def what(self):
         """Return what uses the limit: 'gravity', or 'gravity with its dry friction'."""

@@ -243,3 +243,29 @@ def test_friction_helps_a_joint_moving_the_way_gravity_pulls_it():
     with pytest.raises(NoRoomToMove, match='joint 0: gravity with its dry friction'):
         plan(with_gravity[::-1], '555', 'optimal', max_torque=limit, inverse_dynamics=arm,
              **LIMITS)
+
+
+@pytest.mark.parametrize('timing', ['uniform', 'optimal'])
+def test_almost_no_room_is_refused_not_planned_for_a_million_seconds(timing):
+    """
+    Joint 0 swept through its gravity peak against gravity, its limit a hair above ``|g| + F``.
+
+    The damping there needs a slow-down of about ``D qd / room``: the plan
+    would last days.  It is refused (a 6e6 s plan was returned): naming the
+    joint where the plan is slowed down uniformly, by its duration where
+    the inner-knot construction slows its pieces.
+    """
+    sweep = np.array([[-0.4, 0.0], [0.0, 0.0], [0.4, 0.0]])
+    gravity = two_link_torques(sweep, 0 * sweep, 0 * sweep)[:, 0]
+    peak = float(np.max(np.abs(gravity)))
+    assert np.argmax(np.abs(gravity)) == 1
+    friction = 0.1 * peak
+    limit = np.array([peak + friction + 1e-5 * peak, 1e3])
+    arm = DampedArm([0.5 * peak, 0.0], [friction, 0.0])
+    # Against gravity (the motor holds +g: gravity pulls towards -sign(g)).
+    against = sweep if gravity[1] > 0 else sweep[::-1]
+    refusal = (r'joint 0: gravity with its dry friction leaves it almost no torque to move '
+               r'with: the plan would last' if timing == 'uniform'
+               else r'the trajectory lasts [0-9.e+]+ s: the torque is checked')
+    with pytest.raises(ValueError, match=refusal):
+        plan(against, '555', timing, max_torque=limit, inverse_dynamics=arm, **LIMITS)
