@@ -70,7 +70,7 @@ import bench_torque  # noqa: E402
 import numpy as np  # noqa: E402, I100
 from scipy.spatial import cKDTree  # noqa: E402
 from splines445_ros.planning import plan  # noqa: E402
-from splines445_ros.planning.constraints.joint_torque import friction_sides  # noqa: E402
+from splines445_ros.planning.constraints.joint_torque import friction_on_sides  # noqa: E402
 from splines445_ros.robot.dynamics import ArmDynamics  # noqa: E402
 from splines445_ros.service.arm_sim_config import ArmSimConfig  # noqa: E402
 from splines445_ros.service.arm_sim_model import add_payload, resolve_model_config  # noqa: E402
@@ -275,18 +275,15 @@ def motor_peak(samples, dynamics, tau_max):
     Return the largest |tau| / limit over 1 kHz ``samples``: the motors' torque.
 
     ``dynamics``' torques (its damping with them when it counts it) and
-    its dry friction (``dry_friction``, when it gives one) the way each
-    joint moves, both ways where it reverses, as the planner counts them
-    (``friction_sides``).
+    its dry friction (``dry_friction``, when it gives one) on the side each
+    joint moves to, as the planner counts them (``friction_on_sides``).
     """
     q, qd, _ = samples
     tau = dynamics.torques(*samples)
     if dynamics.dry_friction is None:
         return float(np.max(np.abs(tau) / tau_max))
-    sign, both = friction_sides(qd)
-    friction = dynamics.dry_friction(q)
-    motor = np.abs(tau + sign * friction) + np.where(both, friction, 0.0)
-    return float(np.max(motor / tau_max))
+    up, down = friction_on_sides(dynamics.dry_friction(q), qd)
+    return float(np.max(np.maximum(tau + up, down - tau) / tau_max))
 
 
 ARM_PATHS = 3                   # random paths per arm in the every-arm table

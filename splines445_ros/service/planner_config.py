@@ -331,9 +331,9 @@ class PlannerConfig(ValidatedConfig):
         'inertia (URDF `<dynamics damping friction>`; MJCF `damping`, `frictionloss`, '
         '`armature`) count against the torque limit, as the motor gives them too (the dynamic '
         "`arm_sim_node` applies them); the friction adds to a moving joint's torque the way "
-        "it moves. False: the links' rigid-body torque alone (the plan then exceeds the limit "
-        'on a damped arm by the damping). Refused without `limit_torque` unless at its '
-        'default.')
+        "it moves, and is not counted on to help. False: the links' rigid-body torque alone "
+        '(the plan then exceeds the limit on a damped arm by the damping). Refused without '
+        '`limit_torque` unless at its default.')
     goal_position_tolerance: float = parameter(
         DEFAULT_GOAL_POSITION_TOLERANCE, '`follow_waypoints` goals: the arm has reached the '
         'end when every joint of `joint_states` is within this of it [rad or m]; a goal '

@@ -413,17 +413,15 @@ def motor_ratios(msg, model_file):
     """
     Return per joint the peak of the motor's torque, damping and friction, over its limit.
 
-    The friction opposes the motion (``F sign(qd)``); at rest it holds up
-    to ``F`` of the rest, but a joint that never moves holds its gravity
-    with its motor (as the planner counts it: the friction is not relied on
-    there).
+    The friction, up to ``F``, opposes the motion: it adds to the torque on
+    the side the joint moves to, and is not counted on to help the other
+    way (nor at rest).
     """
     q, qd, qdd = points(msg)
     rigid = ArmDynamics(load_robot_model(model_file), vr.UR5_JOINTS, 'tool0').torques(q, qd, qdd)
     tau = rigid + DAMPING * qd
-    still = ~np.any(qd != 0.0, axis=0)
-    motor = np.where(qd != 0.0, np.abs(tau + FRICTION * np.sign(qd)),
-                     np.where(still, np.abs(tau), np.maximum(np.abs(tau) - FRICTION, 0.0)))
+    motor = np.maximum(tau + np.where(qd > 0.0, FRICTION, 0.0),
+                       np.where(qd < 0.0, FRICTION, 0.0) - tau)
     return np.max(motor, axis=0) / (SHARE * EFFORT)
 
 

@@ -39,10 +39,9 @@ class JointTorque(AccelerationConstraint):
     rows are the speed profile's reference: the plan's own torque, damping
     in full (``1 / f`` under a slow-down), is checked after and the plan
     slowed where it needs (:class:`~.torque.TorqueLimit`).  Dry friction,
-    when ``dry_friction(q)`` is given, adds to a moving joint's torque the
-    way it moves, and lowers its limit on both sides where it reverses
-    (:func:`friction_sides`, with the sign of ``q'``; as far as rest stays
-    allowed there).
+    when ``dry_friction(q)`` is given, lowers the side of a moving joint's
+    limit it moves to (:func:`friction_on_sides`, with the sign of ``q'``;
+    as far as rest stays allowed there).
     """
 
     def __init__(self, max_torque, inverse_dynamics, interpolated=False, gravity=None,
@@ -77,14 +76,12 @@ class JointTorque(AccelerationConstraint):
         refuse_gravity_overload(q, gravity, limit)
         if self.dry_friction is None:
             return a, b, -limit - gravity, limit - gravity
-        # The friction the motor overcomes: one way with the motion, both where it reverses.
-        sign, both = friction_sides(first)
-        friction = self.dry_friction(q)
-        gravity = gravity + sign * friction
-        limit = limit - np.where(both, friction, 0.0)
-        # As far as rest stays allowed (a joint the friction leaves no room is refused
-        # by the plan's own check).
-        return a, b, np.minimum(-limit - gravity, 0.0), np.maximum(limit - gravity, 0.0)
+        # The friction the motor overcomes, on the side each joint moves to (q' has
+        # sdot's sign), as far as rest stays allowed (a joint the friction leaves no
+        # room is refused by the plan's own check).
+        up, down = friction_on_sides(self.dry_friction(q), first)
+        return (a, b, np.minimum(-(limit - down) - gravity, 0.0),
+                np.maximum(limit - up - gravity, 0.0))
 
     def speed_terms(self, path):
         """
@@ -99,25 +96,33 @@ class JointTorque(AccelerationConstraint):
 
 def friction_sides(qd):
     """
-    Return (sign, both) (N, n): the way each joint moves at a sample or next to it.
+    Return (ahead, back) (N, n): where each joint moves forward, backward, at a sample or next.
 
-    Dry friction opposes the motion, so the motor gives ``F sign(qd)`` more:
-    like gravity a constant torque on a stretch of motion one way (it does
-    not scale with a slow-down).  ``sign`` is +-1 where the joint moves one
-    way at the sample or at a neighbour (samples in time order: a joint
-    breaking away from rest needs it at its start, a jump no later sample
-    sees), 0 elsewhere; ``both`` where it moves both ways among the three
-    (it reverses there, and the friction turns over between two samples:
-    counted on both sides of the limit).
+    Samples in time order: a joint breaking away from rest needs its
+    friction at its start, a jump no later sample sees.  Both where it
+    reverses among the three (the friction turns over between two samples).
     """
     ahead, back = qd > 0.0, qd < 0.0
     near_ahead, near_back = ahead.copy(), back.copy()
     for near, moving in ((near_ahead, ahead), (near_back, back)):
         near[1:] |= moving[:-1]
         near[:-1] |= moving[1:]
-    both = near_ahead & near_back
-    sign = np.where(both, 0.0, near_ahead.astype(float) - near_back.astype(float))
-    return sign, both
+    return near_ahead, near_back
+
+
+def friction_on_sides(friction, qd):
+    """
+    Return (up, down) (N, n): the dry ``friction`` that lowers each side of the limits.
+
+    Dry friction opposes the motion with up to ``F``: the motor gives up to
+    ``F`` more the way a joint moves (the upper side of ``-L <= tau <= L``
+    moving forward, the lower backward; both where it reverses), and is not
+    counted on to help it the other way (a model's friction is smooth or
+    soft at low speeds, a real one varies).  Like gravity a constant: it
+    does not scale with a slow-down.  See :func:`friction_sides`.
+    """
+    ahead, back = friction_sides(qd)
+    return np.where(ahead, friction, 0.0), np.where(back, friction, 0.0)
 
 
 # Gravity is refused only beyond its limit by more than this (relative): a

@@ -30,13 +30,15 @@ torque is ``g + v / f + d / f**2``, and with ``y = 1 / f`` each side of the
 limit is a quadratic ``v y + d y**2 <= room``; the slow-down a sample needs
 is ``1 / y`` at its first positive root (every slower ``f`` holds too),
 ``y = 2 room / (v + sqrt(v**2 + 4 d room))``.  Dry friction opposes the
-motion: the motor gives ``F`` more the way the joint moves, a constant
-torque on a stretch of motion like gravity (it does not scale either), so
-it is added to gravity's ``g`` there, from the sample where the joint
-breaks away from rest (it needs ``g + F`` to start) to the one where it
-stops; where the joint reverses (a sample and its neighbours moving both
-ways) it is counted on both sides of the limit; a joint still there and at
-both neighbours is held by its friction, and keeps the whole limit.
+motion with up to ``F`` (a model's friction is smoothed or soft below some
+speed, a real joint's varies): the motor gives up to ``F`` more the way
+the joint moves, and nothing is counted on to help it the other way, so
+the limit on the side the joint moves to is lowered by ``F`` (like gravity
+a constant, it does not scale with a slow-down), from the sample where the
+joint breaks away from rest (it needs ``g + F`` to start) to the one where
+it stops; where the joint reverses (a sample and its neighbours moving
+both ways) both sides are; a joint still there and at both neighbours is
+held by its friction, and keeps the whole limit.
 
 The check of a finished trajectory samples it every :data:`CHECK_PERIOD`
 (1 kHz; :data:`MIN_CHECK_SAMPLES` times at least).  Between two samples the
@@ -52,7 +54,7 @@ import math
 
 import numpy as np
 
-from .joint_torque import (friction_sides, GRAVITY_RTOL, GravityOverload, JointTorque,
+from .joint_torque import (friction_on_sides, GRAVITY_RTOL, GravityOverload, JointTorque,
                            refuse_gravity_overload)
 from ..spline.segments import sample_segments
 
@@ -139,20 +141,18 @@ class TorqueLimit:
 
     def _parts(self, q, qd):
         """
-        Return (viscous, shift, both) of samples: the damping part and the friction counted.
+        Return (viscous, friction) of samples: the damping part and the friction counted.
 
-        Each None when not counted.  ``shift`` (N, n): the friction the way
-        each joint moves at the sample or next to it, a constant torque like
-        gravity; ``both``: the friction where it reverses there, counted on
-        both sides of the limit (:func:`friction_sides`: the samples are in
+        Each None when not counted.  ``friction``: (up, down) (N, n), the
+        friction that lowers the upper and the lower side of each sample's
+        limit: the side a joint moves to at the sample or next to it, both
+        where it reverses there (:func:`friction_on_sides`: the samples are in
         time order).
         """
         viscous = None if self.viscous is None else self._viscous(q, qd)
         if self.friction is None:
-            return viscous, None, None
-        sign, reverses = friction_sides(qd)
-        friction = self._friction(q)
-        return viscous, sign * friction, np.where(reverses, friction, 0.0)
+            return viscous, None
+        return viscous, friction_on_sides(self._friction(q), qd)
 
     def _torques(self, q, qd, qdd):
         return _checked(self.inverse_dynamics(q, qd, qdd), q, 'inverse_dynamics')
@@ -202,12 +202,10 @@ class TorqueLimit:
         full = np.broadcast_to(self.max_torque, gravity.shape)
         if refuse:
             refuse_gravity_overload(q, gravity, full)
-        viscous, shift, both = self._parts(q, qd)
+        viscous, friction = self._parts(q, qd)
         dynamic = tau - gravity if viscous is None else tau - gravity - viscous
-        if shift is None:
-            need = _squared_needs(gravity, dynamic, full, viscous)
-        else:
-            need = _squared_needs(gravity + shift, dynamic, full - both, viscous)
+        limit = full if friction is None else (full - friction[0], full - friction[1])
+        need = _squared_needs(gravity, dynamic, limit, viscous)
         return need if refuse else np.where(np.abs(gravity) > full * (1.0 + GRAVITY_RTOL),
                                             np.inf, need)
 
@@ -251,8 +249,9 @@ class TorqueLimit:
         gravity = self._gravity(q)
         refuse_gravity_overload(q, gravity, np.broadcast_to(self.max_torque, gravity.shape))
         tau = self._whole(q, qd, qdd, gravity)
-        return TorqueCheck(gravity, tau, self.max_torque, steps, *self._parts(q, qd),
-                           duration=traj.duration)
+        viscous, friction = self._parts(q, qd)
+        return TorqueCheck(gravity, tau, self.max_torque, steps, viscous, friction,
+                           traj.duration)
 
     def factor_at_least(self, traj, period=COARSE_PERIOD):
         """
@@ -296,21 +295,29 @@ def _bend(tau, steps=None):
     return bend
 
 
+def _sides(limit):
+    """Return (upper, lower) of a limit: the same array twice, or the pair it is."""
+    return limit if isinstance(limit, tuple) else (limit, limit)
+
+
 def _squared_needs(gravity, dynamic, limit, viscous=None):
     """
     Return per sample and joint the squared slow-down ``|g + d / f**2| <= limit`` needs.
 
-    No room (gravity at the limit, or beyond a ``limit`` lowered by an
-    excess between samples, on either side: slowed down, the torque tends
-    to ``g``) and motion: no slow-down holds the torque there (infinite
-    need).  With the damping part ``viscous`` (not None), the torque is
-    ``g + v / f + d / f**2``: :func:`_viscous_needs`.
+    ``limit``: an array, or (upper, lower) arrays for ``-lower <= torque <=
+    upper`` (the friction on the side a joint moves to).  No room (gravity
+    at the limit, or beyond a ``limit`` lowered by an excess between
+    samples, on either side: slowed down, the torque tends to ``g``) and
+    motion: no slow-down holds the torque there (infinite need).  With the
+    damping part ``viscous`` (not None), the torque is ``g + v / f + d /
+    f**2``: :func:`_viscous_needs`.
     """
     if viscous is not None:
         return _viscous_needs(gravity, viscous, dynamic, limit)
-    room = np.where(dynamic >= 0.0, limit - gravity, -limit - gravity)
+    upper, lower = _sides(limit)
+    room = np.where(dynamic >= 0.0, upper - gravity, -lower - gravity)
     some = np.where(dynamic >= 0.0, room > 0.0, room < 0.0) & \
-        (np.abs(gravity) <= limit * (1.0 + GRAVITY_RTOL))
+        (gravity <= upper * (1.0 + GRAVITY_RTOL)) & (-gravity <= lower * (1.0 + GRAVITY_RTOL))
     with np.errstate(divide='ignore', invalid='ignore'):
         need = np.where(some, dynamic / room, np.inf)
     return np.where(dynamic == 0.0, 0.0, need)
@@ -332,11 +339,12 @@ def _viscous_needs(gravity, viscous, dynamic, limit, bend_viscous=0.0, bend_dyna
     as at it) fails at once wherever the motion pushes into it: infinite
     need.
     """
-    limit = np.broadcast_to(limit, gravity.shape)
-    slack = GRAVITY_RTOL * np.abs(limit)
+    upper, lower = _sides(limit)
     need = np.zeros(gravity.shape)
-    for room, v, d in ((limit - gravity, viscous + bend_viscous, dynamic + bend_dynamic),
-                       (limit + gravity, bend_viscous - viscous, bend_dynamic - dynamic)):
+    for side, room, v, d in (
+            (upper, upper - gravity, viscous + bend_viscous, dynamic + bend_dynamic),
+            (lower, lower + gravity, bend_viscous - viscous, bend_dynamic - dynamic)):
+        slack = GRAVITY_RTOL * np.abs(side)
         room = np.where((room < 0.0) & (room >= -slack), 0.0, room)
         need = np.maximum(need, _first_root(room, v, d))
     return need
@@ -380,14 +388,13 @@ class TorqueCheck:
     the gravity's excess plus the dynamic part's over ``f**2``.  With the
     damping part ``viscous`` (the torque ``g + v / f + d / f**2``) its excess
     is this check's over ``f``.  The dry friction (module docstring), when
-    given: ``shift`` (N, n), the friction the way each joint moves, a
-    constant torque added to gravity's (its excess between samples is
-    gravity's alone: it is constant where it is counted one way), and
-    ``both``, the friction where a joint reverses, which lowers the limit on
-    both sides there; the peak ratios count them as torque.
+    given: ``friction`` (up, down) (N, n), what lowers the upper and the
+    lower side of each sample's limit; the peak ratios count it as torque.
+    ``duration`` [s], when given, bounds the slow-down
+    (:meth:`required_slow_down`).
     """
 
-    def __init__(self, gravity, tau, limit, steps=None, viscous=None, shift=None, both=None,
+    def __init__(self, gravity, tau, limit, steps=None, viscous=None, friction=None,
                  duration=None):
         """Keep the samples' gravity and whole torques (N, n), the limits (n,), the spacing."""
         self.gravity, self.tau, self.limit = gravity, tau, limit
@@ -395,16 +402,22 @@ class TorqueCheck:
         self.steps = steps      # (N - 1,) where the samples are not evenly spaced
         self.viscous = viscous
         self.dynamic = tau - gravity if viscous is None else tau - gravity - viscous
-        # The constant torque (gravity, and the friction one way), the motor's whole
-        # torque, the friction counted on both sides and the limits each sample holds.
-        self.friction = np.zeros(tau.shape) if both is None else both
-        self.hold = gravity if shift is None else gravity + shift
-        self.motor = tau if shift is None else tau + shift
-        self.limits = np.broadcast_to(limit, tau.shape) - self.friction
+        # The friction on each side, and the limits (upper, lower) each sample holds.
+        zero = np.zeros(tau.shape)
+        self.up, self.down = (zero, zero) if friction is None else friction
+        full = np.broadcast_to(limit, tau.shape)
+        self.limits = (full - self.up, full - self.down)
         # Per joint: whether its friction was counted anywhere (said in a refusal).
-        self.counts_friction = (np.zeros(tau.shape[1], bool) if shift is None
-                                else np.any(shift, axis=0) | np.any(self.friction, axis=0))
+        self.counts_friction = np.any(self.up, axis=0) | np.any(self.down, axis=0)
         self._split = None
+
+    def _peaks(self, torque, bend):
+        """Return per joint the peak over the samples of the motor torque and friction / limit."""
+        return np.max(np.maximum(torque + self.up, self.down - torque) + bend, axis=0) / self.limit
+
+    def _lowered(self, bend):
+        """Return the limits (upper, lower) lowered by ``bend`` (N, n)."""
+        return self.limits[0] - bend, self.limits[1] - bend
 
     def needs(self, factor=1.0):
         """
@@ -418,31 +431,31 @@ class TorqueCheck:
         if factor == 1.0:
             bend = _bend(self.tau, self.steps)
             if self.viscous is None:
-                need = _squared_needs(self.hold, self.dynamic + np.sign(self.dynamic) * bend,
+                need = _squared_needs(self.gravity, self.dynamic + np.sign(self.dynamic) * bend,
                                       self.limits)
             else:
                 # At f = 1 the whole torque's excess, exact there.
-                need = _viscous_needs(self.hold, self.viscous, self.dynamic, self.limits,
+                need = _viscous_needs(self.gravity, self.viscous, self.dynamic, self.limits,
                                       0.0, bend)
             # Where gravity with its own excess between samples leaves no room
             # (on either side), no slow-down holds the torque: none does here.
             need = np.where(np.isinf(split), np.inf, need)
-            ratios = np.max((np.abs(self.motor) + bend + self.friction) / self.limit, axis=0)
+            ratios = self._peaks(self.tau, bend)
             if self.viscous is not None:
                 # A sample within its limit at f = 1 needs no slow-down, though a
                 # slower plan might not hold it (a gap: slow_down() is past it).
-                within = np.abs(self.motor) + bend <= self.limits
+                within = ((self.tau + bend <= self.limits[0])
+                          & (bend - self.tau <= self.limits[1]))
                 need = np.where(within, np.minimum(need, 1.0), need)
             return math.sqrt(float(np.max(need))), ratios
         scale = 1.0 / (factor * factor)
         if self.viscous is None:
-            peak = (np.abs(self.hold + self.dynamic * scale) + bend_gravity
-                    + bend_dynamic * scale)
+            torque = self.gravity + self.dynamic * scale
+            bend = bend_gravity + bend_dynamic * scale
         else:
-            peak = (np.abs(self.hold + self.viscous / factor + self.dynamic * scale)
-                    + bend_gravity + bend_viscous / factor + bend_dynamic * scale)
-        ratios = np.max((peak + self.friction) / self.limit, axis=0)
-        return self.slow_down() / factor, ratios
+            torque = self.gravity + self.viscous / factor + self.dynamic * scale
+            bend = bend_gravity + bend_viscous / factor + bend_dynamic * scale
+        return self.slow_down() / factor, self._peaks(torque, bend)
 
     def slow_down(self):
         """
@@ -494,13 +507,13 @@ class TorqueCheck:
             bend_dynamic = _bend(self.dynamic, self.steps)
             if self.viscous is None:
                 bend_viscous = None
-                need = _squared_needs(self.hold,
+                need = _squared_needs(self.gravity,
                                       self.dynamic + np.sign(self.dynamic) * bend_dynamic,
-                                      self.limits - bend_gravity)
+                                      self._lowered(bend_gravity))
             else:
                 bend_viscous = _bend(self.viscous, self.steps)
-                need = _viscous_needs(self.hold, self.viscous, self.dynamic,
-                                      self.limits - bend_gravity, bend_viscous, bend_dynamic)
+                need = _viscous_needs(self.gravity, self.viscous, self.dynamic,
+                                      self._lowered(bend_gravity), bend_viscous, bend_dynamic)
             self._split = (bend_gravity, bend_viscous, bend_dynamic, need)
         return self._split
 

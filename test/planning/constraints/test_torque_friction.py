@@ -57,9 +57,9 @@ def motor_peaks(traj, arm, limit, rate=10000.0):
     """
     Return per joint the peak of the motor's torque over its limit.
 
-    Moving, ``|tau + D qd + F sign(qd)|`` (the friction opposes the
-    motion); at rest the friction holds up to ``F`` of the rest,
-    ``max(|tau| - F, 0)``.
+    ``tau + D qd`` and a friction of up to ``F`` against the motion:
+    ``max(tau + F, -tau)`` moving forward, ``max(tau, F - tau)`` backward
+    (the friction is not counted on to help); at rest ``|tau|``.
     """
     t = np.linspace(0.0, traj.duration, int(traj.duration * rate) + 2)
     q, qd, qdd = (traj.evaluate(t, d) for d in range(3))
@@ -67,8 +67,8 @@ def motor_peaks(traj, arm, limit, rate=10000.0):
     qd[[0, -1]] = 0.0
     qdd[[0, -1]] = 0.0
     tau = two_link_torques(q, qd, qdd) + arm.damping * qd
-    motor = np.where(qd != 0.0, np.abs(tau + arm.friction * np.sign(qd)),
-                     np.maximum(np.abs(tau) - arm.friction, 0.0))
+    motor = np.maximum(tau + np.where(qd > 0.0, arm.friction, 0.0),
+                       np.where(qd < 0.0, arm.friction, 0.0) - tau)
     return np.max(motor, axis=0) / limit
 
 
@@ -220,14 +220,14 @@ def test_a_joint_at_rest_keeps_its_whole_limit_against_gravity():
     assert np.all(motor_peaks(traj, arm, limit) <= 1.0 + TORQUE_RTOL)
 
 
-def test_friction_helps_a_joint_moving_the_way_gravity_pulls_it():
+def test_friction_costs_a_joint_moving_against_gravity_not_one_moving_with_it():
     """
-    Friction opposes the motion: moving the way gravity pulls, it takes torque off the motor.
+    Friction opposes the motion: it adds to the motor's torque only on the side it moves to.
 
     Gravity on joint 0 is within half its friction of the limit: moved the
-    way gravity pulls it, the joint needs ``|g| - F`` at most (planned, and
-    held); the other way it needs ``|g| + F`` from its start (refused).
-    Counting the friction on both sides refused both.
+    way gravity pulls it, the joint needs ``|g|`` at most (planned, and
+    held); the other way it needs ``|g| + F`` (refused).  Counting the
+    friction on both sides refused both.
     """
     line = np.array([[0.3, 0.0], [0.55, 0.0], [0.8, 0.0]])
     gravity = two_link_torques(line, 0 * line, 0 * line)[:, 0]
