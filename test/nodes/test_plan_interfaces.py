@@ -295,6 +295,47 @@ def test_a_request_after_a_cancels_waiting_hold_is_planned_from_the_running_goal
     assert_no_jump(*states_between(system, cancel_ns - int(0.2e9)))
 
 
+def test_a_goal_planned_while_a_cancels_hold_takes_over_is_planned_again(system, monkeypatch):
+    """
+    A goal sent while a cancel's hold waits for its stamp, its planning outlasting the stamp.
+
+    It is planned from the cancelled goal's trajectory, which the hold then
+    replaces: it is planned again (from the arm holding), and succeeds (it
+    was refused "the running trajectory continues", nothing running;
+    helper-79, helper-87).
+    """
+    first = send_goal(system, W)
+    assert first.accepted
+    assert system.spin_until(system.planner.trajectory_running, 5.0)
+    running = system.planner._active
+    assert system.spin_until(lambda: system.client.get_clock().now().nanoseconds
+                             >= running.end_ns - int(0.3e9), 30.0)
+    n_status = len(system.planner_status)
+    cancel = first.cancel_goal_async()
+    assert system.spin_until(cancel.done, 5.0)
+    assert system.spin_until(lambda: any('holding its end' in s.message
+                                         for s in system.planner_status[n_status:]), 5.0)
+    node = system.planner
+    assert node.active_trajectory() is None and node._hold_ns is not None
+    original, calls = node._replan, []
+
+    def held(*args):    # the first planning lasts until the hold has taken over
+        calls.append(args[-1])
+        if len(calls) == 1:
+            time.sleep(max(0.0, 1e-9 * (node._hold_ns - node.get_clock().now().nanoseconds))
+                       + 0.1)
+        return original(*args)
+    monkeypatch.setattr(node, '_replan', held)
+    start_ns = system.client.get_clock().now().nanoseconds
+    second = send_goal(system, W[::-1])
+    assert second.accepted
+    result = result_of(system, second)
+    assert result.status == GoalStatus.STATUS_SUCCEEDED, result.result.message
+    assert calls[0] is not None         # first from the cancelled goal's trajectory
+    assert result_of(system, first).status == GoalStatus.STATUS_CANCELED
+    assert_no_jump(*states_between(system, start_ns - int(0.2e9)))
+
+
 def test_a_goal_reports_feedback_and_succeeds_once_the_arm_has_settled(system):
     feedback = []
     handle = send_goal(system, W, feedback)

@@ -94,15 +94,19 @@ class JointTorque(AccelerationConstraint):
         return self.viscous(path.positions, path.first)
 
 
-def friction_sides(qd):
+def friction_sides(qd, neighbours=True):
     """
     Return (ahead, back) (N, n): where each joint moves forward, backward, at a sample or next.
 
     Samples in time order: a joint breaking away from rest needs its
     friction at its start, a jump no later sample sees.  Both where it
     reverses among the three (the friction turns over between two samples).
+    ``neighbours`` False: at the sample alone (what any check of the
+    trajectory counts at least there).
     """
     ahead, back = qd > 0.0, qd < 0.0
+    if not neighbours:
+        return ahead, back
     near_ahead, near_back = ahead.copy(), back.copy()
     for near, moving in ((near_ahead, ahead), (near_back, back)):
         near[1:] |= moving[:-1]
@@ -110,7 +114,7 @@ def friction_sides(qd):
     return near_ahead, near_back
 
 
-def friction_on_sides(friction, qd):
+def friction_on_sides(friction, qd, neighbours=True):
     """
     Return (up, down) (N, n): the dry ``friction`` that lowers each side of the limits.
 
@@ -121,7 +125,7 @@ def friction_on_sides(friction, qd):
     soft at low speeds, a real one varies).  Like gravity a constant: it
     does not scale with a slow-down.  See :func:`friction_sides`.
     """
-    ahead, back = friction_sides(qd)
+    ahead, back = friction_sides(qd, neighbours)
     return np.where(ahead, friction, 0.0), np.where(back, friction, 0.0)
 
 

@@ -139,7 +139,7 @@ class TorqueLimit:
             raise ValueError('inverse_dynamics.dry_friction returned negative friction')
         return friction
 
-    def _parts(self, q, qd):
+    def _parts(self, q, qd, neighbours=True):
         """
         Return (viscous, friction) of samples: the damping part and the friction counted.
 
@@ -147,12 +147,12 @@ class TorqueLimit:
         friction that lowers the upper and the lower side of each sample's
         limit: the side a joint moves to at the sample or next to it, both
         where it reverses there (:func:`friction_on_sides`: the samples are in
-        time order).
+        time order; ``neighbours`` False: at the sample alone).
         """
         viscous = None if self.viscous is None else self._viscous(q, qd)
         if self.friction is None:
             return viscous, None
-        return viscous, friction_on_sides(self._friction(q), qd)
+        return viscous, friction_on_sides(self._friction(q), qd, neighbours)
 
     def _torques(self, q, qd, qdd):
         return _checked(self.inverse_dynamics(q, qd, qdd), q, 'inverse_dynamics')
@@ -181,13 +181,14 @@ class TorqueLimit:
                 tau = np.where(rest[:, None], gravity, tau)
         return tau
 
-    def squared_factors(self, q, qd, qdd, refuse=True):
+    def squared_factors(self, q, qd, qdd, refuse=True, neighbours=True):
         """
         Return per sample and joint (N, n) the squared slow-down each needs, ``f**2`` above.
 
         Raises :class:`GravityOverload` where gravity alone exceeds a limit;
         with ``refuse`` False the need is infinite there instead (no
-        slow-down holds the torque).
+        slow-down holds the torque).  ``neighbours``: the friction of a
+        joint moving at a neighbouring sample counts too (samples in order).
         """
         if self.gravity is None:
             # One inverse-dynamics call for both: a call costs about as much as
@@ -202,7 +203,7 @@ class TorqueLimit:
         full = np.broadcast_to(self.max_torque, gravity.shape)
         if refuse:
             refuse_gravity_overload(q, gravity, full)
-        viscous, friction = self._parts(q, qd)
+        viscous, friction = self._parts(q, qd, neighbours)
         dynamic = tau - gravity if viscous is None else tau - gravity - viscous
         limit = full if friction is None else (full - friction[0], full - friction[1])
         need = _squared_needs(gravity, dynamic, limit, viscous)
@@ -262,8 +263,12 @@ class TorqueLimit:
         largest need anywhere, so at most the factor the 1 kHz check finds.
         A caller that only wants to know whether a slowed-down plan is
         longer than another spares the check (10 ms samples: a tenth of it).
+        The friction counts at a sample on the side its joint moves to there
+        alone: its neighbours 10 ms away count more than the check's 1 ms
+        ones (helper-87: 18 % above the check's need where joints reverse).
         """
-        return math.sqrt(float(np.max(self.squared_factors(*_samples(traj, period)))))
+        return math.sqrt(float(np.max(self.squared_factors(*_samples(traj, period),
+                                                           neighbours=False))))
 
 
 def _checked(tau, q, what):
@@ -411,9 +416,12 @@ class TorqueCheck:
         self.counts_friction = np.any(self.up, axis=0) | np.any(self.down, axis=0)
         self._split = None
 
-    def _peaks(self, torque, bend):
+    def _peaks(self, torque, *bends):
         """Return per joint the peak over the samples of the motor torque and friction / limit."""
-        return np.max(np.maximum(torque + self.up, self.down - torque) + bend, axis=0) / self.limit
+        peak = np.maximum(torque + self.up, self.down - torque)     # |torque| without friction
+        for bend in bends:
+            peak = peak + bend
+        return np.max(peak / self.limit, axis=0)
 
     def _lowered(self, bend):
         """Return the limits (upper, lower) lowered by ``bend`` (N, n)."""
@@ -450,12 +458,12 @@ class TorqueCheck:
             return math.sqrt(float(np.max(need))), ratios
         scale = 1.0 / (factor * factor)
         if self.viscous is None:
-            torque = self.gravity + self.dynamic * scale
-            bend = bend_gravity + bend_dynamic * scale
+            peaks = self._peaks(self.gravity + self.dynamic * scale, bend_gravity,
+                                bend_dynamic * scale)
         else:
-            torque = self.gravity + self.viscous / factor + self.dynamic * scale
-            bend = bend_gravity + bend_viscous / factor + bend_dynamic * scale
-        return self.slow_down() / factor, self._peaks(torque, bend)
+            peaks = self._peaks(self.gravity + self.viscous / factor + self.dynamic * scale,
+                                bend_gravity, bend_viscous / factor, bend_dynamic * scale)
+        return self.slow_down() / factor, peaks
 
     def slow_down(self):
         """
