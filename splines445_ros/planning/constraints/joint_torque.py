@@ -1,4 +1,4 @@
-"""Joint torques of the rigid-body dynamics along a path: a second-order constraint."""
+"""Joint torques along a path (rigid body, damping, dry friction): a second-order constraint."""
 
 import numpy as np
 
@@ -34,8 +34,9 @@ class JointTorque(AccelerationConstraint):
     or no damping in the rows (1.095, 1.201).  :meth:`speed_terms` gives
     ``c`` itself (with ``viscous``), which the sequential LPs of
     :mod:`~..speed_profile.smooth_profile` linearise at each profile
-    instead (``time_optimal``, the same walks: 1.060 and 1.132 times its
-    rigid-body plan, against 1.141 and 1.309 with ``c x``).  The
+    instead (``time_optimal``, the same walks: 1.058 and 1.096 times its
+    rigid-body plan; 1.141 and 1.309 with ``c x`` and the friction on both
+    sides).  The
     rows are the speed profile's reference: the plan's own torque, damping
     in full (``1 / f`` under a slow-down), is checked after and the plan
     slowed where it needs (:class:`~.torque.TorqueLimit`).  Dry friction,

@@ -623,9 +623,11 @@ class SmoothProfile:
         ``c sqrt(x)`` by its tangent at ``x_q``: ``c x / (2 sqrt(x_q)) + c
         sqrt(x_q) / 2``, exact at ``x_q`` (above ``c sqrt(x)`` elsewhere for
         ``c > 0``: the damping that brakes, conservative; below it for ``c < 0``,
-        where it helps).  ``x_q`` is at most ``(bound / |c|)**2`` at a row, so
-        the row still allows rest (the tangent's constant at most half the
-        bound).  The plan's own torque is checked after, damping in full.
+        where it helps).  ``x_q`` is capped at ``(bound / |c|)**2`` at a row
+        (the tangent is then taken there, not at the profile), so the row
+        still allows rest where its bound is positive (the tangent's
+        constant at most half the bound).  The plan's own torque is checked
+        after, damping in full.
         """
         rows, bounds = [], []
         for base, at, c, limit in self._speed:
@@ -644,7 +646,14 @@ class SmoothProfile:
         x_max = x_start = _lift_isolated_stops(PathLimits(
             gridded, joint_limits + self.constraints).profile(
                 np.ones(every.size), *self.ends))[1:-1]
-        if any(getattr(c, 'speed_terms', None) for c in self.constraints):
+        width = np.zeros(every.size)                # trapezoid weights of the time
+        width[:-1] += 0.5 * np.diff(every)
+        width[1:] += 0.5 * np.diff(every)
+        width = width[1:-1]
+        points = every[1:-1]
+        n = points.size
+        x, candidates, bound, jerk = self._rows(points)
+        if self._speed:
             # A term in the path speed itself (the damping) is the speed rows', not the
             # cap's: the rows hold it as c x, which overstates it beyond sdot = 1 and
             # capped the damped arms' profiles below what the speed rows allow
@@ -653,13 +662,6 @@ class SmoothProfile:
                 gridded, joint_limits + tuple(_WithoutSpeedTerm(c) if c.order == 2 else c
                                               for c in self.constraints))
                 .profile(np.ones(every.size), *self.ends))[1:-1])
-        width = np.zeros(every.size)                # trapezoid weights of the time
-        width[:-1] += 0.5 * np.diff(every)
-        width[1:] += 0.5 * np.diff(every)
-        width = width[1:-1]
-        points = every[1:-1]
-        n = points.size
-        x, candidates, bound, jerk = self._rows(points)
         rows, jerk_data, x_data, row_of_entry = _tangent_rows(candidates, x, jerk.size)
         first = rows.nnz - jerk_data.size         # the jerk rows' first entry
         bounds = self._bounds()
