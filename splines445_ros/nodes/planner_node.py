@@ -68,12 +68,12 @@ from ..service.model_planning import (build_robot_setup, description_source, loa
                                       plan_model_tool_request, robot_fields,
                                       tool_poses_from_message)
 from ..service.planner_config import PlannerConfig
-from ..service.request_planning import (ends_at_rest, gravity_overload, gravity_overload_report,
+from ..service.request_planning import (ends_at_rest, gravity_overload_report, GravityOverload,
                                         no_room_report, NoRoomToMove, output_samples,
                                         plan_from_running, plan_from_state_at,
                                         plan_request, plan_stop, plan_tool_request,
-                                        plan_warnings, running_in_order, start_from_state,
-                                        summary_values, tool_summary_values)
+                                        plan_warnings, raised_from, running_in_order,
+                                        start_from_state, summary_values, tool_summary_values)
 
 ROBOT_DESCRIPTION = 'robot_description'
 PLAN_SERVICE = '~/plan'
@@ -775,8 +775,8 @@ class PlannerNode(Node):
             planned = time.perf_counter()
             samples = output_samples(config, traj)
         except ValueError as exc:
-            overload = gravity_overload(exc)
-            no_room = gravity_overload(exc, NoRoomToMove)
+            overload = raised_from(exc, GravityOverload)
+            no_room = raised_from(exc, NoRoomToMove)
             if overload is not None:
                 text, details = gravity_overload_report(overload, config.joint_names,
                                                         config.torque_headroom)

@@ -600,8 +600,8 @@ def torque_binds(traj):
     return traj.limits is None or float(np.max(ratios)) > traj.binding.ratio
 
 
-def gravity_overload(exc, kind=GravityOverload):
-    """Return the ``kind`` (:class:`GravityOverload`) ``exc`` is or was raised from, else None."""
+def raised_from(exc, kind):
+    """Return the ``kind`` (as :class:`GravityOverload`) ``exc`` is or was raised from, or None."""
     seen = set()
     while exc is not None and id(exc) not in seen:
         if isinstance(exc, kind):
@@ -611,6 +611,11 @@ def gravity_overload(exc, kind=GravityOverload):
     return None
 
 
+def _column_name(j, joint_names):
+    """Return the name of the library's joint column ``j``: ``joint_names[j]``, or 'column j'."""
+    return joint_names[j] if 0 <= j < len(joint_names) else f'column {j}'
+
+
 def no_room_report(refusal, joint_names, headroom=0.0, counts_friction=True):
     """
     Return (message, status values) of a :class:`NoRoomToMove`, the joint named.
@@ -618,8 +623,7 @@ def no_room_report(refusal, joint_names, headroom=0.0, counts_friction=True):
     ``headroom`` (``torque_headroom``) and ``counts_friction``
     (``torque_counts_friction``) are said in the advice when they apply.
     """
-    j = refusal.joint
-    name = joint_names[j] if 0 <= j < len(joint_names) else f'column {j}'
+    name = _column_name(refusal.joint, joint_names)
     advice = ['lower the payload', 'raise max_effort']
     if headroom:
         advice.append(f'lower torque_headroom ({headroom:g})')
@@ -639,8 +643,7 @@ def gravity_overload_report(overload, joint_names, headroom=0.0):
     give its name.  ``headroom``: the ``torque_headroom`` the limit was
     lowered by, said in the message.
     """
-    j = overload.joint
-    name = joint_names[j] if 0 <= j < len(joint_names) else f'column {j}'
+    name = _column_name(overload.joint, joint_names)
     pose = ', '.join(f'{v:.4g}' for v in overload.pose)
     planned = (f' (max_effort less torque_headroom {headroom:g})' if headroom else '')
     message = (f'joint {name!r}: gravity alone needs {overload.torque:.4g} N m at the pose '
