@@ -405,6 +405,65 @@ class _WarmHighs:
         return OptimizeResult(status=2, x=None, message=self.highs.modelStatusToString(status))
 
 
+class _SpeedRows:
+    """
+    The rows with a ``c sdot`` term, stacked once below the others and linearised in place each LP.
+
+    ``speed``: :meth:`SmoothProfile._constraint_rows`' third return (per
+    row block its rows without the term, their points, ``+-c`` and the
+    bound).  ``c sqrt(x)`` by its tangent at ``x_q``: ``c x / (2 sqrt(x_q))
+    + c sqrt(x_q) / 2``, exact at ``x_q`` (above ``c sqrt(x)`` elsewhere for
+    ``c > 0``: the damping that brakes, conservative; below it for ``c < 0``,
+    where it helps).  ``x_q`` is capped at ``(bound / |c|)**2`` at a row
+    (the tangent is then taken there, not at the profile), so the row still
+    allows rest where its bound is positive (the tangent's constant at most
+    half the bound).  The plan's own torque is checked after, damping in
+    full.  Each block's rows are held on the union pattern of its rows and
+    of ``x`` at its points (like the jerk rows, :func:`_tangent_rows`), and
+    each LP writes ``base + k x`` into the data: stacking them anew took
+    about 10 ms an LP on a 7-joint path (helper-86), a fifth of a damped
+    arm's profile.  The values are those of the sparse sum, bit for bit
+    (an entry absent from one part adds an exact 0).
+    """
+
+    def __init__(self, speed, x, rows):
+        """Stack ``rows`` (CSR) and the blocks' union patterns; keep each block's parts."""
+        self._blocks = []
+        data, indices, indptr = [rows.data], [rows.indices], [rows.indptr]
+        count, start = rows.shape[0], rows.nnz
+        for base, at, c, limit in speed:
+            both = (base.astype(complex) + 1j * x[at]).tocsr()
+            both.sort_indices()
+            entry_row = np.repeat(np.arange(at.size), np.diff(both.indptr))
+            with np.errstate(over='ignore'):   # c = 0 at a row: no cap there
+                room = np.where(limit > 0.0, (limit / np.maximum(np.abs(c), 1e-300)) ** 2,
+                                np.inf)
+            self._blocks.append((both.data.real.copy(), both.data.imag.copy(), entry_row, at,
+                                 c, limit, room, start, start + both.nnz))
+            data.append(both.data.real)
+            indices.append(both.indices)
+            indptr.append(both.indptr[1:] + start)
+            count += at.size
+            start += both.nnz
+        self.matrix = sp.csr_matrix((np.concatenate(data), np.concatenate(indices),
+                                     np.concatenate(indptr)), shape=(count, rows.shape[1]))
+        self._others = rows.nnz
+        self.bound = np.empty(count)
+
+    def stacked(self, x_q, rows, bound):
+        """Return the rows and bounds of an LP: ``rows``' and the blocks' linearised at ``x_q``."""
+        data = self.matrix.data
+        data[:self._others] = rows.data
+        self.bound[:bound.size] = bound
+        at_row = bound.size
+        for base, x_data, entry_row, at, c, limit, room, start, stop in self._blocks:
+            root = np.sqrt(np.minimum(x_q[at], room))
+            data[start:stop] = base + (0.5 * c / root)[entry_row] * x_data
+            self.bound[at_row:at_row + at.size] = limit - 0.5 * c * root
+            at_row += at.size
+        return self.matrix, self.bound
+
+
 class _WithoutSpeedTerm:
     """A second-order constraint's rows without their term in the path speed (``c sdot``)."""
 
@@ -588,7 +647,7 @@ class SmoothProfile:
         (``b - c``: ``rows`` gives it at ``sdot = 1``) and its rows apart
         (the third return: per row block its rows without the term, the row
         points, ``+-c`` and the bound), linearised anew each LP
-        (:meth:`_speed_rows`).
+        (:class:`_SpeedRows`).
         """
         rows, bounds, speed = [], [], []
         if not any(c.order == 2 for c in self.constraints):
@@ -615,27 +674,6 @@ class SmoothProfile:
                         rows.append(sign * row[finite])
                         bounds.append(limit[finite])
         return rows, bounds, speed
-
-    def _speed_rows(self, x, x_q):
-        """
-        Return the rows and bounds with a ``c sdot`` term, linearised at ``x_q`` (row points).
-
-        ``c sqrt(x)`` by its tangent at ``x_q``: ``c x / (2 sqrt(x_q)) + c
-        sqrt(x_q) / 2``, exact at ``x_q`` (above ``c sqrt(x)`` elsewhere for
-        ``c > 0``: the damping that brakes, conservative; below it for ``c < 0``,
-        where it helps).  ``x_q`` is capped at ``(bound / |c|)**2`` at a row
-        (the tangent is then taken there, not at the profile), so the row
-        still allows rest where its bound is positive (the tangent's
-        constant at most half the bound).  The plan's own torque is checked
-        after, damping in full.
-        """
-        rows, bounds = [], []
-        for base, at, c, limit in self._speed:
-            room = np.where(limit > 0.0, (limit / np.maximum(np.abs(c), 1e-300)) ** 2, x_q[at])
-            root = np.sqrt(np.minimum(x_q[at], room))
-            rows.append(base + sp.diags(0.5 * c / root) @ x[at])
-            bounds.append(limit - 0.5 * c * root)
-        return rows, bounds
 
     def _solve(self, grid, steps):
         """Return the coefficients z of the last feasible LP (sequential LPs, see the module)."""
@@ -664,6 +702,8 @@ class SmoothProfile:
                 .profile(np.ones(every.size), *self.ends))[1:-1])
         rows, jerk_data, x_data, row_of_entry = _tangent_rows(candidates, x, jerk.size)
         first = rows.nnz - jerk_data.size         # the jerk rows' first entry
+        # A fixed count of rows with a speed term, after the others: the basis holds.
+        speed = _SpeedRows(self._speed, x, rows) if self._speed else None
         bounds = self._bounds()
         # The first LP's working set: the rows violated at x_max's least-squares fit.
         free = np.array([bound == (None, None) for bound in bounds])
@@ -682,11 +722,8 @@ class SmoothProfile:
             bound[n:2 * n] = 0.0 if residual is None else -RESIDUAL_FLOOR * x_p
             bound[bound.size - jerk.size:] = 1.5 * jerk / np.sqrt(x_r)
             cost = -(x.T @ (width / x_q ** 1.5))
-            every_row, every_bound = rows, bound
-            if self._speed:     # a fixed count of rows, after the others: the basis holds
-                speed_rows, speed_bound = self._speed_rows(x, x_q)
-                every_row = sp.vstack([rows] + speed_rows, format='csr')
-                every_bound = np.concatenate([bound] + speed_bound)
+            every_row, every_bound = (rows, bound) if speed is None else speed.stacked(
+                x_q, rows, bound)
             work = every_row @ z_p > (FIRST_KEEP if first_lp else KEEP) * every_bound
             work[:n:DENSE] = True       # x <= cap about once a grid step: a bounded LP
             if residual is None:

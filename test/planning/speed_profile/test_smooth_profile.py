@@ -11,6 +11,7 @@ takes velocity, acceleration and jerk by finite differences.
 """
 
 import numpy as np
+import scipy.sparse as sp
 import pytest
 from scipy.interpolate import CubicHermiteSpline
 from splines445_ros.planning.constraints import GriddedPath, JointAcceleration, JointVelocity
@@ -307,3 +308,45 @@ def test_each_highspy_solve_gets_its_own_time_limit(monkeypatch):
     assert limits[-1][1] > 0.0      # the later solves come after run time has been spent
     for value, spent in limits:
         assert value >= spent + smooth_profile.SOLVE_SECONDS * (1.0 - 1e-12)
+
+
+@pytest.mark.parametrize('seed', SEEDS[:4])
+def test_speed_rows_set_in_place_are_the_tangent_rows_stacked(seed):
+    """
+    ``_SpeedRows.stacked`` against the tangent rows written out: ``base + diag(c / 2 r) x``.
+
+    ``r = sqrt(min(x_q, (bound / c)**2))`` where the bound is positive, else
+    ``sqrt(x_q)``, and the bound ``limit - c r / 2``.  Random sparse rows
+    whose patterns differ from ``x``'s, zero ``c`` at some rows, non-positive
+    bounds, three LPs in a row (the data is rewritten in place each time).
+    """
+    rng = np.random.default_rng(seed)
+    n_points, n_columns = 30, 12
+    x = sp.random(n_points, n_columns, density=0.3, random_state=rng, format='csr')
+    others = sp.random(7, n_columns, density=0.4, random_state=rng, format='csr')
+    blocks = []
+    for _ in range(3):
+        at = np.sort(rng.choice(n_points, size=int(rng.integers(1, n_points)), replace=False))
+        base = sp.random(at.size, n_columns, density=0.3, random_state=rng, format='csr')
+        c = rng.normal(size=at.size) * (rng.uniform(size=at.size) < 0.8)
+        limit = rng.normal(size=at.size)
+        blocks.append((base, at, c, limit))
+    rows = smooth_profile._SpeedRows(blocks, x, others)
+    for _ in range(3):
+        x_q = rng.uniform(0.01, 4.0, n_points)
+        other_data = rng.normal(size=others.nnz)
+        others.data[:] = other_data
+        bound = rng.normal(size=others.shape[0])
+        matrix, stacked = rows.stacked(x_q, others, bound)
+        expected_rows, expected_bound = [others], [bound]
+        for base, at, c, limit in blocks:
+            cap = np.array([(lim / ci) ** 2 if lim > 0.0 and ci != 0.0 else np.inf
+                            for lim, ci in zip(limit, c)])
+            r = np.sqrt(np.minimum(x_q[at], cap))
+            expected_rows.append(base + sp.diags(0.5 * c / r) @ x[at])
+            expected_bound.append(limit - 0.5 * c * r)
+        expected = sp.vstack(expected_rows).toarray()
+        np.testing.assert_array_equal(matrix.toarray(), expected)
+        np.testing.assert_array_equal(stacked, np.concatenate(expected_bound))
+        z = rng.normal(size=n_columns)
+        np.testing.assert_allclose(matrix @ z, expected @ z, rtol=1e-12, atol=1e-12)
