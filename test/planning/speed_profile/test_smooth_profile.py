@@ -11,9 +11,9 @@ takes velocity, acceleration and jerk by finite differences.
 """
 
 import numpy as np
-import scipy.sparse as sp
 import pytest
 from scipy.interpolate import CubicHermiteSpline
+import scipy.sparse as sp
 from splines445_ros.planning.constraints import GriddedPath, JointAcceleration, JointVelocity
 from splines445_ros.planning.durations.timing import rest_to_rest_durations
 from splines445_ros.planning.speed_profile import smooth_profile
