@@ -214,7 +214,7 @@ class FollowWaypointsServer:
             # little ahead is an arm's clock skew (helper-77).  States further off are
             # stale (a stream that stopped) or from another clock: against the plan now,
             # the error grows as it should (at their stamp it read 0: helper-79).
-            age = -node.joint_state_clock_gap()
+            age = -node.joint_state_clock_gap(names)
             taken = t - age if abs(age) <= MAX_STATE_AGE else t
             planned = traj.evaluate([min(max(taken, 0.0), end)], 0)[0]
             handle.publish_feedback(_feedback(t, end, names, measured, planned))
@@ -225,7 +225,7 @@ class FollowWaypointsServer:
                                  f'{end:.4f} s trajectory and settled', names, final,
                                  success=True, duration=end)
             if t > end + config.goal_time_tolerance:
-                why = _not_settled(measured, final, config, node.joint_state_clock_gap())
+                why = _not_settled(measured, final, config, node.joint_state_clock_gap(names))
                 return self._end(run, handle.abort, why, names, final, duration=end)
 
     async def _stop(self, run, names, final, traj):
@@ -275,7 +275,7 @@ class FollowWaypointsServer:
                 message = f'canceled: {stop.message}'
                 if not settled:
                     message += '; ' + _not_settled(measured, rest, config,
-                                                   node.joint_state_clock_gap())
+                                                   node.joint_state_clock_gap(names))
                 return self._end(run, run.handle.canceled, message, names, rest,
                                  warn=not settled)
 

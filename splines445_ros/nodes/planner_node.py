@@ -64,6 +64,7 @@ from .ros_conversions import (hold_message, lasting_at_rest, parse_tool_request,
 from ..robot.robot_model import check_description_file, MAX_DESCRIPTION_CHARS
 from ..service.interface_requests import (MAX_REQUEST_WAYPOINTS, override_values,
                                           request_message)
+from ..service.joint_states import LatestJointStates
 from ..service.model_planning import (build_robot_setup, description_source, load_model,
                                       plan_model_tool_request, robot_fields,
                                       tool_poses_from_message)
@@ -252,7 +253,7 @@ class PlannerNode(Node):
                                  topics.STATE_QOS)
         self.create_subscription(String, ROBOT_DESCRIPTION, self._on_description,
                                  topics.LATCHED, raw=True)
-        self._latest_joint_state = None
+        self._joint_states = LatestJointStates()   # the latest of each joint set
         self._active = None  # _Published: the last trajectory published to the arm
         self._previous = None   # _Published: the one before, while the last waits for its stamp
         # The stamp [ns] of the last hold published (a stop at rest: no trajectory), while
@@ -386,9 +387,11 @@ class PlannerNode(Node):
         """
         Latest joint_states (position, velocity or None) of the joints ``names``, or None.
 
-        None when none have arrived or they do not cover ``names``.
+        From the latest message that names them all (a gripper's own
+        joint_states beside the arm's are not in the way); None when none
+        has arrived.
         """
-        state = self._latest_joint_state
+        state = self._joint_states.covering(names)
         if state is None or len(state.position) != len(state.name):
             return None
         index = {name: i for i, name in enumerate(state.name)}
@@ -400,9 +403,9 @@ class PlannerNode(Node):
                     if len(state.velocity) == len(state.name) else None)
         return position, velocity
 
-    def joint_state_clock_gap(self):
-        """Return [s] the latest joint_states' stamp less this node's clock (0: none yet)."""
-        state = self._latest_joint_state
+    def joint_state_clock_gap(self, names):
+        """Return [s] the stamp of ``names``' joint_states less this node's clock (0: none yet)."""
+        state = self._joint_states.covering(names)
         if state is None:
             return 0.0
         stamp = state.header.stamp.sec * 1_000_000_000 + state.header.stamp.nanosec
@@ -644,7 +647,7 @@ class PlannerNode(Node):
         self._compile(('robot_description', msg.data), 'robot_description')
 
     def _on_joint_state(self, msg):
-        self._latest_joint_state = msg
+        self._joint_states.take(msg)
 
     def _work(self):
         while True:
@@ -1127,16 +1130,16 @@ class PlannerNode(Node):
 
     def _joint_state_start(self, config):
         """Position, velocity and zero acceleration from the latest joint_states."""
-        state = self._latest_joint_state
-        if state is None:
+        if self._joint_states.latest() is None:
             raise ValueError('start_from_current_state: no trajectory is running and no '
                              'joint_states have been received yet')
+        state = self._joint_states.covering(config.joint_names)
+        if state is None:
+            raise ValueError(f'start_from_current_state: no joint_states name every joint of '
+                             f'{list(config.joint_names)} (joints seen: '
+                             f'{self._joint_states.names_seen()})')
         names = list(state.name)
-        try:
-            order = [names.index(n) for n in config.joint_names]
-        except ValueError:
-            raise ValueError(f'start_from_current_state: joint_states names {names} do not '
-                             f'cover {list(config.joint_names)}') from None
+        order = [names.index(n) for n in config.joint_names]
         if len(state.position) != len(names):
             raise ValueError(f'start_from_current_state: the latest joint_states have '
                              f'{len(state.position)} positions for {len(names)} names')

@@ -25,6 +25,7 @@ from rclpy.action import ActionClient
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.time import Time
+from sensor_msgs.msg import JointState
 from splines445_interfaces.action import FollowWaypoints
 from splines445_interfaces.srv import Plan
 from splines445_ros.nodes import follow_waypoints, planner_node, topics
@@ -1038,6 +1039,48 @@ def test_a_goal_that_starts_away_from_the_arm_at_rest_is_aborted(system):
     assert 'the first waypoint is 1 from' in result.result.message
     assert system.planner.active_trajectory() is None
     assert result_of(system, send_goal(system, W)).status == GoalStatus.STATUS_SUCCEEDED
+
+
+def test_a_grippers_own_joint_states_do_not_hide_the_arms(system):
+    """
+    A second publisher on joint_states naming only its own joint, as a gripper's driver.
+
+    The planner reads the latest message that names the planned joints:
+    with only the latest message kept, the gripper's (at 500 Hz, the arm's
+    at 50) hid the arm's, a goal's start check was skipped and the arm
+    jumped 1 rad, and start_from_current_state failed 19 times in 20
+    (helper-88).
+    """
+    gripper = system.client.create_publisher(JointState, topics.JOINT_STATES, topics.STATE_QOS)
+
+    def publish_gripper():
+        msg = JointState()
+        msg.header.stamp = system.client.get_clock().now().to_msg()
+        msg.name, msg.position, msg.velocity = ['gripper_finger'], [0.01], [0.0]
+        gripper.publish(msg)
+    system.client.create_timer(0.002, publish_gripper)
+
+    def arm_states():
+        return [s for s in system.joint_states if 'joint1' in s.name]
+    assert system.spin_until(lambda: len(arm_states()) > 2
+                             and len(system.joint_states) > len(arm_states()) + 50, 5.0)
+    result = result_of(system, send_goal(system, W + 1.0))
+    assert result.status == GoalStatus.STATUS_ABORTED
+    assert 'the first waypoint is 1 from' in result.result.message
+    assert system.planner.active_trajectory() is None
+    system.planner.set_parameters([Parameter('start_from_current_state', value=True)])
+    for _ in range(5):
+        response = call(system, plan_request(W + 0.2))
+        assert response.success, response.message
+        # Planned from where the arm is (at rest at 0), not from the first waypoint.
+        start = np.array(response.trajectory.points[0].positions)
+        np.testing.assert_allclose(start, W[0], atol=1e-9)
+        system.spin_for(0.02)
+    # The goal's feedback has the arm's measured state throughout.
+    feedback = []
+    assert result_of(system, send_goal(system, W, feedback=feedback)).status == (
+        GoalStatus.STATUS_SUCCEEDED)
+    assert feedback and all(math.isfinite(f.max_tracking_error) for _, f in feedback)
 
 
 def test_a_client_that_goes_away_leaves_the_node_serving(system):

@@ -154,7 +154,7 @@ def test_replanning_from_malformed_joint_states_is_a_clear_error():
         assert ros.spin_until(lambda: states.get_subscription_count(), 10.0)
         # Three names, two positions: before, an IndexError reported as internal.
         states.publish(JointState(name=list(pe.JOINT_NAMES), position=[0.0, 0.0]))
-        assert ros.spin_until(lambda: node._latest_joint_state is not None, 10.0)
+        assert ros.spin_until(lambda: node._joint_states.latest() is not None, 10.0)
         publisher.publish(waypoint_message(pe.JOINT_NAMES, W))
         assert ros.spin_until(lambda: statuses, 10.0)
         assert statuses[0].level == DiagnosticStatus.ERROR
@@ -181,7 +181,7 @@ def test_a_switch_state_without_a_plan_switches_later_on_the_running_trajectory(
         assert ros.spin_until(lambda: states.get_subscription_count(), 10.0)
         states.publish(JointState(name=list(pe.JOINT_NAMES), position=W[0].tolist(),
                                   velocity=[0.0] * 3))
-        assert ros.spin_until(lambda: node._latest_joint_state is not None, 10.0)
+        assert ros.spin_until(lambda: node._joint_states.latest() is not None, 10.0)
         driver.set_clock(100.0)
         publisher.publish(waypoint_message(pe.JOINT_NAMES, W))
         assert ros.spin_until(lambda: statuses, 10.0)
