@@ -36,7 +36,17 @@ PLANAR_ACCELERATION = 10.0
 NOT_SET_NAMES = ('',)
 NOT_SET_LIMITS = (0.0,)
 MIN_SAMPLE_PERIOD = 1e-4
+# sample_period's upper bound [s]: points further apart are what output "knots"
+# gives; beyond 2**31 s a stop's hold (as long as a sample period) overflowed
+# its time_from_start, and the cancel was reported done while the arm ran on
+# (helper-88).
+MAX_SAMPLE_PERIOD = 10.0
 MAX_LEAD_TIME = 10.0
+# replan_lead_time's lower bound [s]: a stop (a cancel) is planned in 20-50 ms
+# here (the planar arm, 2-core machine, scratch timing of plan_stop), and one
+# planned after its switch time is refused while the arm runs on; at 0 every
+# cancel and every preemption failed (helper-88).
+MIN_LEAD_TIME = 0.05
 # Values of the ``kinematics`` parameter: '' = joint space only.
 KINEMATICS = ('', 'planar_3dof', 'model')
 MAX_INSERTED_WAYPOINTS = 100000
@@ -118,14 +128,16 @@ class PlannerConfig(ValidatedConfig):
     sample_period: float = parameter(
         0.01, '`output: sampled`: period of the published trajectory points [s]; every '
         'knot of the plan (the waypoints among them) is a point too.',
-        low=MIN_SAMPLE_PERIOD, unit='s')
+        low=MIN_SAMPLE_PERIOD, high=MAX_SAMPLE_PERIOD, unit='s')
     start_from_current_state: bool = parameter(
         False, 'Start every trajectory from the commanded state at now + `replan_lead_time` '
         f'(continuous replanning), or up to {REPLAN_MAX_DELAY:g} s later along the running '
         'trajectory when no plan exists from that state.')
     replan_lead_time: float = parameter(
         0.2, 'How far ahead of now a replanned trajectory takes over [s]; planning must '
-        'finish within it.', low=0.0, high=MAX_LEAD_TIME, unit='s')
+        'finish within it (a stop for a cancel takes 20-50 ms to plan on a 2-core machine; '
+        'one planned too late is refused and the arm runs on).', low=MIN_LEAD_TIME,
+        high=MAX_LEAD_TIME, unit='s')
     start_delay: float = parameter(
         0.05, 'How long after it is published a trajectory starts [s]: its `header.stamp` (a '
         'replanned one starts at its switch time instead). It must exceed delivery to the '

@@ -97,10 +97,12 @@ def test_every_field_is_a_row_with_a_description(config):
 
 
 PLANNER_REFUSED = [
-    ({'replan_lead_time': 10.5}, 'replan_lead_time = 10.5: must be in [0, 10] s'),
+    ({'replan_lead_time': 10.5}, 'replan_lead_time = 10.5: must be in [0.05, 10] s'),
+    ({'replan_lead_time': 0.0}, 'replan_lead_time = 0.0: must be in [0.05, 10] s'),
     ({'goal_time_tolerance': -1.0}, 'goal_time_tolerance = -1.0: must be in [0, 3600] s'),
     ({'vibration_frequency': 1e4}, 'vibration_frequency = 10000.0: must be in [0, 1000] Hz'),
-    ({'sample_period': 5e-05}, 'sample_period = 5e-05: must be at least 0.0001 s'),
+    ({'sample_period': 5e-05}, 'sample_period = 5e-05: must be in [0.0001, 10] s'),
+    ({'sample_period': 3e9}, 'sample_period = 3000000000.0: must be in [0.0001, 10] s'),
     ({'max_trajectory_points': 1}, 'max_trajectory_points = 1: must be at least 2'),
     ({'inner_knots': 9}, 'inner_knots = 9: must be in [0, 8], or -1 (auto)'),
     ({'max_inserted_waypoints': 100001},
@@ -138,8 +140,9 @@ def test_a_value_outside_the_table_is_refused_with_its_bounds(config, values, me
 
 
 def test_values_on_the_bounds_are_accepted():
-    for values in ({'replan_lead_time': 10.0}, {'replan_lead_time': 0.0},
-                   {'sample_period': 1e-4}, {'inner_knots': -1}, {'inner_knots': 8},
+    for values in ({'replan_lead_time': 10.0}, {'replan_lead_time': 0.05},
+                   {'sample_period': 1e-4}, {'sample_period': 10.0},
+                   {'inner_knots': -1}, {'inner_knots': 8},
                    {'max_inserted_waypoints': 0}, {'goal_time_tolerance': 3600.0}):
         config = PlannerConfig.from_values(values)
         assert all(getattr(config, k) == v for k, v in values.items())
