@@ -44,6 +44,7 @@ from splines445_interfaces.action import FollowWaypoints
 from .ros_conversions import joint_order, seconds_to_duration
 from ..robot.user_text import show_names
 from ..service.interface_requests import ARRAY_FIELDS, override_values, request_message
+from ..service.model_planning import NO_ROBOT_YET
 
 ACTION = '~/follow_waypoints'
 # [s]: joint_states stamped further than this from the node's clock come from another clock.
@@ -94,6 +95,9 @@ class FollowWaypointsServer:
     def _on_goal(self, goal):
         try:
             msg = request_message(goal.waypoints, goal.tool_waypoints)
+            if self._node.waiting_for_robot():
+                # Not "this node controls 0 joints" (helper-88): the plan service's reason.
+                raise ValueError(NO_ROBOT_YET)
             values = override_values(goal.overrides, msg is goal.waypoints)
             if values:
                 # Refused at once, as a set_parameters of them would be, not accepted and
@@ -103,7 +107,10 @@ class FollowWaypointsServer:
             if msg is goal.waypoints:
                 joint_order(msg.joint_names, self._node.planned_joint_names())
                 _check_finite(msg)
-            elif self._run is not None or self._node.trajectory_running():
+            else:
+                _check_finite_poses(msg)
+            if msg is not goal.waypoints and (self._run is not None
+                                              or self._node.trajectory_running()):
                 raise ValueError('a tool_waypoints goal plans from rest, and a trajectory is '
                                  'running: cancel it (or wait for its end) first, or send '
                                  'joint waypoints')
@@ -341,6 +348,21 @@ def _check_finite(msg):
                 j = int(np.flatnonzero(~np.isfinite(row))[0])
                 raise ValueError(f'waypoint {k}: {field}[{j}] is {row[j]}: values must be '
                                  'finite')
+
+
+def _check_finite_poses(msg):
+    """
+    Refuse a tool goal with a pose value that is not finite (ValueError), at once.
+
+    As joint goals are (:func:`_check_finite`): it was accepted, then
+    aborted (helper-88).  The planner checks the rest when it plans.
+    """
+    for k, pose in enumerate(msg.poses):
+        p, o = pose.position, pose.orientation
+        values = (p.x, p.y, p.z, o.x, o.y, o.z, o.w)
+        if not all(math.isfinite(v) for v in values):
+            raise ValueError(f'tool waypoint {k} is not finite: position ({p.x}, {p.y}, '
+                             f'{p.z}), orientation ({o.x}, {o.y}, {o.z}, {o.w})')
 
 
 def _buffer(values):

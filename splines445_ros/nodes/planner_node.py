@@ -66,6 +66,7 @@ from ..service.interface_requests import (MAX_REQUEST_WAYPOINTS, override_values
                                           request_message)
 from ..service.joint_states import LatestJointStates
 from ..service.model_planning import (build_robot_setup, description_source, load_model,
+                                      NO_ROBOT_YET,
                                       plan_model_tool_request, robot_fields,
                                       tool_poses_from_message)
 from ..service.planner_config import PlannerConfig
@@ -323,6 +324,10 @@ class PlannerNode(Node):
         if config.kinematics == 'model' and robot is not None:
             return robot.config.joint_names
         return config.joint_names
+
+    def waiting_for_robot(self):
+        """Return True while kinematics "model" has no robot to plan with (not compiled yet)."""
+        return self._known_joint_count() is None
 
     def trajectory_running(self):
         """Return True while the last published trajectory runs (a goal's or a topic's)."""
@@ -712,8 +717,7 @@ class PlannerNode(Node):
         with self._robot_lock:  # the robot and the fields it was set up for, together
             robot = self._robot
             if robot is None:
-                raise ValueError('kinematics "model" has no robot yet: set model_file or '
-                                 'publish robot_description')
+                raise ValueError(NO_ROBOT_YET)
             if robot_fields(config) == self._robot_fields:
                 return robot
             return build_robot_setup(config, self._description, robot.robot)

@@ -53,6 +53,9 @@ TORQUE_FIELDS = ('limit_torque', 'max_effort', 'payload_mass', 'payload_center_o
                  'payload_inertia', 'tool_frame', 'torque_counts_friction')
 # Source of an acceleration limit that limit_torque stood in for (ResolvedLimits.report).
 STAND_IN = 'limit_torque'
+# Why a request cannot be planned while kinematics "model" waits for its robot.
+NO_ROBOT_YET = ('kinematics "model" has no robot yet: set model_file or publish '
+                'robot_description')
 
 
 def robot_fields(config):

@@ -15,14 +15,16 @@ from geometry_msgs.msg import Pose, PoseArray
 from node_status import assert_planned
 import numpy as np
 import pytest
+from rclpy.action import GoalResponse
 from rclpy.node import Node
 from scipy.spatial.transform import Rotation
+from splines445_interfaces.action import FollowWaypoints
 from splines445_ros.nodes import topics
 from splines445_ros.nodes.diagnostics import status_values
 from splines445_ros.nodes.planner_node import PlannerNode
 from splines445_ros.nodes.ros_conversions import sampled_trajectory_from_msg
 from splines445_ros.tools import vendor_robots as vr
-from splines445_ros.tools.in_process import LocalRos, overrides
+from splines445_ros.tools.in_process import LocalRos, overrides, waypoint_message
 from std_msgs.msg import String
 from trajectory_msgs.msg import JointTrajectory
 from urdf_reference import BatchedUrdfChain, distance_to_polyline
@@ -225,6 +227,15 @@ def test_the_robot_description_topic(limits_file):
         status, _ = planner.request(pose_array(CORNERS[:2]))
         assert status.level == DiagnosticStatus.ERROR
         assert 'no robot yet' in status.message
+        # A follow_waypoints goal is refused for the same reason (it said "this node
+        # controls 0 joints", helper-88), a joint goal and a tool goal alike.
+        for goal in (FollowWaypoints.Goal(waypoints=waypoint_message(
+                         [f'joint{i}' for i in range(6)], np.zeros((2, 6)))),
+                     FollowWaypoints.Goal(tool_waypoints=pose_array(CORNERS[:2]))):
+            first = len(planner.status)
+            assert planner.node._follow_waypoints._on_goal(goal) == GoalResponse.REJECT
+            rejected = planner.next_status(first, lambda values: 'interface' in values)
+            assert 'goal rejected: kinematics "model" has no robot yet' in rejected.message
         loaded = planner.publish_description(urdf)
         assert loaded.level == DiagnosticStatus.OK, loaded.message
         assert status_values(loaded)['robot'] == 'robot_description'

@@ -1007,6 +1007,16 @@ def test_malformed_goals_are_rejected_with_the_reason(system):
     assert not send_goal(system, nan).accepted
     assert system.spin_until(lambda: any('waypoint 2: positions[0] is nan' in s.message
                                          for s in system.planner_status[n_status:]), 5.0)
+    # A tool goal's pose likewise (it was accepted, then aborted: helper-88).
+    goal = FollowWaypoints.Goal()
+    goal.tool_waypoints.header.frame_id = 'base_link'
+    goal.tool_waypoints.poses = [Pose(), Pose()]
+    goal.tool_waypoints.poses[1].position.y = math.inf
+    sent = system.action_client.send_goal_async(goal)
+    assert system.spin_until(sent.done, 10.0) and not sent.result().accepted
+    assert system.spin_until(lambda: any(
+        'goal rejected: tool waypoint 1 is not finite: position (0.0, inf, 0.0)' in s.message
+        for s in system.planner_status[n_status:]), 5.0)
     # Overrides that a set_parameters would refuse, or that would be ignored, are refused
     # with the goal (helper-62: accepted, then aborted).
     for name, value, reason in (('method', 'xyz', 'method must be one of'),
