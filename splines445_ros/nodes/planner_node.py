@@ -764,10 +764,12 @@ class PlannerNode(Node):
                 traj = tool_path.trajectory
                 tool_values = tool_summary_values(tool_path)
             else:
-                request = parse_waypoint_request(msg, config.joint_names)
+                request = parse_waypoint_request(
+                    msg, config.joint_names, config.start_from_current_state or job.from_running)
                 now_ns = self.get_clock().now().nanoseconds
-                if config.start_from_current_state or (job.from_running
-                                                       and self._running_at(now_ns)):
+                # A goal of one point starts from the arm at rest too: "go there".
+                if config.start_from_current_state or (job.from_running and (
+                        self._running_at(now_ns) or request.waypoints.shape[0] == 1)):
                     requested_ns = now_ns + int(config.replan_lead_time * 1e9)
                     planned_from = self._base(now_ns)
                     switch_ns, traj = self._replan(config, request, requested_ns, torque,

@@ -89,13 +89,25 @@ def _column(point, field, k, n, order, required):
     return np.asarray(values, dtype=float)[order]
 
 
-def parse_waypoint_request(msg, joint_names):
-    """Turn a waypoint ``JointTrajectory`` into a :class:`WaypointRequest` (ValueError)."""
+def parse_waypoint_request(msg, joint_names, from_arm=False):
+    """
+    Turn a waypoint ``JointTrajectory`` into a :class:`WaypointRequest` (ValueError).
+
+    At least 2 points, or 1 when ``from_arm``: the plan starts from the
+    arm's state (``start_from_current_state``, a follow_waypoints goal),
+    which is prepended, as joint_trajectory_controller plays a one-point
+    trajectory from where the arm is (helper-88: refused).
+    """
     check_request_size(len(msg.points))
     order = joint_order(msg.joint_names, joint_names)
     n = len(order)
-    if len(msg.points) < 2:
-        raise ValueError(f'need at least 2 waypoints, got {len(msg.points)}')
+    least = 1 if from_arm else 2
+    if len(msg.points) < least:
+        raise ValueError(f'need at least {least} waypoint{"s" * (least > 1)}, got '
+                         f'{len(msg.points)}' + ('' if from_arm else ' (one is enough where '
+                                                 'the plan starts from the arm: '
+                                                 'start_from_current_state, or a '
+                                                 'follow_waypoints goal)'))
     waypoints = np.array([_column(p, 'positions', k, n, order, True)
                           for k, p in enumerate(msg.points)])
     first, last = msg.points[0], msg.points[-1]
@@ -106,7 +118,8 @@ def parse_waypoint_request(msg, joint_names):
             value = _column(point, field, k, n, order, False)
             boundary.append(np.zeros(n) if value is None else value)
     times = np.array([duration_to_seconds(p.time_from_start) for p in msg.points])
-    increasing = bool(np.all(np.diff(times) > 0.0))
+    # One point: its time is the time to reach it from the arm, none when 0.
+    increasing = bool(np.all(np.diff(times) > 0.0)) and (times.size > 1 or times[0] > 0.0)
     return WaypointRequest(waypoints, boundary[0], boundary[1], boundary[2], boundary[3],
                            times if increasing else None)
 

@@ -1093,6 +1093,33 @@ def test_a_grippers_own_joint_states_do_not_hide_the_arms(system):
     assert feedback and all(math.isfinite(f.max_tracking_error) for _, f in feedback)
 
 
+def test_one_point_is_a_move_from_the_arm_where_the_plan_starts_there(system):
+    """
+    As joint_trajectory_controller plays a one-point trajectory from where the arm is.
+
+    A goal of one point at rest, and a plan with start_from_current_state,
+    start from the arm's state (refused, "need at least 2 waypoints":
+    helper-88); a topic request of one point without it is refused saying so.
+    """
+    assert system.spin_until(lambda: len(system.joint_states) > 2, 5.0)
+    here = np.array(system.joint_states[-1].position)
+    target = here + np.array([0.4, -0.3, 0.2])
+    refused = call(system, plan_request(target[None, :]))
+    assert not refused.success
+    assert 'need at least 2 waypoints, got 1 (one is enough where the plan starts from ' \
+        'the arm' in refused.message
+    result = result_of(system, send_goal(system, target[None, :]))
+    assert result.status == GoalStatus.STATUS_SUCCEEDED, result.result.message
+    assert at(system, target)
+    assert np.max(np.abs(result.result.final_error)) <= 0.01
+    system.planner.set_parameters([Parameter('start_from_current_state', value=True)])
+    response = call(system, plan_request(here[None, :]))
+    assert response.success, response.message
+    points = response.trajectory.points
+    np.testing.assert_allclose(points[0].positions, target, atol=1e-9)
+    np.testing.assert_allclose(points[-1].positions, here, atol=1e-9)
+
+
 def test_a_client_that_goes_away_leaves_the_node_serving(system):
     other = system.add(Node('vanishing_client', context=system.context))
     client = ActionClient(other, FollowWaypoints, '/planner_node/follow_waypoints')
