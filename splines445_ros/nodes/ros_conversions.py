@@ -117,7 +117,17 @@ def parse_waypoint_request(msg, joint_names, from_arm=False):
         for field in ('velocities', 'accelerations'):
             value = _column(point, field, k, n, order, False)
             boundary.append(np.zeros(n) if value is None else value)
-    times = np.array([duration_to_seconds(p.time_from_start) for p in msg.points])
+    stamps = [p.time_from_start for p in msg.points]
+    nanosec = np.array([d.nanosec for d in stamps])
+    if np.any(nanosec >= NANOS):
+        k = int(np.argmax(nanosec >= NANOS))
+        raise ValueError(f'point {k}: time_from_start.nanosec is {nanosec[k]}: it must be '
+                         'below 1e9 (whole seconds go in sec)')
+    times = np.array([duration_to_seconds(d) for d in stamps])
+    if np.any(times < 0.0):
+        k = int(np.argmax(times < 0.0))
+        raise ValueError(f'point {k}: time_from_start is {times[k]:.9g} s: it must not be '
+                         'negative')
     # One point: its time is the time to reach it from the arm, none when 0.
     increasing = bool(np.all(np.diff(times) > 0.0)) and (times.size > 1 or times[0] > 0.0)
     return WaypointRequest(waypoints, boundary[0], boundary[1], boundary[2], boundary[3],

@@ -116,7 +116,14 @@ def bad_requests():
     # (counting duplicates pairwise took seconds on 10,000), with a short message.
     crowd = JointTrajectory()
     crowd.joint_names = [f'j{k % 99_999}' for k in range(100_000)]
+    # A time_from_start that joint_trajectory_controller would refuse (helper-88: a
+    # negative one was planned, nanosec 1e9 said "not strictly increasing").
+    negative = waypoint_message(pe.JOINT_NAMES, W, times=np.arange(len(W)) - 5.0)
+    nanos = waypoint_message(pe.JOINT_NAMES, W, times=np.arange(len(W)) * 1.0)
+    nanos.points[2].time_from_start.nanosec = 1_000_000_000
     return [
+        ('negative time', negative, 'point 0: time_from_start is -5 s: it must not be negative'),
+        ('nanosec 1e9', nanos, 'point 2: time_from_start.nanosec is 1000000000: it must be'),
         ('NaN position', nan, 'waypoints[3, 1] is nan'),
         ('one point', short, 'at least 2 waypoints'),
         ('empty message', empty, 'joint_names of the message is empty'),

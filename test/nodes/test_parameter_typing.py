@@ -137,7 +137,7 @@ def test_descriptors_show_the_table_and_our_reason_rejects():
     with LocalRos() as ros:
         node = _planner(ros, [])
         lead = node.describe_parameter('replan_lead_time')
-        assert lead.additional_constraints == 'in [0, 10] s'
+        assert lead.additional_constraints == 'in [0.05, 10] s'
         assert list(lead.floating_point_range) == [] and lead.dynamic_typing
         assert 'planning must finish within it' in lead.description
         method = node.describe_parameter('method')
@@ -148,7 +148,7 @@ def test_descriptors_show_the_table_and_our_reason_rejects():
         assert node.describe_parameter('model_file').additional_constraints == ''
         result = node.set_parameters([Parameter('replan_lead_time', value=11.0)])[0]
         assert not result.successful
-        assert result.reason == 'rejected: replan_lead_time = 11.0: must be in [0, 10] s'
+        assert result.reason == 'rejected: replan_lead_time = 11.0: must be in [0.05, 10] s'
         assert node.parameters.config.replan_lead_time == 0.2
         arm = ros.add(ArmSimNode(context=ros.context))
         rate = arm.describe_parameter('publish_rate')
