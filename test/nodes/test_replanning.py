@@ -98,12 +98,19 @@ def test_replanning_without_any_state_says_so():
         assert 'no joint_states have been received' in statuses[0].message
 
 
-@pytest.mark.parametrize('lead', [0.0])
-def test_a_missed_switch_time_is_rejected_and_the_old_trajectory_continues(lead):
+def test_a_missed_switch_time_is_rejected_and_the_old_trajectory_continues():
+    """Planning that outlasts replan_lead_time (held here) is refused: the arm would jump."""
+    lead = 0.05     # the least replan_lead_time
     with InProcessSystem(planner_parameters={'start_from_current_state': True,
                                              'replan_lead_time': lead},
                          arm_parameters={'initial_positions': W[0].tolist()}) as system:
         assert system.spin_until(lambda: len(system.joint_states) > 2, 5.0)
+        original = system.planner._replan
+
+        def slow(*args, **kwargs):
+            time.sleep(lead + 0.1)
+            return original(*args, **kwargs)
+        system.planner._replan = slow
         status, traj = system.request(waypoint_message(pe.JOINT_NAMES, W))
         assert status.level == DiagnosticStatus.ERROR and traj is None
         assert 'longer than replan_lead_time' in status.message
