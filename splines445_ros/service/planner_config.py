@@ -100,7 +100,7 @@ class PlannerConfig(ValidatedConfig):
         DEFAULT_JOINTS, "Joints planned, in the order of the limit arrays. Not set (`['']`, "
         'the default): with `kinematics: model` every actuated joint of the robot, in its '
         "order; otherwise the planar arm's `[joint1, joint2, joint3]`. With `kinematics: "
-        '`planar_3dof` list them as shoulder, elbow, wrist: its tool kinematics takes the '
+        'planar_3dof` list them as shoulder, elbow, wrist: its tool kinematics takes the '
         'joints by position, so a reordered list makes the planner take the elbow for the '
         'shoulder (tool requests go elsewhere; joint requests are unaffected).',
         declared=NOT_SET_NAMES)
