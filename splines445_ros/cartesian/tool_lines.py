@@ -69,7 +69,8 @@ from .tool_acceleration import (acceleration_factor, peak_tool_acceleration, Pie
                                 ToolCurve)
 from .tool_kinematics import frame_chain, has_transforms, refused_pose, start_walk
 from ..planning.constraints import ToolAcceleration, ToolSpeed
-from ..planning.constraints.torque import CHECK_PERIOD, check_times, uniform_slow_down
+from ..planning.constraints.torque import (CHECK_PERIOD, check_times, checked_slow_down,
+                                           uniform_slow_down)
 from ..planning.path_following.path_timing import (JointPathSamples, midpoint_fractions,
                                                    plan_along_path, rescaled)
 from ..planning.path_following.time_optimal import NO_TIME_OPTIMAL_SPLINE, retime_path
@@ -611,17 +612,19 @@ def _checked(traj, kinematics, speed_limits, max_tool_acceleration, torque):
         checked = torque_check.needs()
         slow = torque_check.slow_down_with(factor, checked[0])
     if slow > 1.0:
-        traj = rescaled(traj, slow)
         # Rest to rest, the spline through the same knots on pieces f times
         # longer is this one slowed down by f: every tool speed divided by
         # f, so no second check (it cost 14 ms on the Panda seam); nor of
-        # the torque, g + d / f**2 at the same path points.  Its samples are
-        # those of a period f times CHECK_PERIOD.
+        # the torque, g + d / f**2 at the same path points (its samples are
+        # those of a period f times CHECK_PERIOD), unless the inverse
+        # dynamics does not scale so (checked_slow_down: slowed more).
+        if torque_check is None:
+            traj = rescaled(traj, slow)
+        else:
+            traj, slow, checked = checked_slow_down(torque, torque_check, traj, slow, rescaled)
         linear, angular, sampled = (value / slow for value in (linear, angular, sampled))
         if acceleration is not None:
             acceleration /= slow * slow
-        if torque_check is not None:
-            checked = torque_check.needs(slow)
     if checked is not None:
         traj.torque_factor, traj.torque_ratios = checked
     top = max(linear / max_tool_speed if max_tool_speed else 0.0,

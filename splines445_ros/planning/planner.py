@@ -4,6 +4,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .constraints.torque import checked_slow_down
 from .durations.optimal import optimal_durations, two_segment_plan, two_segment_search
 from .durations.ratio_search import GIVE_UP_PASSES
 from .durations.timing import (chord_durations, rest_to_rest_durations, rest_to_rest_lower_bound,
@@ -253,7 +254,13 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         piece); every other timing is slowed down uniformly by the smallest
         factor that holds them (checked at 1 kHz); "fixed" is only checked.
         A pose where gravity alone exceeds a limit is refused.  The result's
-        ``torque_ratios`` (n,) are the peak torques over their limits.
+        ``torque_ratios`` (n,) are the peak torques over their limits.  The
+        torque is taken as ``M(q) qdd + c(q, qd) + g(q)``, whose dynamic part
+        falls as ``1 / f**2`` under a slow-down ``f``; damping (``D qd``) and
+        dry friction go in callable attributes ``viscous(q, qd)`` and
+        ``dry_friction(q)`` (:mod:`torque`).  A function with a term it does
+        not expose so (a probe at 8 samples of each check tells) has its
+        slowed-down plans checked again and slowed further, conservatively.
     smoothing : "auto" (None, the default), "windows" or "none"
         Without a ``vibration_frequency``, for 555 optimal with inner knots:
         "windows" averages a rest-to-rest speed profile over the windows of
@@ -663,12 +670,12 @@ def _torque_limited(traj, torque, to_beat=None):
             raise ValueError(f'joint {j} needs {ratios[j]:.4g} times its torque limit with '
                              f'the given durations: slow them down by {factor:.4g}')
         # The slowed-down plan's check is this one's, rescaled (TorqueCheck):
-        # no second 1 kHz check.
+        # no second 1 kHz check, unless the inverse dynamics does not scale so.
         slow = check.slow_down_with(torque_need=factor)
         if to_beat is not None and traj.duration * slow >= to_beat:
             return None
-        traj = slowed_down(traj, slow)
-        factor, ratios = check.needs(slow)
+        traj, slow, (factor, ratios) = checked_slow_down(torque, check, traj, slow,
+                                                         slowed_down)
     traj.torque_ratios = ratios
     traj.torque_factor = factor
     return traj

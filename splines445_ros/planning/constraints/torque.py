@@ -75,6 +75,20 @@ MAX_CHECK_SAMPLES = 3_600_000
 # much more than the factor the check says, against round-off: the slowed-down
 # plan is not checked again (its check is the same samples rescaled).
 SLOW_DOWN_ROUNDOFF = 1.0 + 1e-9
+# A check probes the inverse dynamics at this many moving samples (those with
+# the largest dynamic torque), slowed down by SCALING_PROBE_FACTOR, against the
+# torque the rescaled check assumes, g + v / f + d / f**2 (module docstring):
+# a function with a term it does not expose (damping without ``viscous``: a
+# plan at 1.88 times its limit, helper-89) fails it, and its slowed-down plans
+# are checked again (checked_slow_down).  Relative to the torques probed:
+# round-off is ~1e-12 of them.
+SCALING_PROBES = 8
+SCALING_PROBE_FACTOR = 2.0
+SCALING_RTOL = 1e-6
+# Rounds of checking a slowed-down plan again (dynamics that failed the probe):
+# each slows it down by what its own 1 kHz check asks, from the torque at its
+# speed; a damping term alone is held after one.
+RECHECK_ROUNDS = 8
 # Samples per spline piece of the inner-knot iteration's torque factor, both
 # knots included (each knot sampled once, shared by its two pieces): few, since
 # the 1 kHz check and its slow-down hold the limits whatever the count.  The
@@ -251,8 +265,34 @@ class TorqueLimit:
         refuse_gravity_overload(q, gravity, np.broadcast_to(self.max_torque, gravity.shape))
         tau = self._whole(q, qd, qdd, gravity)
         viscous, friction = self._parts(q, qd)
-        return TorqueCheck(gravity, tau, self.max_torque, steps, viscous, friction,
-                           traj.duration)
+        check = TorqueCheck(gravity, tau, self.max_torque, steps, viscous, friction,
+                            traj.duration)
+        check.scales = self._scales(q, qd, qdd, check)
+        return check
+
+    def _scales(self, q, qd, qdd, check):
+        """
+        Whether the torque slowed down by ``f`` is ``g + v / f + d / f**2`` (probed; bool).
+
+        At the :data:`SCALING_PROBES` moving samples of ``check`` with the
+        largest dynamic torque, the inverse dynamics at ``qd / f``, ``qdd /
+        f**2`` (``f`` = :data:`SCALING_PROBE_FACTOR`) against what the
+        rescaled check assumes there, within :data:`SCALING_RTOL` of the
+        torques.  True with nothing moving.
+        """
+        moving = np.flatnonzero(np.any(qd, axis=1) | np.any(qdd, axis=1))
+        if not moving.size:
+            return True
+        largest = np.max(np.abs(check.tau[moving] - check.gravity[moving]), axis=1)
+        at = moving[np.argsort(largest, kind='stable')[-SCALING_PROBES:]]
+        f = SCALING_PROBE_FACTOR
+        probed = self._torques(q[at], qd[at] / f, qdd[at] / (f * f))
+        assumed = check.gravity[at] + check.dynamic[at] / (f * f)
+        if check.viscous is not None:
+            assumed = assumed + check.viscous[at] / f
+        scale = max(float(np.max(np.abs(check.tau[at]))),
+                    float(np.max(np.abs(check.gravity[at]))), np.finfo(float).tiny)
+        return bool(np.max(np.abs(probed - assumed)) <= SCALING_RTOL * scale)
 
     def factor_at_least(self, traj, period=COARSE_PERIOD):
         """
@@ -273,6 +313,9 @@ class TorqueLimit:
 
 def _checked(tau, q, what):
     """Return ``tau``, what the function ``what`` gave, as floats: shaped as ``q``, finite."""
+    if np.iscomplexobj(tau):
+        # As float it would drop the imaginary part with a warning only (helper-89).
+        raise ValueError(f'{what} returned complex torques: they must be real')
     tau = np.asarray(tau, dtype=float)
     if tau.shape != q.shape or not np.all(np.isfinite(tau)):
         raise ValueError(f'{what} returned {tau.shape} or non-finite torques for {q.shape} '
@@ -415,6 +458,9 @@ class TorqueCheck:
         # Per joint: whether its friction was counted anywhere (said in a refusal).
         self.counts_friction = np.any(self.up, axis=0) | np.any(self.down, axis=0)
         self._split = None
+        # Whether the inverse dynamics scales as the rescaled checks assume
+        # (TorqueLimit.check probes it; checked_slow_down): True unless shown not.
+        self.scales = True
 
     def _peaks(self, torque, *bends):
         """Return per joint the peak over the samples of the motor torque and friction / limit."""
@@ -554,6 +600,40 @@ class NoRoomToMove(ValueError):
         return 'gravity with its dry friction' if self.friction else 'gravity'
 
 
+def checked_slow_down(torque, check, traj, slow, slower):
+    """
+    Return ``traj`` slowed down by ``slow`` or more, the factor, and its (factor, ratios).
+
+    ``check``: ``torque.check(traj)``; ``slower(traj, f)``: ``traj`` with
+    every duration times ``f``.  Where the inverse dynamics scales as the
+    check assumes (``check.scales``), the slowed-down plan's (factor, ratios)
+    are ``check.needs(slow)``, with no second 1 kHz check.  Otherwise (a
+    term it does not expose, e.g. damping without ``viscous``) the slowed-down
+    plan is checked again and, where it still exceeds a limit, slowed down
+    further as if its dynamic torque fell as ``1 / f`` only (the factor
+    squared: a damping term's, where ``1 / f**2`` would take a round per
+    halving of its excess; slower than needed where the rest is inertial,
+    which exposing the damping as ``viscous`` avoids), for at most
+    :data:`RECHECK_ROUNDS` rounds (ValueError if it still exceeds a limit),
+    each from ``traj``.
+    """
+    slowed = slower(traj, slow)
+    if check.scales:
+        return slowed, slow, check.needs(slow)
+    for _ in range(RECHECK_ROUNDS):
+        again = torque.check(slowed)
+        factor, ratios = again.needs()
+        if factor <= 1.0:
+            return slowed, slow, (factor, ratios)
+        slow *= uniform_slow_down(factor * factor)
+        slowed = slower(traj, slow)
+    j = int(np.argmax(ratios))
+    raise ValueError(f'inverse_dynamics does not scale as M(q) qdd + c(q, qd) + g(q) under a '
+                     f'slow-down (a term linear in qd? give it as inverse_dynamics.viscous), '
+                     f'and {RECHECK_ROUNDS} slow-downs left joint {j} at {ratios[j]:.4g} times '
+                     'its torque limit')
+
+
 def uniform_slow_down(factor):
     """Return the slow-down for a check's ``factor``: 1.0, or above 1 with SLOW_DOWN_ROUNDOFF."""
     return factor * SLOW_DOWN_ROUNDOFF if factor > 1.0 else 1.0
@@ -600,5 +680,5 @@ def check_times(duration, period, what):
                        max(MIN_CHECK_SAMPLES, int(math.ceil(duration / period))) + 1)
 
 
-__all__ = ['check_times', 'CHECK_PERIOD', 'GravityOverload', 'NoRoomToMove', 'SLOW_DOWN_ROUNDOFF',
-           'TorqueCheck', 'TorqueLimit', 'uniform_slow_down']
+__all__ = ['check_times', 'CHECK_PERIOD', 'checked_slow_down', 'GravityOverload', 'NoRoomToMove',
+           'SLOW_DOWN_ROUNDOFF', 'TorqueCheck', 'TorqueLimit', 'uniform_slow_down']

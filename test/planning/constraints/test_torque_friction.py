@@ -295,3 +295,57 @@ def test_the_coarse_factor_is_a_lower_bound_where_joints_reverse(seed):
     check = torque.check(traj)
     need = max(check.needs()[0], check.slow_down())
     assert torque.factor_at_least(traj) <= need * (1.0 + 1e-9)
+
+
+class HiddenDamping:
+    """The two-link arm with damping ``D qd`` inside its torques, not given as ``viscous``."""
+
+    def __init__(self, damping):
+        """Keep the damping [N m s/rad] (2,)."""
+        self.damping = np.asarray(damping, float)
+
+    def __call__(self, q, qd, qdd):
+        """Return the rigid-body torques plus the damping's."""
+        return two_link_torques(q, qd, qdd) + self.damping * qd
+
+
+@settings(max_examples=EXAMPLES, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), route=st.sampled_from(ROUTES))
+def test_damping_the_function_does_not_expose_is_still_held(seed, route):
+    """
+    A plain ``tau(q, qd, qdd)`` with damping inside: its slowed-down plans checked again.
+
+    The slow-down assumed ``g + d / f**2``, and the damping falls as ``1 / f``
+    only: plans reached 1.88 times the limit with ``torque_ratios`` saying
+    1.0 (helper-89).  The torques are the function's own, at 10 kHz.
+    """
+    rng = np.random.default_rng(seed)
+    points, limit, arm = damped_request(rng)
+    hidden = HiddenDamping(arm.damping)
+    method, timing, profile = route
+    try:
+        traj = plan(points, method, timing, max_torque=limit, inverse_dynamics=hidden,
+                    speed_profile=profile, **LIMITS)
+    except ValueError as exc:
+        assert 'gravity' in str(exc)
+        return
+    t = np.linspace(0.0, traj.duration, int(traj.duration * 1e4) + 2)
+    q, qd, qdd = (traj.evaluate(t, d) for d in range(3))
+    qd[[0, -1]] = qdd[[0, -1]] = 0.0
+    peak = np.max(np.abs(hidden(q, qd, qdd)), axis=0) / limit
+    assert np.all(peak <= 1.0 + TORQUE_RTOL), peak
+    np.testing.assert_allclose(traj.torque_ratios, peak, rtol=2e-2, atol=1e-3)
+
+
+def test_the_scaling_probe_tells_hidden_damping_from_rigid_body_torques():
+    """TorqueCheck.scales: True for M qdd + C qd + g (with damping exposed too), else False."""
+    rng = np.random.default_rng(5)
+    points, limit, arm = damped_request(rng)
+    fast = plan(points, '555', 'fixed', durations=np.full(len(points) - 1, 0.2))
+    big = np.full(2, 1e6)
+    assert TorqueLimit(big, two_link_torques, 2).check(fast).scales
+    assert TorqueLimit(big, arm, 2).check(fast).scales
+    assert not TorqueLimit(big, HiddenDamping(arm.damping), 2).check(fast).scales
+    # A function with complex torques is refused (as floats its imaginary part was dropped).
+    with pytest.raises(ValueError, match='complex torques'):
+        TorqueLimit(big, lambda q, qd, qdd: two_link_torques(q, qd, qdd) + 0j, 2).check(fast)
