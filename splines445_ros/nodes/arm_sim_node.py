@@ -416,11 +416,18 @@ class ArmSimNode(Node):
         (and so would one received before a simulated clock started).
         Every time the node keeps (the running and pending trajectories'
         starts, the settling report, the physics clock) moves with the clock,
-        so the motion goes on from where it was; a warning says so.
+        so the motion goes on from where it was; a warning says so.  Only
+        on a simulated clock (``use_sim_time``), whose jumps rcl reports to
+        the planner too: on the system clock a gap between two readings is
+        this process stalling (or an NTP step), which the planner does not
+        see, so the arm plays its trajectory at the clock's time as
+        joint_trajectory_controller does; shifted, it was 1.3 rad behind
+        the planner's record of it after an 11 s stall, and the next
+        replanned trajectory jumped it 0.49 rad (helper-90).
         """
         last, self._last_ns = self._last_ns, now
         jump = now - last
-        if 0 <= jump <= MAX_CATCH_UP * 1e9:
+        if 0 <= jump <= MAX_CATCH_UP * 1e9 or not self.get_clock().ros_time_is_active:
             return
         self._shift_times(jump, warn=last > 0)
 

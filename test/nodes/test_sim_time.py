@@ -108,3 +108,25 @@ def test_a_pending_trajectory_replaced_before_it_starts_is_reported():
         replaced = [s for s in driver.arm_status if 'replaced before it started' in s.message]
         assert len(replaced) == 1 and replaced[0].level == DiagnosticStatus.WARN
         assert status_values(replaced[0])['start_ns'] == str(101_000_000_000)
+
+
+def test_a_stall_on_the_system_clock_is_time_passing_not_a_jump():
+    """
+    Gaps between the arm's readings move its trajectories only on a simulated clock.
+
+    On the system clock an 11 s gap is the process stalling: the planner,
+    which sees no jump, keeps the trajectory where the clock has it, and so
+    must the arm (it moved it 11 s later, and the next replanned trajectory
+    jumped the arm 0.49 rad, helper-90).  On simulated time the same gap
+    still moves it (rcl reports such jumps to both nodes).
+    """
+    for sim_time in (False, True):
+        with LocalRos() as ros:
+            arm = ros.add(ArmSimNode(context=ros.context, parameter_overrides=overrides(
+                {'use_sim_time': sim_time})))
+            arm._last_ns = last = 5_000_000_000
+            arm._active = ('a trajectory', 7_000_000_000)
+            arm._follow_clock(last + 11_000_000_000)
+            moved = arm._active[1] - 7_000_000_000
+            assert moved == (11_000_000_000 if sim_time else 0), (sim_time, moved)
+            assert arm._last_ns == last + 11_000_000_000
