@@ -29,7 +29,8 @@ def follow_clock_jumps(node, on_jump):
     Keep the handle as long as the callbacks are wanted (a JumpHandle; the
     callback runs in the thread that sets the time: the executor's, with
     ``use_sim_time``).  Jumps of the system clock (NTP) are not reported by
-    rcl: the arm also watches its own readings for those.
+    rcl, so neither node moves its times for them (the arm watches its own
+    readings for jumps on a simulated clock only).
     """
     threshold = JumpThreshold(min_forward=Duration(nanoseconds=int(MAX_CATCH_UP * 1e9)),
                               min_backward=Duration(nanoseconds=-1), on_clock_change=True)
