@@ -166,6 +166,12 @@ class ArmSimNode(Node):
             raise ValueError('simulation cannot switch to kinematic while a trajectory runs '
                              '(its playback would jump to the commanded state): wait for '
                              'its end')
+        if not same_joints and (self._active is not None or self._pending is not None):
+            # It would be dropped, unreported, and the arm jump to initial_positions
+            # (helper-90: accepted, ~/status silent, a goal left waiting).
+            raise ValueError(f"the arm's joints cannot change (to {list(config.joint_names)}) "
+                             'while a trajectory runs or waits for its start: it would be '
+                             'dropped and the arm jump to initial_positions; wait for its end')
         position = self.position if same_joints and len(self.position) == n else np.array(
             config.initial_positions, dtype=float)
         velocity = self.velocity if same_joints and len(self.velocity) == n else np.zeros(n)
@@ -184,7 +190,10 @@ class ArmSimNode(Node):
         self.position, self.velocity = position.copy(), velocity.copy()
         self.acceleration = np.zeros(n)
         if dynamic is not None and self.dynamic is None:
-            self._sim_ns = self._now_ns()
+            # The physics starts at the time of the kinematic state it starts from (the
+            # last tick's), and catches up: started at now, after the model's build
+            # (80 ms), it lagged the command by that, and saturated (helper-90).
+            self._sim_ns = self._last_ns if self._last_ns > 0 else self._now_ns()
             if self._active is None:
                 self._hold = position.copy()
         if dynamic is None:

@@ -6,6 +6,7 @@ simulations are short (about a second of motion each).
 """
 
 import math
+import time
 
 from arm_client import ArmClient
 from diagnostic_msgs.msg import DiagnosticStatus
@@ -329,6 +330,61 @@ def test_changes_that_would_move_the_arm_without_a_trajectory_are_refused():
         assert node.set_parameters([Parameter('simulation', value='kinematic')])[0].successful
         ros.spin_for(0.1)
         np.testing.assert_allclose(arm.states[-1].position, held, atol=1e-3)
+
+
+def test_a_change_of_the_arms_joints_mid_trajectory_is_refused():
+    """It dropped the trajectory unreported and put the arm at initial_positions (helper-90)."""
+    with LocalRos() as ros:
+        arm = Harness(ros, {'simulation': 'dynamic', 'initial_positions': START.tolist()})
+        node = arm.node
+        ros.spin_for(0.2)   # a trajectory latched by another test's client may arrive
+        assert ros.spin_until(lambda: node._active is None and node._pending is None, 10.0)
+        traj = slow_plan(np.array(arm.states[-1].position))
+        arm.publisher.publish(trajectory_to_msg(traj.sample(0.01), JOINTS))
+        assert ros.spin_until(lambda: node._active is not None, 5.0)
+        n = len(arm.status)
+        change = [Parameter('joint_names', value=['a', 'b', 'c']),
+                  Parameter('initial_positions', value=[0.0, 0.0, 0.0])]
+        result = node.set_parameters_atomically(change)
+        assert not result.successful and 'joints cannot change' in result.reason
+        assert node.effective.joint_names == JOINTS and node._active is not None
+        assert ros.spin_until(lambda: any('finished' in s.message for s in arm.status[n:]),
+                              traj.duration + 5.0)
+        # Once it has ended, the change is taken.
+        assert node.set_parameters_atomically(change).successful
+
+
+def test_a_switch_to_dynamic_mid_trajectory_starts_the_physics_at_the_last_state():
+    """
+    The physics starts from the last kinematic tick's state at that tick's time, and catches up.
+
+    Started at the clock's time after the model was built (slow here, 0.3 s,
+    as on a loaded machine), it lagged the command and saturated (helper-90).
+    """
+    with LocalRos() as ros:
+        arm = Harness(ros, {'simulation': 'kinematic', 'initial_positions': START.tolist(),
+                            'publish_rate': 100.0})
+        node = arm.node
+        build = node._build_dynamic
+
+        def slow_build(*args):
+            time.sleep(0.3)
+            return build(*args)
+        node._build_dynamic = slow_build
+        traj = slow_plan(np.array(arm.states[-1].position))
+        n = len(arm.status)
+        arm.publisher.publish(trajectory_to_msg(traj.sample(0.01), JOINTS))
+        assert ros.spin_until(lambda: node._active is not None, 5.0)
+        ros.spin_for(0.4 * traj.duration)
+        assert node.set_parameters([Parameter('simulation', value='dynamic')])[0].successful
+        assert ros.spin_until(lambda: any('saturated_steps' in status_values(s)
+                                          for s in arm.status[n:]), traj.duration + 5.0)
+        done = next(s for s in arm.status[n:] if 'saturated_steps' in status_values(s))
+        values = status_values(done)
+        assert done.level == DiagnosticStatus.OK, done.message
+        assert values['saturated_steps'] == '0'
+        tracking = np.array([float(v) for v in values['tracking_max_error'].split(',')])
+        assert np.all(tracking < 10 * TOLERANCE), tracking
 
 
 # Last in this module: its module-scoped arm (dynamic_arm) lives until the module ends,
