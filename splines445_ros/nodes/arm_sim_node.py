@@ -24,6 +24,7 @@ idle; reports accepted and rejected trajectories on ``~/status``.
 """
 
 import collections
+from dataclasses import replace
 import math
 import queue
 import threading
@@ -45,7 +46,7 @@ from .node_main import run_node
 from .parameters import ConfigParameters
 from .ros_conversions import sampled_trajectory_from_msg
 from ..robot.kinematics import PlanarArm
-from ..service.arm_sim_config import ArmSimConfig
+from ..service.arm_sim_config import ArmSimConfig, PLANAR_FRAME
 from ..service.arm_sim_model import add_payload, resolve_model_config
 from ..service.planner_config import MAX_LEAD_TIME
 from ..sim.dynamic_sim import (
@@ -126,7 +127,7 @@ class ArmSimNode(Node):
     def _effective(self, config):
         """Return the config with model_file's own values filled in (ValueError)."""
         if not config.model_file:
-            return config
+            return replace(config, frame_id=config.frame_id or PLANAR_FRAME)
         effective, sources = resolve_model_config(config)
         for name, text in sources.items():
             self.get_logger().info(f'{config.model_file}: {name} from {text}')

@@ -15,17 +15,15 @@ import numpy as np
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
-from ..service.arm_sim_config import ArmSimConfig
+from ..service.arm_sim_config import PLANAR_FRAME
 
 # The line is sampled this often [s], with at most MAX_PATH_POINTS points.
 PATH_PERIOD = 0.01
 MAX_PATH_POINTS = 2000
 LINE_WIDTH = 0.005        # m
 WAYPOINT_DIAMETER = 0.02  # m
-# The planar arm's frame: the one arm_sim_node stamps its tool_pose with.
-PLANAR_FRAME = ArmSimConfig.frame_id
-# kinematics "model" with base_frame "": the model's world (the URDF root),
-# which tool_waypoints requests name 'world' too.
+# kinematics "model" with base_frame "": the model's world, by its URDF root
+# link's name (RobotModel.root_link), or this where it has none (MJCF).
 WORLD_FRAME = 'world'
 PATH_NS, PATH_ID = 'tool_path', 0
 WAYPOINTS_NS, WAYPOINTS_ID = 'waypoints', 1
@@ -80,8 +78,9 @@ def tool_position_function(config, robot=None):
     [m]: with ``kinematics: planar_3dof`` the planar arm's (``link_lengths``;
     z = 0) in :data:`PLANAR_FRAME`; with ``kinematics: model`` the tool
     frame of ``robot`` (the planner's RobotSetup) in its ``base_frame``
-    (:data:`WORLD_FRAME` when empty).  None for ``kinematics: ""`` (joint
-    space only) and for a model without a robot or tool frame yet.
+    (when empty the URDF's root link, which TF knows, else
+    :data:`WORLD_FRAME`).  None for ``kinematics: ""`` (joint space only)
+    and for a model without a robot or tool frame yet.
     """
     if config.kinematics == 'planar_3dof':
         arm = config.tool_kinematics()
@@ -96,7 +95,7 @@ def tool_position_function(config, robot=None):
 
         def model(joints):
             return kinematics.forward(np.asarray(joints, dtype=float))[..., :3]
-        return model, kinematics.base_frame or WORLD_FRAME
+        return model, kinematics.base_frame or robot.robot.root_link or WORLD_FRAME
     return None
 
 

@@ -755,7 +755,8 @@ class PlannerNode(Node):
                     tool_values['torque_headroom'] = f'{config.torque_headroom:g}'
             if isinstance(msg, PoseArray) and robot is not None:
                 tool_path = plan_model_tool_request(
-                    robot, tool_poses_from_message(msg, config.base_frame),
+                    robot, tool_poses_from_message(msg, config.base_frame,
+                                                   robot.robot.root_link),
                     self._joint_state_seed(config), config, torque)
                 traj = tool_path.trajectory
                 tool_values.update(tool_summary_values(tool_path))

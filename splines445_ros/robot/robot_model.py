@@ -371,6 +371,28 @@ class RobotModel:
         self.joints = tuple(joints)
 
     @property
+    def root_link(self):
+        """
+        Return the URDF's root link, where the model's world is; None for MJCF or where unclear.
+
+        The one body on MuJoCo's world, at its origin unrotated: tool poses
+        "in the world" are in its frame, which TF knows by that name
+        (``panda_link0``, ``base_link``); RViz has no frame ``world`` for a
+        Panda (helper-90).  None for an MJCF model (its world is ``world``)
+        and where several bodies, or one away from the origin, hang from it.
+        """
+        if self.kind != 'urdf':
+            return None
+        m, mj = self.model, self.mujoco
+        roots = [b for b in range(1, m.nbody) if int(m.body_parentid[b]) == 0]
+        if len(roots) != 1:
+            return None
+        b = roots[0]
+        if np.any(m.body_pos[b] != 0.0) or np.any(m.body_quat[b] != (1.0, 0.0, 0.0, 0.0)):
+            return None
+        return mj.mj_id2name(m, mj.mjtObj.mjOBJ_BODY, b) or None
+
+    @property
     def joint_names(self):
         """Return the actuated joints' names, in the model's order."""
         return tuple(j.name for j in self.joints)

@@ -20,6 +20,8 @@ from ..sim.mujoco_model import PlanarArmModel
 from ..sim.playback import MAX_MAGNITUDE
 
 MIN_PUBLISH_RATE = 0.001
+# The built-in (planar) arm's base frame: its tool poses and the planner's planar ones.
+PLANAR_FRAME = 'base_link'
 # The dynamic arm steps its physics in the publishing timer: at least this rate.
 MIN_DYNAMIC_PUBLISH_RATE = 1.0
 MAX_PUBLISH_RATE = 1000.0
@@ -74,7 +76,10 @@ class ArmSimConfig(ValidatedConfig):
         50.0, 'Rate of `joint_states` and `tool_pose` [Hz]; at least '
         f'{MIN_DYNAMIC_PUBLISH_RATE:g} Hz with `simulation: dynamic` (the physics is stepped '
         'in the publishing timer).', low=MIN_PUBLISH_RATE, high=MAX_PUBLISH_RATE, unit='Hz')
-    frame_id: str = parameter('base_link', 'Frame of `tool_pose`.')
+    frame_id: str = parameter(
+        '', 'Frame of `tool_pose`; empty (the default) = the frame its poses are in: the '
+        f"built-in arm's `{PLANAR_FRAME}`, with `model_file` its URDF root link (MJCF: "
+        '`world`), as TF and RViz know it.')
     simulation: str = parameter(
         'kinematic', '`kinematic` (exact playback of the commanded state) or `dynamic` '
         '(MuJoCo physics with a joint controller); `config/planar_arm.yaml` and the demo use '

@@ -144,6 +144,7 @@ def resolve_model_config(config):
                                        'N m, compensated by the controller')
     effective = replace(
         config, joint_names=names, initial_positions=tuple(float(v) for v in initial),
+        frame_id=config.frame_id or robot.root_link or 'world',
         torque_limits=tuple(float(v) for v in torque),
         kp=tuple(float(v) for v in (kp if kp is not None else np.zeros(n))),
         kd=tuple(float(v) for v in (kd if kd is not None else np.zeros(n))))

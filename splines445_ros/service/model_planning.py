@@ -312,18 +312,22 @@ def build_torque_setup(config, robot, joints, tool_frame, tool_problem=''):
     return TorqueSetup(limits, tuple(sources), dynamics)
 
 
-def tool_poses_from_message(msg, base_frame):
+def tool_poses_from_message(msg, base_frame, root_link=None):
     """
     Turn a ``PoseArray`` into (N, 7) rows (x, y, z, qw, qx, qy, qz) (ValueError).
 
     The poses must be in ``base_frame`` (an empty ``header.frame_id`` is
-    taken to be): the planner does no tf lookups.
+    taken to be): the planner does no tf lookups.  With ``base_frame`` empty
+    (the model's world) ``world`` and the URDF's ``root_link`` (the same
+    frame, :attr:`RobotModel.root_link`, as TF names it) are both taken.
     """
     frame = msg.header.frame_id
-    expected = base_frame or 'world'
-    if frame and frame != expected:
-        raise ValueError(f'tool_waypoints are in frame {frame!r}, but base_frame is '
-                         f'{expected!r} (no tf lookup: send them in base_frame)')
+    expected = (base_frame,) if base_frame else ('world',) + ((root_link,) if root_link else ())
+    if frame and frame not in expected:
+        shown = (f'{expected[0]!r}' if base_frame else
+                 'empty (the world: ' + ' or '.join(repr(e) for e in expected) + ')')
+        raise ValueError(f'tool_waypoints are in frame {frame!r}, but base_frame is {shown} '
+                         '(no tf lookup: send them in base_frame)')
     check_request_size(len(msg.poses), 'tool_waypoints')
     if len(msg.poses) < 2:
         raise ValueError(f'need at least 2 tool waypoints, got {len(msg.poses)}')

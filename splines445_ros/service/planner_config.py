@@ -299,7 +299,8 @@ class PlannerConfig(ValidatedConfig):
         'several, tool requests are refused, naming them.')
     base_frame: str = parameter(
         '', '`kinematics: model`: frame of the `tool_waypoints` poses (a link or body fixed to '
-        'the world); empty = the world (the URDF root).')
+        'the world); empty = the world, by either name: `world` or the URDF root link (e.g. '
+        '`panda_link0`, the frame of the planned-path markers then).')
     joint_limits_file: str = parameter(
         '', "`kinematics: model`: MoveIt `joint_limits.yaml`; its limits override the URDF's "
         'velocity, explicit (non-zero) `max_*` values override both. At most 64 KiB (some '

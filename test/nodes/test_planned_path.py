@@ -132,7 +132,7 @@ def ur5_setup(base_frame):
     return build_robot_setup(config)
 
 
-@pytest.mark.parametrize('base_frame, frame', [('base_link', 'base_link'), ('', 'world')])
+@pytest.mark.parametrize('base_frame, frame', [('base_link', 'base_link'), ('', 'base_link')])
 def test_model_arm_path_is_the_urdfs_tool_position(base_frame, frame):
     setup = ur5_setup(base_frame)
     ready = np.array(vr.UR5_READY)

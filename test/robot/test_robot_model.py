@@ -380,3 +380,34 @@ def test_missing_file_and_unknown_frames(ur5, tmp_path):
         ModelKinematics(ur5, 'tool0', 'base_link', ('shoulder_pan_joint', 'joint7'))
     with pytest.raises(ValueError, match='moves with none of the joints'):
         ModelKinematics(ur5, 'shoulder_link', 'base_link', ('wrist_1_joint',))
+
+
+@pytest.mark.parametrize('path', [vr.ur5_urdf(), vr.panda_urdf()])
+def test_the_root_link_is_the_urdfs_link_no_joint_moves(path):
+    """
+    RobotModel.root_link against the URDF read here: the link that is no joint's child.
+
+    A root link named ``world`` is MuJoCo's world itself: the link fixed to
+    it at its origin names the same frame (the UR5's ``base_link``).
+    """
+    tree = ET.parse(path).getroot()
+    joints = tree.findall('joint')
+    children = {j.find('child').get('link') for j in joints}
+    roots = [link.get('name') for link in tree.findall('link') if link.get('name') not in children]
+    assert len(roots) == 1
+    expected = roots[0]
+    if expected == 'world':
+        fixed, = [j for j in joints if j.find('parent').get('link') == 'world']
+        origin = fixed.find('origin')
+        assert fixed.get('type') == 'fixed'
+        assert origin is None or all(float(v) == 0.0 for key in ('xyz', 'rpy')
+                                     for v in (origin.get(key) or '0 0 0').split())
+        expected = fixed.find('child').get('link')
+    assert load_robot_model(path).root_link == expected
+
+
+def test_an_mjcf_model_has_no_root_link(tmp_path):
+    """Its poses are in MuJoCo's own world frame, ``world``: no URDF link names it."""
+    path = tmp_path / 'arm.xml'
+    path.write_text(planar_arm_mjcf(PlanarArmModel(), ('joint1', 'joint2', 'joint3'), 0.001))
+    assert load_robot_model(str(path)).root_link is None
