@@ -65,6 +65,10 @@ MAX_TIME_OPTIMAL_WAYPOINTS = 200
 # A vibration frequency above this [Hz] is refused (its window would be
 # shorter than a servo cycle of 1 ms).
 MAX_VIBRATION_FREQUENCY = 1000.0
+# A vibration frequency below this [Hz] (but 0, not used) is refused: its
+# windows of 1/f would be over 10 s, slower than any arm's structural mode,
+# and at 1e-6 Hz a 1 rad move was planned to last 2e6 s (helper-89).
+MIN_VIBRATION_FREQUENCY = 0.1
 
 
 def default_inner_knots(method, timing):
@@ -99,17 +103,19 @@ def vibration_frequency_value(value, inner_knots):
     Validate the ``vibration_frequency`` argument of plan() [Hz]; return it as a float.
 
     None and 0 mean "not given" (the default smoothing).  Otherwise a finite
-    number in (0, :data:`MAX_VIBRATION_FREQUENCY`], which needs inner knots
-    (555 optimal): the other timings have no profile to shape.
+    number in [:data:`MIN_VIBRATION_FREQUENCY`, :data:`MAX_VIBRATION_FREQUENCY`],
+    which needs inner knots (555 optimal): the other timings have no profile
+    to shape.
     """
     if value is None:
         return 0.0
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise ValueError(f'vibration_frequency must be a number [Hz], got {type(value).__name__}')
     value = float(value)
-    if not (np.isfinite(value) and 0.0 <= value <= MAX_VIBRATION_FREQUENCY):
-        raise ValueError(f'vibration_frequency must be between 0 (not used) and '
-                         f'{MAX_VIBRATION_FREQUENCY:g} Hz, got {value:.6g}')
+    if not (value == 0.0 or MIN_VIBRATION_FREQUENCY <= value <= MAX_VIBRATION_FREQUENCY):
+        raise ValueError(f'vibration_frequency must be 0 (not used) or between '
+                         f'{MIN_VIBRATION_FREQUENCY:g} and {MAX_VIBRATION_FREQUENCY:g} Hz, got '
+                         f'{value:.6g}')
     if value and not inner_knots:
         raise ValueError('vibration_frequency needs method "555" with timing "optimal" and '
                          'inner_knots not 0: the other timings have no speed profile to shape')

@@ -17,6 +17,10 @@ def real_array(name, value):
     """
     try:
         raw = np.asarray(value)
+        if value is None or (raw.dtype == object and any(v is None for v in raw.reshape(-1))):
+            # As float None is NaN: "is nan" named no None (helper-89).
+            raise ValueError(f'{name} must be numbers, got None' + (
+                '' if value is None else ' among them'))
         if np.iscomplexobj(raw) or (raw.dtype == object and any(
                 isinstance(v, complex) for v in raw.reshape(-1))):
             raise ValueError(f'{name} must be real numbers, got complex values')
@@ -26,7 +30,8 @@ def real_array(name, value):
             raise ValueError(f'{name} must be real numbers, got booleans')
         return np.array(raw, dtype=float)
     except (TypeError, ValueError) as exc:
-        if ('complex' in str(exc) or 'booleans' in str(exc)) and str(exc).startswith(name):
+        if (('complex' in str(exc) or 'booleans' in str(exc) or 'None' in str(exc))
+                and str(exc).startswith(name)):
             raise
         raise ValueError(f'{name} must be numeric: {exc}') from None
 

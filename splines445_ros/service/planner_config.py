@@ -19,7 +19,8 @@ from .request_planning import DEFAULT_MAX_TRAJECTORY_POINTS, REPLAN_MAX_DELAY
 from .validated_config import ValidatedConfig
 from ..planning import DEFAULT_WAYPOINT_TOLERANCE, METHODS, TIMINGS
 from ..planning.plan_options import (MAX_INNER_KNOTS, MAX_TIME_OPTIMAL_WAYPOINTS,
-                                     MAX_VIBRATION_FREQUENCY, smoothing_value,
+                                     MAX_VIBRATION_FREQUENCY, MIN_VIBRATION_FREQUENCY,
+                                     smoothing_value,
                                      speed_profile_value, SPEED_PROFILES)
 from ..robot.dynamics import payload_inertia_matrix
 from ..robot.joint_limits_file import check_limit_value
@@ -254,7 +255,8 @@ class PlannerConfig(ValidatedConfig):
         'limit). Narrow, as every cancellation: a mode 10 % off in frequency is left 0.4-0.8 '
         "of TOPP-RA's ringing (about what time_optimal leaves without it), where `smoothed` "
         'leaves about 0.1 of it.',
-        low=0.0, high=MAX_VIBRATION_FREQUENCY, unit='Hz')
+        low=MIN_VIBRATION_FREQUENCY, high=MAX_VIBRATION_FREQUENCY, special=(0.0, 'not used'),
+        unit='Hz')
     smoothing: str = parameter(
         'auto', '`auto` (the default), `windows` or `none`, for `method: 555` with `timing: '
         'optimal`, `inner_knots` not 0 (auto or > 0) and no `vibration_frequency` (refused '
