@@ -110,6 +110,12 @@ def parse_waypoint_request(msg, joint_names, from_arm=False):
                                                  'follow_waypoints goal)'))
     waypoints = np.array([_column(p, 'positions', k, n, order, True)
                           for k, p in enumerate(msg.points)])
+    with_effort = next((k for k, p in enumerate(msg.points) if len(p.effort)), None)
+    if with_effort is not None:
+        # Not planned, and not silently dropped (helper-88): the arm refuses them too.
+        raise ValueError(f'point {with_effort} has effort values: waypoints are planned from '
+                         'positions (torque limits: limit_torque, max_effort); send them '
+                         'without efforts')
     first, last = msg.points[0], msg.points[-1]
     last_k = len(msg.points) - 1
     boundary = []

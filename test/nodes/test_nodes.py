@@ -121,7 +121,10 @@ def bad_requests():
     negative = waypoint_message(pe.JOINT_NAMES, W, times=np.arange(len(W)) - 5.0)
     nanos = waypoint_message(pe.JOINT_NAMES, W, times=np.arange(len(W)) * 1.0)
     nanos.points[2].time_from_start.nanosec = 1_000_000_000
+    effort = waypoint_message(pe.JOINT_NAMES, W)
+    effort.points[4].effort = [1.0, 2.0, 3.0]
     return [
+        ('efforts', effort, 'point 4 has effort values: waypoints are planned from positions'),
         ('negative time', negative, 'point 0: time_from_start is -5 s: it must not be negative'),
         ('nanosec 1e9', nanos, 'point 2: time_from_start.nanosec is 1000000000: it must be'),
         ('NaN position', nan, 'waypoints[3, 1] is nan'),
