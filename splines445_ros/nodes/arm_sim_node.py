@@ -173,6 +173,14 @@ class ArmSimNode(Node):
             raise ValueError(f"the arm's joints cannot change (to {list(config.joint_names)}) "
                              'while a trajectory runs or waits for its start: it would be '
                              'dropped and the arm jump to initial_positions; wait for its end')
+        state_ns = None
+        if config.dynamic and self.dynamic is None and same_joints and hasattr(self, '_timer'):
+            # The physics starts from the kinematic state now (its last tick's may be
+            # seconds old at a low publish_rate, helper-91), at that time; it catches up
+            # with the time the model takes to build (80 ms: started at the clock's time
+            # after it, it lagged the command by that and saturated, helper-90).
+            state_ns = self._now_ns()
+            self._advance(state_ns)
         position = self.position if same_joints and len(self.position) == n else np.array(
             config.initial_positions, dtype=float)
         velocity = self.velocity if same_joints and len(self.velocity) == n else np.zeros(n)
@@ -191,10 +199,7 @@ class ArmSimNode(Node):
         self.position, self.velocity = position.copy(), velocity.copy()
         self.acceleration = np.zeros(n)
         if dynamic is not None and self.dynamic is None:
-            # The physics starts at the time of the kinematic state it starts from (the
-            # last tick's), and catches up: started at now, after the model's build
-            # (80 ms), it lagged the command by that, and saturated (helper-90).
-            self._sim_ns = self._last_ns if self._last_ns > 0 else self._now_ns()
+            self._sim_ns = self._now_ns() if state_ns is None else state_ns
             if self._active is None:
                 self._hold = position.copy()
         if dynamic is None:

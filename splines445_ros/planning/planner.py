@@ -259,7 +259,7 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         falls as ``1 / f**2`` under a slow-down ``f``; damping (``D qd``) and
         dry friction go in callable attributes ``viscous(q, qd)`` and
         ``dry_friction(q)`` (:mod:`torque`).  A function with a term it does
-        not expose so (a probe at 8 samples of each check tells) has its
+        not expose so (a probe at 2 samples a joint of each check tells) has its
         slowed-down plans checked again and slowed further, conservatively.
     smoothing : "auto" (None, the default), "windows" or "none"
         Without a ``vibration_frequency``, for 555 optimal with inner knots:

@@ -375,10 +375,12 @@ class RobotModel:
         """
         Return the URDF's root link, where the model's world is; None for MJCF or where unclear.
 
-        The one body on MuJoCo's world, at its origin unrotated: tool poses
-        "in the world" are in its frame, which TF knows by that name
-        (``panda_link0``, ``base_link``); RViz has no frame ``world`` for a
-        Panda (helper-90).  None for an MJCF model (its world is ``world``)
+        The one body on MuJoCo's world, at its origin unrotated, fixed to it
+        (no joint: a URDF whose root link is ``world`` with a revolute or
+        prismatic joint to the next link has a moving first body, helper-91):
+        tool poses "in the world" are in its frame, which TF knows by that
+        name (``panda_link0``, ``base_link``); RViz has no frame ``world``
+        for a Panda (helper-90).  None for an MJCF model (its world is ``world``)
         and where several bodies, or one away from the origin, hang from it.
         """
         if self.kind != 'urdf':
@@ -388,8 +390,9 @@ class RobotModel:
         if len(roots) != 1:
             return None
         b = roots[0]
-        if np.any(m.body_pos[b] != 0.0) or np.any(m.body_quat[b] != (1.0, 0.0, 0.0, 0.0)):
-            return None
+        if (int(m.body_jntnum[b]) or np.any(m.body_pos[b] != 0.0)
+                or np.any(m.body_quat[b] != (1.0, 0.0, 0.0, 0.0))):
+            return None     # it moves (a URDF root `world` with a joint to it), or sits away
         return mj.mj_id2name(m, mj.mjtObj.mjOBJ_BODY, b) or None
 
     @property

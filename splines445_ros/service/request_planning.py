@@ -308,8 +308,13 @@ def start_from_state(request, position, velocity, acceleration, tolerance=0.0):
     position = np.asarray(position, dtype=float)
     waypoints = request.waypoints
     times = request.times
-    replaced = (waypoints.shape[0] > 1
-                and np.max(np.abs(waypoints[0] - position)) <= tolerance)
+    near = np.max(np.abs(waypoints[0] - position)) <= tolerance
+    if waypoints.shape[0] == 1 and near:
+        # joint_trajectory_controller would hold there; a plan needs a motion
+        # (it said "all waypoints coincide", helper-91).
+        raise ValueError(f'the one waypoint is where the arm is (within waypoint_tolerance '
+                         f'{tolerance:g}): nothing to move')
+    replaced = waypoints.shape[0] > 1 and near
     if replaced:
         waypoints = waypoints[1:]
         times = None if times is None else times[1:]

@@ -387,6 +387,17 @@ def test_a_switch_to_dynamic_mid_trajectory_starts_the_physics_at_the_last_state
         assert np.all(tracking < 10 * TOLERANCE), tracking
 
 
+def test_a_switch_to_dynamic_starts_the_physics_now_however_old_the_last_tick():
+    """At a low publish_rate the last kinematic tick is seconds old (helper-91): not from it."""
+    with LocalRos() as ros:
+        arm = Harness(ros, {'simulation': 'kinematic', 'initial_positions': START.tolist()})
+        node = arm.node
+        node._last_ns -= 20_000_000_000     # as if the last tick were 20 s ago
+        before = node._now_ns()
+        assert node.set_parameters([Parameter('simulation', value='dynamic')])[0].successful
+        assert node._sim_ns >= before
+
+
 # Last in this module: its module-scoped arm (dynamic_arm) lives until the module ends,
 # and its latched last fuzzed trajectory would reach, and its arm_sim_node answer, the
 # arms of any test after it (a fresh clone once saw the unstable-physics test take

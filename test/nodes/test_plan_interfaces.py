@@ -1112,6 +1112,11 @@ def test_one_point_is_a_move_from_the_arm_where_the_plan_starts_there(system):
     assert result.status == GoalStatus.STATUS_SUCCEEDED, result.result.message
     assert at(system, target)
     assert np.max(np.abs(result.result.final_error)) <= 0.01
+    # Sent again, where the arm now is: nothing to move, said so (it said "all
+    # waypoints coincide", helper-91).
+    again = result_of(system, send_goal(system, target[None, :]))
+    assert again.status == GoalStatus.STATUS_ABORTED
+    assert 'the one waypoint is where the arm is' in again.result.message
     system.planner.set_parameters([Parameter('start_from_current_state', value=True)])
     response = call(system, plan_request(here[None, :]))
     assert response.success, response.message

@@ -411,3 +411,25 @@ def test_an_mjcf_model_has_no_root_link(tmp_path):
     path = tmp_path / 'arm.xml'
     path.write_text(planar_arm_mjcf(PlanarArmModel(), ('joint1', 'joint2', 'joint3'), 0.001))
     assert load_robot_model(str(path)).root_link is None
+
+
+@pytest.mark.parametrize('root, first, expected', [
+    ('base', 'revolute', 'base'),       # the root link is fixed to the world
+    ('world', 'revolute', None),        # the first body moves: no link names the world
+    ('world', 'prismatic', None),
+    ('world', 'fixed', 'link1')])       # fixed at the origin: link1 is the world's frame
+def test_the_root_link_is_never_a_link_that_moves(tmp_path, root, first, expected):
+    """A URDF bolted to ``world`` by a joint: its first link moves (helper-91: it was named)."""
+    inertial = ('<inertial><mass value="1"/><origin xyz="0 0 0.1"/><inertia ixx="0.01" '
+                'iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>')
+    limit = '<limit lower="-3" upper="3" effort="10" velocity="1"/>'
+    links = ''.join(f'<link name="{name}">{"" if name == "world" else inertial}</link>'
+                    for name in (root, 'link1', 'link2'))
+    text = (f'<robot name="r">{links}'
+            f'<joint name="j0" type="{first}"><parent link="{root}"/><child link="link1"/>'
+            f'<axis xyz="1 0 0"/>{"" if first == "fixed" else limit}</joint>'
+            '<joint name="j1" type="revolute"><parent link="link1"/><child link="link2"/>'
+            f'<origin xyz="0 0 0.3"/><axis xyz="0 1 0"/>{limit}</joint></robot>')
+    path = tmp_path / 'arm.urdf'
+    path.write_text(text)
+    assert load_robot_model(str(path)).root_link == expected

@@ -349,3 +349,30 @@ def test_the_scaling_probe_tells_hidden_damping_from_rigid_body_torques():
     # A function with complex torques is refused (as floats its imaginary part was dropped).
     with pytest.raises(ValueError, match='complex torques'):
         TorqueLimit(big, lambda q, qd, qdd: two_link_torques(q, qd, qdd) + 0j, 2).check(fast)
+
+
+def test_a_light_joints_hidden_damping_is_seen_beside_a_heavy_joints_torque():
+    """
+    The probe looks at every limited joint's own peaks, relative to its own limit.
+
+    Probed only where the torque is largest in N m (a heavy joint with 2000 N m of
+    gravity, no limit), a light joint's hidden damping went unseen and its plan
+    peaked at 1.15 times its limit (helper-91).
+    """
+    def hidden(q, qd, qdd):
+        return np.stack([50.0 * qdd[:, 0] + 2000.0, 0.05 * qdd[:, 1] + 0.6 * qd[:, 1]], axis=1)
+    limit = np.array([np.inf, 1.0])
+    points = np.array([[0, 0], [2.0, 0.0], [4.0, 0.0], [4.0, 0.02], [4.0, 3.0], [4.0, 6.0]])
+    limits = {'max_velocity': [3.0, 6.0], 'max_acceleration': [20.0, 60.0],
+              'max_jerk': [400.0, 2000.0]}
+    fast = plan(points, '555', 'optimal', **limits)
+    assert not TorqueLimit(limit, hidden, 2).check(fast).scales
+    for method, timing in (('445', 'uniform'), ('555', 'optimal')):
+        traj = plan(points, method, timing, max_torque=limit, inverse_dynamics=hidden,
+                    **limits)
+        t = np.linspace(0.0, traj.duration, int(traj.duration * 2e4) + 2)
+        q, qd, qdd = (traj.evaluate(t, d) for d in range(3))
+        qd[[0, -1]] = qdd[[0, -1]] = 0.0
+        peak = np.max(np.abs(hidden(q, qd, qdd)), axis=0) / limit
+        assert peak[1] <= 1.0 + TORQUE_RTOL, (method, timing, peak)
+        assert traj.torque_ratios[1] == pytest.approx(peak[1], rel=1e-2)
