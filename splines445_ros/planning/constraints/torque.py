@@ -635,9 +635,9 @@ def checked_slow_down(torque, check, traj, slow, slower):
         slowed = slower(traj, slow)
     j = int(np.argmax(ratios))
     raise ValueError(f'inverse_dynamics does not scale as M(q) qdd + c(q, qd) + g(q) under a '
-                     f'slow-down (a term linear in qd? give it as inverse_dynamics.viscous), '
-                     f'and {RECHECK_ROUNDS} slow-downs left joint {j} at {ratios[j]:.4g} times '
-                     'its torque limit')
+                     f'slow-down (damping or friction inside? give them as its attributes '
+                     f'viscous(q, qd) and dry_friction(q)), and {RECHECK_ROUNDS} slow-downs '
+                     f'left joint {j} at {ratios[j]:.4g} times its torque limit')
 
 
 def uniform_slow_down(factor):
