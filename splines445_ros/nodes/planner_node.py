@@ -319,15 +319,26 @@ class PlannerNode(Node):
 
     def planned_joint_names(self):
         """Return the joints this node plans (the robot's with kinematics "model")."""
-        config = self.parameters.config
-        robot = self._robot
-        if config.kinematics == 'model' and robot is not None:
-            return robot.config.joint_names
-        return config.joint_names
+        names = self._planned_names()
+        return () if names is None else names
+
+    def _planned_names(self):
+        """
+        Return the planned joints, or None while kinematics "model" has no robot yet.
+
+        The config and its robot are read together, under the lock: read
+        apart, the worker could pair a new config with the old robot while
+        the executor replaced them.
+        """
+        with self._robot_lock:
+            config, robot = self._robot_config, self._robot
+        if config.kinematics != 'model':
+            return config.joint_names
+        return None if robot is None else robot.config.joint_names
 
     def waiting_for_robot(self):
         """Return True while kinematics "model" has no robot to plan with (not compiled yet)."""
-        return self._known_joint_count() is None
+        return self._planned_names() is None
 
     def trajectory_running(self):
         """Return True while the last published trajectory runs (a goal's or a topic's)."""
@@ -427,9 +438,8 @@ class PlannerNode(Node):
 
     def _known_joint_count(self):
         """Return how many joints the node plans now; None while its robot is not compiled."""
-        if self.parameters.config.kinematics == 'model' and self._robot is None:
-            return None
-        return len(self.planned_joint_names())
+        names = self._planned_names()
+        return None if names is None else len(names)
 
     def _on_waypoints(self, data):
         # The robot this request is for may still be compiling (a description queued

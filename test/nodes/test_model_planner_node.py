@@ -236,9 +236,12 @@ def test_the_robot_description_topic(limits_file):
             assert planner.node._follow_waypoints._on_goal(goal) == GoalResponse.REJECT
             rejected = planner.next_status(first, lambda values: 'interface' in values)
             assert 'goal rejected: kinematics "model" has no robot yet' in rejected.message
+        assert planner.node.waiting_for_robot() and planner.node.planned_joint_names() == ()
         loaded = planner.publish_description(urdf)
         assert loaded.level == DiagnosticStatus.OK, loaded.message
         assert status_values(loaded)['robot'] == 'robot_description'
+        assert not planner.node.waiting_for_robot()
+        assert planner.node.planned_joint_names() == tuple(vr.UR5_JOINTS)
         status, msg = planner.request(pose_array(CORNERS))
         assert_planned(status)
         check_seam(msg)
