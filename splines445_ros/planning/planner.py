@@ -208,7 +208,10 @@ def plan(waypoints, method='445', timing='uniform', durations=None,
         include the inner knots.  None (the default) is
         :data:`plan_options.DEFAULT_INNER_KNOTS` for 555 optimal
         (:data:`plan_options.TORQUE_INNER_KNOTS` with torque limits and no
-        smoothing windows) and 0 otherwise; 0 keeps knots at the waypoints
+        smoothing windows; rest to rest without either or a
+        ``vibration_frequency``, up to :data:`inner_knots.LONG_MOST` on a
+        long segment where that is shorter, step 8 of :mod:`inner_knots`)
+        and 0 otherwise; 0 keeps knots at the waypoints
         only (the optimisation of :mod:`optimal`, which also takes the
         ``durations`` warm start).  When
         no spline with inner knots is found (non-zero boundary values it
@@ -748,7 +751,8 @@ def _plan_limited(points, durations, options):
         refined = plan_with_inner_knots(points, boundary, limits, inner_knots, dropped,
                                         windows, torque,
                                         knots_only=not optimum_rival and not torque_only,
-                                        keep_time_scale=shaped, give_up=give_up)
+                                        keep_time_scale=shaped, give_up=give_up,
+                                        long_segments=options.inner_knots_auto)
         if refined is not None and shaped:
             # A vibration_frequency asks for a profile without content at it,
             # which only the inner-knot plan has: no rival then.  With moving

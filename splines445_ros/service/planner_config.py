@@ -233,8 +233,10 @@ class PlannerConfig(ValidatedConfig):
         'optimal`: a C4 spline with knots between the waypoints too, about the duration of '
         f'TOPP-RA with the jerk limits held. {AUTO_INNER_KNOTS} (the default) = auto: 4, or 6 '
         'for joint-space requests with `limit_torque` and no smoothing windows (fewer on '
-        'segments shorter than a few jerk ramp times a/j); 0 = knots at the waypoints only '
-        '(longer). Ignored by other methods and timings.',
+        'segments shorter than a few jerk ramp times a/j), and rest to rest without '
+        '`limit_torque` or `vibration_frequency` up to 32 on a long segment (one every two '
+        'shortest v/a of the joints) where that plan is shorter; 0 = knots at the waypoints '
+        'only (longer). Ignored by other methods and timings.',
         low=0, high=MAX_INNER_KNOTS, special=(AUTO_INNER_KNOTS, 'auto'))
     vibration_frequency: float = parameter(
         0.0, "The arm's lowest structural mode [Hz], for `method: 555` with `timing: optimal` "

@@ -18,8 +18,9 @@ from reference_spline import exact_peaks
 from scipy.interpolate import make_interp_spline
 from splines445_ros.planning import plan
 from splines445_ros.planning.constraints import GriddedPath, JointAcceleration, JointVelocity
-from splines445_ros.planning.path_following.inner_knots import plan_with_inner_knots
-from splines445_ros.planning.plan_options import DEFAULT_INNER_KNOTS
+from splines445_ros.planning.path_following.inner_knots import (
+    LONG_MOST, LONG_PIECE, plan_with_inner_knots)
+from splines445_ros.planning.plan_options import DEFAULT_INNER_KNOTS, DEFAULT_SMOOTHING
 from splines445_ros.planning.planner import SMALL_REQUEST
 from splines445_ros.planning.speed_profile.path_velocity import PathLimits, traversal_times
 from splines445_ros.planning.spline.continuity_system import spline_coefficients
@@ -261,7 +262,11 @@ def test_rest_to_rest_plans_hold_limits_hit_waypoints_and_are_c4(req):
         assert np.max(traj.limit_ratios()) == pytest.approx(1.0, abs=1e-9)
         counts = np.asarray(traj.optimizer['inner_knots_per_segment'])
         assert traj.breakpoints.size == np.sum(counts + 1) + 1
-        assert np.all(counts <= DEFAULT_INNER_KNOTS)
+        # More than the default only on a segment several times the shortest v / a long
+        # (step 8; twice its count on the plan's own times, which step 5 scaled).
+        tau = np.min(np.asarray(kwargs['max_velocity']) / kwargs['max_acceleration'])
+        longest = np.floor(2.0 * np.diff(traj.waypoint_times) / (LONG_PIECE * tau))
+        assert np.all(counts <= np.minimum(np.maximum(DEFAULT_INNER_KNOTS, longest), LONG_MOST))
 
 
 @settings(max_examples=examples(15))
@@ -508,3 +513,35 @@ def test_the_natural_cubic_path_is_scipys(seed, n_points, n_joints):
     np.testing.assert_allclose(ours(knots), points, rtol=0, atol=1e-12)
     with pytest.raises(ValueError, match='strictly increasing'):
         natural_cubic_spline(np.concatenate([knots[:1], knots[:-1]]), points)
+
+
+@settings(max_examples=examples(20), deadline=None)
+@given(v=st.floats(1.0, 3.0), a=st.floats(2.0, 15.0), length=st.floats(20.0, 400.0),
+       sign=st.sampled_from([-1.0, 1.0]))
+def test_a_long_move_cruises_near_its_rest_to_rest_bound(v, a, length, sign):
+    """
+    One joint over ``d = length v**2 / a``: within 10 % of its bound and the smoothing windows.
+
+    The jerk-limited rest-to-rest time, written here for a move long enough
+    to cruise at ``v`` (``d >= v**2 / a + v a / j`` and ``v >= a**2 / j``),
+    is ``d / v + v / a + a / j``; the default's smoothing windows add their
+    widths.  Step 8 gives the long segment more inner knots: with the four
+    of step 3 its spline could not cruise (1.11-1.41 times that on 80 such
+    moves; 1.04-1.08 now).
+    """
+    j = 20.0 * a
+    d = length * v * v / a
+    assert d >= v * v / a + v * a / j and v >= a * a / j
+    bound = d / v + v / a + a / j
+    traj = plan([[0.0], [sign * d]], '555', 'optimal', max_velocity=[v], max_acceleration=[a],
+                max_jerk=[j])
+    assert traj.within_limits(rtol=1e-9)
+    assert bound * (1.0 - 1e-9) <= traj.duration <= 1.1 * (bound + sum(DEFAULT_SMOOTHING)), (
+        traj.duration / bound)
+
+
+def test_an_explicit_inner_knots_count_stays_the_most_on_a_long_segment():
+    """Step 8 adds knots only where inner_knots is left to plan() (its count is the user's)."""
+    traj = plan([[0.0], [20.0]], '555', 'optimal', max_velocity=[1.0], max_acceleration=[2.0],
+                max_jerk=[40.0], inner_knots=4)
+    assert traj.optimizer['inner_knots_per_segment'] == [4]
