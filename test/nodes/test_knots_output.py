@@ -258,7 +258,7 @@ def test_inner_knots_as_knots_rest_to_rest():
 
 
 @pytest.mark.parametrize('profile', ['smoothed', 'time_optimal'])
-@pytest.mark.parametrize('period', [0.5, 0.05, 0.01])
+@pytest.mark.parametrize('period', [0.5, 0.05, 0.01, 2e-4])
 def test_sampled_output_is_played_as_the_planned_trajectory(profile, period):
     """Every knot is a sample: the controller's quintics between samples are the spline."""
     kwargs = {k: v for k, v in pe.plan_kwargs().items()
@@ -273,13 +273,21 @@ def test_sampled_output_is_played_as_the_planned_trajectory(profile, period):
     # The knots, the waypoints among them at their positions, are points.
     assert np.all(np.abs(ns[:, None] - traj.ppoly.x[None, :] * NANOS).min(axis=0) <= 0.5)
     at = np.abs(ns[:, None] - traj.waypoint_times[None, :] * NANOS).argmin(axis=0)
-    np.testing.assert_array_equal(positions[at], pe.joint_waypoints())
+    # At its time rounded to the nanosecond a waypoint's point is the spline there:
+    # the waypoint to |v| / 2 ns (the waypoint itself there was a step a controller's
+    # quintic to a neighbour 0.2 ms away played at up to 159 times the jerk limit).
+    speed = np.abs(traj.evaluate(traj.waypoint_times, 1))
+    assert np.all(np.abs(positions[at] - pe.joint_waypoints()) <= speed * 0.5e-9 + 1e-12)
     # Between points, the controller's quintic is the spline (up to a knot time's
-    # rounding to the nanosecond: 1e-7 of the peak velocity at most).
+    # rounding to the nanosecond: 1e-7 of the peak velocity at most), its jerk too.
     _, states = message_arrays(msg)
-    for d, rtol in ((0, 1e-9), (1, 1e-6), (2, 1e-4)):
+    # (A fine period: every step-th interval, and those on either side of a waypoint.)
+    step = max(1, (len(ns) - 1) // 2000)
+    intervals = np.union1d(np.arange(0, len(ns) - 1, step),
+                           np.clip(np.concatenate([at - 1, at]), 0, len(ns) - 2))
+    for d, rtol in ((0, 1e-9), (1, 1e-6), (2, 1e-4), (3, 1e-2)):
         peak = float(np.max(np.abs(traj.evaluate(np.linspace(0, traj.duration, 999), d))))
-        for k in range(len(ns) - 1):
+        for k in intervals:
             h = (ns[k + 1] - ns[k]) * 1e-9
             tau = INSIDE * h
             played = hermite(h, [x[k] for x in states], [x[k + 1] for x in states], tau, d)
