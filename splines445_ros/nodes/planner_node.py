@@ -232,6 +232,9 @@ class PlannerNode(Node):
         self._robot_lock = threading.Lock()
         self._requests = queue.Queue()
         self._stops = collections.deque()   # stop jobs, served before the queued requests
+        # The names of the parameters being set, for _on_config_change (pre-set callback).
+        self._setting = ()
+        self.add_pre_set_parameters_callback(self._note_setting)
         self.parameters = ConfigParameters(self, PlannerConfig,
                                            on_change=self._on_config_change,
                                            on_reject=self._on_parameters_rejected)
@@ -504,11 +507,24 @@ class PlannerNode(Node):
         like a new one when the robot is set up again, or when model_file
         is set again (:meth:`_on_parameters_set`).
         """
+        # joint_limits_file set again, to the same path too: the file is read again (an
+        # edited file's limits were not, helper-92).
+        reread = 'joint_limits_file' in self._setting and bool(config.joint_limits_file)
         with self._robot_lock:
-            self._apply_robot_config(config, compile_now=False)
+            self._apply_robot_config(config, compile_now=False, reread_limits=reread)
 
-    def _apply_robot_config(self, config, compile_now):
-        """Set the robot for ``config``, under the lock; see :meth:`_on_config_change`."""
+    def _note_setting(self, parameters):
+        """Remember which parameters a set_parameters call sets (a pre-set callback)."""
+        self._setting = tuple(p.name for p in parameters)
+        return parameters
+
+    def _apply_robot_config(self, config, compile_now, reread_limits=False):
+        """
+        Set the robot for ``config``, under the lock; see :meth:`_on_config_change`.
+
+        ``reread_limits``: set it up again from the compiled model even when
+        nothing it depends on changed, reading ``joint_limits_file`` again.
+        """
         if config.kinematics != 'model':
             self._robot_config, self._robot = config, None
             return
@@ -517,7 +533,8 @@ class PlannerNode(Node):
             self._robot_config, self._robot = config, None
             return
         if self._compiled is not None and self._compiled[0] == source:
-            if self._robot is not None and self._robot_fields == robot_fields(config):
+            if (self._robot is not None and self._robot_fields == robot_fields(config)
+                    and not reread_limits):
                 self._robot_config = config     # nothing the robot depends on: no look
                 return
             if not self._file_changed():    # else compiled again, below

@@ -308,7 +308,7 @@ class PlannerConfig(ValidatedConfig):
     joint_limits_file: str = parameter(
         '', "`kinematics: model`: MoveIt `joint_limits.yaml`; its limits override the URDF's "
         'velocity, explicit (non-zero) `max_*` values override both. At most 64 KiB (some '
-        '380 joints).')
+        '380 joints). Read when set: set it again (the same path too) after editing the file.')
     limit_torque: bool = parameter(
         False, '`kinematics: model` (refused without it): keep the rigid-body torque of every '
         'planned joint, the payload included (and, with `torque_counts_friction`, the '

@@ -280,3 +280,34 @@ def test_a_file_edited_while_it_compiles_is_read_again(monkeypatch, limits_file,
         assert response.success, response.message
         assert response.peak_velocity[0] <= 1.0 + 1e-6, response.peak_velocity
         assert compiles.count == 3
+
+
+def test_setting_joint_limits_file_again_reads_the_edited_file(compiles, limits_file):
+    """
+    The same path set again reads the file again (helper-92: its old limits stayed).
+
+    Nothing is compiled for it; a file edited into one that does not parse is
+    refused with the reason, and the robot keeps the limits it had.
+    """
+    with Reloading(ur5_parameters(limits_file, vr.ur5_urdf())) as ros:
+        response = ros.plan()
+        assert response.success, response.message
+        assert max(response.peak_acceleration) > 2.0      # the file's 6-9 rad/s^2
+        with open(limits_file, 'w', encoding='utf-8') as stream:
+            stream.write(LIMITS_YAML.replace('max_acceleration: 6.0', 'max_acceleration: 1.0')
+                         .replace('max_acceleration: 7.0', 'max_acceleration: 1.0')
+                         .replace('max_acceleration: 9.0', 'max_acceleration: 1.0'))
+        # A parameter the robot does not depend on does not read it ...
+        ros.set_parameters({'sample_period': 0.02})
+        assert max(ros.plan().peak_acceleration) > 2.0
+        # ... setting the same path again does.
+        ros.set_parameters({'joint_limits_file': limits_file})
+        response = ros.plan()
+        assert response.success, response.message
+        assert max(response.peak_acceleration) <= 1.0 + 1e-6
+        assert compiles.count == 1
+        with open(limits_file, 'w', encoding='utf-8') as stream:
+            stream.write('joint_limits: [')
+        result = ros.node.set_parameters_atomically(overrides({'joint_limits_file': limits_file}))
+        assert not result.successful and 'joint_limits_file' in result.reason, result.reason
+        assert max(ros.plan().peak_acceleration) <= 1.0 + 1e-6
