@@ -61,6 +61,7 @@ from .planned_path import (cleared_markers, planned_path_markers, tool_path_poin
                            tool_position_function)
 from .ros_conversions import (hold_message, lasting_at_rest, parse_tool_request,
                               parse_waypoint_request, plan_response, trajectory_to_msg)
+from ..robot.joint_limits_file import unapplied_note
 from ..robot.robot_model import check_description_file, MAX_DESCRIPTION_CHARS
 from ..service.interface_requests import (MAX_REQUEST_WAYPOINTS, override_values,
                                           request_message)
@@ -600,6 +601,9 @@ class PlannerNode(Node):
         self._robot_fields = robot_fields(config)
         for note in setup.robot.notes:
             self.get_logger().warning(note)
+        if setup.limits.unapplied:
+            self.get_logger().warning(
+                f'joint_limits_file: {unapplied_note(setup.limits.unapplied)}')
         values = {'robot': setup.source, 'joint_names': ' '.join(setup.config.joint_names),
                   'tool_frame': setup.tool_frame}
         if setup.tool_problem:

@@ -37,7 +37,7 @@ refused (:func:`check_limit_value`); and with ``known_joints``,
 have (a typo would otherwise be ignored silently).
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 import difflib
 import math
 import re
@@ -95,6 +95,8 @@ class ResolvedLimits:
     acceleration: np.ndarray
     jerk: np.ndarray                 # +inf where the joint has no jerk limit
     sources: Dict[str, Tuple[str, ...]]  # quantity -> per-joint source ('' = none)
+    # The joint_limits_file's keys read but not applied ({key: value}, JointLimitsFile).
+    unapplied: Dict[str, float] = field(default_factory=dict)
 
     def jerk_limits(self):
         """Return jerk limits for plan(): None when no joint has one."""
@@ -109,7 +111,32 @@ class ResolvedLimits:
                 f'{name}={number:.6g} ({source})' if source else f'{name}=none'
                 for name, number, source in zip(self.joint_names, numbers,
                                                 self.sources[quantity]))
+        if self.unapplied:
+            values['joint_limits_file_not_applied'] = unapplied_note(self.unapplied)
         return values
+
+
+def unapplied_note(unapplied):
+    """Say which of a joint_limits_file's keys are not applied, and what to do instead."""
+    keys = ', '.join(f'{key} = {value:g}' for key, value in unapplied.items())
+    return (f'{keys}: MoveIt scales its own requests by these; this planner plans at the '
+            'full limits (lower max_velocity / max_acceleration to scale them)')
+
+
+class JointLimitsFile(dict):
+    """
+    {joint: {quantity: value}} of a joint_limits.yaml, and what of it is not applied.
+
+    ``unapplied``: MoveIt's ``default_velocity_scaling_factor`` and
+    ``default_acceleration_scaling_factor`` other than 1 (MoveIt Setup
+    Assistant writes 0.1): read and checked, but plans use the full limits;
+    said on ``~/status`` and in the log, not silently dropped (helper-92).
+    """
+
+    def __init__(self, limits, unapplied=None):
+        """Keep the per-joint ``limits`` and the ``unapplied`` {key: value}."""
+        super().__init__(limits)
+        self.unapplied = dict(unapplied or {})
 
 
 def check_limit_value(quantity, value, where):
@@ -250,7 +277,17 @@ def parse_joint_limits(data, where='joint limits'):
             limits[quantity] = check_limit_value(quantity, value,
                                                  f'{where}: joint {name}: {max_key}')
         result[str(joint)] = limits
-    return result
+    unapplied = {}
+    for key in ('default_velocity_scaling_factor', 'default_acceleration_scaling_factor'):
+        if key not in data:
+            continue
+        value = data[key]
+        if (isinstance(value, bool) or not isinstance(value, (int, float))
+                or not 0.0 < value <= 1.0):
+            raise ValueError(f'{where}: {key} = {show(value)} must be a number in (0, 1]')
+        if value != 1.0:
+            unapplied[key] = float(value)
+    return JointLimitsFile(result, unapplied)
 
 
 def _explicit(values, name, n):
@@ -301,7 +338,7 @@ def resolve_limits(joint_names, urdf_velocity=None, file_limits=None, max_veloci
     names = tuple(joint_names)
     n = len(names)
     urdf_velocity = urdf_velocity or {}
-    file_limits = file_limits or {}
+    file_limits = {} if file_limits is None else file_limits
     if known_joints is not None:
         check_known_joints(file_limits, known_joints)
     explicit = {'velocity': _explicit(max_velocity, 'max_velocity', n),
@@ -330,7 +367,7 @@ def resolve_limits(joint_names, urdf_velocity=None, file_limits=None, max_veloci
                                  f'{where}the joint_limits_file or max_{quantity}')
         values[quantity], sources[quantity] = numbers, tuple(origin)
     return ResolvedLimits(names, values['velocity'], values['acceleration'], values['jerk'],
-                          sources)
+                          sources, dict(getattr(file_limits, 'unapplied', {})))
 
 
 def _positive(value: Optional[float]):

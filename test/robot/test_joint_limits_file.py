@@ -331,3 +331,31 @@ def test_yaml_1_2_numbers_are_numbers(tmp_path):
             '    has_jerk_limits: true\n    max_jerk: 1_000\n')
     assert read_joint_limits_file(write(tmp_path, text)) == {
         'j': {'velocity': 10.0, 'acceleration': 25.0, 'jerk': 1000.0}}
+
+
+def test_moveit_scaling_factors_are_read_checked_and_said_not_applied(tmp_path, ur5_velocity):
+    """
+    The Setup Assistant of MoveIt writes 0.1 for both: accepted, they were silently ignored.
+
+    Plans use the full limits (the factors are MoveIt's defaults for its own
+    requests); the report on ``~/status`` says so, and a factor outside (0, 1]
+    is refused like any bad value.
+    """
+    limits = resolve_limits(vr.UR5_JOINTS, ur5_velocity,
+                            read_joint_limits_file(write(tmp_path, UR5_LIMITS_YAML)))
+    assert limits.unapplied == {'default_velocity_scaling_factor': 0.1,
+                                'default_acceleration_scaling_factor': 0.1}
+    note = limits.report()['joint_limits_file_not_applied']
+    assert note.startswith('default_velocity_scaling_factor = 0.1, '
+                           'default_acceleration_scaling_factor = 0.1: MoveIt scales its own')
+    bare = re.sub(r'default_\w+_scaling_factor: 0\.1\n', '', UR5_LIMITS_YAML)
+    one = resolve_limits(vr.UR5_JOINTS, ur5_velocity, read_joint_limits_file(
+        write(tmp_path, 'default_velocity_scaling_factor: 1\n' + bare, 'one.yaml')))
+    np.testing.assert_array_equal(limits.velocity, one.velocity)
+    np.testing.assert_array_equal(limits.acceleration, one.acceleration)
+    assert one.unapplied == {} and 'joint_limits_file_not_applied' not in one.report()
+    for bad in ('0', '1.5', '"fast"', 'true'):
+        with pytest.raises(ValueError, match='default_velocity_scaling_factor .* must be a '
+                                             r'number in \(0, 1\]'):
+            read_joint_limits_file(write(tmp_path, f'default_velocity_scaling_factor: {bad}\n'
+                                         + bare, 'bad.yaml'))
