@@ -44,7 +44,9 @@ uses for method 555 with optimal timing, rest to rest:
    profile along the path, rounded by a jerk ramp, reaches it
    (:func:`_speed_reachable`), the plan lasts at most
    :data:`RETIME_BELOW_SPEED_SECONDS` and nothing smooths it (no
-   ``vibration_frequency``), unless :data:`RETIME_BELOW_SPEED` is False.
+   ``vibration_frequency``), unless :data:`RETIME_BELOW_SPEED` is False; and
+   likewise when step 4 slowed the whole spline down for the tool
+   acceleration (where lines meet: the profile slows the tool there alone).
    The new spline, checked by step 4 too, is kept when it is shorter than
    the checked plan, within the tolerances (and the position limits) and
    takes the tool to that share of a limit; the plan then says so
@@ -133,6 +135,11 @@ RETIME_BELOW_SPEED_SECONDS = 20.0
 # Trajectory.optimizer['speed_profile_reason'] of such a plan.
 BELOW_SPEED = ("the lines' own timing left the tool below 99 % of its speed limit: timed "
                'again by the third-order profile')
+# ... of a plan step 4 slowed down uniformly for a tool acceleration limit alone:
+# the whole plan slowed for its corners took 2.08 times the profile's time on a
+# UR5 circle at 0.3 m/s^2 (helper-92).
+SLOWED_FOR_ACCELERATION = ('step 4 slowed the whole plan down for max_tool_acceleration: '
+                           'timed again by the third-order profile')
 
 
 class LineUnreachable(ValueError):
@@ -551,18 +558,23 @@ def plan_tool_lines(edge_poses, kinematics, limits, measure, tolerances, max_too
         if measured is not None:
             deviation, piece_edges = measured
     final = _checked(traj, kinematics, speed_limits, max_tool_acceleration, torque)
-    # ... or when the lines' own timing, checked, leaves the tool below its speed.
-    if (RETIME_BELOW_SPEED and speeds and not time_optimal and not windows
-            and not vibration_frequency and final.top < AT_SPEED
-            and final.traj.duration <= RETIME_BELOW_SPEED_SECONDS
-            and not late() and _speed_reachable(path, constraints, limits)):
+    # ... or when the lines' own timing, checked, leaves the tool below its speed, or
+    # step 4 slowed all of it down for the tool acceleration (at its corners).
+    eligible = (RETIME_BELOW_SPEED and not time_optimal and not windows
+                and not vibration_frequency and final.traj.duration <= RETIME_BELOW_SPEED_SECONDS)
+    accelerating = eligible and final.accelerated
+    below = eligible and speeds and final.top < AT_SPEED
+    if (accelerating or below) and not late() and (
+            accelerating or _speed_reachable(path, constraints, limits)):
         retimed, measured = _retimed(traj, path, limits, kinematics, constraints, 0.0,
                                      speed_limits, measure, tolerances, position_limits,
                                      final.traj.duration)
         if measured is not None:
             again = _checked(retimed, kinematics, speed_limits, max_tool_acceleration, torque)
-            if again.top >= AT_SPEED and again.traj.duration < final.traj.duration:
-                again.traj.optimizer['speed_profile_reason'] = BELOW_SPEED
+            if ((again.top >= AT_SPEED or accelerating)
+                    and again.traj.duration < final.traj.duration):
+                again.traj.optimizer['speed_profile_reason'] = (BELOW_SPEED if below
+                                                                else SLOWED_FOR_ACCELERATION)
                 final, (deviation, piece_edges) = again, measured
     if skipped:
         final.traj.optimizer['refinement_time'] = SKIPPED
@@ -588,6 +600,8 @@ class _Checked:
     sampled: np.ndarray
     acceleration: float
     top: float
+    # Step 4 slowed it down for the tool acceleration (its factor the largest of the tool's).
+    accelerated: bool = False
 
 
 def _checked(traj, kinematics, speed_limits, max_tool_acceleration, torque):
@@ -600,9 +614,10 @@ def _checked(traj, kinematics, speed_limits, max_tool_acceleration, torque):
     max_tool_speed, max_tool_angular_speed = speed_limits
     linear, angular, sampled = tool_speeds(traj, kinematics)
     acceleration = peak_tool_acceleration(traj, kinematics) if max_tool_acceleration else None
-    factor = max(linear / max_tool_speed if max_tool_speed else 0.0,
-                 angular / max_tool_angular_speed if max_tool_angular_speed else 0.0,
-                 acceleration_factor(acceleration, max_tool_acceleration))
+    speed_factor = max(linear / max_tool_speed if max_tool_speed else 0.0,
+                       angular / max_tool_angular_speed if max_tool_angular_speed else 0.0)
+    accelerating = acceleration_factor(acceleration, max_tool_acceleration)
+    factor = max(speed_factor, accelerating)
     torque_check = checked = None
     slow = uniform_slow_down(factor)
     if torque is not None:
@@ -629,7 +644,8 @@ def _checked(traj, kinematics, speed_limits, max_tool_acceleration, torque):
         traj.torque_factor, traj.torque_ratios = checked
     top = max(linear / max_tool_speed if max_tool_speed else 0.0,
               angular / max_tool_angular_speed if max_tool_angular_speed else 0.0)
-    return _Checked(traj, max(slow, 1.0), linear, angular, sampled, acceleration, top)
+    return _Checked(traj, max(slow, 1.0), linear, angular, sampled, acceleration, top,
+                    slow > 1.0 and accelerating > 1.0 and accelerating >= speed_factor)
 
 
 def _within(traj, position_limits):
