@@ -226,6 +226,7 @@ class PlannerNode(Node):
         """Declare parameters, topics and the planning worker."""
         super().__init__('planner_node', **kwargs)
         self._robot = None        # RobotSetup of kinematics "model" (the last good one)
+        self._set_up = False      # whether the last parameter update set the robot up
         self._robot_fields = None  # robot_fields() of the config it was set up for
         self._compiled = None     # (description_source, RobotModel, _FileIdentity) last compiled
         self._pending = None      # the description_source queued for compiling
@@ -233,9 +234,6 @@ class PlannerNode(Node):
         self._robot_lock = threading.Lock()
         self._requests = queue.Queue()
         self._stops = collections.deque()   # stop jobs, served before the queued requests
-        # The names of the parameters being set, for _on_config_change (pre-set callback).
-        self._setting = ()
-        self.add_pre_set_parameters_callback(self._note_setting)
         self.parameters = ConfigParameters(self, PlannerConfig,
                                            on_change=self._on_config_change,
                                            on_reject=self._on_parameters_rejected)
@@ -508,24 +506,12 @@ class PlannerNode(Node):
         like a new one when the robot is set up again, or when model_file
         is set again (:meth:`_on_parameters_set`).
         """
-        # joint_limits_file set again, to the same path too: the file is read again (an
-        # edited file's limits were not, helper-92).
-        reread = 'joint_limits_file' in self._setting and bool(config.joint_limits_file)
         with self._robot_lock:
-            self._apply_robot_config(config, compile_now=False, reread_limits=reread)
+            self._set_up = False     # (_use_robot: the robot was set up for this config)
+            self._apply_robot_config(config, compile_now=False)
 
-    def _note_setting(self, parameters):
-        """Remember which parameters a set_parameters call sets (a pre-set callback)."""
-        self._setting = tuple(p.name for p in parameters)
-        return parameters
-
-    def _apply_robot_config(self, config, compile_now, reread_limits=False):
-        """
-        Set the robot for ``config``, under the lock; see :meth:`_on_config_change`.
-
-        ``reread_limits``: set it up again from the compiled model even when
-        nothing it depends on changed, reading ``joint_limits_file`` again.
-        """
+    def _apply_robot_config(self, config, compile_now):
+        """Set the robot for ``config``, under the lock; see :meth:`_on_config_change`."""
         if config.kinematics != 'model':
             self._robot_config, self._robot = config, None
             return
@@ -534,8 +520,7 @@ class PlannerNode(Node):
             self._robot_config, self._robot = config, None
             return
         if self._compiled is not None and self._compiled[0] == source:
-            if (self._robot is not None and self._robot_fields == robot_fields(config)
-                    and not reread_limits):
+            if self._robot is not None and self._robot_fields == robot_fields(config):
                 self._robot_config = config     # nothing the robot depends on: no look
                 return
             if not self._file_changed():    # else compiled again, below
@@ -562,13 +547,19 @@ class PlannerNode(Node):
         """
         Read ``model_file`` again when it is set to the path in use and the file has changed.
 
-        Runs on the executor after an accepted update (post-set callback).
+        And ``joint_limits_file`` when it is set, to the same path too
+        (:meth:`_reread_limits_file`).  Runs on the executor after an
+        accepted update (post-set callback).
         The path is the compiled model's, so :meth:`_on_config_change` kept
         it; when the file has changed on disk since it was compiled (see
         :class:`_FileIdentity`), it is compiled again on the worker, in order
         with the requests, and a file that no longer compiles is reported
         on ``~/status`` while the last good robot stays.
         """
+        if (any(parameter.name == 'joint_limits_file' for parameter in parameters)
+                and not self._set_up and self._pending is None):
+            # (Set up for this update already, or to be on the worker: read then.)
+            self._reread_limits_file()
         if not any(parameter.name == 'model_file' for parameter in parameters):
             return
         try:
@@ -587,6 +578,34 @@ class PlannerNode(Node):
         except Exception as exc:  # noqa: B902 - a parameter must never kill the node
             self._report(False, f'model_file: internal error: {type(exc).__name__}: {exc}', {})
 
+    def _reread_limits_file(self):
+        """
+        Read ``joint_limits_file`` again after it was set, the same path too (post-set).
+
+        A new path was read when it was set (:meth:`_on_config_change`); the
+        same path was not, so an edited file's limits were not used until
+        another robot parameter changed (plans 4 times over the new limit,
+        helper-92).  The robot is set up again from the model it was
+        compiled into; a file that no longer reads is reported on
+        ``~/status``, and the last good limits stay.
+        """
+        try:
+            with self._robot_lock:
+                config, robot = self._robot_config, self._robot
+                if config.kinematics != 'model' or not config.joint_limits_file or robot is None:
+                    return
+                try:
+                    setup = build_robot_setup(config, self._description, robot.robot)
+                except ValueError as exc:
+                    self._report(False, f'joint_limits_file rejected: {exc}; keeping the '
+                                        f'limits of the last good one', {
+                                            'joint_limits_file': config.joint_limits_file})
+                    return
+                self._use_robot(setup, config)
+        except Exception as exc:  # noqa: B902 - a parameter must never kill the node
+            self._report(False, f'joint_limits_file: internal error: {type(exc).__name__}: '
+                                f'{exc}', {})
+
     def _file_changed(self):
         """Whether the compiled model_file now holds other bytes (under the lock)."""
         source, robot, identity = self._compiled
@@ -598,6 +617,7 @@ class PlannerNode(Node):
 
     def _use_robot(self, setup, config):
         self._robot = setup
+        self._set_up = True
         self._robot_fields = robot_fields(config)
         for note in setup.robot.notes:
             self.get_logger().warning(note)

@@ -287,7 +287,8 @@ def test_setting_joint_limits_file_again_reads_the_edited_file(compiles, limits_
     The same path set again reads the file again (helper-92: its old limits stayed).
 
     Nothing is compiled for it; a file edited into one that does not parse is
-    refused with the reason, and the robot keeps the limits it had.
+    reported on ``~/status`` with the reason, and the robot keeps the limits
+    it had.
     """
     with Reloading(ur5_parameters(limits_file, vr.ur5_urdf())) as ros:
         response = ros.plan()
@@ -306,8 +307,10 @@ def test_setting_joint_limits_file_again_reads_the_edited_file(compiles, limits_
         assert response.success, response.message
         assert max(response.peak_acceleration) <= 1.0 + 1e-6
         assert compiles.count == 1
+        first = len(ros.status)
         with open(limits_file, 'w', encoding='utf-8') as stream:
             stream.write('joint_limits: [')
-        result = ros.node.set_parameters_atomically(overrides({'joint_limits_file': limits_file}))
-        assert not result.successful and 'joint_limits_file' in result.reason, result.reason
+        ros.set_parameters({'joint_limits_file': limits_file})
+        assert ros.spin_until(lambda: any('joint_limits_file rejected' in s.message
+                                          for s in ros.status[first:]), 5.0)
         assert max(ros.plan().peak_acceleration) <= 1.0 + 1e-6

@@ -194,18 +194,21 @@ class Trajectory:
         nanosecond): a sample whose time rounds onto the one before it is
         dropped (the last one stays, the one before it goes), so the times
         stay strictly increasing once rounded, and the samples are taken at
-        the rounded times: a waypoint's sample is the spline there, within
-        ``|v| resolution / 2`` of the waypoint (the waypoint itself at a
-        rounded time was a step of ~6e-10 rad, which a controller's quintic
+        the rounded times: an inner waypoint's sample is the spline there,
+        within ``|v| resolution / 2`` of the waypoint (the waypoint itself at
+        a rounded time was a step of ~6e-10 rad, which a controller's quintic
         to a neighbour 0.2 ms away played at 37-159 times the jerk limit,
-        helper-92); at its exact time it is the waypoint.
+        helper-92), the waypoint at its exact time; the first and the last
+        sample are the first and the last waypoint (where the arm starts and
+        rests).
         """
         times, at_waypoint = self.sample_times(period, resolution)
         positions = self.evaluate(times, 0)
         velocities = self.evaluate(times, 1)
         accelerations = self.evaluate(times, 2)
         exact = np.flatnonzero(at_waypoint >= 0)
-        exact = exact[times[exact] == self.waypoint_times[at_waypoint[exact]]]
+        exact = exact[(times[exact] == self.waypoint_times[at_waypoint[exact]])
+                      | (exact == 0) | (exact == times.size - 1)]
         positions[exact] = self.waypoints[at_waypoint[exact]]
         velocities[-1] = self.end_velocity
         accelerations[-1] = self.end_acceleration
