@@ -27,9 +27,10 @@ planning time printed is the best of all its calls).  The summary gives
 medians and worst cases over the cases and whether every limit held (exact
 peaks).  Then the paper's example (its boundary values); the same figures
 at 100 x 7 and 1000 x 7, each timed in turn with TOPP-RA, best of
-:data:`REPEATS`; last, the planning time of small requests (3 x 3 to
-30 x 7) against TOPP-RA's, each the best of several calls made in turn,
-with the durations over TOPP-RA's.
+:data:`REPEATS`; the planning time of small requests (3 x 3 to 30 x 7)
+against TOPP-RA's, each the best of several calls made in turn, with the
+durations over TOPP-RA's; last, the figures of long moves (few segments
+of up to :data:`LONG_STEP` rad: step 8 of ``inner_knots.py``).
 
 Usage: ``python benchmarks/bench_inner_knots.py [inner_knots]`` (default:
 plan()'s); ``SPLINES445_BENCH_SEED=<seed>`` repeats a run,
@@ -61,7 +62,7 @@ VIBRATION_FREQUENCY = 4.0
 # speed_profile='time_optimal' plans at these jerk ratios (None: no jerk limit).
 OPTIMAL_JERK_RATIOS = (None, 20.0)
 # Random streams of the run's seed (bench_seeds.generator).
-CASES_STREAM, LARGE_STREAM, SMALL_STREAM = 0, 1, 2
+CASES_STREAM, LARGE_STREAM, SMALL_STREAM, LONG_STREAM = 0, 1, 2, 3
 # Rounds of a plan and TOPP-RA in turn, best of each (wall_time.timed_against).
 REPEATS = 3
 
@@ -235,6 +236,7 @@ def main():
               f"most: {traj.optimizer['inner_knots']}")
     large_requests(inner)
     small_requests(inner)
+    long_moves(inner)
     return 0
 
 
@@ -305,6 +307,39 @@ def small_requests(inner):
               f'| {np.median(rows[:, 3]):.2f} / {np.max(rows[:, 3]):.2f} '
               f'| {with_knots}/{SMALL_CASES} |')
         sys.stdout.flush()
+
+
+# Long moves (step 8 of inner_knots.py): requests, waypoints, largest step [rad].
+LONG_CASES = 20
+LONG_WAYPOINTS = (2, 5)
+LONG_STEP = 6.0
+
+
+def long_moves(inner):
+    """Print the figures of moves of few long segments (a cruise each): ours / TOPP-RA."""
+    print()
+    print(f'Long moves (stream {LONG_STREAM}): {LONG_CASES} requests of {LONG_WAYPOINTS[0]}-'
+          f'{LONG_WAYPOINTS[1]} waypoints, 1-6 joints, steps uniform in +-{LONG_STEP:g} rad, '
+          'v in [0.5, 3], a in [2, 15], j = 20 a; planning best of '
+          f'{REPEATS}, ours and TOPP-RA in turn; median / worst:')
+    print('| plan | ' + bench_figures.header() + ' | limits held |')
+    print(bench_figures.rule(2 + len(bench_figures.NAMES)))
+    rng = bench_seeds.generator(LONG_STREAM)
+    rows, held = [], True
+    for _ in range(LONG_CASES):
+        n_points, n_joints = int(rng.integers(*LONG_WAYPOINTS, endpoint=True)), int(
+            rng.integers(1, 7))
+        waypoints = np.cumsum(rng.uniform(-LONG_STEP, LONG_STEP, (n_points, n_joints)), axis=0)
+        vmax, amax = rng.uniform(0.5, 3.0, n_joints), rng.uniform(2.0, 15.0, n_joints)
+        kwargs = {'max_velocity': vmax, 'max_acceleration': amax, 'max_jerk': 20.0 * amax}
+        case = toppra_case(waypoints, vmax, amax)
+        elapsed, t_top, traj = against_toppra(
+            case, lambda: plan(waypoints, '555', 'optimal', inner_knots=inner, **kwargs))
+        rows.append(plan_figures(traj, elapsed, t_top, case))
+        held &= traj.within_limits(rtol=1e-9)
+    name = 'default' if inner is None else f'inner_knots={inner}'
+    print(f'| {name} | {bench_figures.summary(rows)} | {held} |')
+    sys.stdout.flush()
 
 
 if __name__ == '__main__':
