@@ -773,8 +773,9 @@ def _with_long_segments(problem, best, budget):
     2-6 run from ``best``'s factors with those counts; the better spline is
     kept.  With the few knots of step 3 a long segment's spline could not
     cruise: on moves of 2-5 waypoints with steps up to 6 rad the default
-    took 1.13-1.18 times TOPP-RA's duration (median; 4 Hz shaking 0.26-0.31
-    of its), 1.06-1.11 with this (0.33-0.43), short segments unchanged.
+    took 1.10-1.15 times TOPP-RA's duration (median; 4 Hz shaking 0.24-0.29
+    of its), 1.01-1.08 with this (0.34-0.37), short segments unchanged
+    (``bench_inner_knots.py``'s long-moves table, three seeds).
     """
     path, limits = problem.path, problem.limits
     times = np.diff(best.profile.passed)
@@ -788,7 +789,8 @@ def _with_long_segments(problem, best, budget):
     if not np.any(counts > best.counts):
         return best, 0
     # Rest to rest's full budget even on a request of few waypoints (FEW_ITERATIONS
-    # there: 1.09-1.12 times TOPP-RA's duration against 1.06-1.11).
+    # there: 1.09-1.12 times TOPP-RA's duration against 1.06-1.11 on the seeds
+    # LONG_PIECE was chosen on).
     budget = IterationBudget(REST_ITERATIONS, budget.relax, budget.min_gain, STALL)
     longer, iterations = iterate_knots(problem, best.profile.local, counts, None, budget,
                                        profile=best.profile)
