@@ -115,6 +115,14 @@ def label(ratio):
     return 'no jerk limit' if ratio is None else f'j = {ratio:g} a'
 
 
+def summary_head(title, last):
+    """Print a blank line, ``title`` and the head of a table of summaries (a plan a row)."""
+    print()
+    print(title)
+    print('| plan | ' + bench_figures.header() + f' | {last} |')
+    print(bench_figures.rule(2 + len(bench_figures.NAMES)))
+
+
 def plan_figures(traj, elapsed, t_top, case):
     """
     Return the :data:`bench_figures.NAMES` figures of one of our plans on ``case``.
@@ -213,13 +221,11 @@ def main():
         print(f'| {index} | {len(waypoints)} x {waypoints.shape[1]} | {case.d_top:.2f} '
               f'({min(case.t_tops):.3f}) | {bounds[-1]:.3f} | ' + ' | '.join(cells) + ' |')
         sys.stdout.flush()
-    print()
-    print(f'Every plan / TOPP-RA on the same case, medians and worst (largest) over the '
-          f'{n_cases} cases (TOPP-RA: its chord spline through the waypoints; along our path: '
-          'benchmarks/own_path.py; shaking: peak while moving, residual after the end, '
-          f'benchmarks/shaking.py); LB / TOPP-RA median {np.median(bounds):.3f}')
-    print('| plan | ' + bench_figures.header() + ' | all limits held (exact peaks) |')
-    print(bench_figures.rule(2 + len(bench_figures.NAMES)))
+    summary_head(f'Every plan / TOPP-RA on the same case, medians and worst (largest) over '
+                 f'the {n_cases} cases (TOPP-RA: its chord spline through the waypoints; along '
+                 'our path: benchmarks/own_path.py; shaking: peak while moving, residual after '
+                 f'the end, benchmarks/shaking.py); LB / TOPP-RA median {np.median(bounds):.3f}',
+                 'all limits held (exact peaks)')
     for row, figures in rows.items():
         print(f'| {row} | {bench_figures.summary(figures)} | {held[row]} |')
     print()
@@ -317,13 +323,10 @@ LONG_STEP = 6.0
 
 def long_moves(inner):
     """Print the figures of moves of few long segments (a cruise each): ours / TOPP-RA."""
-    print()
-    print(f'Long moves (stream {LONG_STREAM}): {LONG_CASES} requests of {LONG_WAYPOINTS[0]}-'
-          f'{LONG_WAYPOINTS[1]} waypoints, 1-6 joints, steps uniform in +-{LONG_STEP:g} rad, '
-          'v in [0.5, 3], a in [2, 15], j = 20 a; planning best of '
-          f'{REPEATS}, ours and TOPP-RA in turn; median / worst:')
-    print('| plan | ' + bench_figures.header() + ' | limits held |')
-    print(bench_figures.rule(2 + len(bench_figures.NAMES)))
+    summary_head(f'Long moves (stream {LONG_STREAM}): {LONG_CASES} requests of '
+                 f'{LONG_WAYPOINTS[0]}-{LONG_WAYPOINTS[1]} waypoints, 1-6 joints, steps uniform '
+                 f'in +-{LONG_STEP:g} rad, v in [0.5, 3], a in [2, 15], j = 20 a; planning best '
+                 f'of {REPEATS}, ours and TOPP-RA in turn; median / worst:', 'limits held')
     rng = bench_seeds.generator(LONG_STREAM)
     rows, held = [], True
     for _ in range(LONG_CASES):
