@@ -616,8 +616,8 @@ def _checked(traj, kinematics, speed_limits, max_tool_acceleration, torque):
     acceleration = peak_tool_acceleration(traj, kinematics) if max_tool_acceleration else None
     speed_factor = max(linear / max_tool_speed if max_tool_speed else 0.0,
                        angular / max_tool_angular_speed if max_tool_angular_speed else 0.0)
-    accelerating = acceleration_factor(acceleration, max_tool_acceleration)
-    factor = max(speed_factor, accelerating)
+    acceleration_need = acceleration_factor(acceleration, max_tool_acceleration)
+    factor = max(speed_factor, acceleration_need)
     torque_check = checked = None
     slow = uniform_slow_down(factor)
     if torque is not None:
@@ -645,7 +645,7 @@ def _checked(traj, kinematics, speed_limits, max_tool_acceleration, torque):
     top = max(linear / max_tool_speed if max_tool_speed else 0.0,
               angular / max_tool_angular_speed if max_tool_angular_speed else 0.0)
     return _Checked(traj, max(slow, 1.0), linear, angular, sampled, acceleration, top,
-                    slow > 1.0 and accelerating > 1.0 and accelerating >= speed_factor)
+                    slow > 1.0 and acceleration_need > 1.0 and acceleration_need >= speed_factor)
 
 
 def _within(traj, position_limits):

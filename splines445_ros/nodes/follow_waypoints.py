@@ -41,7 +41,7 @@ from rclpy.clock import Clock, ClockType
 from rclpy.task import Future
 from splines445_interfaces.action import FollowWaypoints
 
-from .ros_conversions import joint_order, seconds_to_duration
+from .ros_conversions import check_finite_poses, joint_order, seconds_to_duration
 from ..robot.user_text import show_names
 from ..service.interface_requests import ARRAY_FIELDS, override_values, request_message
 from ..service.model_planning import NO_ROBOT_YET
@@ -108,7 +108,9 @@ class FollowWaypointsServer:
                 joint_order(msg.joint_names, self._node.planned_joint_names())
                 _check_finite(msg)
             else:
-                _check_finite_poses(msg)
+                # At once, as joint goals are (_check_finite): it was accepted, then
+                # aborted (helper-88).  The planner checks the rest when it plans.
+                check_finite_poses(msg.poses)
             if msg is not goal.waypoints and (self._run is not None
                                               or self._node.trajectory_running()):
                 raise ValueError('a tool_waypoints goal plans from rest, and a trajectory is '
@@ -348,21 +350,6 @@ def _check_finite(msg):
                 j = int(np.flatnonzero(~np.isfinite(row))[0])
                 raise ValueError(f'waypoint {k}: {field}[{j}] is {row[j]}: values must be '
                                  'finite')
-
-
-def _check_finite_poses(msg):
-    """
-    Refuse a tool goal with a pose value that is not finite (ValueError), at once.
-
-    As joint goals are (:func:`_check_finite`): it was accepted, then
-    aborted (helper-88).  The planner checks the rest when it plans.
-    """
-    for k, pose in enumerate(msg.poses):
-        p, o = pose.position, pose.orientation
-        values = (p.x, p.y, p.z, o.x, o.y, o.z, o.w)
-        if not all(math.isfinite(v) for v in values):
-            raise ValueError(f'tool waypoint {k} is not finite: position ({p.x}, {p.y}, '
-                             f'{p.z}), orientation ({o.x}, {o.y}, {o.z}, {o.w})')
 
 
 def _buffer(values):

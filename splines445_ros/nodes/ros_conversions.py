@@ -20,6 +20,7 @@ empty or the planar arm's base frame, :data:`planned_path.PLANAR_FRAME`); ``posi
 """
 
 from collections import Counter
+import math
 
 from builtin_interfaces.msg import Duration
 from diagnostic_msgs.msg import KeyValue
@@ -151,13 +152,11 @@ def parse_tool_request(msg):
                          'or with an empty frame_id)')
     if len(msg.poses) < 2:
         raise ValueError(f'need at least 2 tool waypoints, got {len(msg.poses)}')
+    check_finite_poses(msg.poses)
     poses = np.empty((len(msg.poses), 3))
     for k, pose in enumerate(msg.poses):
         p, q = pose.position, pose.orientation
         values = np.array([p.x, p.y, p.z, q.x, q.y, q.z, q.w], dtype=float)
-        if not np.all(np.isfinite(values)):
-            raise ValueError(f'tool waypoint {k} is not finite: position ({p.x}, {p.y}, {p.z}),'
-                             f' orientation ({q.x}, {q.y}, {q.z}, {q.w})')
         scale = float(np.max(np.abs(values[3:])))
         if scale < 1e-9:
             raise ValueError(f'tool waypoint {k} has a zero orientation quaternion')
@@ -171,6 +170,15 @@ def parse_tool_request(msg):
         yaw = np.arctan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
         poses[k] = (p.x, p.y, yaw)
     return poses
+
+
+def check_finite_poses(poses):
+    """Refuse (ValueError, naming it) the first tool waypoint with a value that is not finite."""
+    for k, pose in enumerate(poses):
+        p, q = pose.position, pose.orientation
+        if not all(math.isfinite(v) for v in (p.x, p.y, p.z, q.x, q.y, q.z, q.w)):
+            raise ValueError(f'tool waypoint {k} is not finite: position ({p.x}, {p.y}, {p.z}),'
+                             f' orientation ({q.x}, {q.y}, {q.z}, {q.w})')
 
 
 def trajectory_to_msg(samples, joint_names, stamp=None):

@@ -297,17 +297,28 @@ def _tangent_rows(candidates, x, n_jerk):
     """
     if n_jerk == 0:         # no joint has a jerk limit
         return candidates.tocsr(), np.zeros(0), np.zeros(0), np.zeros(0, int)
-    jerk = candidates[-n_jerk:].tocsr()
     repeated = sp.vstack([x] * (n_jerk // x.shape[0]), format='csr')
-    # Both parts on their union pattern at once: the real and imaginary parts
-    # of one complex sum (an entry is left out only where both are 0).
-    both = (jerk.astype(complex) + 1j * repeated).tocsr()
+    pattern, jerk_data, x_data, entry_row = _union_pattern(candidates[-n_jerk:], repeated)
+    rows = sp.vstack([candidates[:-n_jerk], pattern], format='csr')
+    return rows, jerk_data, x_data, entry_row
+
+
+def _union_pattern(a, b):
+    """
+    Return ``a`` and ``b`` (sparse, one shape) on their union pattern: (CSR, a's, b's, rows).
+
+    The CSR matrix holds ``a``'s values on the union of both patterns (its
+    data to be rewritten in place), then the data of ``a`` and of ``b``
+    there (an entry absent from one is an exact 0) and each entry's row.
+    Both at once: the real and imaginary parts of one complex sum (an entry
+    is left out only where both are 0).
+    """
+    both = (sp.csr_matrix(a).astype(complex) + 1j * b).tocsr()
     both.sort_indices()
     pattern = sp.csr_matrix((both.data.real.copy(), both.indices, both.indptr),
                             shape=both.shape)
-    rows = sp.vstack([candidates[:-n_jerk], pattern], format='csr')
-    return (rows, both.data.real.copy(), both.data.imag.copy(),
-            np.repeat(np.arange(n_jerk), np.diff(both.indptr)))
+    return (pattern, both.data.real.copy(), both.data.imag.copy(),
+            np.repeat(np.arange(both.shape[0]), np.diff(both.indptr)))
 
 
 def _checked(status, call):
@@ -432,19 +443,17 @@ class _SpeedRows:
         data, indices, indptr = [rows.data], [rows.indices], [rows.indptr]
         count, start = rows.shape[0], rows.nnz
         for base, at, c, limit in speed:
-            both = (base.astype(complex) + 1j * x[at]).tocsr()
-            both.sort_indices()
-            entry_row = np.repeat(np.arange(at.size), np.diff(both.indptr))
+            pattern, base_data, x_data, entry_row = _union_pattern(base, x[at])
             with np.errstate(over='ignore'):   # c = 0 at a row: no cap there
                 room = np.where(limit > 0.0, (limit / np.maximum(np.abs(c), 1e-300)) ** 2,
                                 np.inf)
-            self._blocks.append((both.data.real.copy(), both.data.imag.copy(), entry_row, at,
-                                 c, limit, room, start, start + both.nnz))
-            data.append(both.data.real)
-            indices.append(both.indices)
-            indptr.append(both.indptr[1:] + start)
+            self._blocks.append((base_data, x_data, entry_row, at, c, limit, room, start,
+                                 start + pattern.nnz))
+            data.append(pattern.data)
+            indices.append(pattern.indices)
+            indptr.append(pattern.indptr[1:] + start)
             count += at.size
-            start += both.nnz
+            start += pattern.nnz
         self.matrix = sp.csr_matrix((np.concatenate(data), np.concatenate(indices),
                                      np.concatenate(indptr)), shape=(count, rows.shape[1]))
         self._others = rows.nnz
